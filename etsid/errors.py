@@ -1,0 +1,31 @@
+"""Exception classes, one per layer. The CLI turns them into one-line messages, exit code 1."""
+
+from __future__ import annotations
+
+
+class EtsidError(Exception):
+    """Base of every error etsid raises on purpose; its message is meant for people."""
+
+
+class TableError(EtsidError):
+    """A FlightTable (or a saved table file) breaks the contract in etsid/table.py."""
+
+
+class IngestError(EtsidError):
+    """A log file cannot be read: names the file and what is wrong with it."""
+
+
+class ModelError(EtsidError):
+    """An eTS model or rule-base file is invalid."""
+
+
+class SimError(EtsidError):
+    """A vehicle file, scenario or simulation setting is invalid."""
+
+
+class IdentError(EtsidError):
+    """An identification run cannot be set up (missing columns, bad regressor spec)."""
+
+
+class GapError(EtsidError):
+    """Sim-vs-real gap analysis cannot be carried out."""
