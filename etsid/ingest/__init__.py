@@ -1,0 +1,105 @@
+"""Read flight logs of every supported format into one FlightTable.
+
+>>> from etsid.ingest import FORMATS
+>>> sorted(FORMATS)
+['bin', 'mcap', 'ros1', 'ros2', 'tlog', 'ulog']
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from etsid.errors import IngestError, TableError
+from etsid.ingest.align import build_table
+from etsid.ingest.base import Override, RawLog, ReadOptions
+from etsid.ingest.detect import FORMATS, detect_format, open_reader
+from etsid.ingest.mapping import choose_signals
+from etsid.table import is_table_path, load_table
+
+__all__ = [
+    "FORMATS",
+    "Override",
+    "ReadOptions",
+    "detect_format",
+    "inspect_log",
+    "load_any",
+    "read_log",
+    "read_raw",
+]
+
+
+def read_raw(path: str | Path, options: ReadOptions | None = None) -> RawLog:
+    """Run the right reader on ``path`` and return its :class:`RawLog` (no alignment)."""
+    path = Path(path)
+    fmt = detect_format(path)
+    reader = open_reader(fmt)
+    return reader(path, options or ReadOptions())
+
+
+def read_log(
+    path: str | Path,
+    options: ReadOptions | None = None,
+    rate_hz: float | None = None,
+    start: float | None = None,
+    end: float | None = None,
+) -> pd.DataFrame:
+    """Read a log into a FlightTable (see etsid/table.py for the contract).
+
+    Raises
+    ------
+    IngestError
+        One-line message naming the file and what is wrong.
+    """
+    options = options or ReadOptions()
+    raw = read_raw(path, options)
+    if not raw.signals:
+        kinds = ", ".join(sorted({f"{c.name} ({c.type})" for c in raw.channels})[:12])
+        raise IngestError(
+            f"{raw.path}: no usable flight data; found {kinds or 'no messages'}"
+        )
+    chosen, notes = choose_signals(raw.signals, options.overrides, raw.path)
+    raw.warnings.extend(notes)
+    return build_table(raw, chosen, rate_hz=rate_hz, start=start, end=end)
+
+
+def load_any(path: str | Path, options: ReadOptions | None = None, **kwargs: Any) -> pd.DataFrame:
+    """A saved table (``.parquet``/``.csv``) or any log, as a FlightTable."""
+    if is_table_path(path):
+        try:
+            return load_table(path)
+        except TableError as err:
+            raise IngestError(str(err)) from err
+    return read_log(path, options, **kwargs)
+
+
+def inspect_log(path: str | Path, options: ReadOptions | None = None) -> dict[str, Any]:
+    """Summary of a log for ``etsid inspect``: format, duration, channels, mapping, issues."""
+    raw = read_raw(path, options)
+    times = [c for c in raw.channels if c.t_first is not None and c.t_last is not None]
+    t_first = min((c.t_first for c in times), default=None)  # type: ignore[type-var]
+    t_last = max((c.t_last for c in times), default=None)  # type: ignore[type-var]
+    chosen: dict[str, Any] = {}
+    notes: list[str] = []
+    if raw.signals:
+        picked, notes = choose_signals(raw.signals, (options or ReadOptions()).overrides,
+                                       raw.path)
+        chosen = {c: s.source for c, s in picked.items()}
+    return {
+        "path": str(raw.path),
+        "format": raw.format,
+        "start_time": raw.start_time,
+        "duration_s": None if t_first is None else float(t_last - t_first),  # type: ignore[operator]
+        "channels": [
+            {"name": c.name, "type": c.type, "count": c.count,
+             "rate_hz": round(c.rate_hz, 3), "columns": c.columns, "note": c.note}
+            for c in raw.channels
+        ],
+        "mapping": chosen,
+        "dropped": [vars(i) for i in raw.dropped],
+        "repaired": [vars(i) for i in raw.repaired],
+        "warnings": raw.warnings + notes,
+        "extra": {k: v for k, v in raw.extra.items()},
+    }

@@ -1,0 +1,172 @@
+"""Put chosen source signals on one uniform time grid: the FlightTable.
+
+Rules (docs/ingest.md):
+
+* The grid runs at ``rate_hz`` (default: the native rate of the body-rate source ``p``,
+  else the fastest chosen signal) over the span of that reference signal.
+* Continuous signals are interpolated linearly (angles on their unwrapped value, then
+  wrapped to (−π, π]); commands, setpoints and motor outputs are held (zero-order hold).
+* A signal whose samples are more than :data:`~etsid.table.GAP_PERIODS` native periods
+  apart has a gap there. Inside a gap of the reference signal the grid has no points and
+  the ``segment`` column counts up after it; inside a gap of another signal its column
+  is NaN. Outside a signal's span its column is NaN.
+* Non-finite samples are dropped, out-of-order samples sorted and duplicate timestamps
+  merged (first kept); every count lands in ``attrs["dropped"]`` / ``attrs["repaired"]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+
+import numpy as np
+import pandas as pd
+
+from etsid.errors import IngestError
+from etsid.ingest.base import Issue, RawLog, Signal
+from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
+
+
+def clean_signal(sig: Signal, dropped: list[Issue], repaired: list[Issue]) -> Signal:
+    """Drop non-finite samples, sort by time, merge duplicate timestamps; record counts."""
+    t = np.asarray(sig.t, dtype=float)
+    v = np.asarray(sig.values, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(v)
+    if not ok.all():
+        dropped.append(Issue("NaN or inf sample", int((~ok).sum()), sig.source))
+        t, v = t[ok], v[ok]
+    if t.size > 1 and np.any(np.diff(t) < 0):
+        order = np.argsort(t, kind="stable")
+        moved = int(np.count_nonzero(order != np.arange(t.size)))
+        repaired.append(Issue("out-of-order timestamp, re-sorted", moved, sig.source))
+        t, v = t[order], v[order]
+    if t.size > 1:
+        dup = np.concatenate(([False], np.diff(t) == 0))
+        if dup.any():
+            dropped.append(Issue("duplicate timestamp", int(dup.sum()), sig.source))
+            t, v = t[~dup], v[~dup]
+    return Signal(sig.column, t, v, sig.source, sig.priority)
+
+
+def native_period(t: np.ndarray) -> float:
+    """Median sample spacing, s (NaN for fewer than two samples)."""
+    return float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+
+
+def find_gaps(t: np.ndarray) -> list[tuple[float, float]]:
+    """Intervals (start, end) where consecutive samples are > GAP_PERIODS periods apart."""
+    if t.size < 3:
+        return []
+    dt = np.diff(t)
+    limit = GAP_PERIODS * native_period(t)
+    idx = np.flatnonzero(dt > limit)
+    return [(float(t[i]), float(t[i + 1])) for i in idx]
+
+
+def resample(sig: Signal, grid: np.ndarray) -> np.ndarray:
+    """Values of ``sig`` on ``grid`` following its column's interpolation rule."""
+    t, v = sig.t, sig.values
+    if t.size == 0:
+        return np.full(grid.size, np.nan)
+    interp = COLUMNS[sig.column].interp if sig.column in COLUMNS else "linear"
+    period = native_period(t) if t.size > 1 else 0.0
+    if interp == "hold":
+        idx = np.searchsorted(t, grid, side="right") - 1
+        out = v[np.clip(idx, 0, None)].astype(float)
+        out[idx < 0] = np.nan
+        out[grid > t[-1] + GAP_PERIODS * period] = np.nan
+    else:
+        base = np.unwrap(v) if interp == "angle" else v
+        out = np.interp(grid, t, base)
+        half = 0.5 * period
+        out[(grid < t[0] - half) | (grid > t[-1] + half)] = np.nan
+        if interp == "angle":
+            out = np.angle(np.exp(1j * out))
+            out[out == -np.pi] = np.pi
+    for start, end in find_gaps(t):
+        inside = (grid > start) & (grid < end)
+        out[inside] = np.nan
+    return out
+
+
+def reference_signal(chosen: dict[str, Signal]) -> Signal:
+    """The signal whose native rate and span define the grid: ``p``, ``q``, ``r``, else fastest."""
+    for column in ("p", "q", "r"):
+        if column in chosen:
+            return chosen[column]
+    return max(chosen.values(), key=lambda s: (s.rate_hz, s.t.size))
+
+
+def build_table(
+    raw: RawLog,
+    chosen: dict[str, Signal],
+    rate_hz: float | None = None,
+    start: float | None = None,
+    end: float | None = None,
+) -> pd.DataFrame:
+    """Align ``chosen`` signals of ``raw`` into a validated FlightTable.
+
+    Parameters
+    ----------
+    rate_hz
+        Grid rate, Hz; default the native rate of the reference signal.
+    start, end
+        Keep only this window, s from the reference signal's first sample.
+    """
+    dropped, repaired = list(raw.dropped), list(raw.repaired)
+    cleaned = {c: clean_signal(s, dropped, repaired) for c, s in chosen.items()}
+    cleaned = {c: s for c, s in cleaned.items() if s.t.size >= 2}
+    if not cleaned:
+        raise IngestError(f"{raw.path}: no usable samples in any mapped signal")
+    ref = reference_signal(cleaned)
+    native = 1.0 / native_period(ref.t)
+    rate = float(rate_hz) if rate_hz else native
+    if not np.isfinite(rate) or rate <= 0:
+        raise IngestError(f"{raw.path}: cannot infer a sample rate from {ref.source}")
+    t0 = float(ref.t[0])
+    lo = t0 + (start or 0.0)
+    hi = float(ref.t[-1]) if end is None else min(float(ref.t[-1]), t0 + end)
+    if hi <= lo:
+        raise IngestError(f"{raw.path}: the window --start/--end selects no data")
+    grid = lo + np.arange(int(np.floor((hi - lo) * rate + 1e-9)) + 1) / rate
+    keep = np.ones(grid.size, dtype=bool)
+    gaps = []
+    for gap_start, gap_end in find_gaps(ref.t):
+        keep &= ~((grid > gap_start) & (grid < gap_end))
+    for column, sig in cleaned.items():
+        for gap_start, gap_end in find_gaps(sig.t):
+            gaps.append({"start": gap_start - t0, "end": gap_end - t0, "signal": sig.source,
+                         "column": column})
+    grid = grid[keep]
+    if grid.size < 2:
+        raise IngestError(f"{raw.path}: fewer than two samples on the time grid")
+    data = {c: resample(cleaned[c], grid) for c in ordered_columns(list(cleaned))}
+    # segment counts up after every dropped stretch of the grid
+    jumps = np.diff(grid) > 1.5 / rate
+    data[SEGMENT] = np.concatenate(([0], np.cumsum(jumps))).astype(np.int64)
+    table = pd.DataFrame(data, index=pd.Index(grid - grid[0], name="t"))
+    for column in table.columns:
+        if column != SEGMENT:
+            missing = int(table[column].isna().sum())
+            if missing:
+                raw.warnings.append(
+                    f"{column}: {missing} of {len(table)} grid points have no data "
+                    f"(outside the span of {cleaned[column].source} or inside its gaps)"
+                )
+    table.attrs = {
+        "source": str(raw.path),
+        "format": raw.format,
+        "start_time": None if raw.start_time is None else raw.start_time + grid[0],
+        "rate_hz": rate,
+        "reference": ref.source,
+        "mapping": {c: s.source for c, s in cleaned.items()},
+        "signals": {
+            c: {"source": s.source, "count": int(s.t.size), "rate_hz": round(s.rate_hz, 3)}
+            for c, s in cleaned.items()
+        },
+        "dropped": [asdict(i) for i in dropped],
+        "repaired": [asdict(i) for i in repaired],
+        "gaps": gaps,
+        "warnings": list(raw.warnings),
+        "log": {k: v for k, v in raw.extra.items() if isinstance(v, (str, int, float, list))},
+    }
+    return validate(table)

@@ -1,0 +1,93 @@
+"""Pick the reader for a path from its extension, confirmed by the file's magic bytes."""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from pathlib import Path
+
+from etsid.errors import IngestError
+from etsid.ingest.base import RawLog, ReadOptions
+
+FORMATS: dict[str, str] = {
+    "tlog": "etsid.ingest.tlog",
+    "bin": "etsid.ingest.dataflash",
+    "ulog": "etsid.ingest.ulog",
+    "ros1": "etsid.ingest.rosbag",
+    "ros2": "etsid.ingest.rosbag",
+    "mcap": "etsid.ingest.mcapfile",
+}
+"""Format name → module with ``read(path, options) -> RawLog``."""
+
+EXTENSIONS = {
+    ".tlog": "tlog",
+    ".bin": "bin",
+    ".ulg": "ulog",
+    ".bag": "ros1",
+    ".db3": "ros2",
+    ".mcap": "mcap",
+}
+
+MAGIC = {
+    "bin": b"\xa3\x95",
+    "ulog": b"ULog\x01\x12\x35",
+    "ros1": b"#ROSBAG V2.0",
+    "ros2": b"SQLite format 3\x00",
+    "mcap": b"\x89MCAP0\r\n",
+}
+
+
+def _head(path: Path, size: int = 16) -> bytes:
+    try:
+        with path.open("rb") as handle:
+            return handle.read(size)
+    except PermissionError as err:
+        raise IngestError(f"{path}: permission denied") from err
+    except OSError as err:
+        raise IngestError(f"{path}: cannot read ({err.strerror or err})") from err
+
+
+def detect_format(path: Path) -> str:
+    """Format name of ``path`` (a key of :data:`FORMATS`).
+
+    A directory is a ROS 2 bag when it has ``metadata.yaml``. Files are recognised by
+    extension and confirmed by magic bytes; an extension-less file by magic bytes alone.
+
+    Raises
+    ------
+    IngestError
+        Missing, empty, unreadable or unrecognised file, or bytes that contradict the
+        extension.
+    """
+    if not path.exists():
+        raise IngestError(f"{path}: no such file or directory")
+    if path.is_dir():
+        if (path / "metadata.yaml").is_file():
+            return "ros2"
+        storage = sorted(p.name for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
+        hint = f" (it holds {', '.join(storage)}: pass that file instead)" if storage else ""
+        raise IngestError(f"{path}: directory without metadata.yaml is not a ROS 2 bag{hint}")
+    if path.stat().st_size == 0:
+        raise IngestError(f"{path}: empty file")
+    head = _head(path)
+    fmt = EXTENSIONS.get(path.suffix.lower())
+    if fmt is None:
+        for name, magic in MAGIC.items():
+            if head.startswith(magic):
+                return name
+        known = ", ".join(sorted(EXTENSIONS))
+        raise IngestError(f"{path}: unknown log format (expected one of {known}, a ROS 2 bag "
+                          "directory, or a saved .parquet/.csv table)")
+    magic = MAGIC.get(fmt)
+    if magic is not None and not head.startswith(magic[: len(head)]):
+        raise IngestError(f"{path}: not a {fmt} file (its first bytes are wrong)")
+    if fmt == "tlog" and len(head) > 8 and head[8] not in (0xFE, 0xFD):
+        raise IngestError(f"{path}: not a MAVLink telemetry log (no MAVLink packet after the "
+                          "first 8-byte timestamp)")
+    return fmt
+
+
+def open_reader(fmt: str) -> Callable[[Path, ReadOptions], RawLog]:
+    """The ``read`` function of the reader module for ``fmt``."""
+    module = importlib.import_module(FORMATS[fmt])
+    return module.read

@@ -1,0 +1,129 @@
+"""Choose one source signal per FlightTable column; parse ``--map`` and TOML mapping files.
+
+Rule when several signals can fill one column (documented in docs/ingest.md):
+
+1. a user override (``--map COLUMN=TOPIC[.FIELD]``) wins; with only a TOPIC it restricts
+   the candidates to that topic;
+2. otherwise the lowest reader priority (e.g. ATTITUDE rates before raw gyro; a fused
+   ``/mavros/imu/data`` before ``data_raw``);
+3. then the highest native rate, then the most samples, then the topic name (A→Z).
+
+Every column that had more than one candidate is reported in ``attrs["warnings"]``.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from etsid.errors import IngestError
+from etsid.ingest.base import DEFAULT_RC_MAP, Override, Signal, split_source
+from etsid.table import COLUMNS
+
+
+def parse_override(text: str) -> Override:
+    """Parse ``COLUMN=TOPIC[.FIELD]``.
+
+    >>> parse_override("p=/imu/data.angular_velocity.x").field
+    'angular_velocity.x'
+    """
+    column, sep, source = text.partition("=")
+    column, source = column.strip(), source.strip()
+    if not sep or not column or not source:
+        raise IngestError(f"--map {text!r}: expected COLUMN=TOPIC[.FIELD]")
+    topic, fld = split_source(source)
+    return Override(column=column, topic=topic, field=fld or None)
+
+
+def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]:
+    """Read a TOML mapping file: ``[map]`` COLUMN = "TOPIC[.FIELD]", ``[rc]`` stick = channel.
+
+    Example::
+
+        [map]
+        p = "/my_imu/data.angular_velocity.x"
+        alt = "/lidar/range"
+
+        [rc]
+        u_roll = 1
+        u_pitch = 2
+        u_thrust = 3
+        u_yaw = 4
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError as err:
+        raise IngestError(f"{path}: mapping file not found") from err
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise IngestError(f"{path}: not a valid TOML mapping file ({err})") from err
+    unknown = set(data) - {"map", "rc"}
+    if unknown:
+        raise IngestError(f"{path}: unknown section(s) {sorted(unknown)}; use [map] and [rc]")
+    overrides = []
+    for column, source in data.get("map", {}).items():
+        if not isinstance(source, str):
+            raise IngestError(f"{path}: [map] {column} must be a string 'TOPIC[.FIELD]'")
+        overrides.append(parse_override(f"{column}={source}"))
+    rc = dict(DEFAULT_RC_MAP)
+    for stick, channel in data.get("rc", {}).items():
+        if stick not in DEFAULT_RC_MAP:
+            raise IngestError(f"{path}: [rc] {stick!r} is not one of {sorted(DEFAULT_RC_MAP)}")
+        if not isinstance(channel, int) or not 1 <= channel <= 18:
+            raise IngestError(f"{path}: [rc] {stick} must be a channel number 1..18")
+        rc[stick] = channel
+    return overrides, rc
+
+
+def choose_signals(
+    signals: list[Signal], overrides: list[Override], path: Path
+) -> tuple[dict[str, Signal], list[str]]:
+    """Pick one signal per column by the rule in the module docstring.
+
+    Returns
+    -------
+    chosen
+        column → signal.
+    notes
+        Human-readable notes on ambiguous columns.
+    """
+    by_column: dict[str, list[Signal]] = {}
+    for sig in signals:
+        if sig.t.size:
+            by_column.setdefault(sig.column, []).append(sig)
+    notes: list[str] = []
+    chosen: dict[str, Signal] = {}
+    wanted = {o.column: o for o in overrides}
+    for column, cands in by_column.items():
+        override = wanted.get(column)
+        if override is not None:
+            picked = [
+                s for s in cands
+                if s.topic == override.topic
+                and (override.field is None or s.source == f"{override.topic}.{override.field}")
+            ]
+            if not picked:
+                found = ", ".join(sorted({s.source for s in cands}))
+                raise IngestError(
+                    f"{path}: --map {override.text} matches no signal; candidates: {found}"
+                )
+            cands = picked
+        cands = sorted(cands, key=lambda s: (s.priority, -s.rate_hz, -s.t.size, s.source))
+        chosen[column] = cands[0]
+        if len({s.source for s in cands}) > 1 and override is None:
+            others = ", ".join(s.source for s in cands[1:])
+            notes.append(f"{column}: used {cands[0].source} (also found {others})")
+    for column, override in wanted.items():
+        if column not in chosen:
+            topics = sorted({s.topic for s in signals})
+            raise IngestError(
+                f"{path}: --map {override.text}: topic or field not found; topics with "
+                f"usable data: {', '.join(topics) or 'none'}"
+            )
+    return chosen, notes
+
+
+def check_columns(column: str) -> None:
+    """Raise for an override naming a column that is neither known nor a valid name."""
+    if column not in COLUMNS and not column.isidentifier():
+        raise IngestError(f"--map: {column!r} is not a valid column name")
