@@ -1,0 +1,77 @@
+"""Format detection and the CLI's one-line errors for inputs no reader should see."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from etsid import __version__
+from etsid.cli import cli
+from etsid.errors import IngestError
+from etsid.ingest.detect import detect_format
+
+
+def run(*args: str) -> tuple[int, str]:
+    result = CliRunner().invoke(cli, list(args))
+    return result.exit_code, result.output
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("empty.tlog", b"", "empty file"),
+        ("random.bag", os.urandom(64), "not a ros1 file"),
+        ("random.ulg", os.urandom(64), "not a ulog file"),
+        ("random.mcap", os.urandom(64), "not a mcap file"),
+        ("random.db3", os.urandom(64), "not a ros2 file"),
+        ("random.bin", b"\x00\x01" + os.urandom(62), "not a bin file"),
+        ("random.tlog", b"\x00" * 8 + b"\x42" * 40, "not a MAVLink telemetry log"),
+        ("notes.txt", b"hello", "unknown log format"),
+    ],
+)
+def test_bad_files_one_line_errors(tmp_path: Path, name: str, content: bytes,
+                                   message: str) -> None:
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(IngestError, match=message):
+        detect_format(path)
+    for command in ("inspect", "ingest"):
+        extra = ["-o", str(tmp_path / "out.parquet")] if command == "ingest" else []
+        code, output = run(command, str(path), *extra)
+        assert code == 1
+        assert "Traceback" not in output
+        lines = output.strip().splitlines()
+        assert len(lines) == 1 and name in lines[0] and message in lines[0]
+
+
+def test_directory_without_metadata(tmp_path: Path) -> None:
+    (tmp_path / "bag").mkdir()
+    (tmp_path / "bag" / "bag_0.db3").write_bytes(b"SQLite format 3\x00")
+    with pytest.raises(IngestError, match="without metadata.yaml.*bag_0.db3"):
+        detect_format(tmp_path / "bag")
+
+
+def test_missing_and_unreadable_paths(tmp_path: Path) -> None:
+    code, output = run("inspect", str(tmp_path / "nope.tlog"))
+    assert code == 1 and "no such file" in output
+    dangling = tmp_path / "gone.tlog"
+    dangling.symlink_to(tmp_path / "deleted.tlog")
+    code, output = run("inspect", str(dangling))
+    assert code == 1 and "gone.tlog" in output and "no such file" in output
+
+
+def test_version_and_help() -> None:
+    code, output = run("--version")
+    assert code == 0 and __version__ in output
+    code, output = run("--help")
+    assert code == 0
+    for name, command in cli.commands.items():
+        assert command.help, f"command {name} has no help text"
+
+
+def test_bad_option_is_usage_error(tmp_path: Path) -> None:
+    code, output = run("ingest", str(tmp_path / "x.tlog"), "-o", str(tmp_path / "x.txt"))
+    assert code == 2 and "parquet" in output

@@ -1,0 +1,154 @@
+"""The FlightTable contract: validation, storage round trips, alignment rules."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from etsid.errors import IngestError, TableError
+from etsid.ingest.align import build_table, find_gaps, resample
+from etsid.ingest.base import Override, RawLog, Signal, get_field
+from etsid.ingest.frames import (
+    enu_flu_quat_to_ned_frd_euler,
+    ned_frd_euler_to_enu_flu_quat,
+    quat_to_euler,
+)
+from etsid.ingest.mapping import choose_signals, load_mapping_file, parse_override
+from etsid.table import load_table, save_table, validate
+
+
+def frame(t: list[float], **cols: list[float]) -> pd.DataFrame:
+    return pd.DataFrame(cols, index=pd.Index(t, name="t", dtype=float))
+
+
+def test_validate_rejects_bad_index() -> None:
+    with pytest.raises(TableError, match="strictly increasing"):
+        validate(frame([0.0, 0.0, 1.0], p=[0.0, 1.0, 2.0]))
+    bad = frame([0.0, 1.0], p=[0.0, 1.0]).rename_axis("time")
+    with pytest.raises(TableError, match="named 't'"):
+        validate(bad)
+    with pytest.raises(TableError, match="inf"):
+        validate(frame([0.0, 1.0], p=[0.0, np.inf]))
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_save_load_round_trip_keeps_values_and_attrs(tmp_path: Path, suffix: str) -> None:
+    table = frame([0.0, 0.004, 0.008], p=[0.1, -0.2, 0.3], u_roll=[0.0, 0.5, -1.0])
+    table["segment"] = np.array([0, 0, 1], dtype=np.int64)
+    table.attrs = {"source": "x.tlog", "format": "tlog", "mapping": {"p": "ATTITUDE.rollspeed"},
+                   "dropped": [{"reason": "duplicate timestamp", "count": 2, "signal": "A"}]}
+    back = load_table(save_table(table, tmp_path / f"flight{suffix}"))
+    pd.testing.assert_frame_equal(back, table, check_exact=False, rtol=1e-8)
+    assert back.attrs["mapping"] == {"p": "ATTITUDE.rollspeed"}
+    assert back.attrs["dropped"][0]["count"] == 2
+
+
+def test_load_table_errors_name_the_file(tmp_path: Path) -> None:
+    junk = tmp_path / "junk.parquet"
+    junk.write_bytes(b"not parquet at all")
+    with pytest.raises(TableError, match="junk.parquet"):
+        load_table(junk)
+    with pytest.raises(TableError, match="no such file"):
+        load_table(tmp_path / "missing.csv")
+
+
+def test_csv_without_t_uses_row_number_and_says_so(tmp_path: Path) -> None:
+    path = tmp_path / "plain.csv"
+    path.write_text("co2,input_gas_rate\n53.8,-0.109\n53.6,0.0\n")
+    table = load_table(path)
+    assert table.index.tolist() == [0.0, 1.0]
+    assert any("row number" in w for w in table.attrs["warnings"])
+
+
+def sig(column: str, t: np.ndarray, v: np.ndarray, source: str, priority: int = 10) -> Signal:
+    return Signal(column, np.asarray(t, float), np.asarray(v, float), source, priority)
+
+
+def test_resample_linear_hold_and_angle() -> None:
+    t = np.array([0.0, 1.0, 2.0])
+    grid = np.array([0.0, 0.5, 1.5, 2.0])
+    assert np.allclose(resample(sig("p", t, [0, 2, 4], "A.p"), grid), [0, 1, 3, 4])
+    assert np.allclose(resample(sig("u_roll", t, [0, 2, 4], "A.u"), grid), [0, 0, 2, 4])
+    # yaw crossing ±π interpolates the short way round
+    yaw = resample(sig("yaw", t, [3.0, -3.0, -2.9], "A.yaw"), np.array([0.5]))
+    assert abs(abs(yaw[0]) - np.pi) < 0.05
+
+
+def test_gaps_split_segments_and_never_interpolate() -> None:
+    t = np.concatenate([np.arange(0, 1, 0.01), np.arange(2, 3, 0.01)])
+    raw = RawLog(Path("x.log"), "test", signals=[])
+    p = sig("p", t, np.sin(t), "IMU.p")
+    u = sig("u_roll", np.arange(0, 3, 0.02), np.ones(150), "RC.u")
+    table = build_table(raw, {"p": p, "u_roll": u})
+    assert table["segment"].nunique() == 2
+    inside = (table.index > 1.0) & (table.index < 2.0)
+    assert not inside.any(), "no grid points inside the body-rate gap"
+    assert find_gaps(t) == [(pytest.approx(0.99), pytest.approx(2.0))]
+    assert table.attrs["gaps"][0]["signal"] == "IMU.p"
+
+
+def test_dirty_timestamps_are_repaired_and_counted() -> None:
+    t = np.array([0.0, 0.01, 0.02, 0.02, 0.04, 0.03, 0.05, 0.06])
+    v = np.array([0.0, 1.0, 2.0, 2.0, 4.0, 3.0, np.nan, 6.0])
+    raw = RawLog(Path("x.log"), "test")
+    table = build_table(raw, {"p": sig("p", t, v, "IMU.p")}, rate_hz=100.0)
+    reasons = {d["reason"]: d["count"] for d in table.attrs["dropped"]}
+    assert reasons == {"NaN or inf sample": 1, "duplicate timestamp": 1}
+    assert table.attrs["repaired"][0]["count"] == 2
+    assert np.allclose(table["p"].to_numpy(), [0, 1, 2, 3, 4, 5, 6])
+
+
+def test_choose_signals_priority_rate_and_override() -> None:
+    t1, t2 = np.arange(0, 1, 0.01), np.arange(0, 1, 0.004)
+    fused = sig("p", t1, t1, "/mavros/imu/data.angular_velocity.x", priority=1)
+    raw_imu = sig("p", t2, t2, "/mavros/imu/data_raw.angular_velocity.x", priority=2)
+    chosen, notes = choose_signals([raw_imu, fused], [], Path("b.bag"))
+    assert chosen["p"] is fused and "also found" in notes[0]
+    forced = parse_override("p=/mavros/imu/data_raw")
+    chosen, _ = choose_signals([raw_imu, fused], [forced], Path("b.bag"))
+    assert chosen["p"] is raw_imu
+    with pytest.raises(IngestError, match="candidates: /mavros"):
+        choose_signals([raw_imu, fused], [parse_override("p=/other")], Path("b.bag"))
+
+
+def test_mapping_file(tmp_path: Path) -> None:
+    path = tmp_path / "map.toml"
+    path.write_text('[map]\np = "/imu.angular_velocity.x"\n[rc]\nu_yaw = 5\n')
+    overrides, rc = load_mapping_file(path)
+    assert overrides == [Override("p", "/imu", "angular_velocity.x")]
+    assert rc["u_yaw"] == 5 and rc["u_roll"] == 1
+    path.write_text("[rc]\nu_yaw = 'five'\n")
+    with pytest.raises(IngestError, match="map.toml"):
+        load_mapping_file(path)
+
+
+def test_get_field_paths() -> None:
+    msg = {"channels": [1100, 1500], "pose": {"position": {"z": 2.5}}}
+    assert get_field(msg, "channels[1]") == 1500.0
+    assert get_field(msg, "pose.position.z") == 2.5
+
+
+angles = st.floats(-3.0, 3.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(angles, st.floats(-1.4, 1.4), angles)
+def test_ros_orientation_round_trip(roll: float, pitch: float, yaw: float) -> None:
+    """NED/FRD Euler → ENU/FLU quaternion (as MAVROS publishes) → back gives the same angles."""
+    q = ned_frd_euler_to_enu_flu_quat(np.array([roll]), np.array([pitch]), np.array([yaw]))
+    back = enu_flu_quat_to_ned_frd_euler(*q)
+    assert np.allclose(np.angle(np.exp(1j * (np.concatenate(back) - [roll, pitch, yaw]))), 0,
+                       atol=1e-9)
+
+
+def test_enu_flu_identity_faces_east() -> None:
+    """A ROS identity orientation (body x along ENU east) is yaw +90° in NED, level."""
+    roll, pitch, yaw = enu_flu_quat_to_ned_frd_euler(*(np.array([v]) for v in (1.0, 0, 0, 0)))
+    assert np.allclose([roll[0], pitch[0], yaw[0]], [0.0, 0.0, np.pi / 2])
+    assert np.allclose(np.concatenate(quat_to_euler(*(np.array([v]) for v in (1.0, 0, 0, 0)))),
+                       0.0)
