@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from etsid.sim.writers import WRITE_FORMATS, write_log
+from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
 
 
 def _scenario_names() -> list[str]:
@@ -53,8 +53,12 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
         raise click.UsageError("Missing option '-o' / '--out'.")
     flight = run_simulation(scenario, vehicle=vehicle, duration=duration, seed=seed,
                             ground_effect=ground_effect == "on", rate_hz=rate_hz)
-    written = write_log(flight.table, out, fmt)
     table = flight.table
+    if format_for(out, fmt) in ("parquet", "csv"):
+        # a saved table also carries the noise-free states (true_* columns) for tests
+        table = table.join(flight.truth)
+        table.attrs = dict(flight.table.attrs)
+    written = write_log(table, out, fmt)
     click.echo(f"{written}: {scenario}, {table.index[-1]:.1f} s at {rate_hz:g} Hz, "
                f"vehicle {table.attrs.get('vehicle', '?')}, seed {seed}, "
                f"ground effect {ground_effect}")
