@@ -1,0 +1,406 @@
+"""The :class:`ETS` estimator: parameters, input checks, state and the calls into the kernels."""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from etsid.ets import kernels as K
+from etsid.ets.history import History, HistoryRecorder
+from etsid.ets.recursion import learn_kernel, predict_kernel
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+VARIANTS = ("ets", "ets+")
+RLS_KINDS = ("local", "global")
+#: names of the state arrays, in the order the learning kernel takes them
+STATE_ARRAYS = (
+    "si", "lo", "hi", "fixed", "mean", "m2", "ids", "cz", "rad", "scat", "pot",
+    "birth", "support", "lamsum", "tsum", "Pi", "Cl", "Cg",
+)  # fmt: skip
+
+
+def _finite_2d(a: Any, name: str, width: int | None = None) -> np.ndarray:
+    """Return ``a`` as a C-contiguous float64 (N, width) array or raise ValueError."""
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D array (samples, columns); got shape {arr.shape}")
+    if width is not None and arr.shape[1] != width:
+        raise ValueError(f"{name} must have {width} columns, got {arr.shape[1]}")
+    if arr.shape[1] == 0:
+        raise ValueError(f"{name} has no columns")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise ValueError(
+            f"{name} contains {int(bad.sum())} non-finite value(s) (NaN or inf), "
+            f"first at row {row}, column {col}"
+        )
+    return np.ascontiguousarray(arr)
+
+
+class ETS:
+    """Evolving Takagi–Sugeno model with MIMO first-order rules (eTS 2004 / eTS+ 2010).
+
+    Rule i: IF x is near x*_i THEN y_i = x_e^T Pi_i, x_e = [1, (x - lo) / s]. Learning is
+    online: every sample is first predicted, then learned (structure, then consequents).
+
+    Parameters
+    ----------
+    radius : float or sequence of float
+        Zone of influence r (per input if a sequence), in normalised units (fraction of the
+        input range). Firing tau = exp(-4 sum_j (dx_j / (s_j r_j))^2).
+    omega : float
+        Initial covariance C = omega I of a new rule's RLS (large = weak prior).
+    variant : {"ets", "ets+"}
+        "ets": Angelov & Filev (2004) structure test, no pruning. "ets+": Angelov (2010):
+        births also at low potential in uncovered regions, utility/support pruning.
+    max_rules : int
+        Cap on the number of rules; at the cap a birth first removes the least useful rule.
+    rls : {"local", "global"}
+        Fuzzily weighted local RLS per rule, or one global RLS over all consequents.
+    forgetting : float
+        RLS forgetting factor in (0, 1]; 1 means no forgetting.
+    utility_threshold : float
+        eTS+: a rule whose utility (mean normalised firing since birth) falls below this is removed.
+    min_support : int
+        eTS+: a rule that has won fewer than this many samples after ``prune_after`` steps is removed.
+    prune_after : int
+        eTS+: steps a rule lives before utility and support are checked (samples).
+    adaptive_spread : bool
+        exTS (Angelov & Zhou 2006): adapt per-rule, per-input radii to the local scatter.
+    x_range, y_range : array-like of shape (n, 2) / (m, 2), optional
+        Fixed [low, high] normalisation ranges in original units. When omitted the range is
+        the running min/max of the data (focal points are kept in original units, so they
+        never drift; consequents are re-expressed exactly when a range widens).
+    history_every : int
+        Record a snapshot of all consequents every this many learned samples.
+    input_names, output_names : sequence of str, optional
+        Names used by :meth:`rules` and the rule-base JSON (default x1.., y1..).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from etsid.ets import ETS
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.uniform(-1.0, 1.0, size=(2000, 1))
+    >>> Y = np.where(X[:, 0] < 0.0, -2.0 * X[:, 0], 0.5 * X[:, 0])
+    >>> model = ETS(radius=0.3)
+    >>> Yhat = model.run(X, Y)
+    >>> Yhat.shape
+    (2000,)
+    >>> bool(np.sqrt(np.mean((Yhat[1000:] - Y[1000:]) ** 2)) < 0.1)
+    True
+    >>> model.n_rules == len(model) >= 2
+    True
+    >>> float(model.predict(np.array([[0.5]]))[0]) == model.predict_one([0.5])[0]
+    True
+    """
+
+    def __init__(
+        self,
+        radius: float | Sequence[float] = 0.4,
+        omega: float = 1000.0,
+        variant: str = "ets+",
+        max_rules: int = 50,
+        rls: str = "local",
+        forgetting: float = 1.0,
+        utility_threshold: float = 0.05,
+        min_support: int = 3,
+        prune_after: int = 50,
+        adaptive_spread: bool = False,
+        x_range: Any = None,
+        y_range: Any = None,
+        history_every: int = 1000,
+        input_names: Sequence[str] | None = None,
+        output_names: Sequence[str] | None = None,
+    ) -> None:
+        self.radius = radius
+        self.omega = omega
+        self.variant = variant
+        self.max_rules = max_rules
+        self.rls = rls
+        self.forgetting = forgetting
+        self.utility_threshold = utility_threshold
+        self.min_support = min_support
+        self.prune_after = prune_after
+        self.adaptive_spread = adaptive_spread
+        self.x_range = x_range
+        self.y_range = y_range
+        self.history_every = history_every
+        self.input_names = input_names
+        self.output_names = output_names
+
+    # ------------------------------------------------------------------ parameters
+    def get_params(self) -> dict[str, Any]:
+        """The constructor parameters as a dict (scikit-learn convention)."""
+        names = list(inspect.signature(type(self).__init__).parameters)[1:]
+        return {name: getattr(self, name) for name in names}
+
+    def _check_params(self) -> None:
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.rls not in RLS_KINDS:
+            raise ValueError(f"rls must be one of {RLS_KINDS}, got {self.rls!r}")
+        r = np.atleast_1d(np.asarray(self.radius, dtype=np.float64))
+        if r.ndim != 1 or not np.all(np.isfinite(r)) or np.any(r <= 0):
+            raise ValueError(f"radius must be positive and finite, got {self.radius!r}")
+        if not (np.isfinite(self.omega) and self.omega > 0):
+            raise ValueError(f"omega must be positive, got {self.omega!r}")
+        if not (0.0 < self.forgetting <= 1.0):
+            raise ValueError(f"forgetting must be in (0, 1], got {self.forgetting!r}")
+        if int(self.max_rules) < 1:
+            raise ValueError(f"max_rules must be >= 1, got {self.max_rules!r}")
+        if int(self.history_every) < 1:
+            raise ValueError(f"history_every must be >= 1, got {self.history_every!r}")
+        if int(self.prune_after) < 0 or int(self.min_support) < 0:
+            raise ValueError("prune_after and min_support must be >= 0")
+
+    # ------------------------------------------------------------------ state
+    def _init_state(self, n: int, m: int) -> None:
+        self._check_params()
+        r = np.atleast_1d(np.asarray(self.radius, dtype=np.float64))
+        if r.size == 1:
+            r = np.full(n, r[0])
+        if r.size != n:
+            raise ValueError(f"radius has {r.size} values but the model has {n} inputs")
+        rmax = int(self.max_rules)
+        d = n + m
+        lo = np.zeros(d)
+        hi = np.zeros(d)
+        fixed = np.zeros(d, dtype=np.int8)
+        for rng_, sl, name, width in (
+            (self.x_range, slice(0, n), "x_range", n),
+            (self.y_range, slice(n, d), "y_range", m),
+        ):
+            if rng_ is None:
+                continue
+            a = np.asarray(rng_, dtype=np.float64).reshape(-1, 2)
+            if a.shape != (width, 2) or not np.all(np.isfinite(a)) or np.any(a[:, 1] < a[:, 0]):
+                raise ValueError(f"{name} must be {width} finite [low, high] pairs, got {rng_!r}")
+            lo[sl], hi[sl], fixed[sl] = a[:, 0], a[:, 1], 1
+        glob = self.rls == "global"
+        pg = rmax * (n + 1) if glob else 1
+        self.n_inputs_ = n
+        self.n_outputs_ = m
+        self.radius_ = r
+        self.state_ = {
+            "si": np.zeros(3, dtype=np.int64),
+            "lo": lo,
+            "hi": hi,
+            "fixed": fixed,
+            "mean": np.zeros(d),
+            "m2": np.zeros(d),
+            "ids": np.zeros(rmax, dtype=np.int64),
+            "cz": np.zeros((rmax, d)),
+            "rad": np.zeros((rmax, n)),
+            "scat": np.zeros((rmax, n)),
+            "pot": np.zeros(rmax),
+            "birth": np.zeros(rmax, dtype=np.int64),
+            "support": np.zeros(rmax, dtype=np.int64),
+            "lamsum": np.zeros(rmax),
+            "tsum": np.zeros(rmax),
+            "Pi": np.zeros((rmax, n + 1, m)),
+            "Cl": np.zeros((1, 1, 1) if glob else (rmax, n + 1, n + 1)),
+            "Cg": np.zeros((pg, pg)),
+        }
+        self.recorder_ = HistoryRecorder()
+
+    def _kernel_params(self) -> tuple[np.ndarray, np.ndarray]:
+        ip = np.zeros(K.N_IP, dtype=np.int64)
+        ip[K.IP_VARIANT] = VARIANTS.index(self.variant)
+        ip[K.IP_GLOBAL] = RLS_KINDS.index(self.rls)
+        ip[K.IP_MAX_RULES] = int(self.max_rules)
+        ip[K.IP_MIN_SUPPORT] = int(self.min_support)
+        ip[K.IP_PRUNE_AFTER] = int(self.prune_after)
+        ip[K.IP_ADAPTIVE] = int(bool(self.adaptive_spread))
+        fp = np.zeros(K.N_FP)
+        fp[K.FP_OMEGA] = float(self.omega)
+        fp[K.FP_FORGET] = float(self.forgetting)
+        fp[K.FP_UTILITY] = float(self.utility_threshold)
+        fp[K.FP_SPREAD_RHO] = 0.5
+        return ip, fp
+
+    @property
+    def _fitted(self) -> bool:
+        return hasattr(self, "state_")
+
+    def _check_xy(self, X: Any, Y: Any) -> tuple[np.ndarray, np.ndarray, bool]:
+        y_arr = np.asarray(Y, dtype=np.float64)
+        y1d = y_arr.ndim == 1
+        if y1d:
+            y_arr = y_arr[:, None]
+        n = self.n_inputs_ if self._fitted else None
+        m = self.n_outputs_ if self._fitted else None
+        Xa = _finite_2d(X, "X", n)
+        Ya = _finite_2d(y_arr, "Y", m)
+        if Xa.shape[0] != Ya.shape[0]:
+            raise ValueError(f"X has {Xa.shape[0]} rows but Y has {Ya.shape[0]}")
+        return Xa, Ya, y1d
+
+    # ------------------------------------------------------------------ learning
+    def run(self, X: Any, Y: Any) -> np.ndarray:
+        """Online predict-then-learn over all samples.
+
+        Parameters
+        ----------
+        X : array-like, shape (N, n)
+            Inputs in original units.
+        Y : array-like, shape (N, m) or (N,)
+            Targets in original units (1-D for a single output).
+
+        Returns
+        -------
+        numpy.ndarray, shape like ``Y``
+            The one-step prediction of each sample made *before* learning from it
+            (NaN for the very first sample of a new model, which has no rule yet).
+        """
+        Xa, Ya, y1d = self._check_xy(X, Y)
+        if not self._fitted:
+            self._init_state(Xa.shape[1], Ya.shape[1])
+            self.y_1d_ = y1d
+        st = self.state_
+        ip, fp = self._kernel_params()
+        N = Xa.shape[0]
+        Yhat = np.empty_like(Ya)
+        every = int(self.history_every)
+        rmax = int(self.max_rules)
+        start = 0
+        while start < N:
+            k0 = int(st["si"][0])
+            stop = min(N, start + every - (k0 % every))
+            nc = stop - start
+            hist = np.empty((nc, 4))
+            ev = np.empty((4 * nc + rmax + 1, 3), dtype=np.int64)
+            nev = np.zeros(1, dtype=np.int64)
+            learn_kernel(
+                Xa[start:stop], Ya[start:stop], Yhat[start:stop], hist, ev, nev,
+                *(st[name] for name in STATE_ARRAYS), self.radius_, fp, ip,
+            )  # fmt: skip
+            rec = self.recorder_
+            rec.add(k0 + 1, hist)
+            for step, kind, rid in ev[: nev[0]]:
+                rec.add_event(step, K.EVENT_KINDS[kind], rid)
+            k1 = int(st["si"][0])
+            if k1 % every == 0:
+                R = int(st["si"][1])
+                rec.add_snapshot(k1, st["ids"][:R], self.consequents_raw())
+            start = stop
+        return Yhat[:, 0] if y1d else Yhat
+
+    def learn_one(self, x: Any, y: Any) -> ETS:
+        """Learn one sample (predict-then-learn); ``x`` shape (n,), ``y`` scalar or (m,)."""
+        y_arr = np.atleast_1d(np.asarray(y, dtype=np.float64))
+        self.run(np.atleast_2d(np.asarray(x, dtype=np.float64)), y_arr[None, :])
+        return self
+
+    def predict(self, X: Any) -> np.ndarray:
+        """Predict every row of ``X`` (N, n) with the current rules, without learning.
+
+        Returns an (N, m) array, or (N,) if the model was trained with 1-D ``Y``;
+        NaN if the model has no rule yet.
+        """
+        if not self._fitted:
+            raise ValueError("the model has not learned anything yet; call run() or learn_one()")
+        Xa = _finite_2d(X, "X", self.n_inputs_)
+        st = self.state_
+        Yhat = np.empty((Xa.shape[0], self.n_outputs_))
+        R = int(st["si"][1])
+        predict_kernel(Xa, Yhat, R, st["lo"], st["hi"], st["cz"], st["rad"], st["Pi"])
+        return Yhat[:, 0] if self.y_1d_ else Yhat
+
+    def predict_one(self, x: Any) -> np.ndarray:
+        """Predict one sample ``x`` (n,); returns an array of shape (m,)."""
+        y = self.predict(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        return np.atleast_1d(y[0])
+
+    # ------------------------------------------------------------------ inspection
+    @property
+    def n_rules(self) -> int:
+        """Current number of rules (0 before learning)."""
+        return int(self.state_["si"][1]) if self._fitted else 0
+
+    def __len__(self) -> int:
+        return self.n_rules
+
+    @property
+    def history(self) -> History:
+        """Per-step structure, events and consequent snapshots (see :class:`History`)."""
+        if not self._fitted:
+            return HistoryRecorder().build()
+        return self.recorder_.build()
+
+    def history_frame(self) -> pd.DataFrame:
+        """History as a DataFrame: step, n_rules, potential, focal_max, focal_min."""
+        return self.history.to_frame()
+
+    def scales_(self) -> np.ndarray:
+        """Normalisation widths s = hi - lo of z = [x; y] (1 where the range is zero)."""
+        st = self.state_
+        s = np.empty_like(st["lo"])
+        K.scales(st["lo"], st["hi"], s)
+        return s
+
+    def consequents_raw(self) -> np.ndarray:
+        """Consequents of the live rules in original units, shape (R, n + 1, m).
+
+        Row 0 is the intercept and row j the coefficient of input j: y_i = c_0 + sum_j c_j x_j.
+        """
+        st = self.state_
+        n, R = self.n_inputs_, self.n_rules
+        s = self.scales_()[:n]
+        lo = st["lo"][:n]
+        Pi = st["Pi"][:R]
+        out = np.empty_like(Pi)
+        out[:, 1:, :] = Pi[:, 1:, :] / s[None, :, None]
+        out[:, 0, :] = Pi[:, 0, :] - np.einsum("rjo,j->ro", out[:, 1:, :], lo)
+        return out
+
+    def names_(self) -> tuple[list[str], list[str]]:
+        """Input and output names (defaults x1.., y1..)."""
+        n, m = self.n_inputs_, self.n_outputs_
+        xin = list(self.input_names) if self.input_names is not None else []
+        yout = list(self.output_names) if self.output_names is not None else []
+        if len(xin) != n:
+            xin = [f"x{j + 1}" for j in range(n)]
+        if len(yout) != m:
+            yout = [f"y{o + 1}" for o in range(m)]
+        return xin, yout
+
+    def rules(self, precision: int = 4) -> str:
+        """Readable IF … THEN … rules in the original units of the data."""
+        from etsid.ets.text import format_rules
+
+        return format_rules(self, precision)
+
+    # ------------------------------------------------------------------ persistence
+    def to_dict(self) -> dict[str, Any]:
+        """The rule base and learner state as a JSON-ready dict (schema ``etsid.rules/1``)."""
+        from etsid.ets.serialize import model_to_dict
+
+        return model_to_dict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ETS:
+        """Rebuild a model from :meth:`to_dict` output; raises ModelError if invalid."""
+        from etsid.ets.serialize import model_from_dict
+
+        return model_from_dict(cls, data)
+
+    def save(self, path: str | Path, **extra: Any) -> None:
+        """Write the rule base to ``path`` (JSON); ``extra`` adds e.g. ``regressors=...``."""
+        from etsid.ets.serialize import save
+
+        save(self, path, **extra)
+
+    @classmethod
+    def load(cls, path: str | Path) -> ETS:
+        """Read a rule base written by :meth:`save`; raises ModelError if invalid."""
+        from etsid.ets.serialize import load
+
+        return load(cls, path)
