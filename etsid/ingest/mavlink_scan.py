@@ -1,0 +1,248 @@
+"""Find MAVLink frames in tlog bytes and check their CRC: a numba kernel plus a plain reference.
+
+A tlog is a sequence of records: an 8-byte big-endian ground-station timestamp (µs since
+the Unix epoch) followed by one MAVLink v1 (``0xFE``) or v2 (``0xFD``) frame::
+
+    v1: FE len seq sys comp id                         payload[len] crc[2]
+    v2: FD len incompat compat seq sys comp id[3] (LE) payload[len] crc[2] [signature 13]
+
+The CRC is X.25 (CRC-16/MCRF4XX) over the frame after the magic byte, followed by the
+message's ``CRC_EXTRA`` seed byte. :func:`scan_frames` walks a byte buffer record by
+record; where a record does not start with a magic byte or fails its CRC it moves on one
+byte at a time until a valid record starts again, counting what it skipped.
+
+A frame whose message id the dialect does not know cannot be CRC-checked: it is
+accepted (and reported as unknown) only when the next record starts right after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+MAGIC_V1 = 0xFE
+MAGIC_V2 = 0xFD
+STAMP = 8
+"""Bytes of the ground-station timestamp in front of each frame."""
+
+# status codes per frame
+OK = 0
+UNKNOWN = 1
+
+
+@dataclass
+class ScanResult:
+    """Frames found in one buffer (arrays of length ``count``) and what was skipped."""
+
+    offset: np.ndarray  # int64: index of the payload's first byte
+    length: np.ndarray  # int32: payload length on the wire (v2 may be truncated)
+    msgid: np.ndarray  # int32
+    sysid: np.ndarray  # uint8
+    compid: np.ndarray  # uint8
+    stamp_us: np.ndarray  # int64: ground-station time, µs since the Unix epoch
+    status: np.ndarray  # uint8: OK or UNKNOWN
+    consumed: int  # bytes of the buffer that are done (the rest is a partial record)
+    skipped: int  # bytes skipped while resynchronising
+    bad_crc: int  # frames rejected by their CRC
+
+
+@numba.njit(cache=True, nogil=True)
+def _crc(buf: np.ndarray, start: int, stop: int, extra: int) -> int:
+    crc = 0xFFFF
+    for i in range(start, stop):
+        tmp = (buf[i] ^ (crc & 0xFF)) & 0xFF
+        tmp = (tmp ^ (tmp << 4)) & 0xFF
+        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
+    tmp = (extra ^ (crc & 0xFF)) & 0xFF
+    tmp = (tmp ^ (tmp << 4)) & 0xFF
+    crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
+    return crc
+
+
+@numba.njit(cache=True, nogil=True)
+def _frame_size(buf: np.ndarray, m: int) -> int:
+    """Bytes of the frame whose magic is at ``m`` (needs buf[m..m+2] in range)."""
+    if buf[m] == MAGIC_V1:
+        return 8 + buf[m + 1]
+    size = 12 + buf[m + 1]
+    if buf[m + 2] & 1:
+        size += 13
+    return size
+
+
+@numba.njit(cache=True, nogil=True)
+def _scan_kernel(buf, n, final, crc_extra, offset, length, msgid, sysid, compid, stamp,
+                 status):  # pragma: no cover - compiled
+    count = 0
+    skipped = 0
+    bad_crc = 0
+    p = 0
+    nextra = crc_extra.size
+    while p < n:
+        m = p + STAMP
+        if m + 3 > n:
+            break  # partial record
+        magic = buf[m]
+        if magic != MAGIC_V1 and magic != MAGIC_V2:
+            p += 1
+            skipped += 1
+            continue
+        size = _frame_size(buf, m)
+        if m + size > n:
+            break  # partial record
+        plen = buf[m + 1]
+        if magic == MAGIC_V1:
+            sid = buf[m + 3]
+            cid = buf[m + 4]
+            mid = np.int64(buf[m + 5])
+            pay = m + 6
+        else:
+            sid = buf[m + 5]
+            cid = buf[m + 6]
+            mid = np.int64(buf[m + 7]) | (np.int64(buf[m + 8]) << 8) | (np.int64(buf[m + 9]) << 16)
+            pay = m + 10
+        end = pay + plen
+        extra = crc_extra[mid] if mid < nextra else -1
+        if extra >= 0:
+            wire = np.int64(buf[end]) | (np.int64(buf[end + 1]) << 8)
+            if _crc(buf, m + 1, end, extra) != wire:
+                bad_crc += 1
+                p += 1
+                skipped += 1
+                continue
+            st = OK
+        else:
+            # unknown id: trust the length only if the next record starts right after
+            nxt = m + size + STAMP
+            if nxt < n and buf[nxt] != MAGIC_V1 and buf[nxt] != MAGIC_V2:
+                p += 1
+                skipped += 1
+                continue
+            if nxt >= n and not final:
+                break  # decide with the next chunk
+            st = UNKNOWN
+        ts = np.int64(0)
+        for k in range(STAMP):
+            ts = (ts << 8) | np.int64(buf[p + k])
+        offset[count] = pay
+        length[count] = plen
+        msgid[count] = mid
+        sysid[count] = sid
+        compid[count] = cid
+        stamp[count] = ts
+        status[count] = st
+        count += 1
+        p = m + size
+    return count, p, skipped, bad_crc
+
+
+def _alloc(n: int) -> tuple[np.ndarray, ...]:
+    cap = n // (STAMP + 8) + 1
+    return (np.empty(cap, np.int64), np.empty(cap, np.int32), np.empty(cap, np.int32),
+            np.empty(cap, np.uint8), np.empty(cap, np.uint8), np.empty(cap, np.int64),
+            np.empty(cap, np.uint8))
+
+
+def scan_frames(buf: np.ndarray, crc_extra: np.ndarray, final: bool) -> ScanResult:
+    """Find the tlog records in ``buf`` (uint8).
+
+    Parameters
+    ----------
+    buf
+        Bytes of the log, starting at a record boundary.
+    crc_extra
+        ``CRC_EXTRA`` per message id (int16, −1 for ids the dialect lacks).
+    final
+        True for the last chunk of the file: a trailing partial record is then not
+        waited for (the caller counts it as truncated bytes: ``len(buf) - consumed``).
+    """
+    arrays = _alloc(buf.size)
+    count, consumed, skipped, bad = _scan_kernel(buf, buf.size, final, crc_extra, *arrays)
+    off, ln, mid, sid, cid, ts, st = (a[:count] for a in arrays)
+    return ScanResult(off, ln, mid, sid, cid, ts, st, int(consumed), int(skipped), int(bad))
+
+
+def crc_x25(data: bytes, extra: int) -> int:
+    """Plain-Python X.25 CRC of ``data`` followed by the ``extra`` seed byte (reference)."""
+    crc = 0xFFFF
+    for byte in [*data, extra]:
+        tmp = (byte ^ (crc & 0xFF)) & 0xFF
+        tmp = (tmp ^ (tmp << 4)) & 0xFF
+        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
+    return crc
+
+
+def scan_frames_reference(data: bytes, crc_extra: np.ndarray, final: bool = True) -> ScanResult:
+    """Plain-Python version of :func:`scan_frames`, for equivalence tests (slow)."""
+    rows: list[tuple[int, int, int, int, int, int, int]] = []
+    skipped = bad = p = 0
+    n = len(data)
+    while p < n:
+        m = p + STAMP
+        if m + 3 > n:
+            break
+        if data[m] not in (MAGIC_V1, MAGIC_V2):
+            p, skipped = p + 1, skipped + 1
+            continue
+        v1 = data[m] == MAGIC_V1
+        plen = data[m + 1]
+        size = 8 + plen if v1 else 12 + plen + (13 if data[m + 2] & 1 else 0)
+        if m + size > n:
+            break
+        if v1:
+            sid, cid, mid, pay = data[m + 3], data[m + 4], data[m + 5], m + 6
+        else:
+            sid, cid, pay = data[m + 5], data[m + 6], m + 10
+            mid = int.from_bytes(data[m + 7:m + 10], "little")
+        end = pay + plen
+        extra = int(crc_extra[mid]) if mid < crc_extra.size else -1
+        if extra >= 0:
+            if crc_x25(data[m + 1:end], extra) != int.from_bytes(data[end:end + 2], "little"):
+                p, skipped, bad = p + 1, skipped + 1, bad + 1
+                continue
+            st = OK
+        else:
+            nxt = m + size + STAMP
+            if nxt < n and data[nxt] not in (MAGIC_V1, MAGIC_V2):
+                p, skipped = p + 1, skipped + 1
+                continue
+            if nxt >= n and not final:
+                break
+            st = UNKNOWN
+        rows.append((pay, plen, mid, sid, cid, int.from_bytes(data[p:m], "big"), st))
+        p = m + size
+    cols = list(zip(*rows, strict=True)) if rows else [()] * 7
+    types = (np.int64, np.int32, np.int32, np.uint8, np.uint8, np.int64, np.uint8)
+    arrays = [np.asarray(c, dtype=ty) for c, ty in zip(cols, types, strict=True)]
+    return ScanResult(*arrays, consumed=p, skipped=skipped, bad_crc=bad)
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather_kernel(buf, offset, length, size, out):  # pragma: no cover - compiled
+    for i in range(offset.size):
+        start = offset[i]
+        n = min(length[i], size)
+        for k in range(n):
+            out[i, k] = buf[start + k]
+        for k in range(n, size):
+            out[i, k] = 0
+
+
+def gather_payloads(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
+                    size: int) -> np.ndarray:
+    """Copy payloads into an (N, size) uint8 array, zero-padding truncated MAVLink 2 payloads."""
+    out = np.empty((offset.size, size), np.uint8)
+    _gather_kernel(buf, offset, length, size, out)
+    return out
+
+
+def gather_payloads_reference(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
+                              size: int) -> np.ndarray:
+    """Plain-numpy version of :func:`gather_payloads`."""
+    out = np.zeros((offset.size, size), np.uint8)
+    for i, (start, n) in enumerate(zip(offset, length, strict=True)):
+        n = min(int(n), size)
+        out[i, :n] = buf[start:start + n]
+    return out

@@ -1,0 +1,314 @@
+"""MAVLink telemetry logs (``.tlog``): fast streaming reader.
+
+A tlog is what a ground station records: each MAVLink v1/v2 frame prefixed by its
+8-byte big-endian receive time (µs since the Unix epoch). The file is read in chunks
+of :data:`CHUNK` bytes (a partial frame carries over to the next chunk, so memory is
+bounded by the decoded output); a numba kernel finds the frames and checks their CRC
+(:mod:`etsid.ingest.mavlink_scan`), and only the messages in
+:data:`~etsid.ingest.mavlink_signals.DECODERS` (plus those named by ``--map``) are
+decoded, in blocks, with numpy dtypes built from pymavlink's own definitions
+(:mod:`etsid.ingest.mavlink_dtypes`). Columns, units and priorities:
+:mod:`etsid.ingest.mavlink_signals`; time handling: :mod:`etsid.ingest.mavlink_clock`.
+
+System choice: ``options.sysid``, else the system with the most ATTITUDE messages
+(ground stations, sysid 255, never count); within it the component with the most
+ATTITUDE messages. Frames with a bad CRC, unknown message ids and skipped bytes are
+counted in ``dropped``; a file cut mid-frame gives its valid part and a warning.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from etsid.errors import IngestError
+from etsid.ingest.base import Channel, Issue, Override, RawLog, ReadOptions, Signal
+from etsid.ingest.mavlink_clock import BOOT, NONE, WRAP32_US, Clock, autopilot_clock
+from etsid.ingest.mavlink_dtypes import (
+    crc_extra_table,
+    message_class,
+    message_dtype,
+    message_ids,
+)
+from etsid.ingest.mavlink_scan import OK, UNKNOWN, gather_payloads, scan_frames
+from etsid.ingest.mavlink_signals import CLOCK_FIELDS, DECODERS
+from etsid.progress import progress
+
+CHUNK = 8 << 20
+"""Bytes read per step."""
+GCS_SYSID = 255
+ATTITUDE_ID = 30
+
+
+@dataclass
+class _Stats:
+    """Per (sysid, compid, msgid) counts and ground-station time span, plus damage counts."""
+
+    count: dict[int, int] = field(default_factory=dict)
+    first: dict[int, float] = field(default_factory=dict)
+    last: dict[int, float] = field(default_factory=dict)
+    unknown: dict[int, int] = field(default_factory=dict)
+    skipped: int = 0
+    bad_crc: int = 0
+    truncated: int = 0
+
+    def add(self, key: np.ndarray, stamp: np.ndarray) -> None:
+        if not key.size:
+            return
+        order = np.argsort(key, kind="stable")
+        k, s = key[order], stamp[order]
+        starts = np.flatnonzero(np.concatenate(([True], k[1:] != k[:-1])))
+        counts = np.diff(np.append(starts, k.size))
+        lo = np.minimum.reduceat(s, starts)
+        hi = np.maximum.reduceat(s, starts)
+        for kk, c, a, b in zip(k[starts].tolist(), counts.tolist(), lo.tolist(), hi.tolist(),
+                               strict=True):
+            self.count[kk] = self.count.get(kk, 0) + c
+            self.first[kk] = min(self.first.get(kk, a), a)
+            self.last[kk] = max(self.last.get(kk, b), b)
+
+
+def _key(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray) -> np.ndarray:
+    return (sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24) | msgid
+
+
+def _wanted_ids(overrides: list[Override], path: Path) -> dict[int, str]:
+    ids = message_ids()
+    wanted = {ids[name]: name for name in DECODERS}
+    for o in overrides:
+        if o.topic not in ids:
+            raise IngestError(f"{path}: --map {o.text}: {o.topic!r} is not a MAVLink message "
+                              "name (e.g. ATTITUDE, RC_CHANNELS)")
+        wanted[ids[o.topic]] = o.topic
+    return wanted
+
+
+def _scan_file(path: Path, wanted: dict[int, str], show: bool
+               ) -> tuple[_Stats, dict[int, list[dict[str, np.ndarray]]], int]:
+    """Read the file chunk by chunk; decode the wanted messages of every system."""
+    stats = _Stats()
+    blocks: dict[int, list[dict[str, np.ndarray]]] = {mid: [] for mid in wanted}
+    table = crc_extra_table()
+    wanted_ids = np.fromiter(wanted, dtype=np.int32)
+    size = path.stat().st_size
+    carry = np.empty(0, np.uint8)
+    base = 0
+    with path.open("rb") as handle, progress(size, f"reading {path.name}", show) as bar:
+        while True:
+            block = handle.read(CHUNK)
+            final = handle.tell() >= size or not block
+            buf = np.concatenate((carry, np.frombuffer(block, np.uint8))) if carry.size else \
+                np.frombuffer(block, np.uint8)
+            res = scan_frames(buf, table, final)
+            stats.skipped += res.skipped
+            stats.bad_crc += res.bad_crc
+            key = _key(res.sysid, res.compid, res.msgid)
+            stats.add(key, res.stamp_us)
+            unknown = res.status == UNKNOWN
+            if unknown.any():
+                for mid, c in zip(*np.unique(res.msgid[unknown], return_counts=True),
+                                  strict=True):
+                    stats.unknown[int(mid)] = stats.unknown.get(int(mid), 0) + int(c)
+            take = np.isin(res.msgid, wanted_ids) & (res.status == OK)
+            for mid in np.unique(res.msgid[take]).tolist():
+                sel = np.flatnonzero(take & (res.msgid == mid))
+                dtype = message_dtype(mid)
+                payload = gather_payloads(buf, res.offset[sel], res.length[sel], dtype.itemsize)
+                blocks[mid].append({
+                    "rec": payload.view(dtype).ravel(),
+                    "index": base + sel.astype(np.int64),
+                    "stamp": res.stamp_us[sel],
+                    "sysid": res.sysid[sel],
+                    "compid": res.compid[sel],
+                })
+            base += res.offset.size
+            bar.update(len(block))
+            carry = buf[res.consumed:].copy()
+            if final:
+                stats.truncated = int(carry.size)
+                break
+    return stats, blocks, base
+
+
+def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int, int, dict]:
+    frames: dict[int, int] = {}
+    att: dict[tuple[int, int], int] = {}
+    for key, c in stats.count.items():
+        sysid, compid, msgid = key >> 32, (key >> 24) & 0xFF, key & 0xFFFFFF
+        frames[sysid] = frames.get(sysid, 0) + c
+        if msgid == ATTITUDE_ID:
+            att[(sysid, compid)] = att.get((sysid, compid), 0) + c
+    vehicles = sorted(s for s in frames if s != GCS_SYSID)
+    if options.sysid is not None:
+        if options.sysid not in frames:
+            raise IngestError(f"{path}: --sysid {options.sysid} not in the log; system ids "
+                              f"found: {', '.join(map(str, sorted(frames)))}")
+        sysid = options.sysid
+    elif not vehicles:
+        raise IngestError(f"{path}: only ground-station packets (sysid 255), no vehicle")
+    else:
+        per_sys = {s: sum(c for (ss, _), c in att.items() if ss == s) for s in vehicles}
+        sysid = max(vehicles, key=lambda s: (per_sys[s], frames[s], -s))
+    comps = {(k >> 24) & 0xFF: 0 for k in stats.count if k >> 32 == sysid}
+    for (s, c), n in att.items():
+        if s == sysid:
+            comps[c] = n
+    if not any(comps.values()):
+        for k, n in stats.count.items():
+            if k >> 32 == sysid:
+                comps[(k >> 24) & 0xFF] += n
+    compid = max(comps, key=lambda c: (comps[c], -c))
+    return sysid, compid, frames
+
+
+def _clock_of(name: str, rec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    fld, kind = CLOCK_FIELDS.get(name, ("", ""))
+    n = rec.size
+    if kind == "ms":
+        return rec[fld].astype(np.float64) * 1e-3, np.full(n, BOOT, np.int8)
+    if kind == "us32":
+        return rec[fld].astype(np.float64) * 1e-6, np.full(n, WRAP32_US, np.int8)
+    if kind == "us":
+        raw = rec[fld]
+        kinds = np.where(raw > 10**15, NONE, BOOT).astype(np.int8)  # > 1e15 µs: Unix time
+        return raw.astype(np.float64) * 1e-6, kinds
+    return np.zeros(n), np.full(n, NONE, np.int8)
+
+
+def _override_signal(o: Override, rec: np.ndarray, t: np.ndarray, path: Path) -> Signal:
+    match = re.fullmatch(r"(\w+)(?:\[(\d+)\])?", o.field or "")
+    names = rec.dtype.names or ()
+    if not match or match.group(1) not in names:
+        raise IngestError(f"{path}: --map {o.text}: {o.topic} has no field {o.field!r} "
+                          f"(fields: {', '.join(names)})")
+    values = rec[match.group(1)]
+    if match.group(2) is not None:
+        values = values[:, int(match.group(2))]
+    return Signal(o.column, t, values.astype(np.float64), f"{o.topic}.{o.field}", -1)
+
+
+def read(path: Path, options: ReadOptions) -> RawLog:
+    """Read a tlog into a :class:`RawLog` (see the module docstring)."""
+    wanted = _wanted_ids(options.field_requests(), path)
+    try:
+        stats, blocks, nframes = _scan_file(path, wanted, options.progress)
+    except OSError as err:
+        raise IngestError(f"{path}: cannot read ({err.strerror or err})") from err
+    if not stats.count:
+        raise IngestError(f"{path}: no valid MAVLink packets found "
+                          f"({stats.skipped + stats.truncated} bytes scanned)")
+    sysid, compid, frames = _choose_system(stats, options, path)
+    raw = RawLog(path=path, format="tlog")
+    # decoded messages of the chosen component, merged in logged order for the clock
+    msgs: dict[int, dict[str, np.ndarray]] = {}
+    for mid, parts in blocks.items():
+        if not parts:
+            continue
+        cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        mine = (cat["sysid"] == sysid) & (cat["compid"] == compid)
+        if mine.any():
+            msgs[mid] = {k: v[mine] for k, v in cat.items()}
+    names = {mid: wanted[mid] for mid in msgs}
+    index = np.concatenate([m["index"] for m in msgs.values()]) if msgs else np.empty(0, int)
+    order = np.argsort(index, kind="stable")
+    values, kinds, stamps = [], [], []
+    for mid, m in msgs.items():
+        v, k = _clock_of(names[mid], m["rec"])
+        values.append(v)
+        kinds.append(k)
+        stamps.append(m["stamp"] * 1e-6)
+    clock = autopilot_clock(np.concatenate(stamps)[order] if msgs else np.empty(0),
+                            np.concatenate(values)[order] if msgs else np.empty(0),
+                            np.concatenate(kinds)[order] if msgs else np.empty(0, np.int8))
+    t_all = np.empty(index.size)
+    t_all[order] = clock.t
+    raw.start_time = clock.start_time
+    _clock_issues(raw, clock)
+    overrides = options.field_requests()
+    pos = 0
+    times: dict[int, tuple[float, float]] = {}
+    for mid, m in msgs.items():
+        t = t_all[pos:pos + m["rec"].size]
+        pos += m["rec"].size
+        rec = m["rec"]
+        late = int(np.count_nonzero(t < np.maximum.accumulate(t)))
+        if late:
+            srt = np.argsort(t, kind="stable")
+            t, rec = t[srt], rec[srt]
+            raw.repaired.append(Issue("packets that arrived late over the link, re-sorted by "
+                                      "autopilot clock", late, names[mid]))
+        times[mid] = (float(t[0]), float(t[-1]))
+        if names[mid] in DECODERS:
+            raw.signals.extend(DECODERS[names[mid]](rec, t, options))
+        for o in overrides:
+            if o.topic == names[mid]:
+                raw.signals.append(_override_signal(o, rec, t, path))
+    _catalogue(raw, stats, sysid, compid, times, clock.start_time)
+    _damage(raw, stats, path)
+    raw.extra.update({
+        "sysid": sysid,
+        "compid": compid,
+        "sysids": sorted(frames),
+        "frames": nframes,
+    })
+    if sorted(s for s in frames if s != sysid):
+        others = ", ".join(f"{s} ({frames[s]} frames)" for s in sorted(frames) if s != sysid)
+        raw.warnings.append(f"used system {sysid}; ignored other system ids: {others}")
+    if not clock.own_clock:
+        raw.warnings.append("no message with an autopilot clock: using ground-station time")
+    return raw
+
+
+def _clock_issues(raw: RawLog, clock: Clock) -> None:
+    if clock.reboots:
+        raw.repaired.append(Issue(
+            f"autopilot clock stepped back {clock.reboots} time(s) (reboot): later frames "
+            "placed by ground-station time", clock.rebooted_frames, "time_boot_ms"))
+    if clock.ms_wraps:
+        raw.repaired.append(Issue("uint32 time_boot_ms wrap (49.7 days) unwrapped",
+                                  clock.ms_wraps, "time_boot_ms"))
+    if clock.us_wraps:
+        raw.repaired.append(Issue("uint32 time_usec wrap (71.6 min) unwrapped",
+                                  clock.us_wraps, "SERVO_OUTPUT_RAW.time_usec"))
+
+
+def _catalogue(raw: RawLog, stats: _Stats, sysid: int, compid: int,
+               times: dict[int, tuple[float, float]], start: float | None) -> None:
+    columns: dict[str, list[str]] = {}
+    for sig in raw.signals:
+        cols = columns.setdefault(sig.topic, [])
+        if sig.column not in cols:
+            cols.append(sig.column)
+    for key in sorted(stats.count, key=lambda k: k & 0xFFFFFF):
+        if key >> 32 != sysid or (key >> 24) & 0xFF != compid:
+            continue
+        mid = key & 0xFFFFFF
+        name = message_class(mid).msgname if mid < crc_extra_table().size and \
+            crc_extra_table()[mid] >= 0 else f"UNKNOWN_{mid}"
+        if mid in times:
+            first, last = times[mid]
+        else:
+            t0 = start or 0.0
+            first, last = stats.first[key] * 1e-6 - t0, stats.last[key] * 1e-6 - t0
+        raw.channels.append(Channel(name, "mavlink", stats.count[key], first, last,
+                                    columns.get(name, []),
+                                    "" if mid in times else "ground-station time"))
+
+
+def _damage(raw: RawLog, stats: _Stats, path: Path) -> None:
+    if stats.bad_crc:
+        raw.dropped.append(Issue("frame with a bad CRC", stats.bad_crc, ""))
+    for mid, n in sorted(stats.unknown.items()):
+        raw.dropped.append(Issue(f"unknown MAVLink message id {mid}", n, ""))
+    if stats.skipped:
+        raw.dropped.append(Issue("bytes between frames that are no valid tlog record",
+                                 stats.skipped, ""))
+        raw.warnings.append(f"{path.name}: skipped {stats.skipped} bytes that are no valid "
+                            "tlog record")
+    if stats.truncated:
+        raw.dropped.append(Issue("bytes of a truncated last frame", stats.truncated, ""))
+        raw.warnings.append(f"{path.name}: file is truncated: skipped the last "
+                            f"{stats.truncated} bytes (an incomplete frame)")
