@@ -1,0 +1,337 @@
+"""ROS 1 ``.bag`` and ROS 2 bags (directory with metadata.yaml, or a ``.db3`` storage file).
+
+Read with rosbags' :class:`~rosbags.highlevel.AnyReader`, streaming; each message is
+decoded only when its type maps to FlightTable columns (see
+:mod:`etsid.ingest.ros_messages` for types, frames, times and priorities) or a ``--map``
+asks for one of its fields.
+
+Definitions: those embedded in the bag (ROS 1 connection headers, ROS 2 metadata or
+storage schemas); for bags without them, ROS 2 Humble's standard types plus the shipped
+mavros_msgs / px4_msgs definitions (``etsid/ingest/msgdefs``).
+
+Real-world quirks handled:
+
+* a ROS 2 bag whose metadata.yaml is unusable (a storage path that does not exist, old
+  layout) or disagrees with its storage file (QoS/format: rosbags then yields zero
+  messages) is read again from its storage file(s) directly, with a warning;
+* a ROS 1 bag cut off before its index (truncated) is scanned chunk by chunk: the valid
+  part is kept, a warning gives the bytes that could not be read;
+* a topic whose messages cannot be decoded is skipped, counted and noted.
+"""
+
+from __future__ import annotations
+
+import bz2
+import struct
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from etsid.errors import IngestError
+from etsid.ingest.base import RawLog, ReadOptions
+from etsid.ingest.ros_messages import Converter, typestore
+from etsid.progress import progress
+
+
+def read(path: Path, options: ReadOptions) -> RawLog:
+    """Read a ROS 1 or ROS 2 bag into a :class:`RawLog`.
+
+    Raises
+    ------
+    IngestError
+        Not a readable bag (one line naming the file).
+    """
+    path = Path(path)
+    ros1 = path.is_file() and path.suffix.lower() == ".bag"
+    raw = RawLog(path=path, format="ros1" if ros1 else "ros2")
+    if ros1:
+        _read_ros1(path, options, raw)
+    else:
+        _read_ros2(path, options, raw)
+    return raw
+
+
+# ---------------------------------------------------------------------------
+# rosbags AnyReader
+
+
+def _errors() -> tuple[type[BaseException], ...]:
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as Reader1Error
+    from rosbags.rosbag2 import ReaderError as Reader2Error
+    from rosbags.serde import SerdeError
+    from rosbags.typesys import TypesysError
+
+    return (AnyReaderError, Reader1Error, Reader2Error, SerdeError, TypesysError, KeyError,
+            ValueError, struct.error, OSError, EOFError, AssertionError)
+
+
+def _first_line(err: BaseException) -> str:
+    text = " ".join(str(a) for a in err.args) if err.args else type(err).__name__
+    return text.strip().splitlines()[0] if text.strip() else type(err).__name__
+
+
+def _size(path: Path) -> int:
+    if path.is_dir():
+        return sum(p.stat().st_size for p in path.iterdir() if p.is_file())
+    return path.stat().st_size
+
+
+def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) -> Converter:
+    """Stream ``paths`` through AnyReader into a fresh :class:`Converter`."""
+    from rosbags.highlevel import AnyReader
+
+    errors = _errors()
+    default = typestore(ros1=ros1)
+    conv = Converter(options)
+    with AnyReader(paths, default_typestore=default) as reader:
+        missing = {k: v for k, v in default.fielddefs.items()
+                   if k not in reader.typestore.fielddefs}
+        reader.typestore.register(missing)
+        deser = (reader.typestore.deserialize_ros1 if not reader.is2
+                 else reader.typestore.deserialize_cdr)
+        topics = {c.id: conv.topic(c.topic, c.msgtype) for c in reader.connections}
+        broken: dict[str, str] = {}
+        done = 0
+        total = sum(_size(p) for p in paths)
+        with progress(total, f"reading {paths[0].name}", options.progress) as bar:
+            try:
+                for conn, log_ns, data in reader.messages():
+                    topic = topics[conn.id]
+                    if not topic.decode or topic.topic in broken:
+                        conv.count(topic, log_ns)
+                        continue
+                    try:
+                        msg = deser(data, conn.msgtype)
+                    except errors as err:
+                        broken[topic.topic] = _first_line(err)
+                        conv.count(topic, log_ns)
+                        continue
+                    conv.add(topic, msg, log_ns)
+                    done += len(data)
+                    if done > 1 << 20:
+                        bar.update(done)
+                        done = 0
+            except errors as err:
+                raw.warnings.append(f"{raw.path}: reading stopped early ({_first_line(err)}); "
+                                    "kept the messages read before that")
+        _note_broken(conv, broken, raw)
+        raw.extra["storage"] = "rosbag1" if not reader.is2 else _storage_name(paths[0])
+        raw.extra["message_count"] = sum(c.msgcount for c in reader.connections)
+    return conv
+
+
+def _storage_name(path: Path) -> str:
+    if path.is_dir():
+        files = [p.suffix for p in path.iterdir()]
+        return "mcap" if ".mcap" in files else "sqlite3"
+    return "mcap" if path.suffix.lower() == ".mcap" else "sqlite3"
+
+
+def _note_broken(conv: Converter, broken: dict[str, str], raw: RawLog) -> None:
+    for name, why in broken.items():
+        topic = conv.topics[name]
+        topic.spec, topic.requests = None, []
+        topic.note = f"undecodable, skipped ({why})"
+        raw.warnings.append(f"{name}: {topic.count} message(s) could not be decoded "
+                            f"and were skipped ({why})")
+
+
+def _read_ros2(path: Path, options: ReadOptions, raw: RawLog) -> None:
+    errors = _errors()
+    storage = sorted(p for p in path.iterdir() if p.suffix in (".db3", ".mcap")) \
+        if path.is_dir() else [path]
+    try:
+        conv = _read_any([path], options, raw, ros1=False)
+        fallback = path.is_dir() and not _decoded_any(conv) and raw.extra["message_count"]
+        why = "metadata.yaml disagrees with the storage file (QoS/format): zero messages read"
+    except errors as err:
+        fallback, conv = path.is_dir(), None
+        why = f"metadata.yaml unusable ({_first_line(err)})"
+        if not fallback:
+            raise IngestError(f"{path}: not a readable ROS 2 bag ({_first_line(err)})") from err
+    if fallback:
+        if not storage:
+            raise IngestError(f"{path}: {why}, and no .db3/.mcap storage file next to it")
+        raw.warnings.append(f"{path}: {why}; read {', '.join(p.name for p in storage)} directly")
+        try:
+            conv = _read_any(storage, options, raw, ros1=False)
+        except errors as err:
+            raise IngestError(f"{path}: {why}; its storage file is not readable either "
+                              f"({_first_line(err)})") from err
+    assert conv is not None
+    conv.finish(raw)
+
+
+def _decoded_any(conv: Converter) -> bool:
+    return any(t.count for t in conv.topics.values())
+
+
+def _read_ros1(path: Path, options: ReadOptions, raw: RawLog) -> None:
+    from rosbags.rosbag1 import ReaderError as Reader1Error
+
+    errors = _errors()
+    try:
+        conv = _read_any([path], options, raw, ros1=True)
+    except Reader1Error as err:
+        text = _first_line(err)
+        if "index" not in text.lower():
+            raise IngestError(f"{path}: not a readable ROS 1 bag ({text})") from err
+        conv = _scan_ros1(path, options, raw)
+    except errors as err:
+        text = _first_line(err)
+        if "index" not in text.lower():
+            raise IngestError(f"{path}: not a readable ROS 1 bag ({text})") from err
+        conv = _scan_ros1(path, options, raw)
+    conv.finish(raw)
+
+
+# ---------------------------------------------------------------------------
+# ROS 1 without index: scan chunks (truncated recordings)
+
+_OP_MSG, _OP_HEADER, _OP_CHUNK, _OP_CONN = 0x02, 0x03, 0x05, 0x07
+
+
+def _fields(buf: bytes | memoryview) -> dict[str, bytes]:
+    out: dict[str, bytes] = {}
+    pos = 0
+    while pos + 4 <= len(buf):
+        (size,) = struct.unpack_from("<I", buf, pos)
+        name, _, value = bytes(buf[pos + 4:pos + 4 + size]).partition(b"=")
+        out[name.decode()] = value
+        pos += 4 + size
+    return out
+
+
+def _records(buf: bytes | memoryview, start: int = 0) -> Iterator[tuple[dict[str, bytes],
+                                                                        memoryview, int]]:
+    """Complete records (header fields, data, end offset) of ``buf`` from ``start``."""
+    view = memoryview(buf)
+    pos = start
+    while pos + 4 <= len(view):
+        (hlen,) = struct.unpack_from("<I", view, pos)
+        if pos + 8 + hlen > len(view):
+            return
+        header = _fields(view[pos + 4:pos + 4 + hlen])
+        (dlen,) = struct.unpack_from("<I", view, pos + 4 + hlen)
+        end = pos + 8 + hlen + dlen
+        if end > len(view):
+            return
+        yield header, view[pos + 8 + hlen:end], end
+        pos = end
+
+
+def _decompress(kind: str, data: bytes | memoryview) -> bytes:
+    """As much of a (possibly cut) chunk as can be decompressed."""
+    if kind == "none":
+        return bytes(data)
+    if kind == "bz2":
+        return bz2.BZ2Decompressor().decompress(bytes(data))
+    if kind == "lz4":
+        import lz4.frame
+
+        return lz4.frame.LZ4FrameDecompressor().decompress(bytes(data))
+    raise IngestError(f"unknown chunk compression {kind!r}")
+
+
+def _scan_ros1(path: Path, options: ReadOptions, raw: RawLog) -> Converter:
+    """Read a ROS 1 bag without its index, keeping every complete message."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    data = path.read_bytes()
+    magic = b"#ROSBAG V2.0\n"
+    if not data.startswith(magic):
+        raise IngestError(f"{path}: not a ROS 1 bag (bad magic line)")
+    conv = Converter(options)
+    store = get_typestore(Stores.EMPTY)
+    conns: dict[int, tuple[Any, str]] = {}
+    used = len(magic)
+    cut_chunk = False
+    for header, body, end in _records(data, len(magic)):
+        op = header.get("op", b"\0")[0]
+        if op == _OP_CHUNK:
+            kind = header.get("compression", b"none").decode()
+            try:
+                inner = _decompress(kind, body)
+            except (OSError, EOFError, ValueError, RuntimeError) as err:
+                raw.warnings.append(f"{path}: chunk at byte {end - len(body)} unreadable ({err})")
+                continue
+            _scan_chunk(inner, conns, conv, store)
+        elif op == _OP_CONN:
+            _add_connection(header, body, conns, conv, store, get_types_from_msg)
+        used = end
+    tail = len(data) - used
+    if tail > 0:
+        # the last, cut record: try to recover the complete messages inside it
+        header_fields = next(iter(_partial_chunk(data, used)), None)
+        if header_fields is not None:
+            kind, body = header_fields
+            try:
+                inner = _decompress(kind, body)
+            except (OSError, EOFError, ValueError, RuntimeError):
+                inner = b""
+            kept = _scan_chunk(inner, conns, conv, store)
+            cut_chunk = kept > 0
+        raw.warnings.append(
+            f"{path}: truncated bag (no index): read the chunks before byte {used}"
+            + (" and the complete messages of the cut chunk" if cut_chunk else "")
+            + f"; {tail} byte(s) at the end could not be read")
+    raw.extra["storage"] = "rosbag1 (scanned without index)"
+    return conv
+
+
+def _partial_chunk(data: bytes, pos: int) -> Iterator[tuple[str, memoryview]]:
+    view = memoryview(data)
+    if pos + 4 > len(view):
+        return
+    (hlen,) = struct.unpack_from("<I", view, pos)
+    if pos + 8 + hlen > len(view):
+        return
+    header = _fields(view[pos + 4:pos + 4 + hlen])
+    if header.get("op", b"\0")[0] == _OP_CHUNK:
+        yield header.get("compression", b"none").decode(), view[pos + 8 + hlen:]
+
+
+def _add_connection(header: dict[str, bytes], body: memoryview, conns: dict[int, Any],
+                    conv: Converter, store: Any, parse: Any) -> None:
+    cid = struct.unpack("<I", header["conn"])[0]
+    if cid in conns:
+        return
+    info = _fields(body)
+    topic = header.get("topic", info.get("topic", b"")).decode()
+    msgtype = info.get("type", b"").decode()
+    pkg, _, name = msgtype.partition("/")
+    typename = f"{pkg}/msg/{name}"
+    try:
+        store.register(parse(info.get("message_definition", b"").decode(), typename))
+    except Exception:  # noqa: BLE001 - a bad definition only disables this topic
+        conv.topic(topic, typename).spec = None
+    conns[cid] = (conv.topic(topic, typename), typename)
+
+
+def _scan_chunk(buf: bytes, conns: dict[int, Any], conv: Converter, store: Any) -> int:
+    from rosbags.typesys import get_types_from_msg
+
+    kept = 0
+    for header, body, _ in _records(buf):
+        op = header.get("op", b"\0")[0]
+        if op == _OP_CONN:
+            _add_connection(header, body, conns, conv, store, get_types_from_msg)
+        elif op == _OP_MSG:
+            cid = struct.unpack("<I", header["conn"])[0]
+            if cid not in conns:
+                continue
+            topic, typename = conns[cid]
+            sec, nsec = struct.unpack("<II", header["time"])
+            log_ns = sec * 1_000_000_000 + nsec
+            if not topic.decode:
+                conv.count(topic, log_ns)
+                continue
+            try:
+                msg = store.deserialize_ros1(bytes(body), typename)
+            except Exception:  # noqa: BLE001 - count it, keep going
+                conv.count(topic, log_ns)
+                continue
+            conv.add(topic, msg, log_ns)
+            kept += 1
+    return kept
