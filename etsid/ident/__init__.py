@@ -1,0 +1,34 @@
+"""Identification: NARX regressors, online eTS runs over a log, metrics and an ARX baseline.
+
+>>> from etsid.ident import RegressorSpec
+>>> RegressorSpec.parse("y[k-1..k-2],u[k-1]", outputs=["y"]).text
+'y[k-1],y[k-2],u[k-1]'
+"""
+
+from __future__ import annotations
+
+from etsid.ident.defaults import default_model
+from etsid.ident.metrics import fit_percent, ndei, rmse, scores, vaf
+from etsid.ident.regressors import Regression, RegressorSpec, Term, build
+from etsid.ident.run import IdentConfig, identify, load_rules, predict
+from etsid.ident.rundir import Run, read_run, write_run
+
+__all__ = [
+    "IdentConfig",
+    "Regression",
+    "RegressorSpec",
+    "Run",
+    "Term",
+    "build",
+    "default_model",
+    "fit_percent",
+    "identify",
+    "load_rules",
+    "ndei",
+    "predict",
+    "read_run",
+    "rmse",
+    "scores",
+    "vaf",
+    "write_run",
+]

@@ -1,0 +1,445 @@
+"""Identification and prediction runs: online eTS over a log, frozen validation, ARX beside it.
+
+:func:`identify` learns online (predict, then learn) over every usable row. The model as it
+stood after the first ``1 − validate`` of the rows is the *frozen* model: it is saved as
+rules.json and evaluated on the rest (one-step and free-run). Because the online pass is
+one pass in time order, the frozen model is exactly a model trained on the first part only.
+:func:`predict` applies a saved rule base to another table.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import itertools
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from etsid import __version__
+from etsid.errors import IdentError, ModelError
+from etsid.ets import ETS
+from etsid.ident.arx import ARX, rls_online
+from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS, default_model
+from etsid.ident.metrics import scores
+from etsid.ident.regressors import Regression, RegressorSpec, build
+from etsid.ident.rundir import Run, jsonable, sha256
+from etsid.ident.simulate import free_run
+from etsid.progress import progress
+from etsid.table import COLUMNS
+
+CHUNK = 4096
+"""Samples learned per call between progress-bar updates."""
+
+MIN_TRAIN = 10
+"""Fewest usable rows the learning part may have."""
+
+
+@dataclass
+class IdentConfig:
+    """Every parameter of an identification run (stored in config.json).
+
+    Parameters
+    ----------
+    outputs
+        Columns to predict; ``None`` chooses the default rate model (p, q, r).
+    regressors
+        Regressor spec (``"co2[k-1],input_gas_rate[k-4]"``); ``None`` with default
+        outputs uses the default lags; required when ``outputs`` is given.
+    output_lags, input_lags
+        Lags of the default rate model, samples.
+    radius, omega, variant, max_rules, rls, forgetting, utility_threshold, min_support,
+    prune_after, adaptive_spread, history_every
+        eTS parameters (see :class:`etsid.ets.ETS`).
+    validate
+        Fraction of the usable rows, at the end, held out for frozen validation (0 … 0.9).
+    """
+
+    outputs: list[str] | None = None
+    regressors: str | None = None
+    output_lags: int = OUTPUT_LAGS
+    input_lags: int = INPUT_LAGS
+    radius: float = 0.5
+    omega: float = 1000.0
+    variant: str = "ets+"
+    max_rules: int = 30
+    rls: str = "local"
+    forgetting: float = 1.0
+    utility_threshold: float = 0.05
+    min_support: int = 3
+    prune_after: int = 50
+    adaptive_spread: bool = False
+    history_every: int = 250
+    validate: float = 0.3
+
+    def ets_params(self) -> dict[str, Any]:
+        """Keyword arguments of :class:`ETS`."""
+        keys = ("radius", "omega", "variant", "max_rules", "rls", "forgetting",
+                "utility_threshold", "min_support", "prune_after", "adaptive_spread",
+                "history_every")
+        return {k: getattr(self, k) for k in keys}
+
+
+@dataclass
+class _Model:
+    spec: RegressorSpec
+    notes: list[str] = field(default_factory=list)
+    inputs: dict[str, Any] = field(default_factory=dict)
+
+
+def _choose_model(table: pd.DataFrame, config: IdentConfig) -> _Model:
+    if config.outputs:
+        if not config.regressors:
+            raise IdentError("--output needs --regressors, e.g. --regressors "
+                             f"\"{config.outputs[0]}[k-1],u[k-1]\"")
+        spec = RegressorSpec.parse(config.regressors, config.outputs)
+        return _Model(spec, [], {"family": "user", "columns": [
+            c for c in spec.columns if c not in spec.outputs]})
+    chosen = default_model(table, config.output_lags, config.input_lags)
+    spec = chosen.spec
+    if config.regressors:
+        spec = RegressorSpec.parse(config.regressors, spec.outputs)
+    return _Model(spec, [chosen.note], {"family": chosen.family, "columns": chosen.inputs,
+                                        "sources": chosen.sources})
+
+
+def noise_std(table: pd.DataFrame, outputs: tuple[str, ...]) -> dict[str, float]:
+    """Known sensor-noise σ per output from ``table.attrs["noise"]`` (gyro σ for p, q, r)."""
+    noise = table.attrs.get("noise") or {}
+    out: dict[str, float] = {}
+    gyro = noise.get("gyro_std") if isinstance(noise, dict) else None
+    for y in outputs:
+        value: Any = noise.get(f"{y}_std") if isinstance(noise, dict) else None
+        if value is None and y in ("p", "q", "r") and gyro is not None:
+            value = gyro
+            if isinstance(gyro, dict):
+                value = gyro.get(y)
+            elif isinstance(gyro, (list, tuple)) and len(gyro) == 3:
+                value = gyro["pqr".index(y)]
+        if isinstance(value, (int, float)) and np.isfinite(value):
+            out[y] = float(value)
+    return out
+
+
+def _learn(model: ETS, reg: Regression, stop_at: int, show: bool,
+           label: str) -> tuple[np.ndarray, dict[str, Any] | None]:
+    """Online pass over ``reg``; returns the one-step predictions and the model dict as it
+    stood after ``stop_at`` rows (None when ``stop_at`` is not inside the data)."""
+    n = len(reg.X)
+    yhat = np.full(reg.Y.shape, np.nan)
+    frozen: dict[str, Any] | None = None
+    bounds = sorted({0, n, *range(0, n, CHUNK), *([stop_at] if 0 < stop_at <= n else [])})
+    with progress(n, label, show) as bar:
+        for a, b in itertools.pairwise(bounds):
+            yhat[a:b] = np.asarray(model.run(reg.X[a:b], reg.Y[a:b])).reshape(b - a, -1)
+            if b == stop_at:
+                frozen = model.to_dict()
+            bar.update(b - a)
+    return yhat, frozen
+
+
+def _history(model: ETS, reg: Regression, first_step: int) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """history.parquet and consequents.parquet frames for steps after ``first_step``."""
+    hist = model.history
+    frame = hist.to_frame()
+    frame = frame[frame["step"] > first_step].reset_index(drop=True)
+    pos = frame["step"].to_numpy() - first_step - 1
+    frame.insert(1, "t", reg.t[pos])
+    kinds = {"birth": "births", "replace": "replacements", "removal": "removals"}
+    for col in kinds.values():
+        frame[col] = np.zeros(len(frame), dtype=np.int64)
+    text = [""] * len(frame)
+    for event in hist.events:
+        i = int(event["step"]) - first_step - 1
+        if 0 <= i < len(frame):
+            frame.loc[i, kinds[event["kind"]]] += 1
+            text[i] = (text[i] + "; " if text[i] else "") + f"{event['kind']} {event['rule_id']}"
+    frame["events"] = text
+    rows = []
+    inputs, outputs = model.names_()
+    terms = ["1", *inputs]
+    for snap in hist.snapshots:
+        i = int(snap["step"]) - first_step - 1
+        if not 0 <= i < len(reg.t):
+            continue
+        cons = np.asarray(snap["consequents"])
+        for r, rid in enumerate(np.asarray(snap["rule_ids"])):
+            for j, term in enumerate(terms):
+                for o, out in enumerate(outputs):
+                    rows.append((int(snap["step"]), float(reg.t[i]), int(rid), out, term,
+                                 float(cons[r, j, o])))
+    cons_frame = pd.DataFrame(rows, columns=["step", "t", "rule_id", "output", "term", "value"])
+    return frame, cons_frame
+
+
+def _unit(name: str) -> str:
+    spec = COLUMNS.get(name)
+    return spec.unit if spec else ""
+
+
+def _evaluate(reg: Regression, spec: RegressorSpec, split: int, n_table: int,
+              yhat: np.ndarray, frozen: ETS | None) -> dict[str, np.ndarray]:
+    """All prediction columns: online, frozen one-step and free-run, ARX online/val/sim."""
+    n, m = reg.Y.shape
+    cols = {k: np.full((n, m), np.nan) for k in ("y_val", "y_sim", "y_arx_val", "y_arx_sim")}
+    cols["y_hat"] = yhat
+    cols["y_arx"] = rls_online(reg.X, reg.Y)
+    if frozen is not None and split < n:
+        cols["y_val"][split:] = np.asarray(frozen.predict(reg.X[split:])).reshape(n - split, m)
+        cols["y_sim"][split:] = free_run(frozen.predict_one, reg, spec, split, n_table)
+    if split >= reg.X.shape[1] + 1 and split < n:
+        arx = ARX.fit(reg.X[:split], reg.Y[:split])
+        cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
+        cols["y_arx_sim"][split:] = free_run(arx.predict_one, reg, spec, split, n_table)
+    return cols
+
+
+def _metrics(reg: Regression, spec: RegressorSpec, split: int, cols: dict[str, np.ndarray],
+             sigma: dict[str, float]) -> dict[str, Any]:
+    n = len(reg.Y)
+    out: dict[str, Any] = {}
+    val = slice(split, n)
+    for o, y in enumerate(spec.outputs):
+        meas = reg.Y[:, o]
+        entry: dict[str, Any] = {"unit": _unit(y), "noise_std": sigma.get(y)}
+        entry["online"] = scores(meas, cols["y_hat"][:, o])
+        if split < n:
+            entry["validation"] = {"one_step": scores(meas[val], cols["y_val"][val, o]),
+                                   "free_run": scores(meas[val], cols["y_sim"][val, o])}
+        else:
+            entry["validation"] = None
+        arx: dict[str, Any] = {"online": scores(meas, cols["y_arx"][:, o])}
+        if split < n and np.isfinite(cols["y_arx_val"][val, o]).any():
+            arx["validation"] = {"one_step": scores(meas[val], cols["y_arx_val"][val, o]),
+                                 "free_run": scores(meas[val], cols["y_arx_sim"][val, o])}
+        else:
+            arx["validation"] = None
+        entry["arx"] = arx
+        if y in sigma and sigma[y] > 0 and entry["online"]["rmse"] is not None:
+            entry["online"]["rmse_over_noise"] = entry["online"]["rmse"] / sigma[y]
+        out[y] = entry
+    return out
+
+
+def _predictions(reg: Regression, spec: RegressorSpec, table: pd.DataFrame, split: int,
+                 cols: dict[str, np.ndarray]) -> pd.DataFrame:
+    frame: dict[str, Any] = {"t": reg.t}
+    if "segment" in table.columns:
+        frame["segment"] = table["segment"].to_numpy()[reg.rows]
+    part = np.full(len(reg.t), "learn", dtype=object)
+    part[split:] = "validation"
+    frame["part"] = part
+    for o, y in enumerate(spec.outputs):
+        frame[y] = reg.Y[:, o]
+        for key in ("y_hat", "y_val", "y_sim", "y_arx", "y_arx_val", "y_arx_sim"):
+            frame[y + key[1:]] = cols[key][:, o]
+    return pd.DataFrame(frame)
+
+
+def _input_info(table: pd.DataFrame, source: str | Path | None) -> dict[str, Any]:
+    t = np.asarray(table.index, dtype=float)
+    info: dict[str, Any] = {
+        "path": str(source) if source is not None else table.attrs.get("source"),
+        "sha256": sha256(source) if source is not None and Path(source).exists() else None,
+        "format": table.attrs.get("format"),
+        "rows": len(table),
+        "t_start": float(t[0]) if t.size else None,
+        "t_end": float(t[-1]) if t.size else None,
+        "rate_hz": table.attrs.get("rate_hz"),
+        "mapping": table.attrs.get("mapping"),
+    }
+    return info
+
+
+def _split_index(n: int, validate: float) -> int:
+    if not 0.0 <= validate <= 0.9:
+        raise IdentError(f"--validate must be between 0 and 0.9, got {validate}")
+    split = n - round(validate * n)
+    if split < MIN_TRAIN:
+        raise IdentError(f"only {n} usable rows: too few to learn on {split} of them "
+                         "(lower --validate or use a longer log)")
+    return split
+
+
+def identify(table: pd.DataFrame, config: IdentConfig | None = None,
+             source: str | Path | None = None, show_progress: bool = False) -> Run:
+    """Identify an eTS model of ``table`` (see the module docstring for the protocol).
+
+    Parameters
+    ----------
+    table
+        A FlightTable or any table indexed by ``t`` (s) with the needed columns.
+    config
+        Model and run parameters (defaults: the rate model of :mod:`etsid.ident.defaults`).
+    source
+        Path of the file the table came from (hashed into config.json).
+    show_progress
+        Draw a progress bar on stderr.
+
+    Raises
+    ------
+    IdentError
+        Missing columns, bad regressor spec, too few usable rows, or bad eTS parameters.
+    """
+    config = config or IdentConfig()
+    chosen = _choose_model(table, config)
+    spec = chosen.spec
+    reg = build(table, spec)
+    n = len(reg.X)
+    split = _split_index(n, config.validate)
+    model = _new_model(config, spec)
+    yhat, frozen_dict = _learn(model, reg, split if split < n else -1, show_progress,
+                               "identify")
+    if split == n:
+        frozen_dict = model.to_dict()
+    frozen = ETS.from_dict(frozen_dict) if frozen_dict is not None else None
+    cols = _evaluate(reg, spec, split, len(table), yhat, frozen)
+    history, consequents = _history(model, reg, 0)
+    sigma = noise_std(table, spec.outputs)
+    frozen_rules = frozen.n_rules if frozen is not None else 0
+    metrics = {
+        "n_samples": n,
+        "rules": {"final": model.n_rules, "peak": int(history["n_rules"].max()),
+                  "frozen": frozen_rules},
+        "skipped": reg.skipped,
+        "validation": _validation_info(reg, split, config.validate),
+        "outputs": _metrics(reg, spec, split, cols, sigma),
+    }
+    run_config = {
+        "schema": "etsid.run/1",
+        "command": "identify",
+        "etsid_version": __version__,
+        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "input": _input_info(table, source),
+        "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes},
+        "parameters": asdict(config),
+        "ets": config.ets_params(),
+        "skipped": reg.skipped,
+        "warnings": list(table.attrs.get("warnings") or []),
+    }
+    return Run(_predictions(reg, spec, table, split, cols), jsonable(metrics), run_config,
+               history, consequents, _rules_dict(frozen_dict, spec),
+               _rules_dict(model.to_dict(), spec))
+
+
+def _validation_info(reg: Regression, split: int, fraction: float) -> dict[str, Any]:
+    n = len(reg.t)
+    return {"fraction": fraction, "n_learn": split, "n_validation": n - split,
+            "t_start": float(reg.t[split]) if split < n else None}
+
+
+def _new_model(config: IdentConfig, spec: RegressorSpec) -> ETS:
+    try:
+        return ETS(**config.ets_params(), input_names=spec.input_names,
+                   output_names=list(spec.outputs))
+    except (ValueError, TypeError) as err:
+        raise IdentError(f"bad eTS parameter: {err}") from err
+
+
+def _rules_dict(data: dict[str, Any] | None, spec: RegressorSpec) -> dict[str, Any]:
+    out = dict(data or {})
+    out["regressors"] = spec.to_dict()
+    return out
+
+
+def load_rules(path: str | Path) -> tuple[ETS, RegressorSpec, dict[str, Any]]:
+    """A rule base and its regressor spec from rules.json (or a RUN_DIR holding one).
+
+    Raises
+    ------
+    IdentError
+        Missing file, invalid rule base, or no regressor spec in it.
+    """
+    import json
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / "rules.json"
+    if not path.exists():
+        raise IdentError(f"{path}: no such rule-base file")
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise IdentError(f"{path}: not a JSON rule base ({err})") from err
+    if not isinstance(data, dict) or "regressors" not in data:
+        raise IdentError(f"{path}: the rule base has no 'regressors' spec; "
+                         "it was not written by etsid identify")
+    spec = RegressorSpec.from_dict(data["regressors"])
+    try:
+        model = ETS.from_dict(data)
+    except ModelError as err:
+        raise IdentError(f"{path}: {err}") from err
+    return model, spec, data
+
+
+def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
+            sim_from: float | None = None, source: str | Path | None = None,
+            show_progress: bool = False) -> Run:
+    """Apply a saved rule base to ``table``: one-step and free-run, optionally learning on.
+
+    Parameters
+    ----------
+    table
+        The flight to predict (must have the rule base's columns).
+    rules
+        rules.json written by :func:`identify` (or a RUN_DIR).
+    learn
+        Continue learning while predicting (``y_hat`` is then predict-then-learn, as in
+        identify's online pass); without it the rules stay frozen.
+    sim_from
+        Time (s) from which the free-run simulation starts (default: the first usable row).
+        The rows before it are the ARX baseline's learning part. Use identify's
+        ``validation.t_start`` to reproduce its validation predictions exactly.
+    source, show_progress
+        As for :func:`identify`.
+    """
+    path = Path(rules)
+    model, spec, data = load_rules(path)
+    reg = build(table, spec)
+    n = len(reg.X)
+    split = 0 if sim_from is None else int(np.searchsorted(reg.t, sim_from, side="left"))
+    frozen = ETS.from_dict(data)
+    steps_before = len(model.history.step)
+    if learn:
+        yhat, _ = _learn(model, reg, -1, show_progress, "predict")
+    else:
+        yhat = np.asarray(frozen.predict(reg.X)).reshape(n, -1)
+    cols = _evaluate(reg, spec, split, len(table), yhat, frozen)
+    cols["y_val"][:split] = np.nan
+    if not learn:
+        cols["y_val"][split:] = yhat[split:]
+    history, consequents = (_history(model, reg, steps_before) if learn else
+                            (pd.DataFrame(columns=["step", "t", "n_rules", "potential",
+                                                   "focal_max", "focal_min"]),
+                             pd.DataFrame(columns=["step", "t", "rule_id", "output", "term",
+                                                   "value"])))
+    sigma = noise_std(table, spec.outputs)
+    peak = int(history["n_rules"].max()) if len(history) else frozen.n_rules
+    metrics = {
+        "n_samples": n,
+        "rules": {"final": model.n_rules, "peak": max(peak, frozen.n_rules),
+                  "frozen": frozen.n_rules},
+        "skipped": reg.skipped,
+        "validation": _validation_info(reg, split, (n - split) / n),
+        "outputs": _metrics(reg, spec, split, cols, sigma),
+    }
+    run_config = {
+        "schema": "etsid.run/1",
+        "command": "predict",
+        "etsid_version": __version__,
+        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "input": _input_info(table, source),
+        "rules": {"path": str(path), "sha256": sha256(path if path.is_file()
+                                                      else path / "rules.json")},
+        "model": {**spec.to_dict(), "inputs": {"columns": [
+            c for c in spec.columns if c not in spec.outputs]}, "notes": []},
+        "parameters": {"learn": learn, "sim_from": sim_from},
+        "ets": {k: data.get("params", {}).get(k) for k in ("radius", "omega", "variant")}
+        if isinstance(data.get("params"), dict) else {},
+        "skipped": reg.skipped,
+        "warnings": list(table.attrs.get("warnings") or []),
+    }
+    return Run(_predictions(reg, spec, table, split, cols), jsonable(metrics), run_config,
+               history, consequents, data, _rules_dict(model.to_dict(), spec) if learn else None)

@@ -1,0 +1,135 @@
+"""RUN_DIR: the files an identification or prediction run writes, and reading them back.
+
+``predictions.parquet``, ``history.parquet``, ``consequents.parquet``, ``rules.json``,
+``rules_final.json`` (identify only), ``metrics.json`` and ``config.json``; see
+docs/identify.md for the contract.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from etsid.errors import IdentError
+
+FILES = ("predictions.parquet", "history.parquet", "metrics.json", "config.json", "rules.json")
+
+
+@dataclass
+class Run:
+    """Everything a run produced, in memory.
+
+    Attributes
+    ----------
+    predictions : DataFrame
+        Column ``t`` (s), ``segment``, ``part`` and per output ``y``, ``y_hat``, ``y_val``,
+        ``y_sim``, ``y_arx``, ``y_arx_sim``.
+    metrics, config : dict
+        Contents of metrics.json and config.json.
+    history : DataFrame
+        Per learned sample: step, t, n_rules, potential, focal_max, focal_min, events.
+    consequents : DataFrame
+        Long format: step, t, rule_id, output, term, value.
+    rules : dict
+        The rule base of rules.json (schema etsid.rules/1, with ``regressors``).
+    rules_final : dict or None
+        The rule base after the online pass over the whole log.
+    """
+
+    predictions: pd.DataFrame
+    metrics: dict[str, Any]
+    config: dict[str, Any]
+    history: pd.DataFrame
+    consequents: pd.DataFrame
+    rules: dict[str, Any]
+    rules_final: dict[str, Any] | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def sha256(path: str | Path) -> str:
+    """SHA-256 of a file (hex), or of every file below a directory in name order."""
+    path = Path(path)
+    digest = hashlib.sha256()
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for item in files:
+        with item.open("rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+    return digest.hexdigest()
+
+
+def jsonable(obj: Any) -> Any:
+    """Plain JSON types; NaN/inf become None, numpy scalars and arrays become Python."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def _dump(data: dict[str, Any], path: Path) -> None:
+    path.write_text(json.dumps(jsonable(data), indent=2) + "\n")
+
+
+def write_run(run: Run, out: str | Path) -> Path:
+    """Write ``run`` into the directory ``out`` (created if needed); returns it."""
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise IdentError(f"{out}: cannot create the run directory ({err.strerror})") from err
+    run.predictions.to_parquet(out / "predictions.parquet", index=False)
+    run.history.to_parquet(out / "history.parquet", index=False)
+    run.consequents.to_parquet(out / "consequents.parquet", index=False)
+    # rules.json is written with plain json (not jsonable) so floats round-trip exactly
+    (out / "rules.json").write_text(json.dumps(run.rules, indent=1) + "\n")
+    if run.rules_final is not None:
+        (out / "rules_final.json").write_text(json.dumps(run.rules_final, indent=1) + "\n")
+    _dump(run.metrics, out / "metrics.json")
+    _dump(run.config, out / "config.json")
+    return out
+
+
+def read_run(path: str | Path) -> Run:
+    """Read a RUN_DIR written by :func:`write_run`.
+
+    Raises
+    ------
+    IdentError
+        Not a directory, or a required file is missing or unreadable.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise IdentError(f"{path}: not a run directory (run `etsid identify LOG --out {path}`)")
+    missing = [name for name in FILES if not (path / name).exists()]
+    if missing:
+        raise IdentError(f"{path}: not a complete run directory, missing {', '.join(missing)}")
+    try:
+        predictions = pd.read_parquet(path / "predictions.parquet")
+        history = pd.read_parquet(path / "history.parquet")
+        cons_path = path / "consequents.parquet"
+        consequents = pd.read_parquet(cons_path) if cons_path.exists() else pd.DataFrame()
+        metrics = json.loads((path / "metrics.json").read_text())
+        config = json.loads((path / "config.json").read_text())
+        rules = json.loads((path / "rules.json").read_text())
+        final_path = path / "rules_final.json"
+        rules_final = json.loads(final_path.read_text()) if final_path.exists() else None
+    except (OSError, ValueError) as err:
+        raise IdentError(f"{path}: unreadable run file ({err})") from err
+    return Run(predictions, metrics, config, history, consequents, rules, rules_final)

@@ -1,0 +1,347 @@
+"""The report's figures, as matplotlib :class:`~matplotlib.figure.Figure` objects.
+
+Each function takes a :class:`~etsid.ident.rundir.Run` and returns one figure sized for an
+A4 page (7 in wide), with labelled axes (units) and legends. No pyplot state is used, so
+figures can be built in any thread and saved with the Agg backend.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from etsid.ident.rundir import Run
+from etsid.table import COLUMNS
+
+WIDTH = 7.0
+"""Figure width, inches (A4 text width with margins)."""
+
+STYLE: dict[str, Any] = {
+    "font.size": 8.5,
+    "axes.titlesize": 9,
+    "axes.labelsize": 8.5,
+    "legend.fontsize": 7.5,
+    "xtick.labelsize": 7.5,
+    "ytick.labelsize": 7.5,
+    "lines.linewidth": 0.9,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "figure.dpi": 150,
+    "savefig.dpi": 150,
+    "savefig.bbox": "tight",
+}
+
+COLORS = {"measured": "0.25", "one_step": "tab:blue", "free_run": "tab:red",
+          "arx": "tab:green", "birth": "tab:green", "replace": "tab:orange",
+          "removal": "tab:red"}
+
+NAMES = {"p": "roll rate", "q": "pitch rate", "r": "yaw rate"}
+
+
+@contextmanager
+def style() -> Iterator[None]:
+    """The report's matplotlib style (rc settings) for the duration of a block."""
+    with matplotlib.rc_context(STYLE):
+        yield
+
+
+def outputs_of(run: Run) -> list[str]:
+    """Output names of a run, in model order."""
+    return list(run.config.get("model", {}).get("outputs") or run.metrics["outputs"].keys())
+
+
+def unit_of(run: Run, y: str) -> str:
+    """Unit of output ``y`` (from metrics.json, else the FlightTable contract)."""
+    unit = (run.metrics.get("outputs", {}).get(y) or {}).get("unit")
+    if not unit and y in COLUMNS:
+        unit = COLUMNS[y].unit
+    return unit or ""
+
+
+def label_of(run: Run, y: str) -> str:
+    """Axis label of output ``y``, e.g. ``roll rate p (rad/s)``."""
+    unit = unit_of(run, y)
+    name = f"{NAMES[y]} {y}" if y in NAMES else y
+    return f"{name} ({unit})" if unit and unit != "1" else name
+
+
+def with_gaps(t: np.ndarray, *ys: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Insert NaN where the time step exceeds 1.5 × its median, so lines break at gaps."""
+    t = np.asarray(t, dtype=float)
+    if t.size < 3:
+        return (t, *ys)
+    dt = np.diff(t)
+    cut = np.flatnonzero(dt > 1.5 * np.median(dt)) + 1
+    if cut.size == 0:
+        return (t, *ys)
+    return (np.insert(t, cut, np.nan),
+            *(np.insert(np.asarray(y, dtype=float), cut, np.nan) for y in ys))
+
+
+def zoom_window(t: np.ndarray, y: np.ndarray, fraction: float = 0.06) -> tuple[float, float]:
+    """Time window (s) of about ``fraction`` of the record where ``y`` varies most."""
+    n = len(t)
+    w = max(10, int(fraction * n))
+    if n <= w:
+        return float(t[0]), float(t[-1])
+    filled = np.nan_to_num(np.asarray(y, dtype=float) - np.nanmean(y))
+    energy = np.convolve(filled**2, np.ones(w), mode="valid")
+    i = int(np.argmax(energy))
+    return float(t[i]), float(t[min(n - 1, i + w - 1)])
+
+
+def fig_rates(run: Run) -> Figure:
+    """Measured vs online one-step prediction per output, full record and a zoom (Fig. 1.10 a–c)."""
+    pred = run.predictions
+    outputs = outputs_of(run)
+    with style():
+        fig = Figure(figsize=(WIDTH, 1.9 * len(outputs) + 0.4), layout="constrained")
+        axes = fig.subplots(len(outputs), 2, squeeze=False,
+                            gridspec_kw={"width_ratios": [2.2, 1]})
+        t = pred["t"].to_numpy()
+        for row, y in enumerate(outputs):
+            meas, hat = pred[y].to_numpy(), pred[f"{y}_hat"].to_numpy()
+            tg, mg, hg = with_gaps(t, meas, hat)
+            t0, t1 = zoom_window(t, meas)
+            for col, ax in enumerate(axes[row]):
+                ax.plot(tg, mg, color=COLORS["measured"], label="measured")
+                ax.plot(tg, hg, color=COLORS["one_step"], label="eTS one-step", alpha=0.85)
+                ax.set_ylabel(label_of(run, y))
+                if col == 1:
+                    ax.set_xlim(t0, t1)
+                    keep = (t >= t0) & (t <= t1)
+                    vals = np.r_[meas[keep], hat[keep]]
+                    vals = vals[np.isfinite(vals)]
+                    if vals.size:
+                        pad = 0.1 * (vals.max() - vals.min() + 1e-12)
+                        ax.set_ylim(vals.min() - pad, vals.max() + pad)
+                    ax.set_title(f"zoom {t0:.1f}–{t1:.1f} s", loc="left")
+                else:
+                    ax.axvspan(t0, t1, color="0.85", zorder=0)
+                    rmse = (run.metrics["outputs"][y]["online"] or {}).get("rmse")
+                    if rmse is not None:
+                        ax.set_title(f"online one-step, RMSE {rmse:.4g} {unit_of(run, y)}",
+                                     loc="left")
+            axes[row, 0].legend(loc="upper right", ncols=2)
+        for ax in axes[-1]:
+            ax.set_xlabel("time t (s)")
+    return fig
+
+
+def _event_times(run: Run) -> dict[str, np.ndarray]:
+    hist = run.history
+    out: dict[str, np.ndarray] = {}
+    for kind, col in (("birth", "births"), ("replace", "replacements"), ("removal", "removals")):
+        if col in hist.columns:
+            out[kind] = hist.loc[hist[col] > 0, "t"].to_numpy()
+    return out
+
+
+def fig_structure(run: Run) -> Figure:
+    """Potential of each sample vs focal potentials, and rule count with events (Fig. 1.10 d–e)."""
+    hist = run.history
+    with style():
+        fig = Figure(figsize=(WIDTH, 4.2), layout="constrained")
+        ax_p, ax_r = fig.subplots(2, 1, sharex=True)
+        if len(hist):
+            t = hist["t"].to_numpy()
+            ax_p.plot(t, hist["potential"].to_numpy(), ".", ms=1.2, color="0.55",
+                      label="potential of the sample $P_k(z_k)$")
+            ax_p.plot(t, hist["focal_max"].to_numpy(), color="tab:blue",
+                      label="max focal potential")
+            ax_p.plot(t, hist["focal_min"].to_numpy(), color="tab:purple",
+                      label="min focal potential")
+            ax_r.step(t, hist["n_rules"].to_numpy(), where="post", color="k",
+                      label="rules")
+            counts = hist.set_index("t")["n_rules"]
+            markers = {"birth": "^", "replace": "D", "removal": "v"}
+            for kind, times in _event_times(run).items():
+                if times.size:
+                    ax_r.plot(times, counts.loc[times].to_numpy(), markers[kind], ms=4,
+                              color=COLORS[kind], label=f"{kind} ({times.size})",
+                              linestyle="none")
+        else:
+            ax_p.text(0.5, 0.5, "no learning in this run (rules frozen)",
+                      transform=ax_p.transAxes, ha="center")
+        ax_p.set_ylabel("potential (–)")
+        ax_p.set_ylim(0, 1.02)
+        ax_p.legend(loc="lower right", ncols=3, markerscale=4)
+        ax_p.set_title("(d) cluster potential", loc="left")
+        ax_r.set_ylabel("number of rules")
+        ax_r.set_xlabel("time t (s)")
+        ax_r.set_title("(e) rule-base size, with structural events", loc="left")
+        ax_r.legend(loc="lower right", ncols=4)
+    return fig
+
+
+def _top_rules(cons: pd.DataFrame, count: int) -> list[int]:
+    life = cons.groupby("rule_id")["step"].nunique().sort_values(ascending=False)
+    return [int(r) for r in life.index[:count]]
+
+
+def fig_consequents(run: Run, n_rules: int = 3) -> Figure:
+    """Evolution of the consequent parameters θ of the longest-lived rules (Fig. 1.11).
+
+    One row per output, one column per rule; each line is one regressor's coefficient
+    (row 0 of the consequent, the intercept, included), in the data's original units.
+    """
+    cons = run.consequents
+    outputs = outputs_of(run)
+    rules = _top_rules(cons, n_rules) if len(cons) else []
+    ncol = max(1, len(rules))
+    with style():
+        fig = Figure(figsize=(WIDTH, 1.8 * len(outputs) + 0.6), layout="constrained")
+        axes = fig.subplots(len(outputs), ncol, squeeze=False, sharex=True)
+        terms = list(dict.fromkeys(cons["term"])) if len(cons) else []
+        cmap = matplotlib.colormaps["tab20"]
+        for row, y in enumerate(outputs):
+            for col in range(ncol):
+                ax = axes[row, col]
+                if not rules:
+                    ax.text(0.5, 0.5, "no consequent snapshots", transform=ax.transAxes,
+                            ha="center")
+                    continue
+                rid = rules[col]
+                part = cons[(cons["rule_id"] == rid) & (cons["output"] == y)]
+                for j, term in enumerate(terms):
+                    series = part[part["term"] == term]
+                    label = "θ₀ (intercept)" if term == "1" else f"θ {term}"
+                    ax.plot(series["t"].to_numpy(), series["value"].to_numpy(),
+                            color=cmap(j % 20), label=label, marker=".", ms=2)
+                ax.set_title(f"rule {rid}, output {y}", loc="left")
+                if col == 0:
+                    ax.set_ylabel(f"θ for {y} (units of {y} per regressor unit)",
+                                  fontsize=7)
+        for ax in axes[-1]:
+            ax.set_xlabel("time t (s)")
+        if rules:
+            handles, labels = axes[0, 0].get_legend_handles_labels()
+            fig.legend(handles, labels, loc="outside right center", fontsize=6.5)
+    return fig
+
+
+def residuals_of(run: Run, y: str) -> tuple[np.ndarray, str]:
+    """One-step residuals used for the whiteness check and what they are.
+
+    The frozen validation residuals when the run has a validation part, else the online
+    ones after the first 10 % (while the rule base forms).
+    """
+    pred = run.predictions
+    if f"{y}_val" in pred and np.isfinite(pred[f"{y}_val"]).sum() > 10:
+        res = (pred[y] - pred[f"{y}_val"]).to_numpy()
+        what = "frozen one-step, validation part"
+    else:
+        res = (pred[y] - pred[f"{y}_hat"]).to_numpy()
+        res = res[len(res) // 10:]
+        what = "online one-step, after the first 10 %"
+    return res[np.isfinite(res)], what
+
+
+def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """Sample autocorrelation r(0 … max_lag) of ``x`` (mean removed), r(0) = 1."""
+    x = np.asarray(x, dtype=float) - np.mean(x)
+    n = x.size
+    den = float(x @ x)
+    if den == 0.0:
+        return np.r_[1.0, np.zeros(max_lag)]
+    return np.array([float(x[: n - k] @ x[k:]) / den for k in range(max_lag + 1)])
+
+
+def fig_residuals(run: Run, max_lag: int = 40) -> Figure:
+    """Residual histogram (with a normal fit and the known noise σ) and autocorrelation with
+    the 95 % band ±1.96/√N of white noise (whiteness check)."""
+    outputs = outputs_of(run)
+    with style():
+        fig = Figure(figsize=(WIDTH, 1.8 * len(outputs) + 0.4), layout="constrained")
+        axes = fig.subplots(len(outputs), 2, squeeze=False)
+        for row, y in enumerate(outputs):
+            res, what = residuals_of(run, y)
+            unit = unit_of(run, y)
+            ax_h, ax_a = axes[row]
+            if res.size < 3:
+                ax_h.text(0.5, 0.5, "too few residuals", transform=ax_h.transAxes)
+                continue
+            sd = float(np.std(res))
+            ax_h.hist(res, bins=60, density=True, color="tab:blue", alpha=0.6,
+                      label="residuals")
+            grid = np.linspace(res.min(), res.max(), 200)
+            if sd > 0:
+                ax_h.plot(grid, np.exp(-0.5 * ((grid - res.mean()) / sd) ** 2)
+                          / (sd * np.sqrt(2 * np.pi)), color="k",
+                          label=f"normal, s = {sd:.3g}")
+            sigma = (run.metrics["outputs"].get(y) or {}).get("noise_std")
+            if sigma:
+                ax_h.axvline(-sigma, color="tab:red", ls="--", label=f"±σ noise = {sigma:.3g}")
+                ax_h.axvline(sigma, color="tab:red", ls="--")
+            ax_h.set_xlabel(f"residual {y} − ŷ ({unit})")
+            ax_h.set_ylabel(f"density (1/{unit})" if unit and unit != "1" else "density")
+            ax_h.set_title(what, loc="left")
+            ax_h.legend(loc="upper right")
+            lags = np.arange(max_lag + 1)
+            ac = autocorrelation(res, max_lag)
+            ax_a.vlines(lags, 0, ac, color="tab:blue")
+            ax_a.plot(lags, ac, "o", ms=2.5, color="tab:blue", label="autocorrelation")
+            band = 1.96 / np.sqrt(res.size)
+            ax_a.axhspan(-band, band, color="tab:orange", alpha=0.25,
+                         label=f"95 % band ±{band:.3f}")
+            ax_a.set_xlabel("lag (samples)")
+            ax_a.set_ylabel(f"r({y} residual)")
+            ax_a.legend(loc="upper right")
+    return fig
+
+
+def fig_validation(run: Run) -> Figure:
+    """Validation part: measured, frozen one-step, free-run simulation, ARX free-run."""
+    pred = run.predictions
+    outputs = outputs_of(run)
+    val = pred[pred["part"] == "validation"] if "part" in pred else pred.iloc[0:0]
+    with style():
+        fig = Figure(figsize=(WIDTH, 1.8 * len(outputs) + 0.4), layout="constrained")
+        axes = fig.subplots(len(outputs), 1, squeeze=False, sharex=True)[:, 0]
+        t = val["t"].to_numpy()
+        for ax, y in zip(axes, outputs, strict=True):
+            if not len(val):
+                ax.text(0.5, 0.5, "no validation part (--validate 0)", transform=ax.transAxes,
+                        ha="center")
+                ax.set_ylabel(label_of(run, y))
+                continue
+            series = [(y, "measured", COLORS["measured"], 1.0),
+                      (f"{y}_val", "eTS one-step (frozen)", COLORS["one_step"], 0.9),
+                      (f"{y}_sim", "eTS free-run", COLORS["free_run"], 0.9),
+                      (f"{y}_arx_sim", "ARX free-run", COLORS["arx"], 0.8)]
+            cols = [val[c].to_numpy() if c in val else np.full(len(t), np.nan)
+                    for c, *_ in series]
+            tg, *gs = with_gaps(t, *cols)
+            for (_, label, color, alpha), g in zip(series, gs, strict=True):
+                ax.plot(tg, g, color=color, label=label, alpha=alpha)
+            fr = (((run.metrics["outputs"][y] or {}).get("validation") or {})
+                  .get("free_run") or {}).get("fit")
+            if fr is not None:
+                ax.set_title(f"free-run fit {fr:.1f} %", loc="left")
+            ax.set_ylabel(label_of(run, y))
+        axes[0].legend(loc="upper right", ncols=4)
+        axes[-1].set_xlabel("time t (s)")
+    return fig
+
+
+FIGURES = {
+    "rates": (fig_rates, "Measured and eTS one-step predicted outputs (online, predict "
+                         "then learn), full record and zoom."),
+    "structure": (fig_structure, "Potential of each sample against the focal potentials, "
+                                 "and the number of rules with births, replacements and "
+                                 "removals."),
+    "consequents": (fig_consequents, "Evolution of the consequent parameters θ of the "
+                                     "longest-lived rules."),
+    "residuals": (fig_residuals, "Residual histogram and autocorrelation with the 95 % "
+                                 "band of white noise."),
+    "validation": (fig_validation, "Validation part: frozen one-step prediction and "
+                                   "free-run simulation against the measurement, with the "
+                                   "ARX baseline."),
+}
+"""Report figures: name → (builder, caption)."""

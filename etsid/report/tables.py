@@ -1,0 +1,87 @@
+"""Text tables of a run: the metrics per output and the readable rule base."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from etsid.ident.rundir import Run
+
+HEAD = ["output", "unit", "σ noise", "online RMSE", "RMSE/σ", "online NDEI", "online fit %",
+        "val 1-step RMSE", "val 1-step fit %", "free-run RMSE", "free-run fit %",
+        "ARX online RMSE", "ARX val 1-step RMSE", "ARX free-run fit %"]
+
+
+def _get(entry: Any, *keys: str) -> Any:
+    for key in keys:
+        if not isinstance(entry, dict):
+            return None
+        entry = entry.get(key)
+    return entry
+
+
+def fmt(value: Any, digits: int = 4) -> str:
+    """A number in ``digits`` significant figures, ``–`` for missing values."""
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    return str(value)
+
+
+def metrics_rows(run: Run) -> tuple[list[str], list[list[str]]]:
+    """Header and one row of strings per output (see :data:`HEAD`)."""
+    rows = []
+    for y, m in run.metrics["outputs"].items():
+        rows.append([
+            y, m.get("unit") or "", fmt(m.get("noise_std")),
+            fmt(_get(m, "online", "rmse")), fmt(_get(m, "online", "rmse_over_noise"), 3),
+            fmt(_get(m, "online", "ndei")), fmt(_get(m, "online", "fit"), 3),
+            fmt(_get(m, "validation", "one_step", "rmse")),
+            fmt(_get(m, "validation", "one_step", "fit"), 3),
+            fmt(_get(m, "validation", "free_run", "rmse")),
+            fmt(_get(m, "validation", "free_run", "fit"), 3),
+            fmt(_get(m, "arx", "online", "rmse")),
+            fmt(_get(m, "arx", "validation", "one_step", "rmse")),
+            fmt(_get(m, "arx", "validation", "free_run", "fit"), 3),
+        ])
+    return HEAD, rows
+
+
+def text_table(head: list[str], rows: list[list[str]]) -> str:
+    """Columns aligned with spaces (first column left, the rest right)."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h)
+              for i, h in enumerate(head)]
+
+    def line(cells: list[str]) -> str:
+        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w)
+                         for i, (c, w) in enumerate(zip(cells, widths, strict=True)))
+
+    return "\n".join([line(head), *(line(r) for r in rows)])
+
+
+def summary_table(run: Run) -> str:
+    """The short stdout summary of ``identify`` / ``predict``: key metrics and rules."""
+    keep = [0, 2, 3, 4, 6, 7, 10, 11]
+    head, rows = metrics_rows(run)
+    table = text_table([head[i] for i in keep], [[r[i] for i in keep] for r in rows])
+    rules = run.metrics["rules"]
+    return (f"{table}\nrules: final {rules.get('final')}, peak {rules.get('peak')}, "
+            f"saved (frozen) {rules.get('frozen')}; samples {run.metrics['n_samples']}, "
+            f"skipped {sum((run.metrics.get('skipped') or {}).values())}")
+
+
+def rules_text(run: Run | dict[str, Any]) -> str:
+    """The rule base of a run (or a rules.json dict) in readable IF … THEN … form."""
+    from etsid.errors import EtsidError
+    from etsid.ets import ETS
+
+    data = run.rules if isinstance(run, Run) else run
+    try:
+        model = ETS.from_dict(data)
+        text = model.rules()
+    except (EtsidError, ValueError, KeyError, TypeError) as err:
+        return f"(rule base not readable: {err})"
+    spec = data.get("regressors") or {}
+    head = (f"# outputs: {', '.join(spec.get('outputs', []))}; regressors: "
+            f"{spec.get('regressors', '')}\n") if spec else ""
+    return head + text
