@@ -1,0 +1,150 @@
+"""State derivative of the multirotor: rotors, ground effect, motors, battery, drag, contact.
+
+All forces are summed in body FRD and rotated to NED with the quaternion's rotation matrix.
+See docs/physics.md for every term.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from etsid.sim.body import angular_accel, quat_rate, quat_to_dcm
+from etsid.sim.ground import ground_ratio
+from etsid.sim.params import (
+    ARM, C_CONTACT, CAP_AH, CD0, CELLS, DRAG_L, DRAG_Q, EFF, GE_MAXR, GE_MINH, GE_MODEL, GE_ON,
+    GEAR_H, GRAV, J_ROT, K_BODY, K_CONTACT, KAPPA, LIFT, MASS, R_INT, RADIUS, RHO, ROTOR_DRAG,
+    SAG, SIGMA, SOC0, TAU_M, TH0, TWIST, V_REF, W_IDLE, W_MAX, WIND, X_OM, X_POS, X_Q, X_SOC,
+    X_VEL, X_W,
+)
+from etsid.sim.rotor import rotor_forces
+
+# aux outputs of one derivative evaluation
+AUX_F = 0     # specific force, body FRD, m/s^2 (3)
+AUX_VBAT = 3  # battery terminal voltage, V
+AUX_CUR = 4   # battery current, A
+N_AUX = 5
+
+
+@njit(cache=True)
+def derivative(
+    x: np.ndarray, mcmd: np.ndarray, P: np.ndarray, inertia: np.ndarray,
+    inertia_inv: np.ndarray, rpos: np.ndarray, spin: np.ndarray, dists: np.ndarray,
+    lam: np.ndarray, thrust: np.ndarray, torque: np.ndarray, ge: np.ndarray,
+    aux: np.ndarray, dx: np.ndarray,
+) -> None:
+    """Evaluate ẋ for state ``x`` and motor commands ``mcmd`` (0..1), in place.
+
+    Parameters
+    ----------
+    x : ndarray
+        State (see :mod:`etsid.sim.params` for the layout).
+    mcmd : ndarray
+        Motor commands, 0..1, shape (N,).
+    P : ndarray
+        Parameter vector from :func:`etsid.sim.params.pack`.
+    inertia, inertia_inv : ndarray
+        Inertia tensor (kg m²) and its inverse.
+    rpos, spin, dists : ndarray
+        Hub positions (N,3) m, spin signs (N,), hub distances (N,N) m.
+    lam : ndarray
+        Induced inflow ratios per rotor: warm start in, solution out.
+    thrust, torque, ge : ndarray
+        Out: rotor thrust (N), shaft torque (N m), ground-effect ratio per rotor.
+    aux : ndarray
+        Out: specific force (body, m/s²), battery voltage (V) and current (A).
+    dx : ndarray
+        Out: state derivative.
+    """
+    n = rpos.shape[0]
+    q = x[X_Q:X_Q + 4] / math.sqrt(np.sum(x[X_Q:X_Q + 4] ** 2))
+    R = np.empty((3, 3))
+    quat_to_dcm(q, R)
+    w = x[X_W:X_W + 3]
+    # air-relative velocity in body axes
+    va = np.empty(3)
+    for i in range(3):
+        va[i] = x[X_VEL + i] - P[WIND + i]
+    vb = np.empty(3)
+    for i in range(3):
+        vb[i] = R[0, i] * va[0] + R[1, i] * va[1] + R[2, i] * va[2]
+    fb = np.zeros(3)
+    mom = np.zeros(3)
+    hrot = np.zeros(3)
+    power = 0.0
+    rad = P[RADIUS]
+    for k in range(n):
+        rx, ry, rz = rpos[k, 0], rpos[k, 1], rpos[k, 2]
+        vhx = vb[0] + w[1] * rz - w[2] * ry
+        vhy = vb[1] + w[2] * rx - w[0] * rz
+        vhz = vb[2] + w[0] * ry - w[1] * rx
+        om = x[X_OM + k]
+        t, qa, li = rotor_forces(om, -vhz, math.sqrt(vhx * vhx + vhy * vhy), P[RHO], rad,
+                                 P[SIGMA], P[LIFT], P[TH0], P[TWIST], P[CD0], P[KAPPA], lam[k])
+        lam[k] = li
+        ratio = 1.0
+        if P[GE_ON] > 0.5:
+            z_hub = -(x[X_POS + 2] + R[2, 0] * rx + R[2, 1] * ry + R[2, 2] * rz)
+            ratio = ground_ratio(z_hub, rad, int(P[GE_MODEL]), dists[k],
+                                 math.sqrt(rx * rx + ry * ry), P[K_BODY], P[GE_MINH], P[GE_MAXR])
+        t *= ratio
+        thrust[k] = t
+        torque[k] = qa
+        ge[k] = ratio
+        cd = P[ROTOR_DRAG] * om
+        fx = -cd * vhx
+        fy = -cd * vhy
+        fz = -t
+        fb[0] += fx
+        fb[1] += fy
+        fb[2] += fz
+        mom[0] += ry * fz - rz * fy
+        mom[1] += rz * fx - rx * fz
+        mom[2] += rx * fy - ry * fx
+        hrot[2] -= spin[k] * P[J_ROT] * om
+        power += qa * om
+    # battery: open-circuit voltage, internal resistance sag
+    soc = x[X_SOC] if P[SAG] > 0.5 else P[SOC0]
+    voc = P[CELLS] * (3.5 + 0.7 * soc)
+    cur = max(power, 0.0) / (P[EFF] * voc)
+    vbat = voc - P[R_INT] * cur if P[SAG] > 0.5 else voc
+    aux[AUX_VBAT] = vbat
+    aux[AUX_CUR] = cur
+    # motors: first-order lag towards the commanded speed (scaled by battery voltage)
+    wtop = P[W_MAX] * vbat / P[V_REF]
+    for k in range(n):
+        m = mcmd[k]
+        m = 0.0 if m < 0.0 else (1.0 if m > 1.0 else m)
+        wss = P[W_IDLE] + (wtop - P[W_IDLE]) * m
+        omd = (wss - x[X_OM + k]) / P[TAU_M]
+        dx[X_OM + k] = omd
+        mom[2] += spin[k] * (torque[k] + P[J_ROT] * omd)
+    # body drag
+    for i in range(3):
+        fb[i] -= P[DRAG_L + i] * vb[i] + P[DRAG_Q + i] * abs(vb[i]) * vb[i]
+    fw = np.empty(3)
+    for i in range(3):
+        fw[i] = R[i, 0] * fb[0] + R[i, 1] * fb[1] + R[i, 2] * fb[2]
+    # ground contact: spring-damper under the CG, viscous friction, rotational damping
+    fc = np.zeros(3)
+    pen = P[GEAR_H] + x[X_POS + 2]
+    if pen > 0.0:
+        fup = P[K_CONTACT] * pen + P[C_CONTACT] * x[X_VEL + 2]
+        if fup > 0.0:
+            fc[2] = -fup
+        grip = min(pen / 0.01, 1.0)
+        fc[0] = -P[C_CONTACT] * grip * x[X_VEL]
+        fc[1] = -P[C_CONTACT] * grip * x[X_VEL + 1]
+        for i in range(3):
+            mom[i] -= 0.5 * P[C_CONTACT] * P[ARM] * P[ARM] * grip * w[i]
+    mass = P[MASS]
+    for i in range(3):
+        dx[X_POS + i] = x[X_VEL + i]
+        dx[X_VEL + i] = (fw[i] + fc[i]) / mass
+        aux[AUX_F + i] = (fb[i] + R[0, i] * fc[0] + R[1, i] * fc[1] + R[2, i] * fc[2]) / mass
+    dx[X_VEL + 2] += P[GRAV]
+    quat_rate(q, w, dx[X_Q:X_Q + 4])
+    angular_accel(w, mom, hrot, inertia, inertia_inv, dx[X_W:X_W + 3])
+    dx[X_SOC] = -cur / (3600.0 * P[CAP_AH]) if P[SAG] > 0.5 else 0.0

@@ -1,0 +1,160 @@
+"""Named flights: their settings, validation and the reference signals they feed the loop.
+
+``SCENARIOS`` maps a name to ``{"description": str, "params": {setting: default}}``; the
+CLI lists it. :func:`resolve_params` merges user settings into the defaults and checks
+them; :func:`build_references` turns them into per-step stick excitation, altitude and
+speed targets.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from etsid.errors import SimError
+from etsid.sim.excitation import EXCITATIONS, stick_excitation
+
+_COMMON: dict[str, Any] = {
+    "duration": 60.0,        # s
+    "altitude": 3.0,         # m, CG height above ground (initial and held)
+    "amplitude": 0.35,       # peak roll/pitch stick excitation, 0..1
+    "yaw_amplitude": 0.5,    # peak yaw stick excitation, 0..1
+    "excitation": "mixed",   # one of EXCITATIONS
+    "f_min": 0.1,            # Hz
+    "f_max": 8.0,            # Hz
+    "settle": 2.0,           # s of quiet flight before the excitation
+    "alt_hold": True,        # False: fixed collective `throttle`
+    "throttle": None,        # collective 0..1 when alt_hold is off (None: hover trim)
+    "wind": [0.0, 0.0, 0.0],  # NED m/s, constant
+}
+
+SCENARIOS: dict[str, dict[str, Any]] = {
+    "hover-ige": {
+        "description": "low hover in ground effect (CG 0.28 m above ground, below 0.40 m) "
+                       "with rich roll/pitch/yaw stick excitation, altitude hold on the "
+                       "rangefinder (the chapter's Fig. 1.8 flight)",
+        "params": {**_COMMON, "altitude": 0.28, "amplitude": 0.25},
+    },
+    "hover-oge": {
+        "description": "hover out of ground effect at 3 m with the same excitation",
+        "params": {**_COMMON},
+    },
+    "sine-altitude": {
+        "description": "altitude follows a sine (vertical-loop tracking task, Fig. 1.12) "
+                       "with light attitude excitation",
+        "params": {**_COMMON, "altitude": 1.5, "amplitude": 0.1, "yaw_amplitude": 0.2,
+                   "alt_amplitude": 1.0, "alt_period": 10.0},
+    },
+    "forward-flight": {
+        "description": "pilot accelerates to a forward speed and holds it, with excitation",
+        "params": {**_COMMON, "altitude": 5.0, "amplitude": 0.2, "speed": 6.0, "ramp": 8.0},
+    },
+    "steps": {
+        "description": "held roll, pitch and yaw stick steps in turn (step responses)",
+        "params": {**_COMMON, "duration": 16.0, "altitude": 2.0, "excitation": "steps",
+                   "amplitude": 0.4, "yaw_amplitude": 0.4},
+    },
+}
+
+_POSITIVE = {"duration", "altitude", "f_min", "f_max", "alt_period", "ramp"}
+_NONNEG = {"settle", "speed", "alt_amplitude"}
+_UNIT = {"amplitude", "yaw_amplitude"}
+
+
+@dataclass
+class References:
+    """Per-step inputs of the flight loop (n = number of physics steps)."""
+
+    exc: np.ndarray         # (n, 3) roll/pitch/yaw stick excitation
+    alt_sp: np.ndarray      # (n,) altitude setpoint, m
+    alt_rate: np.ndarray    # (n,) altitude setpoint rate, m/s
+    vel_sp: np.ndarray      # (n, 2) pilot forward/right speed target, m/s
+    thr_manual: np.ndarray  # (n,) manual collective (alt_hold off)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def resolve_params(scenario: str, duration: float | None, settings: dict[str, Any]
+                   ) -> dict[str, Any]:
+    """Defaults of ``scenario`` updated with ``settings`` (and ``duration``), validated.
+
+    Raises
+    ------
+    SimError
+        Unknown scenario or setting, or a setting with a wrong type or value.
+    """
+    if scenario not in SCENARIOS:
+        raise SimError(f"unknown scenario {scenario!r}: choose one of {', '.join(SCENARIOS)}")
+    params = dict(SCENARIOS[scenario]["params"])
+    unknown = sorted(set(settings) - set(params))
+    if unknown:
+        raise SimError(f"scenario {scenario!r}: unknown setting {unknown[0]!r} "
+                       f"(known: {', '.join(sorted(params))})")
+    params.update(settings)
+    if duration is not None:
+        params["duration"] = duration
+    where = f"scenario {scenario!r}: setting"
+    for key, value in params.items():
+        if key in _POSITIVE | _NONNEG | _UNIT and not _is_number(value):
+            raise SimError(f"{where} {key!r} must be a number, got {value!r}")
+        if key in _POSITIVE and value <= 0:
+            raise SimError(f"{where} {key!r} must be positive, got {value!r}")
+        if key in _NONNEG and value < 0:
+            raise SimError(f"{where} {key!r} must not be negative, got {value!r}")
+        if key in _UNIT and not 0 <= value <= 1:
+            raise SimError(f"{where} {key!r} must lie in 0..1, got {value!r}")
+    if params["excitation"] not in EXCITATIONS:
+        raise SimError(f"{where} 'excitation' must be one of {', '.join(EXCITATIONS)}, "
+                       f"got {params['excitation']!r}")
+    if not isinstance(params["alt_hold"], bool):
+        raise SimError(f"{where} 'alt_hold' must be true or false, got {params['alt_hold']!r}")
+    thr = params["throttle"]
+    if thr is not None and not (_is_number(thr) and 0 <= thr <= 1):
+        raise SimError(f"{where} 'throttle' must be None or lie in 0..1, got {thr!r}")
+    wind = params["wind"]
+    if not (isinstance(wind, list | tuple) and len(wind) == 3 and all(map(_is_number, wind))):
+        raise SimError(f"{where} 'wind' must be three numbers (NED m/s), got {wind!r}")
+    params["wind"] = [float(w) for w in wind]
+    if params["f_max"] <= params["f_min"]:
+        raise SimError(f"{where} 'f_max' must exceed 'f_min', got {params['f_max']!r}")
+    return params
+
+
+def build_references(scenario: str, params: dict[str, Any], t: np.ndarray,
+                     rng: np.random.Generator, throttle: float) -> References:
+    """Per-step reference signals of a scenario.
+
+    Parameters
+    ----------
+    scenario : str
+        Scenario name.
+    params : dict
+        Resolved settings (:func:`resolve_params`).
+    t : ndarray
+        Time of every physics step, s.
+    rng : numpy.random.Generator
+        Seeded generator for the random parts of the excitation.
+    throttle : float
+        Collective used when altitude hold is off.
+    """
+    n = t.size
+    amp = (params["amplitude"], params["amplitude"], params["yaw_amplitude"])
+    exc = stick_excitation(t, rng, params["excitation"], amp, params["f_min"], params["f_max"],
+                           t_start=params["settle"], t_end=params["duration"] - 1.0)
+    alt_sp = np.full(n, float(params["altitude"]))
+    alt_rate = np.zeros(n)
+    vel_sp = np.zeros((n, 2))
+    if scenario == "sine-altitude":
+        w = 2.0 * np.pi / params["alt_period"]
+        ramp = np.clip((t - params["settle"]) / params["alt_period"], 0.0, 1.0)
+        alt_sp = params["altitude"] + params["alt_amplitude"] * ramp * np.sin(w * t)
+        alt_rate = params["alt_amplitude"] * ramp * w * np.cos(w * t)
+    if scenario == "forward-flight":
+        vel_sp[:, 0] = params["speed"] * np.clip((t - params["settle"]) / params["ramp"], 0, 1)
+    return References(exc=exc, alt_sp=alt_sp, alt_rate=alt_rate, vel_sp=vel_sp,
+                      thr_manual=np.full(n, float(throttle)))
