@@ -1,0 +1,278 @@
+"""ArduPilot DataFlash logs (``.bin``) via pymavlink's ``DFReader_binary``.
+
+``DFReader_binary`` memory-maps the whole file and indexes every message (one Python
+loop over the file, and one list entry per message: memory grows with the log, which
+is accepted for this format). The needed message types are then decoded in blocks with
+numpy, from the FMT definitions DFReader parsed (struct layout, the format's own
+multipliers such as ×0.01 for ``c``/``C``), instead of one Python object per message.
+
+Columns, units and priorities (lower wins):
+
+============ ============================================================================
+column       candidates (priority)
+============ ============================================================================
+p q r        RATE R/P/Y deg/s (0), IMU GyrX… rad/s (2), IMU2 (3), IMU3 (4)
+roll…        ATT Roll/Pitch/Yaw deg (0; Yaw 0…360 wrapped to ±180)
+ax ay az     IMU AccX… m/s² (0), IMU2 (1), IMU3 (2)
+u_*          RCIN C1… via ``rc_map`` (0); RATE ROut/POut/YOut, AOut (5: controller outputs)
+sp_*         RATE RDes/PDes/YDes deg/s (0)
+m1…m8        RCOU C1…C8, 1000–2000 µs → 0…1 (0)
+alt          RFND Dist (m; old logs' Dist1 in cm, decided from FMTU units or the field's
+             integer type), downward (Orient 25) when the field exists (0)
+vbat         BAT Volt (0)
+============ ============================================================================
+
+Instanced messages (``I``, ``Instance``, ``Inst`` fields) keep instance 0. Time is
+``TimeUS`` (µs since boot; ``TimeMS`` in old logs). ``start_time`` comes from the first
+GPS fix (``GWk``/``GMS``) when there is one. A truncated file yields its complete
+messages and a warning with the number of skipped bytes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+from etsid.errors import IngestError
+from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
+from etsid.ingest.mavlink_signals import stick
+from etsid.progress import progress
+
+DEG = np.pi / 180.0
+NEEDED = ("ATT", "RATE", "IMU", "IMU2", "IMU3", "RCIN", "RCOU", "BAT", "RFND", "GPS")
+_NP = {"b": "i1", "B": "u1", "h": "<i2", "H": "<u2", "i": "<i4", "I": "<u4", "q": "<i8",
+       "Q": "<u8", "f": "<f4", "d": "<f8", "s": "S"}
+GPS_EPOCH = 315964800.0
+GPS_LEAP_S = 18.0
+
+
+def _dtype(fmt: object) -> np.dtype:
+    tokens = re.findall(r"(\d*)([a-zA-Z])", fmt.msg_struct.lstrip("<"))  # type: ignore[attr-defined]
+    fields = []
+    for name, (count, char) in zip(fmt.columns, tokens, strict=True):  # type: ignore[attr-defined]
+        n = int(count) if count else 1
+        if char == "s":
+            fields.append((name, f"S{n}"))
+        elif n > 1:
+            fields.append((name, _NP[char], (n,)))
+        else:
+            fields.append((name, _NP[char]))
+    return np.dtype(fields)
+
+
+def _open(path: Path) -> tuple[object, str]:
+    from pymavlink import DFReader
+
+    noise = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(noise), contextlib.redirect_stderr(noise):
+            reader = DFReader.DFReader_binary(str(path), zero_time_base=False)
+    except Exception as err:  # DFReader raises bare Exceptions on broken files
+        raise IngestError(f"{path}: not a readable DataFlash log ({err})") from err
+    return reader, noise.getvalue()
+
+
+class _Decoded:
+    """Records of one message type (instance 0), with their times in s."""
+
+    def __init__(self, name: str, rec: np.ndarray, t: np.ndarray, fmt: object) -> None:
+        self.name, self.rec, self.t, self.fmt = name, rec, t, fmt
+
+    def f(self, field: str, scale: float = 1.0) -> np.ndarray:
+        return self.rec[field].astype(np.float64) * scale
+
+    def has(self, field: str) -> bool:
+        return field in (self.rec.dtype.names or ())
+
+
+def _decode(reader: object, data: np.ndarray, name: str, raw: RawLog) -> _Decoded | None:
+    mtype = reader.name_to_id.get(name)  # type: ignore[attr-defined]
+    if mtype is None or not reader.counts[mtype]:  # type: ignore[attr-defined]
+        return None
+    fmt = reader.formats[mtype]  # type: ignore[attr-defined]
+    dtype = _dtype(fmt)
+    offs = np.asarray(reader.offsets[mtype], dtype=np.int64)  # type: ignore[attr-defined]
+    offs = offs[offs + fmt.len <= data.size]
+    if not offs.size or dtype.itemsize != fmt.len - 3:
+        return None
+    rec = data[(offs + 3)[:, None] + np.arange(dtype.itemsize)].view(dtype).ravel()
+    for inst in ("I", "Instance", "Inst"):
+        if inst in (dtype.names or ()):
+            rec = rec[rec[inst] == rec[inst].min()]
+            break
+    out = np.empty(rec.shape, np.dtype([(n, "<f8") if rec.dtype[n].kind in "iuf" and
+                                        not rec.dtype[n].shape else (n, rec.dtype[n])
+                                        for n in rec.dtype.names]))
+    for i, n in enumerate(rec.dtype.names):
+        mult = fmt.msg_mults[i] if i < len(fmt.msg_mults) else None
+        out[n] = rec[n] * mult if mult is not None and not rec.dtype[n].shape else rec[n]
+    if "TimeUS" in out.dtype.names:
+        t = out["TimeUS"] * 1e-6
+    elif "TimeMS" in out.dtype.names:
+        t = out["TimeMS"] * 1e-3
+    else:
+        return None
+    late = int(np.count_nonzero(t < np.maximum.accumulate(t))) if t.size else 0
+    if late:
+        order = np.argsort(t, kind="stable")
+        out, t = out[order], t[order]
+        raw.repaired.append(Issue("out-of-order timestamp, re-sorted", late, name))
+    return _Decoded(name, out, t, fmt)
+
+
+def _xyz(d: _Decoded, fields: tuple[str, ...], columns: tuple[str, ...], scale: float,
+         prio: int) -> list[Signal]:
+    return [Signal(c, d.t, d.f(f, scale), f"{d.name}.{f}", prio)
+            for f, c in zip(fields, columns, strict=True) if d.has(f)]
+
+
+def _signals(msgs: dict[str, _Decoded], options: ReadOptions) -> list[Signal]:
+    out: list[Signal] = []
+    if (d := msgs.get("ATT")) is not None:
+        out += _xyz(d, ("Roll", "Pitch"), ("roll", "pitch"), DEG, 0)
+        if d.has("Yaw"):
+            yaw = np.angle(np.exp(1j * d.f("Yaw", DEG)))
+            out.append(Signal("yaw", d.t, yaw, "ATT.Yaw", 0))
+    if (d := msgs.get("RATE")) is not None:
+        out += _xyz(d, ("R", "P", "Y"), ("p", "q", "r"), DEG, 0)
+        out += _xyz(d, ("RDes", "PDes", "YDes"), ("sp_p", "sp_q", "sp_r"), DEG, 0)
+        out += _xyz(d, ("ROut", "POut", "YOut", "AOut"),
+                    ("u_roll", "u_pitch", "u_yaw", "u_thrust"), 1.0, 5)
+    for k, name in enumerate(("IMU", "IMU2", "IMU3")):
+        if (d := msgs.get(name)) is not None:
+            out += _xyz(d, ("GyrX", "GyrY", "GyrZ"), ("p", "q", "r"), 1.0, 2 + k)
+            out += _xyz(d, ("AccX", "AccY", "AccZ"), ("ax", "ay", "az"), 1.0, k)
+    if (d := msgs.get("RCIN")) is not None:
+        for column, ch in options.rc_map.items():
+            if d.has(f"C{ch}"):
+                v = stick(d.rec[f"C{ch}"], column, options)
+                out.append(Signal(column, d.t, v, f"RCIN.C{ch}", 0))
+    if (d := msgs.get("RCOU")) is not None:
+        for i in range(1, 9):
+            if d.has(f"C{i}") and (d.rec[f"C{i}"] != 0).any():
+                v = np.clip((d.f(f"C{i}") - 1000.0) / 1000.0, 0.0, 1.0)
+                v[d.rec[f"C{i}"] == 0] = np.nan
+                out.append(Signal(f"m{i}", d.t, v, f"RCOU.C{i}", 0))
+    if (d := msgs.get("BAT")) is not None and d.has("Volt"):
+        out.append(Signal("vbat", d.t, d.f("Volt"), "BAT.Volt", 0))
+    if (d := msgs.get("RFND")) is not None:
+        out += _rangefinder(d)
+    return out
+
+
+def _rangefinder(d: _Decoded) -> list[Signal]:
+    field = "Dist" if d.has("Dist") else "Dist1" if d.has("Dist1") else None
+    if field is None:
+        return []
+    idx = d.fmt.columns.index(field)  # type: ignore[attr-defined]
+    unit = d.fmt.get_unit(field)  # type: ignore[attr-defined]
+    if unit == "cm":
+        scale = 0.01
+    elif unit == "m":
+        scale = 1.0
+    else:  # no FMTU: a raw integer field without its own multiplier holds cm
+        raw_int = d.fmt.msg_fmts[idx] in "bBhHiI" and d.fmt.msg_mults[idx] is None  # type: ignore[attr-defined]
+        scale = 0.01 if raw_int else 1.0
+    v = d.f(field, scale)
+    if d.has("Orient"):
+        v[d.rec["Orient"] != 25] = np.nan
+    return [Signal("alt", d.t, v, f"RFND.{field}", 0)] if np.isfinite(v).any() else []
+
+
+def _start_time(msgs: dict[str, _Decoded]) -> float | None:
+    d = msgs.get("GPS")
+    if d is None or not (d.has("GWk") and d.has("GMS")):
+        return None
+    ok = d.rec["GWk"] > 0
+    if d.has("Status"):
+        ok &= d.rec["Status"] >= 3
+    if not ok.any():
+        return None
+    i = int(np.argmax(ok))
+    unix = GPS_EPOCH + d.rec["GWk"][i] * 604800.0 + d.rec["GMS"][i] * 1e-3 - GPS_LEAP_S
+    return float(unix - d.t[i])
+
+
+def read(path: Path, options: ReadOptions) -> RawLog:
+    """Read an ArduPilot DataFlash log into a :class:`RawLog` (see the module docstring)."""
+    with progress(path.stat().st_size, f"reading {path.name}", options.progress) as bar:
+        reader, noise = _open(path)
+        bar.update(path.stat().st_size)
+    try:
+        data = np.frombuffer(reader.data_map, dtype=np.uint8)  # type: ignore[attr-defined]
+        return _read(path, reader, data, noise, options)
+    finally:
+        del data
+        with contextlib.suppress(Exception):
+            reader.close()  # type: ignore[attr-defined]
+
+
+def _read(path: Path, reader: object, data: np.ndarray, noise: str,
+          options: ReadOptions) -> RawLog:
+    raw = RawLog(path=path, format="bin")
+    wanted = list(NEEDED) + [o.topic for o in options.field_requests() if o.topic not in NEEDED]
+    msgs: dict[str, _Decoded] = {}
+    for name in wanted:
+        d = _decode(reader, data, name, raw)
+        if d is not None:
+            msgs[name] = d
+    raw.signals = _signals(msgs, options)
+    for o in options.field_requests():
+        d = msgs.get(o.topic)
+        if d is None or not d.has(o.field or ""):
+            have = ", ".join(d.rec.dtype.names) if d is not None else "message not in log"
+            raise IngestError(f"{path}: --map {o.text}: no such field ({have})")
+        raw.signals.append(Signal(o.column, d.t, d.f(o.field or ""), f"{o.topic}.{o.field}",
+                                  -1))
+    raw.start_time = _start_time(msgs)
+    _catalogue(raw, reader, data, msgs)
+    _damage(raw, reader, data, noise)
+    return raw
+
+
+def _catalogue(raw: RawLog, reader: object, data: np.ndarray,
+               msgs: dict[str, _Decoded]) -> None:
+    columns: dict[str, list[str]] = {}
+    for sig in raw.signals:
+        cols = columns.setdefault(sig.topic, [])
+        if sig.column not in cols:
+            cols.append(sig.column)
+    for mtype, fmt in sorted(reader.formats.items(), key=lambda kv: kv[1].name):  # type: ignore[attr-defined]
+        count = reader.counts[mtype] if mtype < len(reader.counts) else 0  # type: ignore[attr-defined]
+        if not count:
+            continue
+        first = last = None
+        if fmt.name in msgs and msgs[fmt.name].t.size:
+            first, last = float(msgs[fmt.name].t[0]), float(msgs[fmt.name].t[-1])
+        elif fmt.columns[:1] == ["TimeUS"] and fmt.msg_struct[1:2] == "Q":
+            offs = reader.offsets[mtype]  # type: ignore[attr-defined]
+            ends = [o for o in (offs[0], offs[-1]) if o + 11 <= data.size]
+            if len(ends) == 2:
+                first, last = (float(data[o + 3:o + 11].view("<u8")[0]) * 1e-6 for o in ends)
+        raw.channels.append(Channel(fmt.name, "dataflash", int(count), first, last,
+                                    columns.get(fmt.name, [])))
+
+
+def _damage(raw: RawLog, reader: object, data: np.ndarray, noise: str) -> None:
+    end = 0
+    for mtype, offs in enumerate(reader.offsets):  # type: ignore[attr-defined]
+        if offs and mtype in reader.formats:  # type: ignore[attr-defined]
+            length = reader.formats[mtype].len  # type: ignore[attr-defined]
+            complete = [o for o in offs[-2:] if o + length <= data.size]
+            if complete:
+                end = max(end, complete[-1] + length)
+    if not end:
+        raise IngestError(f"{raw.path}: no DataFlash messages found")
+    tail = data.size - end
+    if tail:
+        raw.dropped.append(Issue("bytes after the last complete message", tail, ""))
+        raw.warnings.append(f"{raw.path.name}: file is truncated or has trailing garbage: "
+                            f"skipped the last {tail} bytes")
+    skipped = sum(int(n) for n in re.findall(r"Skipped (\d+) bad bytes", noise))
+    bad = len(re.findall(r"bad header", noise))
+    if skipped or bad:
+        raw.dropped.append(Issue("bytes that are no valid DataFlash message", skipped + bad, ""))
