@@ -1,0 +1,128 @@
+"""``etsid identify``, ``etsid predict`` and ``etsid rules``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from etsid.cli.options import log_options, read_options
+from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
+from etsid.ident.rundir import Run, jsonable
+from etsid.ingest import load_any
+from etsid.progress import wanted
+from etsid.report.tables import rules_text, summary_table
+
+
+def _outputs(text: str | None) -> list[str] | None:
+    if not text:
+        return None
+    return [s.strip() for s in text.split(",") if s.strip()]
+
+
+def _print_run(run: Run, out: Path, as_json: bool) -> None:
+    if as_json:
+        click.echo(json.dumps(jsonable(run.metrics), indent=2))
+        return
+    for note in run.config.get("model", {}).get("notes") or []:
+        click.echo(note)
+    click.echo(summary_table(run))
+    click.echo(f"wrote {out}/ (predictions.parquet, metrics.json, rules.json, …); "
+               f"next: etsid report {out}")
+
+
+@click.command("identify")
+@click.argument("log", type=click.Path(path_type=Path))
+@click.option("-o", "--out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="RUN_DIR to write (created if needed).")
+@click.option("--output", "outputs", metavar="COLS",
+              help="Columns to predict, comma-separated (default: p,q,r with the default "
+                   "rate model). Needs --regressors.")
+@click.option("--regressors", metavar="SPEC",
+              help='NARX regressors, e.g. "co2[k-1],input_gas_rate[k-4]" or '
+                   '"p[k-1..k-3],u_roll[k-1..k-2]".')
+@click.option("--output-lags", type=click.IntRange(1, 50), default=IdentConfig.output_lags,
+              show_default=True, help="Default rate model: lags of each rate, samples.")
+@click.option("--input-lags", type=click.IntRange(1, 50), default=IdentConfig.input_lags,
+              show_default=True, help="Default rate model: lags of each command, samples.")
+@click.option("--radius", type=click.FloatRange(0, min_open=True), default=IdentConfig.radius,
+              show_default=True, help="eTS zone of influence, fraction of the data range.")
+@click.option("--omega", type=click.FloatRange(0, min_open=True), default=IdentConfig.omega,
+              show_default=True, help="Initial RLS covariance of a new rule.")
+@click.option("--variant", type=click.Choice(["ets", "ets+"]), default=IdentConfig.variant,
+              show_default=True, help="eTS (2004) or eTS+ (2010, with pruning).")
+@click.option("--max-rules", type=click.IntRange(1, 1000), default=IdentConfig.max_rules,
+              show_default=True, help="Cap on the number of rules.")
+@click.option("--rls", type=click.Choice(["local", "global"]), default=IdentConfig.rls,
+              show_default=True, help="Consequent learning: local or global RLS.")
+@click.option("--forgetting", type=click.FloatRange(0, 1, min_open=True),
+              default=IdentConfig.forgetting, show_default=True,
+              help="RLS forgetting factor (1: none).")
+@click.option("--validate", type=click.FloatRange(0, 0.9), default=IdentConfig.validate,
+              show_default=True,
+              help="Fraction held out at the end: learn on the rest, freeze, then one-step "
+                   "and free-run on it (0: no validation).")
+@click.option("--rate", "rate_hz", type=click.FloatRange(0, min_open=True), default=None,
+              help="Grid rate of a log, Hz (default: native rate of the body rates).")
+@click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
+@log_options
+def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
+                 output_lags: int, input_lags: int, radius: float, omega: float, variant: str,
+                 max_rules: int, rls: str, forgetting: float, validate: float,
+                 rate_hz: float | None, as_json: bool, maps: tuple[str, ...],
+                 mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
+    """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
+
+    Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust],
+    else rate setpoints or motor outputs). Writes RUN_DIR/ predictions.parquet,
+    history.parquet, rules.json, metrics.json, config.json.
+    """
+    table = load_any(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    config = IdentConfig(outputs=_outputs(outputs), regressors=regressors,
+                         output_lags=output_lags, input_lags=input_lags, radius=radius,
+                         omega=omega, variant=variant, max_rules=max_rules, rls=rls,
+                         forgetting=forgetting, validate=validate)
+    run = identify(table, config, source=log, show_progress=wanted(quiet))
+    write_run(run, out)
+    _print_run(run, out, as_json)
+
+
+@click.command("predict")
+@click.argument("log", type=click.Path(path_type=Path))
+@click.option("--rules", "rules_path", required=True, type=click.Path(path_type=Path),
+              help="rules.json (or a RUN_DIR) written by etsid identify.")
+@click.option("-o", "--out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="RUN_DIR to write (created if needed).")
+@click.option("--learn", is_flag=True, help="Continue learning while predicting.")
+@click.option("--sim-from", type=float, default=None, metavar="SECONDS",
+              help="Start the free-run simulation at this time, s (default: the start). "
+                   "Identify's validation start reproduces its validation predictions.")
+@click.option("--rate", "rate_hz", type=click.FloatRange(0, min_open=True), default=None,
+              help="Grid rate of a log, Hz.")
+@click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
+@log_options
+def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: float | None,
+                rate_hz: float | None, as_json: bool, maps: tuple[str, ...],
+                mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
+    """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
+    table = load_any(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
+                  show_progress=wanted(quiet))
+    write_run(run, out)
+    _print_run(run, out, as_json)
+
+
+@click.command("rules")
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print the raw rules.json.")
+def rules_cmd(path: Path, as_json: bool) -> None:
+    """Print the rule base in PATH (rules.json or a RUN_DIR) as readable IF … THEN … rules."""
+    _, _, data = load_rules(path)
+    if as_json:
+        click.echo(json.dumps(data, indent=1))
+        return
+    click.echo(rules_text(data))
+
+
+COMMANDS = [identify_cmd, predict_cmd, rules_cmd]
