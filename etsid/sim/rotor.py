@@ -66,29 +66,32 @@ def solve_inflow(
     """
     k = 0.25 * sigma * a
     c0 = bemt_ct(mu, 0.0, sigma, a, th0, tw)
-    li = lam_i0 if lam_i0 > 1e-6 else 0.05
+    if c0 - k * lam_c <= 0.0:  # no thrust even without induced flow (windmill side)
+        return 0.0, 0.0, 0
+    li_max = c0 / k - lam_c  # C_T > 0 requires lam_i < li_max; the root lies in (0, li_max)
+    guess = min(math.sqrt(0.5 * (c0 - k * lam_c)), 0.9 * li_max)
+    li = lam_i0
+    if not 0.1 * guess < li < li_max:
+        li = guess
     it = 0
     for it in range(1, NEWTON_ITERS + 1):  # noqa: B007
         lam = lam_c + li
         s = math.sqrt(mu * mu + lam * lam) + 1e-12
         ct = c0 - k * lam
-        if ct <= 0.0:
-            return 0.0, 0.0, it
         f = li - ct / (2.0 * s)
         df = 1.0 + k / (2.0 * s) + ct * lam / (2.0 * s * s * s)
         if df < 0.2:
             df = 0.2
         step = f / df
         li_new = li - step
-        if li_new < 0.0:
+        if li_new <= 0.0:
             li_new = 0.5 * li
+        elif li_new >= li_max:
+            li_new = 0.5 * (li + li_max)
         li = li_new
         if abs(step) < NEWTON_TOL:
             break
-    ct = c0 - k * (lam_c + li)
-    if ct <= 0.0:
-        return 0.0, 0.0, it
-    return ct, li, it
+    return c0 - k * (lam_c + li), li, it
 
 
 @njit(cache=True)
@@ -160,7 +163,11 @@ def glauert_inflow_reference(
         ct = max(float(bemt_ct(mu, lam, sigma, a, th0, tw)), 0.0)
         return li - ct / (2.0 * math.sqrt(mu * mu + lam * lam) + 1e-300)
 
-    li = brentq(residual, 1e-9, 1.0, xtol=1e-15, rtol=1e-14)
+    k = 0.25 * sigma * a
+    c0 = float(bemt_ct(mu, 0.0, sigma, a, th0, tw))
+    if c0 - k * lam_c <= 0.0:
+        return 0.0, 0.0
+    li = brentq(residual, 0.0, c0 / k - lam_c, xtol=1e-15, rtol=1e-14)
     return max(float(bemt_ct(mu, lam_c + li, sigma, a, th0, tw)), 0.0), li
 
 

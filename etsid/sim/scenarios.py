@@ -20,13 +20,14 @@ from etsid.sim.excitation import EXCITATIONS, stick_excitation
 _COMMON: dict[str, Any] = {
     "duration": 60.0,        # s
     "altitude": 3.0,         # m, CG height above ground (initial and held)
-    "amplitude": 0.35,       # peak roll/pitch stick excitation, 0..1
+    "amplitude": 0.4,        # peak roll/pitch stick excitation, 0..1
     "yaw_amplitude": 0.5,    # peak yaw stick excitation, 0..1
     "excitation": "mixed",   # one of EXCITATIONS
     "f_min": 0.1,            # Hz
     "f_max": 8.0,            # Hz
     "settle": 2.0,           # s of quiet flight before the excitation
     "alt_hold": True,        # False: fixed collective `throttle`
+    "pilot": True,           # simulated pilot keeps position/speed and heading
     "throttle": None,        # collective 0..1 when alt_hold is off (None: hover trim)
     "wind": [0.0, 0.0, 0.0],  # NED m/s, constant
 }
@@ -36,7 +37,7 @@ SCENARIOS: dict[str, dict[str, Any]] = {
         "description": "low hover in ground effect (CG 0.28 m above ground, below 0.40 m) "
                        "with rich roll/pitch/yaw stick excitation, altitude hold on the "
                        "rangefinder (the chapter's Fig. 1.8 flight)",
-        "params": {**_COMMON, "altitude": 0.28, "amplitude": 0.25},
+        "params": {**_COMMON, "altitude": 0.28, "amplitude": 0.3},
     },
     "hover-oge": {
         "description": "hover out of ground effect at 3 m with the same excitation",
@@ -55,7 +56,7 @@ SCENARIOS: dict[str, dict[str, Any]] = {
     "steps": {
         "description": "held roll, pitch and yaw stick steps in turn (step responses)",
         "params": {**_COMMON, "duration": 16.0, "altitude": 2.0, "excitation": "steps",
-                   "amplitude": 0.4, "yaw_amplitude": 0.4},
+                   "amplitude": 0.4, "yaw_amplitude": 0.4, "pilot": False},
     },
 }
 
@@ -111,8 +112,9 @@ def resolve_params(scenario: str, duration: float | None, settings: dict[str, An
     if params["excitation"] not in EXCITATIONS:
         raise SimError(f"{where} 'excitation' must be one of {', '.join(EXCITATIONS)}, "
                        f"got {params['excitation']!r}")
-    if not isinstance(params["alt_hold"], bool):
-        raise SimError(f"{where} 'alt_hold' must be true or false, got {params['alt_hold']!r}")
+    for key in ("alt_hold", "pilot"):
+        if not isinstance(params[key], bool):
+            raise SimError(f"{where} {key!r} must be true or false, got {params[key]!r}")
     thr = params["throttle"]
     if thr is not None and not (_is_number(thr) and 0 <= thr <= 1):
         raise SimError(f"{where} 'throttle' must be None or lie in 0..1, got {thr!r}")

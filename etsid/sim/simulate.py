@@ -22,6 +22,7 @@ from etsid.sim.trim import hover_trim
 from etsid.sim.vehicle import Vehicle, load_vehicle
 
 MIN_PHYSICS_HZ = 1000.0
+NO_PILOT = {"pilot_kv": 0.0, "pilot_ki": 0.0, "pilot_kpsi": 0.0}
 
 
 @dataclass
@@ -115,7 +116,8 @@ def simulate(
     refs = build_references(scenario, params, t, rng, throttle)
 
     P = pack(veh, dt=dt, ground_effect=ground_effect, thr_hover=trim_oge.command,
-             alt_hold=params["alt_hold"], wind=tuple(params["wind"]))
+             alt_hold=params["alt_hold"], wind=tuple(params["wind"]),
+             **({} if params["pilot"] else NO_PILOT))
     pos, spin, dists, mix = geometry(veh)
     n_rot = veh.n_rotors
     x0 = np.zeros(X_OM + n_rot)
