@@ -228,6 +228,7 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
             raise IngestError(f"{path}: --map {o.text}: no such field ({have})")
         raw.signals.append(Signal(o.column, d.t, d.f(o.field or ""), f"{o.topic}.{o.field}",
                                   -1))
+    raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(msgs)
     _catalogue(raw, reader, data, msgs)
     _damage(raw, reader, data, noise)

@@ -246,6 +246,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         for o in overrides:
             if o.topic == names[mid]:
                 raw.signals.append(_override_signal(o, rec, t, path))
+    raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     _catalogue(raw, stats, sysid, compid, times, clock.start_time)
     _damage(raw, stats, path)
     raw.extra.update({

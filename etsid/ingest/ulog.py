@@ -1,0 +1,232 @@
+"""PX4 ULog (``.ulg``) via pyulog, parsing only the topics below.
+
+pyulog reads the whole file into memory (it has no streaming API); only the listed topics
+are decoded (``message_name_filter_list``). PX4 topics are already FRD body / NED world,
+SI units; times are the ``timestamp`` field (µs since boot), or ``timestamp_sample``
+(when the sensor sampled) for vehicle_angular_velocity, vehicle_attitude and
+vehicle_local_position. Multi-instance topics use instance 0.
+
+============ ============================================================================
+column       candidates (priority, lower wins)
+============ ============================================================================
+p q r        vehicle_angular_velocity xyz (0), sensor_combined gyro_rad (2)
+roll…        vehicle_attitude q (0)
+ax ay az     sensor_combined accelerometer_m_s2 (0)
+u_*          manual_control_setpoint (0; old fields x pitch, y roll, z throttle 0…1, r yaw;
+             new fields roll, pitch, yaw, throttle −1…1 → 0…1), input_rc values via
+             ``rc_map`` (1), controller torque/thrust commands: actuator_controls_0
+             control[0..3] (5), vehicle_torque_setpoint xyz and −vehicle_thrust_setpoint
+             xyz[2] (4)
+sp_*         vehicle_rates_setpoint roll/pitch/yaw (0)
+m1…m8        actuator_motors control[0..7] (0), actuator_outputs output[0..7] PWM
+             1000–2000 → 0…1 (1)
+alt          distance_sensor current_distance, downward (orientation 25) (0),
+             vehicle_local_position dist_bottom where dist_bottom_valid (1), −z (5)
+vx vy vz     vehicle_local_position (0)
+vbat         battery_status voltage_filtered_v (0), voltage_v (1)
+============ ============================================================================
+
+ULog has no writer in pyulog, so ULog is not part of the cross-format test set.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from pathlib import Path
+
+import numpy as np
+
+from etsid.errors import IngestError
+from etsid.ingest.base import Channel, RawLog, ReadOptions, Signal
+from etsid.ingest.frames import quat_to_euler
+from etsid.ingest.mavlink_signals import stick
+from etsid.progress import progress
+
+TOPICS = (
+    "vehicle_angular_velocity", "vehicle_attitude", "sensor_combined",
+    "manual_control_setpoint", "input_rc", "vehicle_rates_setpoint", "actuator_controls_0",
+    "vehicle_torque_setpoint", "vehicle_thrust_setpoint", "actuator_motors",
+    "actuator_outputs", "vehicle_local_position", "distance_sensor", "battery_status",
+    "vehicle_gps_position", "sensor_gps",
+)
+SAMPLE_TIME = ("vehicle_angular_velocity", "vehicle_attitude", "vehicle_local_position")
+COMMAND_NOTE = "controller torque/thrust commands, not pilot sticks"
+
+
+class _Topic:
+    """Fields (name → array) and times (s) of one topic instance."""
+
+    def __init__(self, name: str, data: dict[str, np.ndarray]) -> None:
+        self.name, self.data = name, data
+        key = "timestamp_sample" if name in SAMPLE_TIME and "timestamp_sample" in data \
+            else "timestamp"
+        self.t = data[key].astype(np.float64) * 1e-6
+
+    def has(self, field: str) -> bool:
+        return field in self.data
+
+    def f(self, field: str, scale: float = 1.0) -> np.ndarray:
+        return self.data[field].astype(np.float64) * scale
+
+    def sig(self, column: str, field: str, prio: int, scale: float = 1.0) -> Signal:
+        return Signal(column, self.t, self.f(field, scale), f"{self.name}.{field}", prio)
+
+
+def _sticks(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
+    out: list[Signal] = []
+    if (d := topics.get("manual_control_setpoint")) is not None:
+        if d.has("valid"):
+            keep = d.data["valid"] != 0
+            d = _Topic(d.name, {k: v[keep] for k, v in d.data.items()})
+        if d.has("roll"):  # PX4 ≥ 1.14
+            out += [d.sig("u_roll", "roll", 0), d.sig("u_pitch", "pitch", 0),
+                    d.sig("u_yaw", "yaw", 0)]
+            if d.has("throttle"):
+                out.append(Signal("u_thrust", d.t, 0.5 * (d.f("throttle") + 1.0),
+                                  f"{d.name}.throttle", 0))
+        elif d.has("x"):
+            out += [d.sig("u_roll", "y", 0), d.sig("u_pitch", "x", 0), d.sig("u_yaw", "r", 0),
+                    d.sig("u_thrust", "z", 0)]
+    if (d := topics.get("input_rc")) is not None:
+        for column, ch in options.rc_map.items():
+            name = f"values[{ch - 1}]"
+            if d.has(name):
+                v = stick(d.data[name], column, options)
+                out.append(Signal(column, d.t, v, f"{d.name}.{name}", 1))
+    if (d := topics.get("actuator_controls_0")) is not None:
+        for i, column in enumerate(("u_roll", "u_pitch", "u_yaw", "u_thrust")):
+            if d.has(f"control[{i}]"):
+                out.append(d.sig(column, f"control[{i}]", 5))
+    if (d := topics.get("vehicle_torque_setpoint")) is not None:
+        for i, column in enumerate(("u_roll", "u_pitch", "u_yaw")):
+            if d.has(f"xyz[{i}]"):
+                out.append(d.sig(column, f"xyz[{i}]", 4))
+    if (d := topics.get("vehicle_thrust_setpoint")) is not None and d.has("xyz[2]"):
+        out.append(d.sig("u_thrust", "xyz[2]", 4, -1.0))
+    return out
+
+
+def _motors(topics: dict[str, _Topic]) -> list[Signal]:
+    out: list[Signal] = []
+    if (d := topics.get("actuator_motors")) is not None:
+        out += [d.sig(f"m{i + 1}", f"control[{i}]", 0) for i in range(8)
+                if d.has(f"control[{i}]") and np.isfinite(d.data[f"control[{i}]"]).any()]
+    if (d := topics.get("actuator_outputs")) is not None:
+        n = int(d.data["noutputs"].max()) if d.has("noutputs") and d.t.size else 8
+        for i in range(min(n, 8)):
+            if d.has(f"output[{i}]"):
+                v = np.clip((d.f(f"output[{i}]") - 1000.0) / 1000.0, 0.0, 1.0)
+                out.append(Signal(f"m{i + 1}", d.t, v, f"{d.name}.output[{i}]", 1))
+    return out
+
+
+def _position(topics: dict[str, _Topic]) -> list[Signal]:
+    out: list[Signal] = []
+    if (d := topics.get("vehicle_local_position")) is not None:
+        out += [d.sig(c, c, 0) for c in ("vx", "vy", "vz") if d.has(c)]
+        if d.has("z"):
+            out.append(d.sig("alt", "z", 5, -1.0))
+        if d.has("dist_bottom"):
+            v = d.f("dist_bottom")
+            if d.has("dist_bottom_valid"):
+                v[d.data["dist_bottom_valid"] == 0] = np.nan
+            if np.isfinite(v).any():
+                out.append(Signal("alt", d.t, v, f"{d.name}.dist_bottom", 1))
+    if (d := topics.get("distance_sensor")) is not None and d.has("current_distance"):
+        v = d.f("current_distance")
+        if d.has("orientation"):
+            v[d.data["orientation"] != 25] = np.nan
+        if np.isfinite(v).any():
+            out.append(Signal("alt", d.t, v, f"{d.name}.current_distance", 0))
+    return out
+
+
+def _signals(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
+    out: list[Signal] = []
+    if (d := topics.get("vehicle_angular_velocity")) is not None:
+        out += [d.sig(c, f"xyz[{i}]", 0) for i, c in enumerate("pqr")]
+    if (d := topics.get("vehicle_attitude")) is not None:
+        angles = quat_to_euler(*(d.f(f"q[{i}]") for i in range(4)))
+        out += [Signal(c, d.t, a, f"{d.name}.q", 0)
+                for c, a in zip(("roll", "pitch", "yaw"), angles, strict=True)]
+    if (d := topics.get("sensor_combined")) is not None:
+        out += [d.sig(c, f"gyro_rad[{i}]", 2) for i, c in enumerate("pqr")]
+        out += [d.sig(c, f"accelerometer_m_s2[{i}]", 0)
+                for i, c in enumerate(("ax", "ay", "az"))]
+    if (d := topics.get("vehicle_rates_setpoint")) is not None:
+        out += [d.sig(c, f, 0) for c, f in (("sp_p", "roll"), ("sp_q", "pitch"), ("sp_r", "yaw"))
+                if d.has(f)]
+    if (d := topics.get("battery_status")) is not None:
+        out += [d.sig("vbat", f, k) for k, f in enumerate(("voltage_filtered_v", "voltage_v"))
+                if d.has(f)]
+    return out + _sticks(topics, options) + _motors(topics) + _position(topics)
+
+
+def _start_time(topics: dict[str, _Topic]) -> float | None:
+    for name in ("sensor_gps", "vehicle_gps_position"):
+        d = topics.get(name)
+        if d is not None and d.has("time_utc_usec"):
+            ok = np.flatnonzero(d.data["time_utc_usec"] > 0)
+            if ok.size:
+                i = int(ok[0])
+                return float(d.data["time_utc_usec"][i] * 1e-6 - d.data["timestamp"][i] * 1e-6)
+    return None
+
+
+def _parse(path: Path, names: list[str]) -> object:
+    from pyulog import ULog
+
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            return ULog(str(path), message_name_filter_list=names)
+    except Exception as err:  # pyulog raises many types on broken files
+        first = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise IngestError(f"{path}: not a readable ULog file ({first})") from err
+
+
+def read(path: Path, options: ReadOptions) -> RawLog:
+    """Read a PX4 ULog into a :class:`RawLog` (see the module docstring)."""
+    extra_topics = [o.topic for o in options.field_requests() if o.topic not in TOPICS]
+    with progress(path.stat().st_size, f"reading {path.name}", options.progress) as bar:
+        ulog = _parse(path, list(TOPICS) + extra_topics)
+        bar.update(path.stat().st_size)
+    raw = RawLog(path=path, format="ulog")
+    topics: dict[str, _Topic] = {}
+    for d in sorted(ulog.data_list, key=lambda d: (d.name, d.multi_id)):  # type: ignore[attr-defined]
+        if d.multi_id == 0 and "timestamp" in d.data and d.data["timestamp"].size:
+            topics[d.name] = _Topic(d.name, d.data)
+    raw.signals = _signals(topics, options)
+    for o in options.field_requests():
+        d = topics.get(o.topic)
+        if d is None or not d.has(o.field or ""):
+            have = ", ".join(d.data) if d is not None else "topic not in log"
+            raise IngestError(f"{path}: --map {o.text}: no such field ({have})")
+        raw.signals.append(Signal(o.column, d.t, d.f(o.field or ""), f"{o.topic}.{o.field}",
+                                  -1))
+    raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
+    raw.start_time = _start_time(topics)
+    columns: dict[str, list[str]] = {}
+    for sig in raw.signals:
+        cols = columns.setdefault(sig.topic, [])
+        if sig.column not in cols:
+            cols.append(sig.column)
+    for d in sorted(ulog.data_list, key=lambda d: (d.name, d.multi_id)):  # type: ignore[attr-defined]
+        t = _Topic(d.name, d.data).t if "timestamp" in d.data else np.empty(0)
+        name = d.name if d.multi_id == 0 else f"{d.name}.{d.multi_id}"
+        note = COMMAND_NOTE if d.name in ("actuator_controls_0", "vehicle_torque_setpoint",
+                                          "vehicle_thrust_setpoint") else ""
+        if d.multi_id:
+            note = "instance > 0, not used"
+        raw.channels.append(Channel(name, d.name, int(t.size),
+                                    float(t[0]) if t.size else None,
+                                    float(t[-1]) if t.size else None,
+                                    columns.get(d.name, []) if d.multi_id == 0 else [], note))
+    raw.extra["topics_parsed"] = len(TOPICS) + len(extra_topics)
+    if getattr(ulog, "file_corruption", False):
+        raw.warnings.append(f"{path.name}: file is corrupt or truncated; pyulog kept the "
+                            "readable messages (the skipped byte count is not known)")
+    for dropped in getattr(ulog, "dropouts", []):
+        raw.warnings.append(f"logger dropout of {dropped.duration} ms at "
+                            f"{dropped.timestamp * 1e-6:.3f} s")
+    return raw
