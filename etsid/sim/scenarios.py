@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from etsid.errors import SimError
-from etsid.sim.excitation import EXCITATIONS, stick_excitation
+from etsid.sim.excitation import EXCITATIONS, stick_excitation, taper_window
 
 _COMMON: dict[str, Any] = {
     "duration": 60.0,        # s
@@ -25,6 +25,7 @@ _COMMON: dict[str, Any] = {
     "excitation": "mixed",   # one of EXCITATIONS
     "f_min": 0.1,            # Hz
     "f_max": 8.0,            # Hz
+    "alt_wander": 0.0,       # m, amplitude of a slow (0.03-0.25 Hz) altitude-setpoint wander
     "settle": 2.0,           # s of quiet flight before the excitation
     "alt_hold": True,        # False: fixed collective `throttle`
     "pilot": True,           # simulated pilot keeps position/speed and heading
@@ -37,7 +38,7 @@ SCENARIOS: dict[str, dict[str, Any]] = {
         "description": "low hover in ground effect (CG 0.28 m above ground, below 0.40 m) "
                        "with rich roll/pitch/yaw stick excitation, altitude hold on the "
                        "rangefinder (the chapter's Fig. 1.8 flight)",
-        "params": {**_COMMON, "altitude": 0.28, "amplitude": 0.3},
+        "params": {**_COMMON, "altitude": 0.28, "amplitude": 0.35, "alt_wander": 0.06},
     },
     "hover-oge": {
         "description": "hover out of ground effect at 3 m with the same excitation",
@@ -61,7 +62,7 @@ SCENARIOS: dict[str, dict[str, Any]] = {
 }
 
 _POSITIVE = {"duration", "altitude", "f_min", "f_max", "alt_period", "ramp"}
-_NONNEG = {"settle", "speed", "alt_amplitude"}
+_NONNEG = {"settle", "speed", "alt_amplitude", "alt_wander"}
 _UNIT = {"amplitude", "yaw_amplitude"}
 
 
@@ -151,6 +152,16 @@ def build_references(scenario: str, params: dict[str, Any], t: np.ndarray,
     alt_sp = np.full(n, float(params["altitude"]))
     alt_rate = np.zeros(n)
     vel_sp = np.zeros((n, 2))
+    if params["alt_wander"] > 0:
+        freqs = np.array([0.03, 0.07, 0.13, 0.25])
+        phases = rng.uniform(0.0, 2.0 * np.pi, freqs.size)
+        wander = np.sum(np.sin(2.0 * np.pi * freqs[:, None] * t + phases[:, None]), axis=0)
+        wander /= max(float(np.max(np.abs(wander))), 1e-12)
+        wander *= taper_window(t, params["settle"], params["duration"] - 1.0, ramp=3.0)
+        dw = np.gradient(wander, t) if n > 1 else np.zeros(n)
+        scale = params["alt_wander"]
+        alt_sp = alt_sp + scale * wander
+        alt_rate = alt_rate + scale * dw
     if scenario == "sine-altitude":
         w = 2.0 * np.pi / params["alt_period"]
         ramp = np.clip((t - params["settle"]) / params["alt_period"], 0.0, 1.0)
