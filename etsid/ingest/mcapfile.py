@@ -100,6 +100,9 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                 good_pos = pos
         except Exception as err:  # the mcap/zstd/lz4 stack raises many types on bad bytes
             why = (" ".join(str(a) for a in err.args) or type(err).__name__).splitlines()[0]
+            if messages == 0 and good_pos > 0 and "EndOfFile" in (why, type(err).__name__):
+                raise IngestError(f"{path}: truncated MCAP file: no complete message before "
+                                  f"byte {good_pos} of {size}") from err
             if messages == 0:
                 raise IngestError(f"{path}: not a readable MCAP file ({why})") from err
             raw.warnings.append(f"{path}: truncated or damaged after byte {good_pos} ({why}); "

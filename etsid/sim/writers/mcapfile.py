@@ -19,6 +19,8 @@ import pandas as pd
 from etsid.sim.writers.rosbag import instantiate, mavros_messages
 
 LIBRARY = "etsid"
+CHUNK_SIZE = 256 * 1024
+"""Uncompressed bytes per chunk (small chunks keep a cut file mostly readable)."""
 
 
 def write_mcap(table: pd.DataFrame, path: Path, encoding: str = "ros2") -> Path:
@@ -39,7 +41,7 @@ def _write_ros2(table: pd.DataFrame, handle: Any) -> None:
 
     store = typestore(ros1=False)
     topics, messages = mavros_messages(table)
-    writer = Writer(handle)
+    writer = Writer(handle, chunk_size=CHUNK_SIZE)
     schemas = {msgtype: writer.register_msgdef(msgtype, store.generate_msgdef(msgtype, 2)[0])
                for _, msgtype in topics}
     for log_ns, _, topic, msgtype, fields in messages:
@@ -60,7 +62,7 @@ def _write_ros1(table: pd.DataFrame, handle: Any) -> None:
     for _, msgtype in topics:
         name = msgtype.replace("/msg/", "/")
         classes[msgtype] = generate_dynamic(name, store.generate_msgdef(msgtype)[0])[name]
-    writer = Writer(handle)
+    writer = Writer(handle, chunk_size=CHUNK_SIZE)
     for log_ns, _, topic, msgtype, fields in messages:
         data = store.serialize_ros1(instantiate(store, msgtype, fields), msgtype)
         msg = classes[msgtype]().deserialize(bytes(data))
@@ -95,7 +97,7 @@ def _write_json(table: pd.DataFrame, handle: Any) -> None:
     from mcap.writer import Writer
 
     _, messages = mavros_messages(table)
-    writer = Writer(handle)
+    writer = Writer(handle, chunk_size=CHUNK_SIZE)
     writer.start(profile="", library=LIBRARY)
     channels: dict[str, int] = {}
     for log_ns, _, topic, msgtype, fields in messages:

@@ -15,7 +15,8 @@ topic                                       type                            rate
 /mavros/battery                             sensor_msgs/BatteryState        2 Hz
 ==========================================  ==============================  ======
 
-A topic is written only when the table has its columns. ``header.stamp`` is
+A topic is written only when the table has its columns; each is sampled from the table at
+its own clock (linear, angles unwrapped, commands held). ``header.stamp`` is
 ``attrs["start_time"]`` (default 1.7e9 s) + ``t``; the record time is 1 ms later.
 RC channels follow ArduPilot's AETR order (1000/1500/2000 µs), motors 1000–2000 µs.
 """
@@ -45,11 +46,27 @@ Message = tuple[int, int, str, str, dict[str, Any]]
 """(record time ns, order, topic, type, fields as nested dicts in ROS 2 naming)."""
 
 
-def _pick(t: np.ndarray, rate: float) -> np.ndarray:
-    """Indices of the table rows nearest to a ``rate`` Hz clock over the table's span."""
-    ticks = t[0] + np.arange(int((t[-1] - t[0]) * rate + 1e-9) + 1) / rate
-    idx = np.clip(np.searchsorted(t, ticks), 0, t.size - 1)
-    return np.unique(idx)
+def _ticks(t: np.ndarray, rate: float) -> np.ndarray:
+    """Times of a ``rate`` Hz clock over the table's span, s."""
+    return t[0] + np.arange(int((t[-1] - t[0]) * rate + 1e-9) + 1) / rate
+
+
+def resample_at(table: pd.DataFrame, ticks: np.ndarray) -> pd.DataFrame:
+    """The table's columns at ``ticks`` (linear; angles unwrapped; commands held)."""
+    from etsid.table import COLUMNS
+
+    t = np.asarray(table.index, dtype=float)
+    out = {}
+    for name in table.columns:
+        values = table[name].to_numpy(dtype=float)
+        kind = COLUMNS[name].interp if name in COLUMNS else "linear"
+        if kind == "hold":
+            out[name] = values[np.clip(np.searchsorted(t, ticks, side="right") - 1, 0, None)]
+        elif kind == "angle":
+            out[name] = np.angle(np.exp(1j * np.interp(ticks, t, np.unwrap(values))))
+        else:
+            out[name] = np.interp(ticks, t, values)
+    return pd.DataFrame(out, index=pd.Index(ticks, name="t"))
 
 
 def _header(stamp_ns: int, frame: str = "base_link") -> dict[str, Any]:
@@ -192,22 +209,22 @@ def mavros_messages(table: pd.DataFrame) -> tuple[list[tuple[str, str]], Iterato
     """Topics (name, type) and the time-ordered stream of MAVROS messages for ``table``."""
     t = np.asarray(table.index, dtype=float)
     start_ns = round(float(table.attrs.get("start_time") or DEFAULT_START) * NS)
-    stamps = start_ns + np.round((t - t[0]) * NS).astype(np.int64)
     topics, streams = [], []
     for order, (topic, msgtype, key, factory) in enumerate(TOPICS):
-        make = factory(table)
+        ticks = _ticks(t, RATES[key])
+        make = factory(resample_at(table, ticks))
         if make is None:
             continue
+        stamps = start_ns + np.round((ticks - t[0]) * NS).astype(np.int64)
         topics.append((topic, msgtype))
-        streams.append(_stream(make, _pick(t, RATES[key]), stamps, order, topic, msgtype))
+        streams.append(_stream(make, stamps, order, topic, msgtype))
     return topics, heapq.merge(*streams, key=lambda m: (m[0], m[1]))
 
 
-def _stream(make: Callable[[int, int], dict[str, Any]], idx: np.ndarray, stamps: np.ndarray,
-            order: int, topic: str, msgtype: str) -> Iterator[Message]:
-    for i in idx:
-        stamp = int(stamps[i])
-        yield stamp + RECORD_DELAY_NS, order, topic, msgtype, make(int(i), stamp)
+def _stream(make: Callable[[int, int], dict[str, Any]], stamps: np.ndarray, order: int,
+            topic: str, msgtype: str) -> Iterator[Message]:
+    for i, stamp in enumerate(stamps.tolist()):
+        yield stamp + RECORD_DELAY_NS, order, topic, msgtype, make(i, stamp)
 
 
 def instantiate(store: Any, typename: str, values: dict[str, Any]) -> Any:
