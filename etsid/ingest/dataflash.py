@@ -31,8 +31,11 @@ messages and a warning with the number of skipped bytes.
 from __future__ import annotations
 
 import contextlib
-import io
+import os
 import re
+import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -64,16 +67,38 @@ def _dtype(fmt: object) -> np.dtype:
     return np.dtype(fields)
 
 
+@contextlib.contextmanager
+def _captured_output() -> Iterator[list[str]]:
+    """Capture what DFReader prints, from Python and from its C indexer (fds 1 and 2)."""
+    text: list[str] = []
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 1)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield text
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            tmp.seek(0)
+            text.append(tmp.read().decode(errors="replace"))
+
+
 def _open(path: Path) -> tuple[object, str]:
     from pymavlink import DFReader
 
-    noise = io.StringIO()
     try:
-        with contextlib.redirect_stdout(noise), contextlib.redirect_stderr(noise):
+        with _captured_output() as noise:
             reader = DFReader.DFReader_binary(str(path), zero_time_base=False)
     except Exception as err:  # DFReader raises bare Exceptions on broken files
         raise IngestError(f"{path}: not a readable DataFlash log ({err})") from err
-    return reader, noise.getvalue()
+    return reader, "".join(noise)
 
 
 class _Decoded:
@@ -274,6 +299,6 @@ def _damage(raw: RawLog, reader: object, data: np.ndarray, noise: str) -> None:
         raw.warnings.append(f"{raw.path.name}: file is truncated or has trailing garbage: "
                             f"skipped the last {tail} bytes")
     skipped = sum(int(n) for n in re.findall(r"Skipped (\d+) bad bytes", noise))
-    bad = len(re.findall(r"bad header", noise))
+    bad = len(re.findall(r"bad header|unknown msg type", noise))
     if skipped or bad:
         raw.dropped.append(Issue("bytes that are no valid DataFlash message", skipped + bad, ""))

@@ -35,10 +35,11 @@ import contextlib
 import io
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from etsid.errors import IngestError
-from etsid.ingest.base import Channel, RawLog, ReadOptions, Signal
+from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.frames import quat_to_euler
 from etsid.ingest.mavlink_signals import stick
 from etsid.progress import progress
@@ -174,6 +175,34 @@ def _start_time(topics: dict[str, _Topic]) -> float | None:
     return None
 
 
+@numba.njit(cache=True)
+def _walk_messages(buf: np.ndarray) -> tuple[int, int]:  # pragma: no cover - compiled
+    """Hop over ULog message headers (uint16 size, uint8 type); (messages, end offset)."""
+    pos = 16
+    count = 0
+    n = buf.size
+    while pos + 3 <= n:
+        size = np.int64(buf[pos]) | (np.int64(buf[pos + 1]) << 8)
+        if pos + 3 + size > n:
+            break
+        pos += 3 + size
+        count += 1
+    return count, pos
+
+
+def truncated_bytes(path: Path) -> int:
+    """Bytes at the end of a ULog file that do not complete a message."""
+    size = path.stat().st_size
+    if size <= 16:
+        return 0
+    buf = np.memmap(path, dtype=np.uint8, mode="r")
+    try:
+        _, end = _walk_messages(buf)
+    finally:
+        del buf
+    return int(size - end) if size > end else 0
+
+
 def _parse(path: Path, names: list[str]) -> object:
     from pyulog import ULog
 
@@ -223,6 +252,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                     float(t[-1]) if t.size else None,
                                     columns.get(d.name, []) if d.multi_id == 0 else [], note))
     raw.extra["topics_parsed"] = len(TOPICS) + len(extra_topics)
+    cut = truncated_bytes(path)
+    if cut:
+        raw.dropped.append(Issue("bytes of a truncated last message", cut, ""))
+        raw.warnings.append(f"{path.name}: file is truncated: skipped the last {cut} bytes "
+                            "(an incomplete message)")
     if getattr(ulog, "file_corruption", False):
         raw.warnings.append(f"{path.name}: file is corrupt or truncated; pyulog kept the "
                             "readable messages (the skipped byte count is not known)")
