@@ -36,7 +36,8 @@ IP_MAX_RULES = 2
 IP_MIN_SUPPORT = 3
 IP_PRUNE_AFTER = 4
 IP_ADAPTIVE = 5
-N_IP = 6
+IP_COVERAGE = 6  # eTS+: also grow wherever no rule covers the sample
+N_IP = 7
 # float parameters ``fp``
 FP_OMEGA = 0
 FP_FORGET = 1
@@ -52,6 +53,9 @@ EVENT_KINDS = ("birth", "replace", "removal")
 HIST_COLUMNS = ("n_rules", "potential", "focal_max", "focal_min")
 #: exTS Gaussian exp(-d^2 / (2 sigma^2)) equals exp(-4 d^2 / r^2) when r = sqrt(8) sigma
 SQRT8 = np.sqrt(8.0)
+#: relative margin for potential comparisons: equal potentials (e.g. the two samples at
+#: k = 2) must compare equal whatever the rounding
+TIE = 1e-10
 #: adaptive radii never shrink below this fraction of the initial radius
 RADIUS_FLOOR = 0.01
 
@@ -135,8 +139,8 @@ def potential(z, mean, m2, s, k) -> float:
 
 
 @njit(cache=True)
-def _congruence(C, T, tmp) -> None:
-    """C <- T^T C T in place (then symmetrised)."""
+def _congruence(C, T, tmp, symmetrise) -> None:
+    """C <- T^T C T in place (symmetrised if ``symmetrise``, i.e. for a diagonal block)."""
     n1 = T.shape[0]
     for p in range(n1):
         for q in range(n1):
@@ -150,6 +154,8 @@ def _congruence(C, T, tmp) -> None:
             for r in range(n1):
                 acc += T[r, p] * tmp[r, q]
             C[p, q] = acc
+    if not symmetrise:
+        return
     for p in range(n1):
         for q in range(p + 1, n1):
             v = 0.5 * (C[p, q] + C[q, p])
@@ -166,7 +172,7 @@ def reparametrise(lo_old, hi_old, lo, s, n_rules, Pi, Cl, Cg, is_global) -> None
     Pi' = T^T Pi and C' = T^T C T give identical predictions and identical future RLS
     steps. A dimension whose old range was zero only ever saw x~ = 0, so s_old := s_new.
     """
-    n = lo.shape[0]
+    n = lo_old.shape[0]
     n1 = n + 1
     T = np.zeros((n1, n1))
     tmp = np.empty((n1, n1))
@@ -192,7 +198,7 @@ def reparametrise(lo_old, hi_old, lo, s, n_rules, Pi, Cl, Cg, is_global) -> None
                 for p in range(n1):
                     for q in range(n1):
                         blk[p, q] = Cg[bi * n1 + p, bj * n1 + q]
-                _congruence(blk, T, tmp)
+                _congruence(blk, T, tmp, False)
                 for p in range(n1):
                     for q in range(n1):
                         Cg[bi * n1 + p, bj * n1 + q] = blk[p, q]
@@ -205,7 +211,7 @@ def reparametrise(lo_old, hi_old, lo, s, n_rules, Pi, Cl, Cg, is_global) -> None
                 Cg[q, p] = v
     else:
         for i in range(n_rules):
-            _congruence(Cl[i], T, tmp)
+            _congruence(Cl[i], T, tmp, True)
 
 
 @njit(cache=True)

@@ -74,6 +74,9 @@ class ETS:
         eTS+: steps a rule lives before utility and support are checked (samples).
     adaptive_spread : bool
         exTS (Angelov & Zhou 2006): adapt per-rule, per-input radii to the local scatter.
+    coverage : bool
+        eTS+ only (an etsid extension, see docs/ets.md): also add a rule for any sample that
+        no rule covers (within r/2 of a focal point in every input), whatever its potential.
     x_range, y_range : array-like of shape (n, 2) / (m, 2), optional
         Fixed [low, high] normalisation ranges in original units. When omitted the range is
         the running min/max of the data (focal points are kept in original units, so they
@@ -114,6 +117,7 @@ class ETS:
         min_support: int = 3,
         prune_after: int = 50,
         adaptive_spread: bool = False,
+        coverage: bool = False,
         x_range: Any = None,
         y_range: Any = None,
         history_every: int = 1000,
@@ -130,6 +134,7 @@ class ETS:
         self.min_support = min_support
         self.prune_after = prune_after
         self.adaptive_spread = adaptive_spread
+        self.coverage = coverage
         self.x_range = x_range
         self.y_range = y_range
         self.history_every = history_every
@@ -219,6 +224,7 @@ class ETS:
         ip[K.IP_MIN_SUPPORT] = int(self.min_support)
         ip[K.IP_PRUNE_AFTER] = int(self.prune_after)
         ip[K.IP_ADAPTIVE] = int(bool(self.adaptive_spread))
+        ip[K.IP_COVERAGE] = int(bool(self.coverage))
         fp = np.zeros(K.N_FP)
         fp[K.FP_OMEGA] = float(self.omega)
         fp[K.FP_FORGET] = float(self.forgetting)

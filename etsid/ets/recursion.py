@@ -17,6 +17,7 @@ from etsid.ets.kernels import (
     FP_SPREAD_RHO,
     FP_UTILITY,
     IP_ADAPTIVE,
+    IP_COVERAGE,
     IP_GLOBAL,
     IP_MAX_RULES,
     IP_MIN_SUPPORT,
@@ -24,6 +25,7 @@ from etsid.ets.kernels import (
     IP_VARIANT,
     RADIUS_FLOOR,
     SQRT8,
+    TIE,
     firing,
     output,
     potential,
@@ -128,6 +130,7 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
     forget = fp[FP_FORGET]
     umin = fp[FP_UTILITY]
     rho_s = fp[FP_SPREAD_RHO]
+    coverage = ip[IP_COVERAGE] == 1
 
     s = np.empty(d)
     lo_old = np.empty(n)
@@ -179,7 +182,7 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                 changed_x = changed_x or j < n
         scales(lo, hi, s)
         if changed_x and R > 0:
-            reparametrise(lo_old, hi_old, lo, s[:n], R, Pi, Cl, Cg, is_global)
+            reparametrise(lo_old, hi_old, lo, s, R, Pi, Cl, Cg, is_global)
         # 3. running mean / variance of z (Welford)
         k += 1
         si[0] = k
@@ -212,8 +215,8 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
             changed = True
             born = True
         else:
-            high = P > pmax
-            low = variant == 1 and P < pmin
+            high = P > pmax * (1.0 + TIE)
+            low = variant == 1 and (P < pmin * (1.0 - TIE) or coverage)
             if high or low:
                 dmin = np.inf
                 inear = 0
