@@ -23,8 +23,25 @@ from numba import njit
 
 from etsid.sim.body import wrap_pi
 from etsid.sim.params import (
-    ALT_HOLD, ALT_KP, ANGLE_KP, DCUT, DT, MAX_CLIMB, MAX_RATE, MAX_TILT, MAX_YAW_RATE,
-    PILOT_KI, PILOT_KPSI, PILOT_KV, PILOT_TAU, RATE_KD, RATE_KI, RATE_KP, THR_HOVER, VZ_KI, VZ_KP,
+    ALT_HOLD,
+    ALT_KP,
+    ANGLE_KP,
+    DCUT,
+    DT,
+    MAX_CLIMB,
+    MAX_RATE,
+    MAX_TILT,
+    MAX_YAW_RATE,
+    PILOT_KI,
+    PILOT_KPSI,
+    PILOT_KV,
+    PILOT_TAU,
+    RATE_KD,
+    RATE_KI,
+    RATE_KP,
+    THR_HOVER,
+    VZ_KI,
+    VZ_KP,
     YAW_MIX,
 )
 

@@ -16,10 +16,22 @@ import numpy as np
 from numba import njit
 
 from etsid.sim.body import quat_to_euler, wrap_pi
-from etsid.sim.controller import MS_ALT, MS_ATT, MS_GYRO, MS_VEL, N_CS, N_MS, control_step
+from etsid.sim.controller import MS_ALT, MS_ATT, MS_GYRO, MS_VEL, N_MS, control_step
 from etsid.sim.dynamics import AUX_F, AUX_VBAT, N_AUX, derivative
 from etsid.sim.params import (
-    DT, NZ_ACC, NZ_ALT, NZ_ATT, NZ_GYRO, NZ_VBAT, NZ_VEL, RADIUS, X_OM, X_POS, X_Q, X_SOC, X_VEL,
+    DT,
+    NZ_ACC,
+    NZ_ALT,
+    NZ_ATT,
+    NZ_GYRO,
+    NZ_VBAT,
+    NZ_VEL,
+    RADIUS,
+    X_OM,
+    X_POS,
+    X_Q,
+    X_SOC,
+    X_VEL,
     X_W,
 )
 

@@ -14,7 +14,18 @@ from etsid.errors import SimError
 from etsid.sim.controller import CS_IVZ, INT_LIMIT, N_CS
 from etsid.sim.engine import MEAS_COLUMNS, ROTOR_BLOCKS, TRUTH_COLUMNS, run_flight
 from etsid.sim.params import (
-    N_NOISE, NZ_ACC, NZ_ALT, NZ_ATT, NZ_GYRO, NZ_VBAT, NZ_VEL, X_OM, X_POS, X_Q, X_SOC, geometry,
+    N_NOISE,
+    NZ_ACC,
+    NZ_ALT,
+    NZ_ATT,
+    NZ_GYRO,
+    NZ_VBAT,
+    NZ_VEL,
+    X_OM,
+    X_POS,
+    X_Q,
+    X_SOC,
+    geometry,
     pack,
 )
 from etsid.sim.scenarios import build_references, resolve_params
@@ -102,7 +113,7 @@ def simulate(
         raise SimError(f"seed must be a non-negative integer, got {seed!r}")
     k_out = max(1, math.ceil(MIN_PHYSICS_HZ / rate_hz))
     dt = 1.0 / (rate_hz * k_out)
-    n_out = int(round(params["duration"] * rate_hz))
+    n_out = round(params["duration"] * rate_hz)
     if n_out < 2:
         raise SimError(f"duration {params['duration']!r} s is too short for rate {rate_hz} Hz")
     n_steps = n_out * k_out
@@ -139,7 +150,7 @@ def simulate(
     std[NZ_VBAT] = lv["vbat_std"]
     noise = rng.standard_normal((n_steps, N_NOISE)) * std
     bias = rng.normal(0.0, lv["gyro_bias_std"], 3)
-    rf_every = max(1, int(round(1.0 / (lv["rangefinder_hz"] * dt))))
+    rf_every = max(1, round(1.0 / (lv["rangefinder_hz"] * dt)))
 
     meas, truth = run_flight(x0, P, veh.inertia, pos, spin, dists, mix, lam0, cs0, refs.exc,
                              refs.alt_sp, refs.alt_rate, refs.vel_sp, refs.thr_manual, noise,
