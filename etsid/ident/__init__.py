@@ -7,11 +7,23 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from etsid.ident.defaults import default_model
 from etsid.ident.metrics import fit_percent, ndei, rmse, scores, vaf
 from etsid.ident.regressors import Regression, RegressorSpec, Term, build
-from etsid.ident.run import IdentConfig, identify, load_rules, predict
 from etsid.ident.rundir import Run, read_run, write_run
+
+_LAZY = ("IdentConfig", "identify", "load_rules", "predict")
+
+
+def __getattr__(name: str) -> Any:
+    # the run layer imports the eTS core (numba); load it only when it is used
+    if name in _LAZY:
+        from etsid.ident import run
+
+        return getattr(run, name)
+    raise AttributeError(f"module 'etsid.ident' has no attribute {name!r}")
 
 __all__ = [
     "IdentConfig",

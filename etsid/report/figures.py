@@ -216,8 +216,7 @@ def fig_consequents(run: Run, n_rules: int = 3) -> Figure:
                             color=cmap(j % 20), label=label, marker=".", ms=2)
                 ax.set_title(f"rule {rid}, output {y}", loc="left")
                 if col == 0:
-                    ax.set_ylabel(f"θ for {y} (units of {y} per regressor unit)",
-                                  fontsize=7)
+                    ax.set_ylabel(f"θ of {y} (original units)")
         for ax in axes[-1]:
             ax.set_xlabel("time t (s)")
         if rules:

@@ -79,7 +79,7 @@ def rules_text(run: Run | dict[str, Any]) -> str:
     try:
         model = ETS.from_dict(data)
         text = model.rules()
-    except (EtsidError, ValueError, KeyError, TypeError) as err:
+    except (EtsidError, ValueError, KeyError, TypeError, ImportError) as err:
         return f"(rule base not readable: {err})"
     spec = data.get("regressors") or {}
     head = (f"# outputs: {', '.join(spec.get('outputs', []))}; regressors: "

@@ -1,0 +1,181 @@
+"""Report figures (matplotlib objects, not pixels), index.html and report.md.
+
+The runs here are built by hand so the report is tested without the eTS core.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from etsid.errors import IdentError
+from etsid.ident.metrics import scores
+from etsid.ident.rundir import Run, read_run, write_run
+from etsid.report import make_report
+from etsid.report.figures import (
+    autocorrelation,
+    fig_consequents,
+    fig_rates,
+    fig_residuals,
+    fig_structure,
+    fig_validation,
+    with_gaps,
+    zoom_window,
+)
+from etsid.report.tables import metrics_rows, summary_table
+
+OUTS = ("p", "q", "r")
+
+
+def fake_run(n: int = 600, seed: int = 0) -> Run:
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.004
+    t[n // 2:] += 1.0  # a gap
+    split = int(0.7 * n)
+    pred: dict[str, object] = {"t": t, "part": np.where(np.arange(n) < split, "learn",
+                                                       "validation")}
+    outputs = {}
+    for o, y in enumerate(OUTS):
+        truth = np.sin(2 * np.pi * (o + 1) * t)
+        meas = truth + rng.normal(scale=0.02, size=n)
+        pred[y] = meas
+        pred[f"{y}_hat"] = truth + rng.normal(scale=0.01, size=n)
+        val = np.full(n, np.nan)
+        val[split:] = truth[split:]
+        pred[f"{y}_val"] = val
+        pred[f"{y}_sim"] = val * 1.05
+        pred[f"{y}_arx"] = truth
+        pred[f"{y}_arx_val"] = val
+        pred[f"{y}_arx_sim"] = val * 0.9
+        one = scores(meas[split:], val[split:])
+        outputs[y] = {"unit": "rad/s", "noise_std": 0.02,
+                      "online": {**scores(meas, pred[f"{y}_hat"]), "rmse_over_noise": 1.1},
+                      "validation": {"one_step": one, "free_run": one},
+                      "arx": {"online": one, "validation": {"one_step": one, "free_run": one}}}
+    steps = np.arange(1, n + 1)
+    rules = np.minimum(1 + steps // 150, 4)
+    births = np.r_[1, np.diff(rules)]
+    history = pd.DataFrame({"step": steps, "t": t, "n_rules": rules,
+                            "potential": rng.uniform(0.2, 1, n),
+                            "focal_max": np.full(n, 0.9), "focal_min": np.full(n, 0.4),
+                            "births": births, "replacements": np.zeros(n, int),
+                            "removals": np.zeros(n, int), "events": [""] * n})
+    history.loc[400, "removals"] = 1
+    rows = []
+    for step in range(100, n + 1, 100):
+        for rid in range(rules[step - 1]):
+            for term in ("1", "p[k-1]", "u_roll[k-1]"):
+                for y in OUTS:
+                    rows.append((step, t[step - 1], rid, y, term, 0.1 * rid + step / n))
+    cons = pd.DataFrame(rows, columns=["step", "t", "rule_id", "output", "term", "value"])
+    metrics = {"n_samples": n, "rules": {"final": 4, "peak": 4, "frozen": 4},
+               "skipped": {"history": 4, "missing": 0},
+               "validation": {"fraction": 0.3, "n_learn": split, "n_validation": n - split,
+                              "t_start": float(t[split])},
+               "outputs": outputs}
+    config = {"command": "identify", "input": {"path": "/logs/flight.ulg"},
+              "model": {"outputs": list(OUTS), "regressors": "p[k-1],u_roll[k-1]",
+                        "notes": ["inputs: loop commands (u_roll)"]}}
+    return Run(pd.DataFrame(pred), metrics, config, history, cons, {"schema": "x"})
+
+
+def _labels(fig: object) -> list[tuple[str, str]]:
+    return [(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes]  # type: ignore[attr-defined]
+
+
+def test_rates_figure_has_full_and_zoom_panels_per_output() -> None:
+    fig = fig_rates(fake_run())
+    assert len(fig.axes) == 6
+    assert fig.axes[0].get_ylabel() == "roll rate p (rad/s)"
+    assert fig.axes[5].get_xlabel() == "time t (s)"
+    assert all(len(ax.get_lines()) == 2 for ax in fig.axes)
+    zoom = fig.axes[1].get_xlim()
+    assert zoom[1] - zoom[0] < 0.2 * (fig.axes[0].get_xlim()[1] - fig.axes[0].get_xlim()[0])
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == [
+        "measured", "eTS one-step"]
+
+
+def test_structure_figure_marks_events() -> None:
+    fig = fig_structure(fake_run())
+    ax_p, ax_r = fig.axes
+    assert ax_p.get_ylabel() == "potential (–)" and ax_r.get_ylabel() == "number of rules"
+    assert len(ax_p.get_lines()) == 3
+    labels = [t.get_text() for t in ax_r.get_legend().get_texts()]
+    assert labels == ["rules", "birth (4)", "removal (1)"]
+
+
+def test_consequent_figure_one_line_per_term() -> None:
+    fig = fig_consequents(fake_run())
+    assert len(fig.axes) == 9  # 3 outputs x 3 longest-lived rules
+    assert all(len(ax.get_lines()) == 3 for ax in fig.axes)
+    assert fig.axes[0].get_title("left") == "rule 0, output p"
+
+
+def test_residual_figure_band_and_histogram() -> None:
+    fig = fig_residuals(fake_run(), max_lag=20)
+    assert len(fig.axes) == 6
+    ax_h, ax_a = fig.axes[:2]
+    assert ax_h.get_xlabel() == "residual p − ŷ (rad/s)"
+    assert ax_a.get_xlabel() == "lag (samples)"
+    assert len(ax_a.get_lines()) == 1 and len(ax_a.patches) == 1  # points + 95 % band
+    assert "95 % band" in ax_a.get_legend().get_texts()[1].get_text()
+
+
+def test_validation_figure_four_series() -> None:
+    fig = fig_validation(fake_run())
+    assert len(fig.axes) == 3
+    assert all(len(ax.get_lines()) == 4 for ax in fig.axes)
+
+
+def test_helpers() -> None:
+    t, y = with_gaps(np.array([0.0, 1, 2, 10, 11]), np.arange(5.0))
+    assert np.isnan(t[3]) and np.isnan(y[3]) and t.size == 6
+    ac = autocorrelation(np.random.default_rng(1).normal(size=4000), 5)
+    assert ac[0] == 1.0 and np.abs(ac[1:]).max() < 0.05
+    ac = autocorrelation(np.sin(np.arange(400) * 0.1), 3)
+    assert ac[1] > 0.9
+    x = np.zeros(1000)
+    x[500:540] = 1.0
+    a, b = zoom_window(np.arange(1000.0), x, fraction=0.06)
+    assert a <= 500 and b >= 539
+
+
+def test_tables() -> None:
+    head, rows = metrics_rows(fake_run())
+    assert head[0] == "output" and len(rows) == 3 and rows[0][2] == "0.02"
+    assert "rules: final 4, peak 4" in summary_table(fake_run())
+
+
+def test_make_report_writes_self_contained_html(tmp_path: Path) -> None:
+    run_dir = write_run(fake_run(), tmp_path / "run")
+    assert read_run(run_dir).metrics["n_samples"] == 600
+    report = make_report(run_dir)
+    for name in ("rates", "structure", "consequents", "residuals", "validation"):
+        assert (run_dir / "report" / f"{name}.png").stat().st_size > 10_000
+    html = report.html.read_text()
+    assert html.count("data:image/png;base64,") == 5
+    assert not re.search(r'src="(?!data:)', html)
+    assert "<table>" in html and "rule base not readable" in html
+    md = report.markdown.read_text()
+    assert "![" in md and "| p | rad/s | 0.02 |" in md
+
+
+def test_svg_report_and_bad_inputs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import etsid.report.build as build
+
+    monkeypatch.setattr(build, "FIGURES", {"rates": build.FIGURES["rates"]})
+    run_dir = write_run(fake_run(200), tmp_path / "run")
+    report = make_report(run_dir, "svg")
+    assert report.figures["rates"].suffix == ".svg"
+    assert "data:image/svg+xml;base64," in report.html.read_text()
+    with pytest.raises(IdentError, match="unknown figure format"):
+        make_report(run_dir, "gif")
+    with pytest.raises(IdentError, match="not a run directory"):
+        make_report(tmp_path / "nope")
+    (run_dir / "metrics.json").unlink()
+    with pytest.raises(IdentError, match="missing metrics.json"):
+        make_report(run_dir)
