@@ -1,0 +1,149 @@
+"""ArduPilot DataFlash logs: real truncated log, hand-built logs, bad input."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from pymavlink import DFReader
+
+from etsid.cli import cli
+from etsid.errors import IngestError
+from etsid.ingest import read_log, read_raw
+from etsid.ingest.base import Override, ReadOptions
+
+DATA = Path(__file__).parent / "data"
+BIN = DATA / "arduplane_truncated.BIN"
+HEAD = b"\xa3\x95"
+_STRUCT = {"Q": "Q", "f": "f", "H": "H", "B": "B", "h": "h", "C": "H"}
+
+
+def _fmt_msg(mtype: int, name: str, fmt: str, columns: str) -> bytes:
+    length = 3 + struct.calcsize("<" + "".join(_STRUCT[c] for c in fmt))
+    body = struct.pack("<BB4s16s64s", mtype, length, name.encode(), fmt.encode(),
+                       columns.encode())
+    return HEAD + bytes([0x80]) + body
+
+
+def _msg(mtype: int, fmt: str, *values: float) -> bytes:
+    return HEAD + bytes([mtype]) + struct.pack("<" + "".join(_STRUCT[c] for c in fmt), *values)
+
+
+def write_small_bin(path: Path, rfnd_fmt: str = "QH") -> Path:
+    """A DataFlash log with RATE (400 Hz), RCIN, RFND and BAT, made byte by byte."""
+    out = bytearray()
+    out += _fmt_msg(130, "RATE", "Qffffffffffff",
+                    "TimeUS,RDes,R,ROut,PDes,P,POut,YDes,Y,YOut,ADes,A,AOut")
+    out += _fmt_msg(131, "RCIN", "QHHHH", "TimeUS,C1,C2,C3,C4")
+    out += _fmt_msg(132, "RFND", rfnd_fmt, "TimeUS,Dist1")
+    out += _fmt_msg(133, "BAT", "Qf", "TimeUS,Volt")
+    for k in range(800):
+        t = k / 400.0
+        us = int(1e6 * (10.0 + t))
+        deg = 30.0 * np.sin(2 * np.pi * t)
+        out += _msg(130, "Qffffffffffff", us, deg + 1, deg, 0.1, 0, 0, 0.2, 0, 0, 0.3, 0, 0, 0.5)
+        if k % 16 == 0:
+            out += _msg(131, "QHHHH", us, 1500 + k // 2, 1500, 1000 + k, 1500)
+        if k % 20 == 0:
+            dist = 150.0 + k / 10  # cm for 'QH', m*100 for 'QC'
+            out += _msg(132, rfnd_fmt, us, int(dist))
+        if k % 40 == 0:
+            out += _msg(133, "Qf", us, 16.0 - t)
+    path.write_bytes(bytes(out))
+    return path
+
+
+def test_real_truncated_log_valid_part_and_warning() -> None:
+    out = read_log(BIN)
+    assert any("truncated" in w and "24 bytes" in w for w in out.attrs["warnings"])
+    assert out.index[-1] == pytest.approx(0.96, abs=0.05)
+    assert {"p", "roll", "u_roll", "m1", "vbat", "ax"} <= set(out.columns)
+    assert out.attrs["mapping"]["p"] == "IMU.GyrX"
+    assert out.attrs["start_time"] == pytest.approx(1509241548, abs=86400)  # 2017-10-29
+
+
+def test_real_log_values_match_dfreader() -> None:
+    raw = read_raw(BIN)
+    sig = {s.source: s for s in raw.signals}
+    df = DFReader.DFReader_binary(str(BIN))
+    att, imu = [], []
+    while (m := df.recv_match(type=["ATT", "IMU"])) is not None:
+        (att if m.get_type() == "ATT" else imu).append(m)
+    np.testing.assert_allclose(sig["ATT.Roll"].values, [np.radians(m.Roll) for m in att],
+                               rtol=1e-6)
+    np.testing.assert_allclose(sig["ATT.Roll"].t, [m.TimeUS * 1e-6 for m in att])
+    np.testing.assert_allclose(sig["IMU.GyrX"].values, [m.GyrX for m in imu], rtol=1e-6)
+    yaw = sig["ATT.Yaw"].values
+    assert np.all(np.abs(yaw) <= np.pi)
+    rates = {c.name: c.rate_hz for c in raw.channels}
+    assert rates["IMU"] == pytest.approx(45, abs=2)
+
+
+def test_hand_built_log_rate_rcin_rfnd_bat(tmp_path: Path) -> None:
+    raw = read_raw(write_small_bin(tmp_path / "small.bin"))
+    sig = {s.source: s for s in raw.signals}
+    p = sig["RATE.R"]
+    assert p.column == "p" and p.priority == 0
+    t = np.arange(800) / 400.0
+    np.testing.assert_allclose(p.values, np.radians(30 * np.sin(2 * np.pi * t)), atol=1e-6)
+    np.testing.assert_allclose(sig["RATE.RDes"].values - p.values, np.radians(1.0), atol=1e-6)
+    assert sig["RATE.ROut"].column == "u_roll" and sig["RATE.ROut"].priority == 5
+    assert sig["RATE.AOut"].column == "u_thrust"
+    np.testing.assert_allclose(sig["RFND.Dist1"].values[:3], [1.5, 1.52, 1.54])  # cm -> m
+    np.testing.assert_allclose(sig["BAT.Volt"].values[:2], [16.0, 15.9], rtol=1e-6)
+    assert sig["RCIN.C3"].column == "u_thrust"
+    np.testing.assert_allclose(sig["RCIN.C3"].values[:2], [0.0, 0.016])
+    out = read_log(tmp_path / "small.bin")
+    assert out.attrs["rate_hz"] == pytest.approx(400.0)
+    assert out.attrs["mapping"]["u_roll"] == "RCIN.C1"
+
+
+def test_rfnd_scaled_format_is_metres(tmp_path: Path) -> None:
+    raw = read_raw(write_small_bin(tmp_path / "c.bin", rfnd_fmt="QC"))
+    alt = next(s for s in raw.signals if s.column == "alt")
+    np.testing.assert_allclose(alt.values[:2], [1.5, 1.52])  # 'C' = uint16 * 0.01
+
+
+def test_override_field(tmp_path: Path) -> None:
+    path = write_small_bin(tmp_path / "o.bin")
+    out = read_log(path, ReadOptions(overrides=[Override("p", "RATE", "RDes")]))
+    assert out.attrs["mapping"]["p"] == "RATE.RDes"
+    with pytest.raises(IngestError, match="no such field"):
+        read_log(path, ReadOptions(overrides=[Override("p", "RATE", "Nope")]))
+
+
+def test_truncated_mid_message(tmp_path: Path) -> None:
+    path = write_small_bin(tmp_path / "cut.bin")
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) - 30])
+    out = read_log(path)
+    assert any("truncated" in w for w in out.attrs["warnings"])
+    assert out.index[-1] == pytest.approx(1.9975, abs=0.01)
+
+
+def test_no_usable_messages(tmp_path: Path) -> None:
+    path = tmp_path / "fmt_only.bin"
+    path.write_bytes(_fmt_msg(140, "XYZ", "QH", "TimeUS,V") + _msg(140, "QH", 1, 2)
+                     + _msg(140, "QH", 2, 3))
+    with pytest.raises(IngestError, match="no usable flight data; found .*XYZ"):
+        read_log(path)
+
+
+@pytest.mark.parametrize(("content", "match"), [
+    (b"", "empty file"),
+    (HEAD + bytes(range(7, 250)) * 8, "no DataFlash messages found"),
+    (b"definitely not dataflash", "not a bin file"),
+])
+def test_bad_files(tmp_path: Path, content: bytes, match: str) -> None:
+    path = tmp_path / "bad.bin"
+    path.write_bytes(content)
+    with pytest.raises(IngestError, match=match):
+        read_log(path)
+    result = CliRunner().invoke(cli, ["ingest", str(path), "-o", str(tmp_path / "o.parquet")])
+    assert result.exit_code == 1
+    assert "Traceback" not in result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and match in lines[0] and str(path) in lines[0]
