@@ -47,7 +47,7 @@ def test_mavros_files_agree_exactly(sitl_tables: dict[str, pd.DataFrame]) -> Non
     ref = sitl_tables["ros1"]
     assert ref.shape == (837, 20)
     for name in ROS_FILES:
-        pd.testing.assert_frame_equal(sitl_tables[name].drop(columns=[]), ref,
+        pd.testing.assert_frame_equal(sitl_tables[name], ref,
                                       check_exact=False, atol=1e-9, obj=name)
 
 
@@ -69,7 +69,7 @@ def test_frd_ned_values_match_the_tlog(sitl_tables: dict[str, pd.DataFrame]) -> 
     tlog = read_log(TLOG)
     bag = sitl_tables["ros1"]
     t_abs = bag.index.to_numpy() + bag.attrs["start_time"]
-    for column in FLIGHT + ["alt"]:
+    for column in [*FLIGHT, "alt"]:
         diff = bag[column].to_numpy() - _at(tlog, column, t_abs)
         if column == "yaw":
             diff = np.angle(np.exp(1j * diff))
