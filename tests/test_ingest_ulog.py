@@ -124,7 +124,7 @@ def test_bad_files(tmp_path: Path, content: bytes, match: str) -> None:
     path.write_bytes(content)
     with pytest.raises(IngestError, match=match):
         read_log(path)
-    result = CliRunner().invoke(cli, ["inspect", str(path)])
+    result = CliRunner().invoke(cli, ["ingest", str(path), "-o", str(tmp_path / "o.csv")])
     assert result.exit_code == 1
     assert "Traceback" not in result.output
     lines = result.output.strip().splitlines()
