@@ -68,8 +68,15 @@ def test_version_and_help() -> None:
     assert code == 0 and __version__ in output
     code, output = run("--help")
     assert code == 0
-    for name, command in cli.commands.items():
-        assert command.help, f"command {name} has no help text"
+    import click
+
+    ctx = click.Context(cli)
+    names = cli.list_commands(ctx)
+    assert {"inspect", "ingest", "simulate", "identify", "report"} <= set(names)
+    for name in names:
+        command = cli.get_command(ctx, name)
+        assert command is not None and command.help, f"command {name} has no help text"
+        assert name in output
 
 
 def test_bad_option_is_usage_error(tmp_path: Path) -> None:

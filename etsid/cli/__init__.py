@@ -6,6 +6,7 @@ exit code 1; click's usage errors exit 2. Set ``ETSID_DEBUG=1`` to see traceback
 
 from __future__ import annotations
 
+import importlib
 import os
 import sys
 from typing import Any
@@ -15,9 +16,35 @@ import click
 from etsid import __version__
 from etsid.errors import EtsidError
 
+COMMAND_MODULES: dict[str, str] = {
+    "inspect": "etsid.cli.ingest_cmds",
+    "ingest": "etsid.cli.ingest_cmds",
+    "simulate": "etsid.cli.sim_cmds",
+    "identify": "etsid.cli.ident_cmds",
+    "predict": "etsid.cli.ident_cmds",
+    "rules": "etsid.cli.ident_cmds",
+    "report": "etsid.cli.report_cmds",
+}
+"""Command name → module holding it (in its ``COMMANDS`` list); imported on first use so
+that ``etsid inspect`` does not pay for matplotlib, scipy or numba."""
+
 
 class EtsidGroup(click.Group):
-    """Click group that turns etsid errors into one-line messages."""
+    """Click group that loads commands lazily and turns etsid errors into one-line messages."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(COMMAND_MODULES) | set(self.commands))
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name in self.commands:
+            return self.commands[cmd_name]
+        module_name = COMMAND_MODULES.get(cmd_name)
+        if module_name is None:
+            return None
+        module = importlib.import_module(module_name)
+        for command in module.COMMANDS:
+            self.add_command(command)
+        return self.commands.get(cmd_name)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -50,23 +77,6 @@ def one_line(err: BaseException) -> str:
 @click.version_option(__version__, prog_name="etsid")
 def cli() -> None:
     """Learn a drone's rate dynamics from its flight logs with evolving fuzzy models (eTS)."""
-
-
-def _register() -> None:
-    import importlib
-
-    for name in ("ingest_cmds", "sim_cmds", "ident_cmds", "report_cmds"):
-        try:
-            module = importlib.import_module(f"etsid.cli.{name}")
-        except ModuleNotFoundError as err:
-            if err.name != f"etsid.cli.{name}":
-                raise
-            continue
-        for command in module.COMMANDS:
-            cli.add_command(command)
-
-
-_register()
 
 
 def main() -> None:
