@@ -22,8 +22,8 @@ def test_sticks_first_with_thrust_and_sources() -> None:
                                  "sp_p", "sp_q", "sp_r"))
     assert model.inputs == ["u_roll", "u_pitch", "u_yaw", "u_thrust"]
     assert model.spec.outputs == ("p", "q", "r")
-    assert model.spec.text.startswith("p[k-1],p[k-2],p[k-3],q[k-1]")
-    assert len(model.spec.terms) == 3 * 3 + 4 * 2
+    assert model.spec.text.startswith("p[k-1],p[k-2],p[k-3],p[k-4],q[k-1]")
+    assert len(model.spec.terms) == 3 * 4 + 4 * 2
     assert "actuator_controls_0.control[0]" in model.note
 
 

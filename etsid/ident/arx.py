@@ -99,9 +99,16 @@ def rls_online(X: np.ndarray, Y: np.ndarray, omega: float = 1e6) -> np.ndarray:
     omega
         Initial covariance ``Ω·I`` (large: the estimate tracks batch least squares on
         the samples seen so far).
+
+    Notes
+    -----
+    The first ``n + 1`` predictions (fewer samples than parameters) are NaN, as the eTS
+    model's first prediction is: the estimate is not determined yet.
     """
     X = np.asarray(X, dtype=float)
     Y = np.asarray(Y, dtype=float).reshape(len(X), -1)
     scale = np.max(np.abs(X), axis=0) if len(X) else np.ones(X.shape[1])
     scale[~(scale > 0)] = 1.0
-    return _rls_kernel(np.ascontiguousarray(X / scale), np.ascontiguousarray(Y), float(omega))
+    out = _rls_kernel(np.ascontiguousarray(X / scale), np.ascontiguousarray(Y), float(omega))
+    out[: X.shape[1] + 1] = np.nan
+    return out

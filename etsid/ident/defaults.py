@@ -32,7 +32,7 @@ from etsid.errors import IdentError
 from etsid.ident.regressors import RegressorSpec
 from etsid.table import RATE_COLUMNS
 
-OUTPUT_LAGS = 3
+OUTPUT_LAGS = 4
 """Autoregressive lags of each rate, samples."""
 
 INPUT_LAGS = 2

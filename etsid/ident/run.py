@@ -61,7 +61,7 @@ class IdentConfig:
     regressors: str | None = None
     output_lags: int = OUTPUT_LAGS
     input_lags: int = INPUT_LAGS
-    radius: float = 0.5
+    radius: float = 1.5
     omega: float = 1000.0
     variant: str = "ets+"
     max_rules: int = 30
@@ -140,10 +140,12 @@ def _learn(model: ETS, reg: Regression, stop_at: int, show: bool,
     return yhat, frozen
 
 
-def _history(model: ETS, reg: Regression, first_step: int) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """history.parquet and consequents.parquet frames for steps after ``first_step``."""
+def _history(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """history.parquet and consequents.parquet frames of the last ``len(reg)`` learned
+    samples (a loaded model continues its step count)."""
     hist = model.history
     frame = hist.to_frame()
+    first_step = int(frame["step"].iloc[-len(reg.t)]) - 1 if len(frame) >= len(reg.t) else 0
     frame = frame[frame["step"] > first_step].reset_index(drop=True)
     pos = frame["step"].to_numpy() - first_step - 1
     frame.insert(1, "t", reg.t[pos])
@@ -290,13 +292,16 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     n = len(reg.X)
     split = _split_index(n, config.validate)
     model = _new_model(config, spec)
-    yhat, frozen_dict = _learn(model, reg, split if split < n else -1, show_progress,
-                               "identify")
+    try:
+        yhat, frozen_dict = _learn(model, reg, split if split < n else -1, show_progress,
+                                   "identify")
+    except ValueError as err:
+        raise IdentError(f"bad eTS parameter: {err}") from err
     if split == n:
         frozen_dict = model.to_dict()
     frozen = ETS.from_dict(frozen_dict) if frozen_dict is not None else None
     cols = _evaluate(reg, spec, split, len(table), yhat, frozen)
-    history, consequents = _history(model, reg, 0)
+    history, consequents = _history(model, reg)
     sigma = noise_std(table, spec.outputs)
     frozen_rules = frozen.n_rules if frozen is not None else 0
     metrics = {
@@ -401,7 +406,6 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     n = len(reg.X)
     split = 0 if sim_from is None else int(np.searchsorted(reg.t, sim_from, side="left"))
     frozen = ETS.from_dict(data)
-    steps_before = len(model.history.step)
     if learn:
         yhat, _ = _learn(model, reg, -1, show_progress, "predict")
     else:
@@ -410,7 +414,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     cols["y_val"][:split] = np.nan
     if not learn:
         cols["y_val"][split:] = yhat[split:]
-    history, consequents = (_history(model, reg, steps_before) if learn else
+    history, consequents = (_history(model, reg) if learn else
                             (pd.DataFrame(columns=["step", "t", "n_rules", "potential",
                                                    "focal_max", "focal_min"]),
                              pd.DataFrame(columns=["step", "t", "rule_id", "output", "term",
