@@ -8,8 +8,8 @@
 
 from __future__ import annotations
 
+from etsid.sim.flight import SimFlight, simulate
 from etsid.sim.scenarios import SCENARIOS
-from etsid.sim.simulate import SimFlight, simulate
 from etsid.sim.trim import HoverTrim, hover_trim
 from etsid.sim.vehicle import Vehicle, list_vehicles, load_vehicle
 

@@ -53,7 +53,8 @@ CS_PIX = 7     # pilot integrators forward/right (2)
 CS_PU = 9      # pilot stick outputs roll, pitch, yaw (3)
 CS_YAW0 = 12   # pilot heading reference, rad
 CS_INIT = 13   # 0 until the first step has run
-N_CS = 14
+CS_TAU = 14    # last torque demands roll, pitch, yaw (3)
+N_CS = 17
 
 # measurement vector layout handed to the controller
 MS_GYRO = 0    # p q r, rad/s
@@ -137,7 +138,7 @@ def control_step(
     sp_out[1] = _clip(dpitch * cr + dyaw * cp * sr, -mr, mr)
     sp_out[2] = _clip(-dpitch * sr + dyaw * cp * cr, -P[MAX_YAW_RATE], P[MAX_YAW_RATE])
     # --- rate loop -------------------------------------------------------------------------
-    tau = np.empty(3)
+    tau = cs[CS_TAU:CS_TAU + 3]
     ad = dt / (1.0 / (2.0 * math.pi * P[DCUT]) + dt)
     for i in range(3):
         g = ms[MS_GYRO + i]

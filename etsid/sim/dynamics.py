@@ -62,6 +62,7 @@ AUX_F = 0     # specific force, body FRD, m/s^2 (3)
 AUX_VBAT = 3  # battery terminal voltage, V
 AUX_CUR = 4   # battery current, A
 N_AUX = 5
+N_WORK = 24
 
 
 @njit(cache=True)
@@ -69,7 +70,7 @@ def derivative(
     x: np.ndarray, mcmd: np.ndarray, P: np.ndarray, inertia: np.ndarray,
     inertia_inv: np.ndarray, rpos: np.ndarray, spin: np.ndarray, dists: np.ndarray,
     lam: np.ndarray, thrust: np.ndarray, torque: np.ndarray, ge: np.ndarray,
-    aux: np.ndarray, dx: np.ndarray,
+    aux: np.ndarray, dx: np.ndarray, work: np.ndarray,
 ) -> None:
     """Evaluate ẋ for state ``x`` and motor commands ``mcmd`` (0..1), in place.
 
@@ -93,29 +94,35 @@ def derivative(
         Out: specific force (body, m/s²), battery voltage (V) and current (A).
     dx : ndarray
         Out: state derivative.
+    work : ndarray
+        Scratch space of ``N_WORK`` floats.
     """
     n = rpos.shape[0]
-    q = x[X_Q:X_Q + 4] / math.sqrt(np.sum(x[X_Q:X_Q + 4] ** 2))
-    R = np.empty((3, 3))
+    # unit quaternion and rotation matrix body -> NED (scratch: no allocation per call)
+    qn = 1.0 / math.sqrt(x[X_Q] ** 2 + x[X_Q + 1] ** 2 + x[X_Q + 2] ** 2 + x[X_Q + 3] ** 2)
+    q = work[0:4]
+    for i in range(4):
+        q[i] = x[X_Q + i] * qn
+    R = work[4:13].reshape((3, 3))
     quat_to_dcm(q, R)
     w = x[X_W:X_W + 3]
     # air-relative velocity in body axes
-    va = np.empty(3)
-    for i in range(3):
-        va[i] = x[X_VEL + i] - P[WIND + i]
-    vb = np.empty(3)
-    for i in range(3):
-        vb[i] = R[0, i] * va[0] + R[1, i] * va[1] + R[2, i] * va[2]
-    fb = np.zeros(3)
-    mom = np.zeros(3)
-    hrot = np.zeros(3)
+    vax = x[X_VEL] - P[WIND]
+    vay = x[X_VEL + 1] - P[WIND + 1]
+    vaz = x[X_VEL + 2] - P[WIND + 2]
+    vb0 = R[0, 0] * vax + R[1, 0] * vay + R[2, 0] * vaz
+    vb1 = R[0, 1] * vax + R[1, 1] * vay + R[2, 1] * vaz
+    vb2 = R[0, 2] * vax + R[1, 2] * vay + R[2, 2] * vaz
+    fb0 = fb1 = fb2 = 0.0
+    m0 = m1 = m2 = 0.0
+    h2 = 0.0
     power = 0.0
     rad = P[RADIUS]
     for k in range(n):
         rx, ry, rz = rpos[k, 0], rpos[k, 1], rpos[k, 2]
-        vhx = vb[0] + w[1] * rz - w[2] * ry
-        vhy = vb[1] + w[2] * rx - w[0] * rz
-        vhz = vb[2] + w[0] * ry - w[1] * rx
+        vhx = vb0 + w[1] * rz - w[2] * ry
+        vhy = vb1 + w[2] * rx - w[0] * rz
+        vhz = vb2 + w[0] * ry - w[1] * rx
         om = x[X_OM + k]
         t, qa, li = rotor_forces(om, -vhz, math.sqrt(vhx * vhx + vhy * vhy), P[RHO], rad,
                                  P[SIGMA], P[LIFT], P[TH0], P[TWIST], P[CD0], P[KAPPA], lam[k])
@@ -133,13 +140,13 @@ def derivative(
         fx = -cd * vhx
         fy = -cd * vhy
         fz = -t
-        fb[0] += fx
-        fb[1] += fy
-        fb[2] += fz
-        mom[0] += ry * fz - rz * fy
-        mom[1] += rz * fx - rx * fz
-        mom[2] += rx * fy - ry * fx
-        hrot[2] -= spin[k] * P[J_ROT] * om
+        fb0 += fx
+        fb1 += fy
+        fb2 += fz
+        m0 += ry * fz - rz * fy
+        m1 += rz * fx - rx * fz
+        m2 += rx * fy - ry * fx
+        h2 -= spin[k] * P[J_ROT] * om
         power += qa * om
     # battery: open-circuit voltage, internal resistance sag
     soc = x[X_SOC] if P[SAG] > 0.5 else P[SOC0]
@@ -156,31 +163,39 @@ def derivative(
         wss = P[W_IDLE] + (wtop - P[W_IDLE]) * m
         omd = (wss - x[X_OM + k]) / P[TAU_M]
         dx[X_OM + k] = omd
-        mom[2] += spin[k] * (torque[k] + P[J_ROT] * omd)
+        m2 += spin[k] * (torque[k] + P[J_ROT] * omd)
     # body drag
-    for i in range(3):
-        fb[i] -= P[DRAG_L + i] * vb[i] + P[DRAG_Q + i] * abs(vb[i]) * vb[i]
-    fw = np.empty(3)
-    for i in range(3):
-        fw[i] = R[i, 0] * fb[0] + R[i, 1] * fb[1] + R[i, 2] * fb[2]
+    fb0 -= P[DRAG_L] * vb0 + P[DRAG_Q] * abs(vb0) * vb0
+    fb1 -= P[DRAG_L + 1] * vb1 + P[DRAG_Q + 1] * abs(vb1) * vb1
+    fb2 -= P[DRAG_L + 2] * vb2 + P[DRAG_Q + 2] * abs(vb2) * vb2
     # ground contact: spring-damper under the CG, viscous friction, rotational damping
-    fc = np.zeros(3)
+    fc0 = fc1 = fc2 = 0.0
     pen = P[GEAR_H] + x[X_POS + 2]
     if pen > 0.0:
         fup = P[K_CONTACT] * pen + P[C_CONTACT] * x[X_VEL + 2]
         if fup > 0.0:
-            fc[2] = -fup
+            fc2 = -fup
         grip = min(pen / 0.01, 1.0)
-        fc[0] = -P[C_CONTACT] * grip * x[X_VEL]
-        fc[1] = -P[C_CONTACT] * grip * x[X_VEL + 1]
-        for i in range(3):
-            mom[i] -= 0.5 * P[C_CONTACT] * P[ARM] * P[ARM] * grip * w[i]
-    mass = P[MASS]
+        fc0 = -P[C_CONTACT] * grip * x[X_VEL]
+        fc1 = -P[C_CONTACT] * grip * x[X_VEL + 1]
+        crot = 0.5 * P[C_CONTACT] * P[ARM] * P[ARM] * grip
+        m0 -= crot * w[0]
+        m1 -= crot * w[1]
+        m2 -= crot * w[2]
+    inv_m = 1.0 / P[MASS]
+    fb = work[13:16]
+    fb[0], fb[1], fb[2] = fb0, fb1, fb2
     for i in range(3):
         dx[X_POS + i] = x[X_VEL + i]
-        dx[X_VEL + i] = (fw[i] + fc[i]) / mass
-        aux[AUX_F + i] = (fb[i] + R[0, i] * fc[0] + R[1, i] * fc[1] + R[2, i] * fc[2]) / mass
-    dx[X_VEL + 2] += P[GRAV]
+        dx[X_VEL + i] = (R[i, 0] * fb0 + R[i, 1] * fb1 + R[i, 2] * fb2) * inv_m
+        aux[AUX_F + i] = (fb[i] + R[0, i] * fc0 + R[1, i] * fc1 + R[2, i] * fc2) * inv_m
+    dx[X_VEL] += fc0 * inv_m
+    dx[X_VEL + 1] += fc1 * inv_m
+    dx[X_VEL + 2] += fc2 * inv_m + P[GRAV]
     quat_rate(q, w, dx[X_Q:X_Q + 4])
+    mom = work[16:19]
+    mom[0], mom[1], mom[2] = m0, m1, m2
+    hrot = work[19:22]
+    hrot[0], hrot[1], hrot[2] = 0.0, 0.0, h2
     angular_accel(w, mom, hrot, inertia, inertia_inv, dx[X_W:X_W + 3])
     dx[X_SOC] = -cur / (3600.0 * P[CAP_AH]) if P[SAG] > 0.5 else 0.0

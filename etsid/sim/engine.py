@@ -17,7 +17,7 @@ from numba import njit
 
 from etsid.sim.body import quat_to_euler, wrap_pi
 from etsid.sim.controller import MS_ALT, MS_ATT, MS_GYRO, MS_VEL, N_MS, control_step
-from etsid.sim.dynamics import AUX_F, AUX_VBAT, N_AUX, derivative
+from etsid.sim.dynamics import AUX_F, AUX_VBAT, N_AUX, N_WORK, derivative
 from etsid.sim.params import (
     DT,
     NZ_ACC,
@@ -126,6 +126,7 @@ def run_flight(
     k3 = np.empty(nx)
     k4 = np.empty(nx)
     xs = np.empty(nx)
+    work = np.zeros(N_WORK)
     alt_held = 0.0
     lam_rec = np.empty(n_rot)
     vel2 = np.empty(2)
@@ -151,7 +152,7 @@ def run_flight(
                      u, sp)
         # --- RK4 ------------------------------------------------------------------------------
         derivative(x, m_cmd, P, inertia, jinv, rpos, spin, dists, lam, thrust, torque, ge, aux,
-                   k1)
+                   k1, work)
         if i % k_out == 0:
             o = i // k_out
             for j in range(n_rot):
@@ -195,18 +196,18 @@ def run_flight(
         for j in range(nx):
             xs[j] = x[j] + 0.5 * dt * k1[j]
         derivative(xs, m_cmd, P, inertia, jinv, rpos, spin, dists, lam, thr_s, tq_s, ge_s,
-                   aux_s, k2)
+                   aux_s, k2, work)
         for j in range(nx):
             xs[j] = x[j] + 0.5 * dt * k2[j]
         derivative(xs, m_cmd, P, inertia, jinv, rpos, spin, dists, lam, thr_s, tq_s, ge_s,
-                   aux_s, k3)
+                   aux_s, k3, work)
         for j in range(nx):
             xs[j] = x[j] + dt * k3[j]
         derivative(xs, m_cmd, P, inertia, jinv, rpos, spin, dists, lam, thr_s, tq_s, ge_s,
-                   aux_s, k4)
+                   aux_s, k4, work)
         for j in range(nx):
             x[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-        qn = math.sqrt(np.sum(x[X_Q:X_Q + 4] ** 2))
+        qn = math.sqrt(x[X_Q] ** 2 + x[X_Q + 1] ** 2 + x[X_Q + 2] ** 2 + x[X_Q + 3] ** 2)
         for j in range(4):
             x[X_Q + j] /= qn
     return meas, truth

@@ -13,6 +13,8 @@ Near the ground both are clipped: z is taken ≥ ``min_height_ratio``·R and the
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -55,8 +57,10 @@ def ground_ratio(
         for j in range(dists.size):
             dj = dists[j]
             if dj > 0.0:
-                d -= 0.5 * r2 * zc / (dj * dj + 4.0 * zc * zc) ** 1.5
-        d -= 2.0 * k_body * r2 * zc / (b * b + 4.0 * zc * zc) ** 1.5
+                s = dj * dj + 4.0 * zc * zc
+                d -= 0.5 * r2 * zc / (s * math.sqrt(s))
+        s = b * b + 4.0 * zc * zc
+        d -= 2.0 * k_body * r2 * zc / (s * math.sqrt(s))
     lim = 1.0 / max_ratio
     if d < lim:
         d = lim

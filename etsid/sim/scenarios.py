@@ -129,7 +129,7 @@ def resolve_params(scenario: str, duration: float | None, settings: dict[str, An
 
 
 def build_references(scenario: str, params: dict[str, Any], t: np.ndarray,
-                     rng: np.random.Generator, throttle: float) -> References:
+                     rng: np.random.Generator, throttle: float, hold: int = 1) -> References:
     """Per-step reference signals of a scenario.
 
     Parameters
@@ -144,11 +144,16 @@ def build_references(scenario: str, params: dict[str, Any], t: np.ndarray,
         Seeded generator for the random parts of the excitation.
     throttle : float
         Collective used when altitude hold is off.
+    hold : int
+        The sticks are computed on every ``hold``-th step and held in between (a radio
+        link sends frames at a fixed rate; also much cheaper than per physics step).
     """
     n = t.size
     amp = (params["amplitude"], params["amplitude"], params["yaw_amplitude"])
-    exc = stick_excitation(t, rng, params["excitation"], amp, params["f_min"], params["f_max"],
-                           t_start=params["settle"], t_end=params["duration"] - 1.0)
+    exc = stick_excitation(t[::hold], rng, params["excitation"], amp, params["f_min"],
+                           params["f_max"], t_start=params["settle"],
+                           t_end=params["duration"] - 1.0)
+    exc = np.repeat(exc, hold, axis=0)[:n]
     alt_sp = np.full(n, float(params["altitude"]))
     alt_rate = np.zeros(n)
     vel_sp = np.zeros((n, 2))
