@@ -138,6 +138,7 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
     lam = np.empty(rmax)
     xe = np.empty(n1)
     z = np.empty(d)
+    w2 = np.empty(d)
     yh = np.empty(m)
     err = np.empty(m)
     pnew = np.zeros((n1, m))
@@ -194,11 +195,26 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
         P = potential(z, mean, m2, s, k)
         pmax = -np.inf
         pmin = np.inf
-        for i in range(R):
-            pi_ = potential(cz[i], mean, m2, s, k)
-            pot[i] = pi_
-            pmax = max(pmax, pi_)
-            pmin = min(pmin, pi_)
+        if k >= 2:
+            # same expansion as potential(), with the variance term shared by all rules
+            vterm = 0.0
+            for j in range(d):
+                w2[j] = 1.0 / (s[j] * s[j])
+                vterm += m2[j] / k * w2[j]
+            kk = k / (k - 1.0)
+            for i in range(R):
+                acc = vterm
+                for j in range(d):
+                    dj = cz[i, j] - mean[j]
+                    acc += dj * dj * w2[j]
+                pi_ = 1.0 / (1.0 + acc * kk)
+                pot[i] = pi_
+                pmax = max(pmax, pi_)
+                pmin = min(pmin, pi_)
+        else:
+            for i in range(R):
+                pot[i] = 1.0
+            pmax = pmin = 1.0 if R > 0 else 0.0
         # 5. structure
         for j in range(n):
             scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
@@ -324,9 +340,12 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                     acc += Cg[a, b] * phi[b]
                 g[a] = acc
                 den += phi[a] * acc
+            iden = 1.0 / den
+            ifg = 1.0 / forget
             for a in range(p):
+                ga = g[a] * iden
                 for b in range(a, p):
-                    v = (Cg[a, b] - g[a] * g[b] / den) / forget
+                    v = (Cg[a, b] - ga * g[b]) * ifg
                     Cg[a, b] = v
                     Cg[b, a] = v
             for i in range(R):
@@ -338,20 +357,23 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
             for i in range(R):
                 wi = lam[i]
                 fi = 1.0 - wi * (1.0 - forget)
-                C = Cl[i]
                 den = fi
                 for a in range(n1):
                     acc = 0.0
                     for b in range(n1):
-                        acc += C[a, b] * xe[b]
+                        acc += Cl[i, a, b] * xe[b]
                     g[a] = acc
                     den += wi * xe[a] * acc
                 cw = wi / den
+                ifi = 1.0 / fi
                 for a in range(n1):
+                    ga = cw * g[a]
                     for b in range(a, n1):
-                        v = (C[a, b] - cw * (g[a] * g[b])) / fi
-                        C[a, b] = v
-                        C[b, a] = v
+                        v = Cl[i, a, b] - ga * g[b]
+                        if fi != 1.0:
+                            v *= ifi
+                        Cl[i, a, b] = v
+                        Cl[i, b, a] = v
                 for o in range(m):
                     acc = y[o]
                     for a in range(n1):
