@@ -95,8 +95,12 @@ def shipped_types() -> dict[str, Any]:
     return types
 
 
+@cache
 def typestore(ros1: bool = False) -> Any:
-    """A rosbags typestore (ROS 1 Noetic or ROS 2 Humble) with the shipped types added."""
+    """A rosbags typestore (ROS 1 Noetic or ROS 2 Humble) with the shipped types added.
+
+    Cached and shared: callers must not register further types in it.
+    """
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
@@ -457,9 +461,8 @@ def spec_for(msgtype: str, topic: str) -> tuple[Spec | None, str]:
         if "velocity_local" in low or low.rstrip("/").endswith("local_position/velocity"):
             return Spec(_vec3_row("linear"), _twist_local_finish), ""
         return None, "twist frame not known from the topic name (use --map)"
-    if kind == "sensor_msgs/Range":
-        if not any(h in low for h in DOWNWARD_HINTS):
-            return None, "range sensor not known to face down (use --map alt=TOPIC)"
+    if kind == "sensor_msgs/Range" and not any(h in low for h in DOWNWARD_HINTS):
+        return None, "range sensor not known to face down (use --map alt=TOPIC)"
     spec = SPECS.get(kind)
     if spec is None:
         return None, "message type not converted (use --map COLUMN=TOPIC.FIELD)"

@@ -85,9 +85,8 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
     default = typestore(ros1=ros1)
     conv = Converter(options)
     with AnyReader(paths, default_typestore=default) as reader:
-        missing = {k: v for k, v in default.fielddefs.items()
-                   if k not in reader.typestore.fielddefs}
-        reader.typestore.register(missing)
+        reader.typestore.register(_missing_types(
+            default, reader.typestore, {c.msgtype for c in reader.connections}))
         deser = (reader.typestore.deserialize_ros1 if not reader.is2
                  else reader.typestore.deserialize_cdr)
         topics = {c.id: conv.topic(c.topic, c.msgtype) for c in reader.connections}
@@ -119,6 +118,25 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
         raw.extra["storage"] = "rosbag1" if not reader.is2 else _storage_name(paths[0])
         raw.extra["message_count"] = sum(c.msgcount for c in reader.connections)
     return conv
+
+
+def _missing_types(default: Any, have: Any, names: set[str]) -> dict[str, Any]:
+    """Definitions in ``default`` of the ``names`` (and what they use) that ``have`` lacks."""
+    from rosbags.typesys.base import Nodetype
+
+    out: dict[str, Any] = {}
+    todo = [n for n in names if n not in have.fielddefs]
+    while todo:
+        name = todo.pop()
+        if name in out or name in have.fielddefs or name not in default.fielddefs:
+            continue
+        out[name] = default.fielddefs[name]
+        for _, (kind, detail) in out[name][1]:
+            if kind == Nodetype.NAME:
+                todo.append(detail)
+            elif kind in (Nodetype.ARRAY, Nodetype.SEQUENCE) and detail[0][0] == Nodetype.NAME:
+                todo.append(detail[0][1])
+    return out
 
 
 def _storage_name(path: Path) -> str:
@@ -304,7 +322,7 @@ def _add_connection(header: dict[str, bytes], body: memoryview, conns: dict[int,
     typename = f"{pkg}/msg/{name}"
     try:
         store.register(parse(info.get("message_definition", b"").decode(), typename))
-    except Exception:  # noqa: BLE001 - a bad definition only disables this topic
+    except Exception:  # a bad definition only disables this topic
         conv.topic(topic, typename).spec = None
     conns[cid] = (conv.topic(topic, typename), typename)
 
@@ -329,7 +347,7 @@ def _scan_chunk(buf: bytes, conns: dict[int, Any], conv: Converter, store: Any) 
                 continue
             try:
                 msg = store.deserialize_ros1(bytes(body), typename)
-            except Exception:  # noqa: BLE001 - count it, keep going
+            except Exception:  # a bad definition only disables this topic
                 conv.count(topic, log_ns)
                 continue
             conv.add(topic, msg, log_ns)
