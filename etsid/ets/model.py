@@ -61,7 +61,8 @@ class ETS:
         "ets": Angelov & Filev (2004) structure test, no pruning. "ets+": Angelov (2010):
         births also at low potential in uncovered regions, utility/support pruning.
     max_rules : int
-        Cap on the number of rules; at the cap a birth first removes the least useful rule.
+        Cap on the number of rules; at the cap a birth moves the nearest rule's focal point
+        instead (a "replace" event; the consequent is kept).
     rls : {"local", "global"}
         Fuzzily weighted local RLS per rule, or one global RLS over all consequents.
     forgetting : float

@@ -259,6 +259,11 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                     replace = high and icov >= 0
                     target = icov
                     grow = icov < 0
+                if grow and R >= rmax:
+                    # at the cap a birth becomes a move of the nearest rule (keeps its consequent)
+                    replace = True
+                    target = inear
+                    grow = False
                 if replace:
                     for j in range(d):
                         cz[target, j] = z[j]
@@ -278,24 +283,6 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                             for i in range(R):
                                 acc += lam[i] * Pi[i, a, o]
                             pnew[a, o] = acc
-                    if R >= rmax:
-                        victim = 0
-                        worst = np.inf
-                        for i in range(R):
-                            if variant == 1:
-                                score = lamsum[i] / (k - birth[i] + 1.0)
-                            else:
-                                score = pot[i]
-                            if score < worst:
-                                worst = score
-                                victim = i
-                        ev[nev[0], 0] = k
-                        ev[nev[0], 1] = EV_REMOVAL
-                        ev[nev[0], 2] = ids[victim]
-                        nev[0] += 1
-                        remove_rule(victim, R, ids, cz, rad, scat, pot, birth, support, lamsum,
-                                    tsum, Pi, Cl, Cg, is_global)
-                        si[1] = R - 1
                     rid = _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat,
                                     pot, birth, support, lamsum, tsum, Pi, Cl, Cg, is_global)
                     ev[nev[0], 0] = k

@@ -192,6 +192,8 @@ class ReferenceETS:
                     target, grow = inear, not replace
                 else:
                     replace, target, grow = high and icov >= 0, icov, icov < 0
+                if grow and len(self.rules) >= self.max_rules:
+                    replace, target, grow = True, inear, False
                 if replace:
                     self.rules[target].z = z.copy()
                     self.rules[target].pot = P
@@ -199,12 +201,6 @@ class ReferenceETS:
                 elif grow:
                     lam = self._lam(x, s)
                     pnew = sum(li * r.Pi for li, r in zip(lam, self.rules, strict=True))
-                    if len(self.rules) >= self.max_rules:
-                        if self.variant == "ets+":
-                            score = [r.lamsum / (k - r.birth + 1.0) for r in self.rules]
-                        else:
-                            score = [r.pot for r in self.rules]
-                        self._remove(int(np.argmin(score)), k)
                     self._add(z, P, pnew, s)
                     born = True
         lam = self._lam(x, s)
