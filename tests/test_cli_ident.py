@@ -1,0 +1,150 @@
+"""CLI end to end: identify, predict, rules, report; help on every command; errors."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from etsid.cli import cli
+from etsid.ident import IdentConfig, identify, read_run
+from etsid.ident.synthetic import rate_table
+from etsid.table import save_table
+
+DATA = Path(__file__).parent / "data"
+DOCS = Path(__file__).parent.parent / "docs"
+
+
+def invoke(*args: str) -> object:
+    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def saved_table(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return save_table(rate_table(2000, seed=7), tmp_path_factory.mktemp("t") / "flight.parquet")
+
+
+@pytest.fixture(scope="module")
+def run_dir(saved_table: Path) -> Path:
+    out = saved_table.parent / "RUN"
+    result = invoke("identify", saved_table, "--out", out, "--quiet")
+    assert result.exit_code == 0, result.output
+    assert "inputs: loop commands (u_roll, u_pitch, u_yaw, u_thrust)" in result.output
+    assert "rules: final" in result.output
+    return out
+
+
+def test_box_jenkins_cli_equals_python_api(tmp_path: Path) -> None:
+    out = tmp_path / "bj"
+    result = invoke("identify", DATA / "gas_furnace.csv", "--output", "co2", "--regressors",
+                    "co2[k-1],input_gas_rate[k-4]", "--out", out, "--json")
+    assert result.exit_code == 0, result.output
+    printed = json.loads(result.output)
+    frame = pd.read_csv(DATA / "gas_furnace.csv")
+    frame.index = pd.Index(np.arange(len(frame), dtype=float), name="t")
+    api = identify(frame, IdentConfig(outputs=["co2"],
+                                      regressors="co2[k-1],input_gas_rate[k-4]"))
+    assert printed["outputs"] == api.metrics["outputs"]
+    assert printed == json.loads((out / "metrics.json").read_text())
+    assert printed["n_samples"] == 292
+    config = json.loads((out / "config.json").read_text())
+    assert len(config["input"]["sha256"]) == 64
+    assert config["model"]["regressors"] == "co2[k-1],input_gas_rate[k-4]"
+
+
+def test_identify_writes_the_file_contract(run_dir: Path) -> None:
+    for name in ("predictions.parquet", "history.parquet", "rules.json", "metrics.json",
+                 "config.json"):
+        assert (run_dir / name).stat().st_size > 0
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics["outputs"]["p"]["noise_std"] == 0.01
+    assert metrics["outputs"]["p"]["online"]["rmse"] < 0.05
+
+
+def test_predict_cli_reproduces_validation(run_dir: Path, saved_table: Path,
+                                           tmp_path: Path) -> None:
+    ident = read_run(run_dir)
+    t0 = ident.metrics["validation"]["t_start"]
+    out = tmp_path / "P"
+    result = invoke("predict", saved_table, "--rules", run_dir / "rules.json", "--out", out,
+                    "--sim-from", repr(t0), "--quiet")
+    assert result.exit_code == 0, result.output
+    pred = read_run(out).predictions
+    val = ident.predictions["part"] == "validation"
+    np.testing.assert_array_equal(pred.loc[val, "q_hat"], ident.predictions.loc[val, "q_val"])
+    np.testing.assert_array_equal(pred["r_sim"], ident.predictions["r_sim"])
+    learn = invoke("predict", saved_table, "--rules", run_dir, "--out", tmp_path / "L",
+                   "--learn", "--json", "--quiet")
+    assert json.loads(learn.output)["rules"]["final"] >= 1
+
+
+def test_rules_cli(run_dir: Path) -> None:
+    text = invoke("rules", run_dir).output
+    assert "IF" in text and "THEN" in text and "p[k-1]" in text
+    raw = json.loads(invoke("rules", run_dir / "rules.json", "--json").output)
+    assert raw["schema"] == "etsid.rules/1" and "regressors" in raw
+
+
+def test_report_cli(run_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import etsid.report.build as build
+
+    # two of the five figures keep the test fast; tests/test_report.py draws all five
+    keep = {k: build.FIGURES[k] for k in ("rates", "structure")}
+    monkeypatch.setattr(build, "FIGURES", keep)
+    result = invoke("report", run_dir)
+    assert result.exit_code == 0, result.output
+    html = (run_dir / "report" / "index.html").read_text()
+    assert html.count("data:image/png;base64,") == 2 and "THEN" in html
+    assert (run_dir / "report" / "report.md").stat().st_size > 1000
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--output", "co2"], "--output needs --regressors"),
+    (["--output", "nope", "--regressors", "nope[k-1]"], "missing column(s) nope"),
+    (["--output", "co2", "--regressors", "co2[k+1]"], "bad regressor"),
+])
+def test_one_line_errors(args: list[str], message: str, tmp_path: Path) -> None:
+    result = CliRunner().invoke(cli, ["identify", str(DATA / "gas_furnace.csv"), "--out",
+                                      str(tmp_path / "x"), *args])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("etsid: error:") and message in lines[0]
+
+
+def test_usage_errors_exit_2(tmp_path: Path) -> None:
+    result = CliRunner().invoke(cli, ["identify", str(DATA / "gas_furnace.csv"), "--out",
+                                      str(tmp_path), "--validate", "1.5"])
+    assert result.exit_code == 2
+    result = CliRunner().invoke(cli, ["report", str(tmp_path), "--format", "gif"])
+    assert result.exit_code == 2
+    result = CliRunner().invoke(cli, ["rules", str(tmp_path / "none.json")])
+    assert result.exit_code == 1 and "no such rule-base file" in result.output
+
+
+def test_every_command_has_help() -> None:
+    for name, command in cli.commands.items():
+        result = CliRunner().invoke(cli, [name, "--help"])
+        assert result.exit_code == 0
+        assert command.help and len(command.help.strip()) > 20, name
+        for param in command.params:
+            if isinstance(param, __import__("click").Option):
+                assert param.help, f"{name} {param.opts} has no help"
+
+
+def test_cli_md_is_current() -> None:
+    spec = importlib.util.spec_from_file_location("make_cli_md", DOCS / "make_cli_md.py")
+    module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+    spec.loader.exec_module(module)  # type: ignore[union-attr]
+    text = module.render()
+    for name in ("identify", "predict", "rules", "report"):
+        assert f"## etsid {name}" in text
+    # only this package's commands: other sections belong to other maintainers
+    current = (DOCS / "cli.md").read_text()
+    for name in ("identify", "predict", "rules", "report"):
+        section = text.split(f"## etsid {name}\n")[1].split("## etsid")[0]
+        assert section in current, f"docs/cli.md is stale for {name}: run docs/make_cli_md.py"
