@@ -15,6 +15,7 @@ import matplotlib
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from etsid.ident.rundir import Run
 from etsid.table import COLUMNS
@@ -174,6 +175,7 @@ def fig_structure(run: Run) -> Figure:
         ax_p.legend(loc="lower right", ncols=3, markerscale=4)
         ax_p.set_title("(d) cluster potential", loc="left")
         ax_r.set_ylabel("number of rules")
+        ax_r.yaxis.set_major_locator(MaxNLocator(integer=True))
         ax_r.set_xlabel("time t (s)")
         ax_r.set_title("(e) rule-base size, with structural events", loc="left")
         ax_r.legend(loc="lower right", ncols=4)
