@@ -94,7 +94,9 @@ CONFIGS = [
 @pytest.mark.parametrize("cfg", CONFIGS, ids=lambda c: "-".join(str(v) for v in c.values()))
 def test_kernels_equal_numpy_reference(cfg: dict) -> None:
     X, Y = _stream()
-    kw = dict(omega=1000.0, max_rules=8, utility_threshold=0.1, min_support=3, prune_after=30, **cfg)
+    kw = dict(
+        omega=1000.0, max_rules=8, utility_threshold=0.1, min_support=3, prune_after=30, **cfg
+    )
     model = ETS(radius=0.3, history_every=37, **kw)
     Yhat = model.run(X, Y)
     ref = ReferenceETS(3, 2, np.full(3, 0.3), **kw)
@@ -125,7 +127,6 @@ def test_json_round_trip_is_bit_identical(tmp_path, rls: str) -> None:
     for name, arr in model.state_.items():
         np.testing.assert_array_equal(loaded.state_[name], arr, err_msg=name)
     assert loaded.to_dict() == model.to_dict()
-
 
 
 def _saved(tmp_path) -> tuple[dict, object]:

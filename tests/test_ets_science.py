@@ -162,7 +162,7 @@ def test_invariants_on_random_streams(seed, n, m, N, variant, rls, scale) -> Non
     yhat = model.run(X, Y)
     assert np.isnan(yhat[0]).all() and np.all(np.isfinite(yhat[1:]))
     h = model.history
-    assert 1 <= h.n_rules.min() and h.n_rules.max() <= 6
+    assert h.n_rules.min() >= 1 and h.n_rules.max() <= 6
     births = [e["rule_id"] for e in h.events if e["kind"] == "birth"]
     assert births == list(range(len(births)))  # ids increase, never reused
     live = model.state_["ids"][: model.n_rules]

@@ -215,7 +215,9 @@ def reparametrise(lo_old, hi_old, lo, s, n_rules, Pi, Cl, Cg, is_global) -> None
 
 
 @njit(cache=True)
-def remove_rule(i, n_rules, ids, cz, rad, scat, pot, birth, support, lamsum, tsum, Pi, Cl, Cg, is_global):
+def remove_rule(
+    i, n_rules, ids, cz, rad, scat, pot, birth, support, lamsum, tsum, Pi, Cl, Cg, is_global
+):
     """Delete live rule ``i`` and shift the later rules down (birth order is kept)."""
     for r in range(i, n_rules - 1):
         ids[r] = ids[r + 1]

@@ -60,8 +60,30 @@ def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
 
 
 @njit(cache=True)
-def _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat, pot, birth, support,
-              lamsum, tsum, Pi, Cl, Cg, is_global) -> int:
+def _add_rule(
+    z,
+    P,
+    k,
+    pnew,
+    si,
+    r0,
+    s,
+    omega,
+    scat0,
+    ids,
+    cz,
+    rad,
+    scat,
+    pot,
+    birth,
+    support,
+    lamsum,
+    tsum,
+    Pi,
+    Cl,
+    Cg,
+    is_global,
+) -> int:
     """Append a rule centred on z (raw units); returns its id."""
     R = si[1]
     n = r0.shape[0]
@@ -107,8 +129,35 @@ def _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat, pot, b
 
 
 @njit(cache=True)
-def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz, rad, scat, pot,
-                 birth, support, lamsum, tsum, Pi, Cl, Cg, r0, fp, ip) -> None:
+def learn_kernel(
+    X,
+    Y,
+    Yhat,
+    hist,
+    ev,
+    nev,
+    si,
+    lo,
+    hi,
+    fixed,
+    mean,
+    m2,
+    ids,
+    cz,
+    rad,
+    scat,
+    pot,
+    birth,
+    support,
+    lamsum,
+    tsum,
+    Pi,
+    Cl,
+    Cg,
+    r0,
+    fp,
+    ip,
+) -> None:
     """Online predict-then-learn over all rows of X (N, n), Y (N, m); mutates the state.
 
     Writes the one-step predictions made *before* each update into ``Yhat`` and the
@@ -222,8 +271,30 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
         born = False
         if R == 0:
             pnew[:, :] = 0.0
-            rid = _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat, pot,
-                            birth, support, lamsum, tsum, Pi, Cl, Cg, is_global)
+            rid = _add_rule(
+                z,
+                P,
+                k,
+                pnew,
+                si,
+                r0,
+                s,
+                omega,
+                scat0,
+                ids,
+                cz,
+                rad,
+                scat,
+                pot,
+                birth,
+                support,
+                lamsum,
+                tsum,
+                Pi,
+                Cl,
+                Cg,
+                is_global,
+            )
             ev[nev[0], 0] = k
             ev[nev[0], 1] = EV_BIRTH
             ev[nev[0], 2] = rid
@@ -231,8 +302,8 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
             changed = True
             born = True
         else:
-            high = P > pmax * (1.0 + TIE)
-            low = variant == 1 and (P < pmin * (1.0 - TIE) or coverage)
+            high = pmax * (1.0 + TIE) < P
+            low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
             if high or low:
                 dmin = np.inf
                 inear = 0
@@ -259,7 +330,7 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                     replace = high and icov >= 0
                     target = icov
                     grow = icov < 0
-                if grow and R >= rmax:
+                if grow and rmax <= R:
                     # at the cap a birth becomes a move of the nearest rule (keeps its consequent)
                     replace = True
                     target = inear
@@ -283,8 +354,30 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                             for i in range(R):
                                 acc += lam[i] * Pi[i, a, o]
                             pnew[a, o] = acc
-                    rid = _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat,
-                                    pot, birth, support, lamsum, tsum, Pi, Cl, Cg, is_global)
+                    rid = _add_rule(
+                        z,
+                        P,
+                        k,
+                        pnew,
+                        si,
+                        r0,
+                        s,
+                        omega,
+                        scat0,
+                        ids,
+                        cz,
+                        rad,
+                        scat,
+                        pot,
+                        birth,
+                        support,
+                        lamsum,
+                        tsum,
+                        Pi,
+                        Cl,
+                        Cg,
+                        is_global,
+                    )
                     ev[nev[0], 0] = k
                     ev[nev[0], 1] = EV_BIRTH
                     ev[nev[0], 2] = rid
@@ -382,8 +475,23 @@ def learn_kernel(X, Y, Yhat, hist, ev, nev, si, lo, hi, fixed, mean, m2, ids, cz
                         ev[nev[0], 1] = EV_REMOVAL
                         ev[nev[0], 2] = ids[i]
                         nev[0] += 1
-                        remove_rule(i, R, ids, cz, rad, scat, pot, birth, support, lamsum,
-                                    tsum, Pi, Cl, Cg, is_global)
+                        remove_rule(
+                            i,
+                            R,
+                            ids,
+                            cz,
+                            rad,
+                            scat,
+                            pot,
+                            birth,
+                            support,
+                            lamsum,
+                            tsum,
+                            Pi,
+                            Cl,
+                            Cg,
+                            is_global,
+                        )
                         R -= 1
                         si[1] = R
                 i -= 1

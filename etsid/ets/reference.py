@@ -179,8 +179,8 @@ class ReferenceETS:
             born = True
         else:
             pots = np.array([r.pot for r in self.rules])
-            high = P > pots.max() * (1.0 + 1e-10)
-            low = self.variant == "ets+" and (P < pots.min() * (1.0 - 1e-10) or self.coverage)
+            high = pots.max() * (1.0 + 1e-10) < P
+            low = self.variant == "ets+" and (pots.min() * (1.0 - 1e-10) > P or self.coverage)
             if high or low:
                 q = np.array([np.abs(x - r.z[:n]) / (s[:n] * r.rad) for r in self.rules])
                 d2 = np.sum(q**2, axis=1)

@@ -118,7 +118,9 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
         jsonschema.validate(data, schema())
     except jsonschema.ValidationError as err:
         where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise _fail(f"not a valid {SCHEMA_NAME} rule base at {where}: {err.message}", source) from err
+        raise _fail(
+            f"not a valid {SCHEMA_NAME} rule base at {where}: {err.message}", source
+        ) from err
     params = dict(data["params"])
     n, m = len(data["inputs"]), len(data["outputs"])
     try:
@@ -140,7 +142,7 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
     st["mean"][:] = _matrix(lrn["mean"], (d,), "learner/mean", source)
     st["m2"][:] = _matrix(lrn["m2"], (d,), "learner/m2", source)
     R = len(rules)
-    if R > model.max_rules:
+    if model.max_rules < R:
         raise _fail(f"{R} rules exceed params/max_rules = {model.max_rules}", source)
     if lrn["samples"] < R:
         raise _fail(f"{R} rules but only {lrn['samples']} samples learned", source)
@@ -207,5 +209,7 @@ def load(cls: type, path: str | Path) -> Any:
     except OSError as err:
         raise ModelError(f"{p}: cannot read rule base ({err.strerror or err})") from err
     except (UnicodeDecodeError, ValueError) as err:
-        raise ModelError(f"{p}: not a JSON file ({err}); expected a {SCHEMA_NAME} rule base") from err
+        raise ModelError(
+            f"{p}: not a JSON file ({err}); expected a {SCHEMA_NAME} rule base"
+        ) from err
     return model_from_dict(cls, data, source=str(p))

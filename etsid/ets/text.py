@@ -53,4 +53,8 @@ def format_rules(model: ETS, precision: int = 4) -> str:
                 terms.append(f"{sign} {_num(abs(c), precision)}·{xin[j]}")
             lead = "THEN" if o == 0 else " AND"
             lines.append(f"  {lead} {yout[o]} = {' '.join(terms)}")
-    return "\n".join(lines) + "\n" + f"({R} rules after {k} samples; {np.sum(st['fixed'])} fixed ranges)"
+    return (
+        "\n".join(lines)
+        + "\n"
+        + f"({R} rules after {k} samples; {np.sum(st['fixed'])} fixed ranges)"
+    )
