@@ -122,7 +122,7 @@ def main() -> None:
               "learn 201..3200, test 5001..5500\n")  # fmt: skip
         print(_table(mg) + "\n")
     if not args.skip_speed:
-        print("Speed (CPU time, best of %d)\n" % args.repeats)
+        print(f"Speed (CPU time, best of {args.repeats})\n")
         print(_table(speed(args.samples, args.repeats)))
 
 

@@ -1,4 +1,4 @@
-"""What an eTS model records while it learns: per-step structure, events and consequent snapshots."""
+"""What an eTS model records while learning: per-step structure, events, consequent snapshots."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ class History:
     snapshots: list[dict[str, Any]] = field(default_factory=list)
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per learned sample with columns step, n_rules, potential, focal_max, focal_min."""
+        """One row per learned sample: step, n_rules, potential, focal_max, focal_min."""
         import pandas as pd
 
         return pd.DataFrame({name: getattr(self, name) for name in FRAME_COLUMNS})

@@ -70,7 +70,8 @@ class ETS:
     utility_threshold : float
         eTS+: a rule whose utility (mean normalised firing since birth) falls below this is removed.
     min_support : int
-        eTS+: a rule that has won fewer than this many samples after ``prune_after`` steps is removed.
+        eTS+: a rule that has won fewer than this many samples after ``prune_after`` steps
+        is removed.
     prune_after : int
         eTS+: steps a rule lives before utility and support are checked (samples).
     adaptive_spread : bool

@@ -40,7 +40,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     if not model._fitted:
         raise ModelError("cannot export a model that has not learned anything yet")
     st = model.state_
-    n, m, R = model.n_inputs_, model.n_outputs_, model.n_rules
+    n, R = model.n_inputs_, model.n_rules
     k = int(st["si"][0])
     params = model.get_params()
     params.pop("input_names")
