@@ -30,7 +30,6 @@ OUTPUTS = {
     f"{NAME}.mcap": None,
     f"{NAME}_db3.db3": "ros2-db3",
     f"{NAME}_mcap": "ros2-mcap",
-    f"{NAME}.parquet": None,
 }
 
 
