@@ -90,12 +90,23 @@ def _captured_output() -> Iterator[list[str]]:
             text.append(tmp.read().decode(errors="replace"))
 
 
-def _open(path: Path) -> tuple[object, str]:
+def _reader_class() -> type:
     from pymavlink import DFReader
 
+    class IndexOnly(DFReader.DFReader_binary):  # type: ignore[misc]
+        """DFReader_binary without its clock set-up pass, which parses every message in
+        Python when a log has no GPS; etsid reads TimeUS itself."""
+
+        def init_clock(self) -> None:
+            self.clock = DFReader.DFReaderClock_usec()
+
+    return IndexOnly
+
+
+def _open(path: Path) -> tuple[object, str]:
     try:
         with _captured_output() as noise:
-            reader = DFReader.DFReader_binary(str(path), zero_time_base=False)
+            reader = _reader_class()(str(path), zero_time_base=False)
     except Exception as err:  # DFReader raises bare Exceptions on broken files
         raise IngestError(f"{path}: not a readable DataFlash log ({err})") from err
     return reader, "".join(noise)
@@ -132,9 +143,10 @@ def _decode(reader: object, data: np.ndarray, name: str, raw: RawLog) -> _Decode
     out = np.empty(rec.shape, np.dtype([(n, "<f8") if rec.dtype[n].kind in "iuf" and
                                         not rec.dtype[n].shape else (n, rec.dtype[n])
                                         for n in rec.dtype.names]))
-    for i, n in enumerate(rec.dtype.names):
-        mult = fmt.msg_mults[i] if i < len(fmt.msg_mults) else None
-        out[n] = rec[n] * mult if mult is not None and not rec.dtype[n].shape else rec[n]
+    with np.errstate(invalid="ignore", over="ignore"):
+        for i, n in enumerate(rec.dtype.names):
+            mult = fmt.msg_mults[i] if i < len(fmt.msg_mults) else None
+            out[n] = rec[n] * mult if mult is not None and not rec.dtype[n].shape else rec[n]
     if "TimeUS" in out.dtype.names:
         t = out["TimeUS"] * 1e-6
     elif "TimeMS" in out.dtype.names:
