@@ -103,7 +103,7 @@ class ETS:
     True
     >>> model.n_rules == len(model) >= 2
     True
-    >>> float(model.predict(np.array([[0.5]]))[0]) == model.predict_one([0.5])[0]
+    >>> bool(model.predict(np.array([[0.5]]))[0] == model.predict_one([0.5])[0])
     True
     """
 
