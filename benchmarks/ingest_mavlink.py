@@ -38,6 +38,7 @@ def synthetic_table(seconds: float, rate: float = 250.0) -> pd.DataFrame:
     cols |= {"roll": 0.2 * np.sin(0.3 * t), "pitch": 0.1 * np.sin(0.2 * t),
              "yaw": np.angle(np.exp(0.1j * t))}
     cols |= {c: 0.5 * np.sin(0.4 * t + k) for k, c in enumerate(("u_roll", "u_pitch", "u_yaw"))}
+    cols |= {c: 0.3 * np.sin(0.5 * t + k) for k, c in enumerate(("sp_p", "sp_q", "sp_r"))}
     cols |= {"u_thrust": 0.5 + 0.1 * np.sin(t), "alt": 2 + np.sin(0.05 * t),
              "vx": np.sin(0.1 * t), "vy": np.cos(0.1 * t), "vz": 0.1 * np.sin(t),
              "ax": np.sin(t), "ay": np.cos(t), "az": -9.8 + 0 * t, "vbat": 16 - 1e-4 * t}
@@ -127,7 +128,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=61.0, help="length of the tlog")
     parser.add_argument("--workdir", type=Path, default=Path("/tmp/etsid_bench"))
-    parser.add_argument("--pymavlink-limit", type=int, default=300_000,
+    parser.add_argument("--pymavlink-limit", type=int, default=100_000,
                         help="packets read by the pymavlink loop (it is slow)")
     args = parser.parse_args()
     args.workdir.mkdir(parents=True, exist_ok=True)
