@@ -19,7 +19,7 @@ from etsid.sim.writers.rosbag import write_ros1_bag, write_ros2_bag
 START = 1.7e9
 
 
-def synthetic_table(duration: float = 12.0, rate: float = 250.0) -> pd.DataFrame:
+def synthetic_table(duration: float = 6.0, rate: float = 250.0) -> pd.DataFrame:
     """Smooth signals with non-zero mean on every axis, so any sign error shows."""
     t = np.arange(int(duration * rate)) / rate
     w = 2 * np.pi
@@ -127,7 +127,7 @@ def test_inspect_lists_topics_rates_and_columns(written: dict[str, Path]) -> Non
     assert channels["/mavros/battery"]["columns"] == ["vbat"]
     assert channels["/mavros/imu/data"]["columns"] == ["p", "q", "r", "roll", "pitch", "yaw",
                                                        "ax", "ay", "az"]
-    assert info["format"] == "ros1" and info["duration_s"] == pytest.approx(12.0, abs=0.1)
+    assert info["format"] == "ros1" and info["duration_s"] == pytest.approx(6.0, abs=0.1)
 
 
 def test_field_override_is_raw_without_frame_conversion(table: pd.DataFrame,
