@@ -152,3 +152,12 @@ def test_enu_flu_identity_faces_east() -> None:
     assert np.allclose([roll[0], pitch[0], yaw[0]], [0.0, 0.0, np.pi / 2])
     assert np.allclose(np.concatenate(quat_to_euler(*(np.array([v]) for v in (1.0, 0, 0, 0)))),
                        0.0)
+
+
+def test_default_rate_is_the_mean_rate_of_a_bursty_stream() -> None:
+    """Samples arriving in pairs (1 ms, 6 ms apart) run at 2 per 7 ms, not at 1/median."""
+    t = np.cumsum(np.tile([0.001, 0.006], 200))
+    raw = RawLog(Path("x.ulg"), "test")
+    table = build_table(raw, {"p": sig("p", t, np.sin(t), "rates.x")})
+    assert table.attrs["rate_hz"] == pytest.approx(2 / 0.007, rel=5e-3)
+    assert table["segment"].nunique() == 1 and not table.attrs["gaps"]

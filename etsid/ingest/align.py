@@ -3,7 +3,8 @@
 Rules (docs/ingest.md):
 
 * The grid runs at ``rate_hz`` (default: the native rate of the body-rate source ``p``,
-  else the fastest chosen signal) over the span of that reference signal.
+  else the fastest chosen signal: its mean rate over gap-free stretches) over the span of
+  that reference signal.
 * Continuous signals are interpolated linearly (angles on their unwrapped value, then
   wrapped to (−π, π]); commands, setpoints and motor outputs are held (zero-order hold).
 * A signal whose samples are more than :data:`~etsid.table.GAP_PERIODS` native periods
@@ -48,8 +49,21 @@ def clean_signal(sig: Signal, dropped: list[Issue], repaired: list[Issue]) -> Si
 
 
 def native_period(t: np.ndarray) -> float:
-    """Median sample spacing, s (NaN for fewer than two samples)."""
-    return float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+    """Typical sample spacing, s: the mean spacing once outliers (> 20 × median) are left out.
+
+    The median alone would understate the period of bursty streams (samples in pairs,
+    1 ms and 6 ms apart, as real PX4 logs have) and then call every long spacing a gap.
+    """
+    if t.size < 2:
+        return float("nan")
+    dt = np.diff(t)
+    regular = dt[dt <= 20.0 * np.median(dt)]
+    return float(regular.mean())
+
+
+def native_rate(t: np.ndarray) -> float:
+    """Mean sample rate, Hz, over the stretches without gaps (see :func:`native_period`)."""
+    return 1.0 / native_period(t) if t.size > 1 else float("nan")
 
 
 def find_gaps(t: np.ndarray) -> list[tuple[float, float]]:
@@ -118,8 +132,7 @@ def build_table(
     if not cleaned:
         raise IngestError(f"{raw.path}: no usable samples in any mapped signal")
     ref = reference_signal(cleaned)
-    native = 1.0 / native_period(ref.t)
-    rate = float(rate_hz) if rate_hz else native
+    rate = float(rate_hz) if rate_hz else native_rate(ref.t)
     if not np.isfinite(rate) or rate <= 0:
         raise IngestError(f"{raw.path}: cannot infer a sample rate from {ref.source}")
     t0 = float(ref.t[0])
