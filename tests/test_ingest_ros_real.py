@@ -45,7 +45,7 @@ def _at(table: pd.DataFrame, column: str, t_abs: np.ndarray) -> np.ndarray:
 
 def test_mavros_files_agree_exactly(sitl_tables: dict[str, pd.DataFrame]) -> None:
     ref = sitl_tables["ros1"]
-    assert ref.shape == (837, 20)
+    assert ref.shape == (855, 20)
     for name in ROS_FILES:
         pd.testing.assert_frame_equal(sitl_tables[name], ref,
                                       check_exact=False, atol=1e-9, obj=name)
@@ -111,7 +111,7 @@ def test_old_metadata_bag_uses_shipped_definitions() -> None:
     table = read_log(DATA / "ros2_old_metadata_bag")
     assert {"p", "q", "r", "ax", "ay", "az", "roll", "vbat", "alt"} <= set(table.columns)
     assert table.attrs["mapping"]["p"] == "/imu.angular_velocity.x"
-    assert len(table) == 1564
+    assert len(table) == 1565
     assert {"reason": "voltage 0 or unknown", "count": 785, "signal": "/battery.voltage"} \
         in table.attrs["dropped"]
 
@@ -160,4 +160,4 @@ def test_metadata_pointing_nowhere_falls_back_to_storage(tmp_path: Path) -> None
     table = read_log(bag)
     assert any("metadata.yaml unusable" in w and "renamed.db3" in w
                for w in table.attrs["warnings"])
-    assert len(table) == 837
+    assert len(table) == 855
