@@ -21,7 +21,7 @@ from etsid.sim.writers import write_log
 HERE = Path(__file__).resolve().parent
 NAME = "hexa_hover_ige"
 SCENARIO = "hover-ige"
-DURATION_S = 60.0
+DURATION_S = 36.0
 SEED = 7
 
 OUTPUTS = {
