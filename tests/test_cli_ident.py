@@ -62,8 +62,14 @@ def test_identify_writes_the_file_contract(run_dir: Path) -> None:
                  "config.json"):
         assert (run_dir / name).stat().st_size > 0
     metrics = json.loads((run_dir / "metrics.json").read_text())
-    assert metrics["outputs"]["p"]["noise_std"] == 0.01
-    assert metrics["outputs"]["p"]["online"]["rmse"] < 0.05
+    # 250 Hz table identified at 50 Hz: blocks of 5, white-noise floor σ/√5
+    assert metrics["sample_rate"]["factor"] == 5 and metrics["sample_rate"]["rate_hz"] == 50
+    assert metrics["outputs"]["p"]["noise_std_native"] == 0.01
+    assert metrics["outputs"]["p"]["noise_std"] == pytest.approx(0.01 / np.sqrt(5))
+    # 8 s of data: 272 learning rows for 37 parameters per rule; a loose bound only
+    assert metrics["outputs"]["p"]["validation"]["one_step"]["ndei"] < 0.5
+    rules = json.loads((run_dir / "rules.json").read_text())
+    assert rules["regressors"]["sample_rate_hz"] == 50
 
 
 def test_predict_cli_reproduces_validation(run_dir: Path, saved_table: Path,

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from etsid.errors import IdentError
-from etsid.ident.defaults import default_model
+from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS, default_model
 
 
 def _table(*cols: str) -> pd.DataFrame:
@@ -23,7 +23,8 @@ def test_sticks_first_with_thrust_and_sources() -> None:
     assert model.inputs == ["u_roll", "u_pitch", "u_yaw", "u_thrust"]
     assert model.spec.outputs == ("p", "q", "r")
     assert model.spec.text.startswith("p[k-1],p[k-2],p[k-3],p[k-4],q[k-1]")
-    assert len(model.spec.terms) == 3 * 4 + 4 * 2
+    assert len(model.spec.terms) == 3 * OUTPUT_LAGS + 4 * INPUT_LAGS
+    assert (OUTPUT_LAGS, INPUT_LAGS) == (4, 6)  # the lag study in docs/identify.md
     assert "actuator_controls_0.control[0]" in model.note
 
 

@@ -9,6 +9,8 @@ import click
 
 from etsid.cli.options import log_options, read_options
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
+from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
+from etsid.ident.resample import DEFAULT_RATE_HZ
 from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import load_any
 from etsid.progress import wanted
@@ -64,25 +66,45 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
               help="Fraction held out at the end: learn on the rest, freeze, then one-step "
                    "and free-run on it (0: no validation).")
 @click.option("--rate", "rate_hz", type=click.FloatRange(0, min_open=True), default=None,
-              help="Grid rate of a log, Hz (default: native rate of the body rates).")
+              help="Grid rate of a log when it is read, Hz (default: native rate of the "
+                   "body rates). Identification then runs at --ident-rate.")
+@click.option("--ident-rate", "ident_rate", type=click.FloatRange(0), default=None,
+              metavar="HZ",
+              help="Identification rate, Hz: the table is averaged over blocks of k samples "
+                   "(integer k, rate nearest HZ; noise σ becomes σ/√k). Default: "
+                   f"{DEFAULT_RATE_HZ:g} Hz for the rate model, the table's rate with "
+                   "--output; 0 keeps the table's rate.")
+@click.option("--inputs", "inputs", type=click.Choice(list(MODES)), default="auto",
+              show_default=True,
+              help="Rate-model inputs: pilot sticks, controller torque commands or rate "
+                   "setpoints; auto = sticks if they carry excitation (std ≥ "
+                   f"{STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each axis), else "
+                   "torque, else setpoints.")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
                  output_lags: int, input_lags: int, radius: float, omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, validate: float,
-                 rate_hz: float | None, as_json: bool, maps: tuple[str, ...],
-                 mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
+                 rate_hz: float | None, ident_rate: float | None, inputs: str, as_json: bool,
+                 maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
+                 quiet: bool) -> None:
     """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
 
-    Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust],
-    else rate setpoints or motor outputs). Writes RUN_DIR/ predictions.parquet,
+    Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust]
+    from sticks or torque commands, else rate setpoints or motor outputs; see --inputs) at
+    50 Hz (--ident-rate). Writes RUN_DIR/ predictions.parquet,
     history.parquet, rules.json, metrics.json, config.json.
     """
-    table = load_any(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    options = read_options(maps, mapping_file, sysid, quiet)
+    if outputs:
+        table = load_any(log, options, rate_hz=rate_hz)
+    else:
+        table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
     config = IdentConfig(outputs=_outputs(outputs), regressors=regressors,
                          output_lags=output_lags, input_lags=input_lags, radius=radius,
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
-                         forgetting=forgetting, validate=validate)
+                         forgetting=forgetting, validate=validate, ident_rate=ident_rate,
+                         inputs=inputs)
     run = identify(table, config, source=log, show_progress=wanted(quiet))
     write_run(run, out)
     _print_run(run, out, as_json)
@@ -99,7 +121,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
               help="Start the free-run simulation at this time, s (default: the start). "
                    "Identify's validation start reproduces its validation predictions.")
 @click.option("--rate", "rate_hz", type=click.FloatRange(0, min_open=True), default=None,
-              help="Grid rate of a log, Hz.")
+              help="Grid rate of a log, Hz (the rules are applied at their own "
+                   "identification rate, stored in rules.json).")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: float | None,

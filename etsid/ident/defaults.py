@@ -5,9 +5,13 @@ lags, documented in docs/identify.md):
 
 - each rate at k−1 … k−``OUTPUT_LAGS`` (autoregression; several lags let the model average
   gyro noise instead of copying it),
-- each loop command at k−1 … k−``INPUT_LAGS``.
+- each loop command at k−1 … k−``INPUT_LAGS``,
 
-Inputs, first family present wins:
+at the identification rate (:data:`etsid.ident.resample.DEFAULT_RATE_HZ`, 50 Hz): with 4
+output and 6 input lags the model sees 80 ms of rate and 120 ms of command history (lag
+study in docs/identify.md).
+
+Inputs (``inputs="auto"``), first family present wins:
 
 1. ``u_roll u_pitch u_yaw`` (+ ``u_thrust``): loop commands — pilot sticks (RC) or the
    rate controller's torque commands (PX4 ``actuator_controls_0`` /
@@ -26,17 +30,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.inputs import AXES, excited, kind_of
 from etsid.ident.regressors import RegressorSpec
 from etsid.table import RATE_COLUMNS
 
 OUTPUT_LAGS = 4
-"""Autoregressive lags of each rate, samples."""
+"""Autoregressive lags of each rate, samples at the identification rate."""
 
-INPUT_LAGS = 2
-"""Lags of each loop command, samples."""
+INPUT_LAGS = 6
+"""Lags of each loop command, samples at the identification rate."""
 
 FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),
@@ -53,22 +59,85 @@ class DefaultModel:
     inputs: list[str]
     family: str
     sources: dict[str, str]
+    kind: str = "unknown"
+    reason: str = ""
 
     @property
     def note(self) -> str:
         """One line for people: which inputs were used and where they came from."""
         src = ", ".join(f"{c} <- {s}" for c, s in self.sources.items())
-        return f"inputs: {self.family} ({', '.join(self.inputs)})" + (f" from {src}" if src
-                                                                         else "")
+        kind = f" [{self.kind}]" if self.kind != "unknown" else ""
+        why = f"; {self.reason}" if self.reason else ""
+        return (f"inputs: {self.family} ({', '.join(self.inputs)}){kind}"
+                + (f" from {src}" if src else "") + why)
 
 
 def _has(table: pd.DataFrame, name: str) -> bool:
     return name in table.columns and bool(table[name].notna().any())
 
 
+def _u_kind(table: pd.DataFrame) -> str:
+    """``sticks``/``torque`` for the table's u_* columns (from the input selection made on
+    reading, else the mapping), ``unknown`` without provenance."""
+    selection = table.attrs.get("input_selection")
+    if isinstance(selection, dict) and selection.get("kind") in ("sticks", "torque"):
+        return str(selection["kind"])
+    mapping = table.attrs.get("mapping") or {}
+    return kind_of(mapping.get("u_roll")) if isinstance(mapping, dict) else "unknown"
+
+
+def _family(table: pd.DataFrame, inputs: str,
+            found: dict[str, list[str]]) -> tuple[str, str]:
+    """Family name and the reason for it, following ``inputs`` (see module docstring)."""
+    loop, kind = "loop commands", _u_kind(table)
+    if inputs in ("sticks", "torque"):
+        if loop not in found:
+            raise IdentError(f"--inputs {inputs}: the table has no u_roll u_pitch u_yaw")
+        if kind not in (inputs, "unknown"):
+            raise IdentError(f"--inputs {inputs}: the table's u_* columns are {kind} "
+                             f"({(table.attrs.get('mapping') or {}).get('u_roll')}); read "
+                             "the log itself, or --map u_roll=TOPIC.FIELD …")
+        return loop, f"--inputs {inputs}"
+    if inputs == "setpoints":
+        if "rate setpoints" not in found:
+            raise IdentError("--inputs setpoints: the table has no sp_p sp_q sp_r")
+        return "rate setpoints", "--inputs setpoints"
+    if inputs != "auto":
+        raise IdentError(f"--inputs {inputs!r}: choose one of auto, sticks, torque, setpoints")
+    selection = table.attrs.get("input_selection")
+    if isinstance(selection, dict) and selection.get("kind"):
+        want = "rate setpoints" if selection["kind"] == "setpoints" else loop
+        if want in found:
+            return want, str(selection.get("reason", ""))
+    if loop in found:
+        if kind == "torque":
+            return loop, "torque commands"
+        stats = {c: {"std": float(np.nanstd(table[c].to_numpy(dtype=float))),
+                     "rate_hz": float("inf")} for c in AXES}
+        if excited(stats):
+            return loop, ""
+        flat = ", ".join(f"{c} std {v['std']:.3g}" for c, v in stats.items())
+        for other in ("rate setpoints", "motor outputs"):
+            if other in found:
+                return other, f"loop commands without excitation ({flat}): {other}"
+        return loop, f"loop commands without excitation ({flat}), nothing else: used anyway"
+    return next(iter(found)), ""
+
+
 def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
-                  input_lags: int = INPUT_LAGS) -> DefaultModel:
+                  input_lags: int = INPUT_LAGS, inputs: str = "auto") -> DefaultModel:
     """Pick the default MIMO rate model for ``table``.
+
+    Parameters
+    ----------
+    table
+        FlightTable (its ``attrs["input_selection"]``, set when a log is read with
+        :func:`etsid.ident.inputs.load_for_ident`, and ``attrs["mapping"]`` tell where the
+        ``u_*`` columns came from).
+    output_lags, input_lags
+        Lags, samples.
+    inputs
+        ``auto``, ``sticks``, ``torque`` or ``setpoints`` (:mod:`etsid.ident.inputs`).
 
     Raises
     ------
@@ -83,17 +152,21 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
         raise IdentError(f"the default rate model needs p, q, r: no data in "
                          f"{', '.join(missing)}; the table has: {have} "
                          "(use --output and --regressors for other columns)")
-    found = [(name, list(needed) + [c for c in optional if _has(table, c)])
-             for name, needed, optional in FAMILIES if all(_has(table, c) for c in needed)]
+    found = {name: list(needed) + [c for c in optional if _has(table, c)]
+             for name, needed, optional in FAMILIES if all(_has(table, c) for c in needed)}
     if not found:
         raise IdentError("the default rate model needs inputs u_roll u_pitch u_yaw, or "
                          f"sp_p sp_q sp_r, or motor outputs m1..m4; the table has: {have} "
                          "(use --regressors to choose)")
-    family, inputs = found[0]
+    family, reason = _family(table, inputs, found)
+    inputs_used = found[family]
     terms = [f"{y}[k-1..k-{output_lags}]" if output_lags > 1 else f"{y}[k-1]"
              for y in RATE_COLUMNS]
-    terms += [f"{u}[k-1..k-{input_lags}]" if input_lags > 1 else f"{u}[k-1]" for u in inputs]
+    terms += [f"{u}[k-1..k-{input_lags}]" if input_lags > 1 else f"{u}[k-1]"
+              for u in inputs_used]
     spec = RegressorSpec.parse(",".join(terms), RATE_COLUMNS)
     mapping = dict(table.attrs.get("mapping") or {})
-    sources = {c: str(mapping[c]) for c in inputs if c in mapping}
-    return DefaultModel(spec, inputs, family, sources)
+    sources = {c: str(mapping[c]) for c in inputs_used if c in mapping}
+    kind = ("setpoints" if family == "rate setpoints" else "motors"
+            if family == "motor outputs" else _u_kind(table))
+    return DefaultModel(spec, inputs_used, family, sources, kind, reason)

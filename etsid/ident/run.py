@@ -25,6 +25,7 @@ from etsid.ident.arx import ARX, rls_online
 from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS, default_model
 from etsid.ident.metrics import scores
 from etsid.ident.regressors import Regression, RegressorSpec, build
+from etsid.ident.resample import DEFAULT_RATE_HZ, decimate
 from etsid.ident.rundir import Run, jsonable, sha256
 from etsid.ident.simulate import free_run
 from etsid.progress import progress
@@ -55,13 +56,20 @@ class IdentConfig:
         eTS parameters (see :class:`etsid.ets.ETS`).
     validate
         Fraction of the usable rows, at the end, held out for frozen validation (0 … 0.9).
+    ident_rate
+        Identification rate, Hz: the table is block-mean decimated by the integer factor
+        whose rate is nearest (:func:`etsid.ident.resample.decimate`). ``None``: 50 Hz for
+        the default rate model, the table's own rate with ``outputs``; 0: the table's rate.
+    inputs
+        Input family of the default rate model: ``auto``, ``sticks``, ``torque`` or
+        ``setpoints`` (:mod:`etsid.ident.inputs`).
     """
 
     outputs: list[str] | None = None
     regressors: str | None = None
     output_lags: int = OUTPUT_LAGS
     input_lags: int = INPUT_LAGS
-    radius: float = 1.5
+    radius: float = 2.0
     omega: float = 1000.0
     variant: str = "ets+"
     max_rules: int = 30
@@ -73,6 +81,16 @@ class IdentConfig:
     adaptive_spread: bool = False
     history_every: int = 250
     validate: float = 0.3
+    ident_rate: float | None = None
+    inputs: str = "auto"
+
+    def rate_for(self, default_model: bool) -> float | None:
+        """The identification rate to aim for, Hz (None: keep the table's rate)."""
+        if self.ident_rate is None:
+            return DEFAULT_RATE_HZ if default_model else None
+        if not np.isfinite(self.ident_rate) or self.ident_rate < 0:
+            raise IdentError(f"--ident-rate must be ≥ 0 Hz, got {self.ident_rate}")
+        return float(self.ident_rate) or None
 
     def ets_params(self) -> dict[str, Any]:
         """Keyword arguments of :class:`ETS`."""
@@ -97,12 +115,25 @@ def _choose_model(table: pd.DataFrame, config: IdentConfig) -> _Model:
         spec = RegressorSpec.parse(config.regressors, config.outputs)
         return _Model(spec, [], {"family": "user", "columns": [
             c for c in spec.columns if c not in spec.outputs]})
-    chosen = default_model(table, config.output_lags, config.input_lags)
+    chosen = default_model(table, config.output_lags, config.input_lags, config.inputs)
     spec = chosen.spec
     if config.regressors:
         spec = RegressorSpec.parse(config.regressors, spec.outputs)
-    return _Model(spec, [chosen.note], {"family": chosen.family, "columns": chosen.inputs,
-                                        "sources": chosen.sources})
+    info: dict[str, Any] = {"family": chosen.family, "kind": chosen.kind,
+                            "columns": chosen.inputs, "sources": chosen.sources,
+                            "mode": config.inputs, "reason": chosen.reason}
+    selection = table.attrs.get("input_selection")
+    if isinstance(selection, dict):
+        info["selection"] = selection
+    return _Model(spec, [chosen.note], info)
+
+
+def _rate_note(work: pd.DataFrame) -> str:
+    d = work.attrs.get("decimation") or {}
+    if d.get("factor", 1) > 1:
+        return (f"identification rate {d['rate_hz']:.4g} Hz: {d['native_rate_hz']:.4g} Hz "
+                f"table, block mean of {d['factor']} samples (noise σ / √{d['factor']})")
+    return f"identification rate {d.get('rate_hz', 0):.4g} Hz (the table's rate)"
 
 
 def noise_std(table: pd.DataFrame, outputs: tuple[str, ...]) -> dict[str, float]:
@@ -199,13 +230,15 @@ def _evaluate(reg: Regression, spec: RegressorSpec, split: int, n_table: int,
 
 
 def _metrics(reg: Regression, spec: RegressorSpec, split: int, cols: dict[str, np.ndarray],
-             sigma: dict[str, float]) -> dict[str, Any]:
+             sigma: dict[str, float], sigma_native: dict[str, float] | None = None
+             ) -> dict[str, Any]:
     n = len(reg.Y)
     out: dict[str, Any] = {}
     val = slice(split, n)
     for o, y in enumerate(spec.outputs):
         meas = reg.Y[:, o]
-        entry: dict[str, Any] = {"unit": _unit(y), "noise_std": sigma.get(y)}
+        entry: dict[str, Any] = {"unit": _unit(y), "noise_std": sigma.get(y),
+                                 "noise_std_native": (sigma_native or {}).get(y)}
         entry["online"] = scores(meas, cols["y_hat"][:, o])
         if split < n:
             entry["validation"] = {"one_step": scores(meas[val], cols["y_val"][val, o]),
@@ -219,8 +252,11 @@ def _metrics(reg: Regression, spec: RegressorSpec, split: int, cols: dict[str, n
         else:
             arx["validation"] = None
         entry["arx"] = arx
-        if y in sigma and sigma[y] > 0 and entry["online"]["rmse"] is not None:
-            entry["online"]["rmse_over_noise"] = entry["online"]["rmse"] / sigma[y]
+        if y in sigma and sigma[y] > 0:
+            for block in (entry["online"], *((entry["validation"] or {}).values()),
+                          arx["online"], *((arx["validation"] or {}).values())):
+                if block.get("rmse") is not None:
+                    block["rmse_over_noise"] = block["rmse"] / sigma[y]
         out[y] = entry
     return out
 
@@ -286,8 +322,12 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         Missing columns, bad regressor spec, too few usable rows, or bad eTS parameters.
     """
     config = config or IdentConfig()
+    rate_hz = config.rate_for(not config.outputs)
     chosen = _choose_model(table, config)
     spec = chosen.spec
+    sigma_native = noise_std(table, spec.outputs)
+    table = decimate(table, rate_hz)
+    chosen.notes.append(_rate_note(table))
     reg = build(table, spec)
     n = len(reg.X)
     split = _split_index(n, config.validate)
@@ -310,7 +350,8 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                   "frozen": frozen_rules},
         "skipped": reg.skipped,
         "validation": _validation_info(reg, split, config.validate),
-        "outputs": _metrics(reg, spec, split, cols, sigma),
+        "outputs": _metrics(reg, spec, split, cols, sigma, sigma_native),
+        "sample_rate": _rate_info(table),
     }
     run_config = {
         "schema": "etsid.run/1",
@@ -318,15 +359,25 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "etsid_version": __version__,
         "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
         "input": _input_info(table, source),
-        "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes},
+        "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,
+                  "sample_rate": _rate_info(table)},
         "parameters": asdict(config),
         "ets": config.ets_params(),
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
     }
+    rate = _rate_info(table)
     return Run(_predictions(reg, spec, table, split, cols), jsonable(metrics), run_config,
-               history, consequents, _rules_dict(frozen_dict, spec),
-               _rules_dict(model.to_dict(), spec))
+               history, consequents, _rules_dict(frozen_dict, spec, rate),
+               _rules_dict(model.to_dict(), spec, rate))
+
+
+def _rate_info(table: pd.DataFrame) -> dict[str, Any]:
+    """Identification rate facts of a (decimated) table for metrics/config/rules."""
+    d = dict(table.attrs.get("decimation") or {})
+    return {"rate_hz": d.get("rate_hz"), "native_rate_hz": d.get("native_rate_hz"),
+            "factor": d.get("factor", 1), "method": d.get("method", "none"),
+            "requested_hz": d.get("requested_hz")}
 
 
 def _validation_info(reg: Regression, split: int, fraction: float) -> dict[str, Any]:
@@ -343,9 +394,14 @@ def _new_model(config: IdentConfig, spec: RegressorSpec) -> ETS:
         raise IdentError(f"bad eTS parameter: {err}") from err
 
 
-def _rules_dict(data: dict[str, Any] | None, spec: RegressorSpec) -> dict[str, Any]:
+def _rules_dict(data: dict[str, Any] | None, spec: RegressorSpec,
+                rate: dict[str, Any] | None = None) -> dict[str, Any]:
     out = dict(data or {})
     out["regressors"] = spec.to_dict()
+    if rate and rate.get("rate_hz"):
+        # predict decimates another table to the same rate before applying the rules
+        out["regressors"]["sample_rate_hz"] = rate["rate_hz"]
+        out["regressors"]["decimation"] = rate
     return out
 
 
@@ -402,6 +458,9 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     """
     path = Path(rules)
     model, spec, data = load_rules(path)
+    sigma_native = noise_std(table, spec.outputs)
+    rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
+    table = decimate(table, float(rate_hz) if rate_hz else None)
     reg = build(table, spec)
     n = len(reg.X)
     split = 0 if sim_from is None else int(np.searchsorted(reg.t, sim_from, side="left"))
@@ -427,7 +486,8 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
                   "frozen": frozen.n_rules},
         "skipped": reg.skipped,
         "validation": _validation_info(reg, split, (n - split) / n),
-        "outputs": _metrics(reg, spec, split, cols, sigma),
+        "outputs": _metrics(reg, spec, split, cols, sigma, sigma_native),
+        "sample_rate": _rate_info(table),
     }
     run_config = {
         "schema": "etsid.run/1",

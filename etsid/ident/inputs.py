@@ -1,0 +1,266 @@
+"""Which signals drive the rate model: pilot sticks, torque commands or rate setpoints.
+
+``--inputs`` chooses the family:
+
+``sticks``
+    The pilot's sticks (PX4 ``manual_control_setpoint`` / ``input_rc``, MAVLink
+    ``RC_CHANNELS``/``MANUAL_CONTROL``, ROS ``/mavros/rc/in`` …) as ``u_roll u_pitch u_yaw``
+    (+ ``u_thrust``).
+``torque``
+    The rate controller's outputs: PX4 ``actuator_controls_0.control[0..3]`` or
+    ``vehicle_torque_setpoint`` / ``vehicle_thrust_setpoint``, ArduPilot DataFlash
+    ``RATE.ROut/POut/YOut`` (+ ``RATE.AOut``), as ``u_roll u_pitch u_yaw`` (+ ``u_thrust``).
+``setpoints``
+    Rate setpoints ``sp_p sp_q sp_r`` (PX4 ``vehicle_rates_setpoint``, MAVLink
+    ``ATTITUDE_TARGET`` body rates, DataFlash ``RATE.RDes…``).
+``auto`` (default)
+    Sticks when they carry excitation — on each of roll, pitch and yaw the stick signal
+    has a standard deviation of at least :data:`STICK_STD_MIN` (normalised units) and a
+    native rate of at least :data:`STICK_RATE_MIN` Hz — else torque commands, else rate
+    setpoints, else sticks anyway (with a note).
+
+The choice is made on the reader's candidate signals (:class:`etsid.ingest.base.Signal`)
+and turned into topic/field ``Override`` s, so ingest's own rule
+(:func:`etsid.ingest.mapping.choose_signals`) builds the table; user ``--map`` options win.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from etsid.errors import IdentError
+from etsid.table import is_table_path
+
+if TYPE_CHECKING:  # ingest is imported only when a log is read (ident → ingest stays thin)
+    from etsid.ingest import Override, ReadOptions
+    from etsid.ingest.base import Signal
+
+MODES = ("auto", "sticks", "torque", "setpoints")
+"""Values of ``--inputs``."""
+
+STICK_STD_MIN = 0.02
+"""Least standard deviation of each roll/pitch/yaw stick for ``auto`` to use the sticks,
+normalised units (−1…1): 1 % of the full throw."""
+
+STICK_RATE_MIN = 10.0
+"""Least native rate of the stick signals for ``auto`` to use them, Hz (a 2–5 Hz RC
+stream holds one value for several identification samples)."""
+
+AXES = ("u_roll", "u_pitch", "u_yaw")
+LOOP = (*AXES, "u_thrust")
+SETPOINTS = ("sp_p", "sp_q", "sp_r")
+
+TORQUE_TOPICS = frozenset({
+    "actuator_controls_0", "actuator_controls", "vehicle_torque_setpoint",
+    "vehicle_thrust_setpoint", "RATE", "/mavros/target_actuator_control",
+    "/fmu/out/vehicle_torque_setpoint", "/fmu/out/vehicle_thrust_setpoint",
+    "/fmu/out/actuator_controls_0",
+})
+"""Topics / messages whose ``u_*`` signals are controller torque or thrust commands."""
+
+
+def kind_of(source: str | None) -> str:
+    """``torque`` when ``source`` (``TOPIC.FIELD``) is a controller command, ``sticks`` for
+    any other ``u_*`` source, ``unknown`` without a source.
+
+    >>> kind_of("actuator_controls_0.control[0]"), kind_of("manual_control_setpoint.y")
+    ('torque', 'sticks')
+    """
+    if not source:
+        return "unknown"
+    topic = source.partition(".")[0]  # topic names hold no dot (etsid.ingest.base)
+    if topic in TORQUE_TOPICS or "torque" in topic or "actuator_control" in topic:
+        return "torque"
+    return "sticks"
+
+
+def excitation(signals: dict[str, Signal]) -> dict[str, dict[str, float]]:
+    """Per stick axis: ``std`` (normalised units) and native ``rate_hz`` of the signal."""
+    out: dict[str, dict[str, float]] = {}
+    for column in AXES:
+        sig = signals.get(column)
+        if sig is None:
+            continue
+        values = np.asarray(sig.values, dtype=float)
+        values = values[np.isfinite(values)]
+        out[column] = {"std": float(np.std(values)) if values.size else 0.0,
+                       "rate_hz": float(sig.rate_hz)}
+    return out
+
+
+def excited(stats: dict[str, dict[str, float]]) -> bool:
+    """The ``auto`` test: every roll/pitch/yaw stick has std ≥ :data:`STICK_STD_MIN`
+    and rate ≥ :data:`STICK_RATE_MIN`."""
+    return all(column in stats and stats[column]["std"] >= STICK_STD_MIN
+               and stats[column]["rate_hz"] >= STICK_RATE_MIN for column in AXES)
+
+
+@dataclass
+class InputChoice:
+    """The chosen input family, its signals and why.
+
+    Attributes
+    ----------
+    mode
+        What was asked (``auto``, ``sticks``, ``torque``, ``setpoints``).
+    kind
+        What is used: ``sticks``, ``torque`` or ``setpoints``.
+    columns
+        Model input columns (``u_roll …`` or ``sp_p …``).
+    sources
+        Column → ``TOPIC.FIELD`` of the signal behind it.
+    reason
+        One line: why this family.
+    sticks
+        The stick excitation test's numbers per axis (std, rate_hz).
+    """
+
+    mode: str
+    kind: str
+    columns: list[str]
+    sources: dict[str, str] = field(default_factory=dict)
+    reason: str = ""
+    sticks: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (stored in ``table.attrs["input_selection"]`` and config.json)."""
+        return asdict(self)
+
+    @property
+    def overrides(self) -> list[Override]:
+        """Topic/field overrides that make ingest pick exactly these signals."""
+        from etsid.ingest import Override
+        from etsid.ingest.base import split_source
+
+        out = []
+        for column, source in self.sources.items():
+            topic, fld = split_source(source)
+            out.append(Override(column, topic, fld or None))
+        return out
+
+
+def _best(signals: list[Signal], columns: tuple[str, ...], path: Path) -> dict[str, Signal]:
+    """Ingest's own choice among ``signals`` for ``columns``."""
+    from etsid.ingest.mapping import choose_signals
+
+    cands = [s for s in signals if s.column in columns and s.t.size]
+    if not cands:
+        return {}
+    chosen, _ = choose_signals(cands, [], path)
+    return chosen
+
+
+def _describe(stats: dict[str, dict[str, float]]) -> str:
+    return ", ".join(f"{c} std {v['std']:.3g} at {v['rate_hz']:.3g} Hz"
+                     for c, v in stats.items()) or "no sticks"
+
+
+def choose_inputs(signals: list[Signal], mode: str = "auto",
+                  path: str | Path = "log") -> InputChoice:
+    """Choose the input family among a log's candidate signals (module docstring).
+
+    Parameters
+    ----------
+    signals
+        :attr:`etsid.ingest.base.RawLog.signals`.
+    mode
+        One of :data:`MODES`.
+    path
+        For messages.
+
+    Raises
+    ------
+    IdentError
+        Unknown mode, or the requested family is not in the log.
+    """
+    if mode not in MODES:
+        raise IdentError(f"--inputs {mode!r}: choose one of {', '.join(MODES)}")
+    path = Path(path)
+    loop = [s for s in signals if s.column in LOOP]
+    sticks = _best([s for s in loop if kind_of(s.source) == "sticks"], LOOP, path)
+    torque = _best([s for s in loop if kind_of(s.source) == "torque"], LOOP, path)
+    setpoints = _best(signals, SETPOINTS, path)
+    stats = excitation(sticks)
+    has = {"sticks": all(c in sticks for c in AXES), "torque": all(c in torque for c in AXES),
+           "setpoints": all(c in setpoints for c in SETPOINTS)}
+    picked = {"sticks": sticks, "torque": torque, "setpoints": setpoints}
+
+    def make(kind: str, reason: str) -> InputChoice:
+        chosen = picked[kind]
+        columns = [c for c in (SETPOINTS if kind == "setpoints" else LOOP) if c in chosen]
+        return InputChoice(mode, kind, columns, {c: chosen[c].source for c in columns},
+                           reason, stats)
+
+    if mode != "auto":
+        if not has[mode]:
+            found = ", ".join(k for k, v in has.items() if v) or "none"
+            raise IdentError(f"{path}: --inputs {mode}: the log has no {mode} for all three "
+                             f"axes (families found: {found})")
+        return make(mode, f"--inputs {mode}")
+    if has["sticks"] and excited(stats):
+        return make("sticks", f"sticks carry excitation ({_describe(stats)})")
+    why = (f"sticks without excitation ({_describe(stats)}; need std ≥ {STICK_STD_MIN} "
+           f"and rate ≥ {STICK_RATE_MIN:g} Hz on each axis)" if has["sticks"] else "no sticks")
+    if has["torque"]:
+        return make("torque", f"{why}: torque commands")
+    if has["setpoints"]:
+        return make("setpoints", f"{why}, no torque commands: rate setpoints")
+    if has["sticks"]:
+        return make("sticks", f"{why}, no torque commands or setpoints: sticks anyway")
+    raise IdentError(f"{path}: no inputs for the rate model: no sticks, torque commands or "
+                     "rate setpoints on all three axes (use --map or --regressors)")
+
+
+def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs: str = "auto",
+                   rate_hz: float | None = None) -> pd.DataFrame:
+    """A log or saved table as a FlightTable whose ``u_*`` columns are the chosen inputs.
+
+    For a log, :func:`choose_inputs` runs on the reader's signals; its overrides (after the
+    user's own ``--map``, which win) go through ingest's choice rule and alignment. The
+    choice is stored in ``attrs["input_selection"]``. A saved table is returned as is
+    (:func:`etsid.ident.defaults.default_model` applies ``inputs`` to its columns).
+
+    Raises
+    ------
+    IdentError
+        Unknown mode or missing family.
+    IngestError
+        The log cannot be read.
+    """
+    from etsid.ingest import ReadOptions, load_any, read_raw
+    from etsid.ingest.align import build_table
+    from etsid.ingest.mapping import choose_signals
+
+    options = options or ReadOptions()
+    if is_table_path(path):
+        return load_any(path, options, rate_hz=rate_hz)
+    if inputs not in MODES:
+        raise IdentError(f"--inputs {inputs!r}: choose one of {', '.join(MODES)}")
+    raw = read_raw(path, options)
+    user = {o.column for o in options.overrides}
+    try:
+        choice = choose_inputs(raw.signals, inputs, raw.path)
+    except IdentError:
+        if user & set(LOOP) or not raw.signals:
+            choice = None  # the user mapped the inputs, or ingest reports the problem
+        else:
+            raise
+    extra = [o for o in (choice.overrides if choice else []) if o.column not in user]
+    if not raw.signals:
+        return load_any(path, options, rate_hz=rate_hz)
+    chosen, notes = choose_signals(raw.signals, [*options.overrides, *extra], raw.path)
+    raw.warnings.extend(notes)
+    table = build_table(raw, chosen, rate_hz=rate_hz)
+    if choice is not None:
+        mapping = table.attrs.get("mapping") or {}
+        for column in choice.columns:
+            if column in user and column in mapping:
+                choice.sources[column] = str(mapping[column])
+                choice.reason += f"; {column} from --map"
+        table.attrs["input_selection"] = choice.to_dict()
+    return table
