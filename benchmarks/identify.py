@@ -1,0 +1,126 @@
+"""Identification: throughput of a full identify run, and the quality table.
+
+Run:  /work/venv/bin/python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
+
+1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6, eTS+ radius 2) on a
+   ``--duration`` s simulated hover-ige flight at 250 Hz. One warm-up run on a short flight
+   first (numba compilation / cache load is start-up, not timed). Reports table samples/s
+   (250 Hz rows in) and identification samples/s (50 Hz rows learned), CPU and wall time.
+2. Quality: defaults on 60 s hover-ige flights with ``--seeds`` (not the seeds 1–3 used to
+   choose the lags), validation part (last 30 %): one-step RMSE / σ (σ = the floor after
+   decimation, σ_gyro/√5), free-run fit % for eTS and ARX, rules; then the same for
+   forward-flight and for identification at the native 250 Hz (``ident_rate=0``).
+3. ``--lag-study``: the ARX lag/rate table of docs/identify.md (seeds 1, 2, 3).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+from etsid.ident import IdentConfig, identify
+from etsid.sim import simulate
+
+
+def throughput(duration: float) -> None:
+    identify(simulate("hover-ige", duration=20.0, seed=99).table)  # warm-up
+    table = simulate("hover-ige", duration=duration, seed=5).table
+    cpu, wall = time.process_time(), time.perf_counter()
+    run = identify(table)
+    cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    n = run.metrics["n_samples"]
+    print(f"throughput: {duration:g} s hover-ige, {len(table)} rows at 250 Hz -> {n} at "
+          f"{run.metrics['sample_rate']['rate_hz']:g} Hz, rules peak "
+          f"{run.metrics['rules']['peak']}")
+    print(f"  wall {wall:.2f} s, CPU {cpu:.2f} s: {len(table) / wall:,.0f} table rows/s, "
+          f"{n / wall:,.0f} identification samples/s (wall)")
+
+
+def quality(scenario: str, seeds: list[int], config: IdentConfig, label: str) -> None:
+    rows = []
+    for seed in seeds:
+        run = identify(simulate(scenario, duration=60.0, seed=seed).table, config)
+        out = run.metrics["outputs"]
+        rows.append([[out[y]["validation"]["one_step"]["rmse_over_noise"],
+                      out[y]["arx"]["validation"]["one_step"]["rmse_over_noise"],
+                      out[y]["validation"]["free_run"]["fit"],
+                      out[y]["arx"]["validation"]["free_run"]["fit"],
+                      out[y]["validation"]["one_step"]["rmse"],
+                      out[y]["online"]["rmse_over_noise"]] for y in "pqr"]
+                    + [[run.metrics["rules"]["peak"], run.metrics["rules"]["frozen"],
+                        out["p"]["noise_std"], 0, 0, 0]])
+    mean = np.mean(np.array(rows, dtype=float), axis=0)
+    low = np.min(np.array(rows, dtype=float), axis=0)
+    print(f"\n{label}: {scenario}, seeds {seeds}, σ = {mean[3, 2]:.5f} rad/s, rules peak "
+          f"{mean[3, 0]:.1f}, frozen {mean[3, 1]:.1f} (means over seeds; free-run min)")
+    print("| output | eTS 1-step RMSE/σ | ARX 1-step RMSE/σ | eTS 1-step RMSE (rad/s) | "
+          "eTS free-run fit % (min) | ARX free-run fit % (min) | eTS online RMSE/σ |")
+    print("|---|---|---|---|---|---|---|")
+    for i, y in enumerate("pqr"):
+        print(f"| {y} | {mean[i, 0]:.2f} | {mean[i, 1]:.2f} | {mean[i, 4]:.4f} | "
+              f"{mean[i, 2]:.1f} ({low[i, 2]:.1f}) | {mean[i, 3]:.1f} ({low[i, 3]:.1f}) | "
+              f"{mean[i, 5]:.2f} |")
+
+
+def lag_study(seeds: list[int]) -> None:
+    """ARX free-run fit and one-step RMSE/σ over identification rates and lags."""
+    from etsid.ident.arx import ARX
+    from etsid.ident.metrics import fit_percent, rmse
+    from etsid.ident.regressors import RegressorSpec, build
+    from etsid.ident.resample import decimate
+    from etsid.ident.simulate import free_run
+
+    tables = [simulate("hover-ige", duration=60.0, seed=s).table for s in seeds]
+    print(f"\nlag study (ARX), hover-ige seeds {seeds}: free-run fit % p/q/r, "
+          "one-step RMSE/σ p/q/r")
+    for rate in (250.0, 125.0, 62.5, 50.0, 41.67, 31.25):
+        for ny, nu in ((1, 1), (2, 2), (2, 6), (3, 3), (4, 2), (4, 4), (4, 6), (6, 6)):
+            terms = [f"{y}[k-1..k-{ny}]" for y in "pqr"]
+            terms += [f"{u}[k-1..k-{nu}]" for u in ("u_roll", "u_pitch", "u_yaw", "u_thrust")]
+            spec = RegressorSpec.parse(",".join(terms), ["p", "q", "r"])
+            fits, errs = [], []
+            for table in tables:
+                d = decimate(table, rate)
+                reg = build(d, spec)
+                split = round(0.7 * len(reg.X))
+                model = ARX.fit(reg.X[:split], reg.Y[:split])
+                sim = free_run(model.predict_one, reg, spec, split, len(d))
+                one = model.predict(reg.X[split:])
+                y = reg.Y[split:]
+                sigma = d.attrs["noise"]["gyro_std"]
+                fits.append([fit_percent(y[:, o], sim[:, o]) for o in range(3)])
+                errs.append([rmse(y[:, o], one[:, o]) / sigma for o in range(3)])
+            f, e = np.mean(fits, axis=0), np.mean(errs, axis=0)
+            print(f"| {rate:g} | {ny}/{nu} | {f[0]:.1f} / {f[1]:.1f} / {f[2]:.1f} | "
+                  f"{e[0]:.2f} / {e[1]:.2f} / {e[2]:.2f} |", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=600.0)
+    parser.add_argument("--seeds", default="21,22,23")
+    parser.add_argument("--skip-quality", action="store_true")
+    parser.add_argument("--lag-study", action="store_true",
+                        help="only the ARX lag study on seeds 1, 2, 3")
+    args = parser.parse_args()
+    if args.lag_study:
+        lag_study([1, 2, 3])
+        return
+    print(f"python {platform.python_version()}, {platform.machine()}, "
+          f"{os.cpu_count()} CPUs")
+    throughput(args.duration)
+    if args.skip_quality:
+        return
+    seeds = [int(s) for s in args.seeds.split(",")]
+    quality("hover-ige", seeds, IdentConfig(), "defaults (50 Hz, lags 4/6, radius 2)")
+    quality("forward-flight", seeds, IdentConfig(), "defaults (50 Hz, lags 4/6, radius 2)")
+    quality("hover-ige", seeds, IdentConfig(ident_rate=0, input_lags=2, radius=1.5),
+            "previous defaults (250 Hz, lags 4/2, radius 1.5)")
+
+
+if __name__ == "__main__":
+    main()
