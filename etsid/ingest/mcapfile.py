@@ -27,6 +27,7 @@ from typing import Any
 
 from etsid.errors import IngestError
 from etsid.ingest.base import RawLog, ReadOptions
+from etsid.ingest.ros_fast import Batcher
 from etsid.ingest.ros_messages import Converter, TopicData, as_message
 from etsid.progress import progress
 
@@ -47,6 +48,11 @@ class _Decoders:
         self.factories = [Ros2Factory(), Ros1Factory()]
         self.store = get_typestore(Stores.EMPTY)
 
+    def fast_info(self, decoder: Callable[[bytes], Any]) -> tuple[dict[str, Any], str, bool] | None:
+        """(fielddefs, typename, cdr) for the vectorised path when ``decoder`` is rosbags'."""
+        info = getattr(decoder, "rosbags", None)
+        return None if info is None else (self.store.fielddefs, info[0], info[1])
+
     def _rosbags(self, encoding: str, schema: Any) -> Callable[[bytes], Any] | None:
         from rosbags.typesys import get_types_from_msg
 
@@ -62,7 +68,12 @@ class _Decoders:
         except Exception:  # unparsable or conflicting definition: use the mcap decoders
             return None
         deserialize = getattr(self.store, method)
-        return lambda data: deserialize(data, typename)
+
+        def decode(data: bytes) -> Any:
+            return deserialize(data, typename)
+
+        decode.rosbags = (typename, encoding == "cdr")  # type: ignore[attr-defined]
+        return decode
 
     def make(self, encoding: str, schema: Any) -> Callable[[bytes], Any]:
         """A decoder for ``encoding`` and ``schema``; raises ValueError when there is none."""
@@ -94,9 +105,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     raw = RawLog(path=path, format="mcap")
     conv = Converter(options)
     decoders = _Decoders()
+    broken: dict[str, str] = {}
+    batcher = Batcher(conv, lambda topic, state, data, log_ns: _slow(conv, topic, state, data,
+                                                                     log_ns, broken))
     schemas: dict[int, Any] = {}
     channels: dict[int, tuple[TopicData, Any]] = {}
-    broken: dict[str, str] = {}
     encodings: set[str] = set()
     size = path.stat().st_size
     good_pos = 0
@@ -110,7 +123,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                     entry = channels.get(record.channel_id)
                     if entry is None:
                         continue
-                    _take(conv, entry, record, decoders, broken)
+                    _take(conv, batcher, entry, record, decoders, broken)
                 elif isinstance(record, Schema):
                     schemas[record.id] = record
                 elif isinstance(record, Channel):
@@ -134,6 +147,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
             raw.warnings.append(f"{path}: truncated or damaged after byte {good_pos} ({why}); "
                                 f"kept {messages} message(s) before it, "
                                 f"{size - good_pos} byte(s) could not be read")
+    batcher.flush_all()
     for name, why in broken.items():
         topic = conv.topics[name]
         topic.note = f"undecodable, skipped ({why})"
@@ -148,24 +162,42 @@ def _open_channel(conv: Converter, record: Any, schemas: dict[int, Any]) -> tupl
     schema = schemas.get(record.schema_id)
     msgtype = schema.name if schema is not None else "(no schema)"
     topic = conv.topic(record.topic, msgtype)
-    return topic, [record.message_encoding, schema, None]
+    return topic, [record.message_encoding, schema, None, None]
 
 
-def _take(conv: Converter, entry: tuple[TopicData, Any], record: Any, decoders: _Decoders,
-          broken: dict[str, str]) -> None:
+def _take(conv: Converter, batcher: Batcher, entry: tuple[TopicData, Any], record: Any,
+          decoders: _Decoders, broken: dict[str, str]) -> None:
     topic, state = entry
     if not topic.decode or topic.topic in broken:
         conv.count(topic, record.log_time)
         return
-    decoder = state[2]
-    try:
-        if decoder is None:
-            decoder = state[2] = decoders.make(state[0], state[1])
-        msg = decoder(record.data)
-    except Exception as err:  # any decoder failure disables this channel only
-        text = " ".join(str(a) for a in err.args) or type(err).__name__
-        broken[topic.topic] = f"{type(err).__name__}: {text.splitlines()[0][:120]}"
-        topic.spec, topic.requests = None, []
-        conv.count(topic, record.log_time)
+    if state[2] is None:
+        try:
+            state[2] = decoders.make(state[0], state[1])
+        except Exception as err:  # no decoder: this channel only is skipped
+            _broken(conv, topic, broken, err, record.log_time)
+            return
+        state[3] = decoders.fast_info(state[2])
+    batcher.push(topic, state[3], state, record.data, record.log_time)
+
+
+def _broken(conv: Converter, topic: TopicData, broken: dict[str, str], err: Exception,
+            log_ns: int) -> None:
+    text = " ".join(str(a) for a in err.args) or type(err).__name__
+    broken[topic.topic] = f"{type(err).__name__}: {text.splitlines()[0][:120]}"
+    topic.spec, topic.requests = None, []
+    conv.count(topic, log_ns)
+
+
+def _slow(conv: Converter, topic: TopicData, state: Any, data: bytes, log_ns: int,
+          broken: dict[str, str]) -> None:
+    """Per-message path: decode one message and convert it."""
+    if topic.topic in broken:
+        conv.count(topic, log_ns)
         return
-    conv.add(topic, msg, record.log_time)
+    try:
+        msg = state[2](data)
+    except Exception as err:  # any decoder failure disables this channel only
+        _broken(conv, topic, broken, err, log_ns)
+        return
+    conv.add(topic, msg, log_ns)

@@ -28,8 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
+from etsid.ingest import ros_fast
 from etsid.ingest.base import RawLog, ReadOptions
-from etsid.ingest.ros_messages import Converter, typestore
+from etsid.ingest.ros_fast import Batcher
+from etsid.ingest.ros_fast_ros1 import NotFast, Ros1Bag
+from etsid.ingest.ros_messages import Converter, TopicData, typestore
 from etsid.progress import progress
 
 
@@ -77,20 +80,53 @@ def _size(path: Path) -> int:
     return path.stat().st_size
 
 
+class _LazyTypestore:
+    """The default typestore, built (≈ 3 s: the shipped .msg files) only when a bag lacks
+    definitions of its own."""
+
+    def __init__(self, ros1: bool) -> None:
+        self.ros1 = ros1
+
+    @property
+    def fielddefs(self) -> dict[str, Any]:
+        return typestore(ros1=self.ros1).fielddefs
+
+
+def _slow_one(conv: Converter, broken: dict[str, str], deser: Any, topic: TopicData,
+              typename: str, data: bytes, log_ns: int) -> None:
+    """Per-message path: deserialise with rosbags, convert one message."""
+    if topic.topic in broken:
+        conv.count(topic, log_ns)
+        return
+    try:
+        msg = deser(data, typename)
+    except _errors() as err:
+        broken[topic.topic] = _first_line(err)
+        conv.count(topic, log_ns)
+        return
+    conv.add(topic, msg, log_ns)
+
+
 def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) -> Converter:
     """Stream ``paths`` through AnyReader into a fresh :class:`Converter`."""
     from rosbags.highlevel import AnyReader
 
     errors = _errors()
-    default = typestore(ros1=ros1)
+    default = _LazyTypestore(ros1)
     conv = Converter(options)
     with AnyReader(paths, default_typestore=default) as reader:
         reader.typestore.register(_missing_types(
             default, reader.typestore, {c.msgtype for c in reader.connections}))
         deser = (reader.typestore.deserialize_ros1 if not reader.is2
                  else reader.typestore.deserialize_cdr)
+        fielddefs = reader.typestore.fielddefs
         topics = {c.id: conv.topic(c.topic, c.msgtype) for c in reader.connections}
         broken: dict[str, str] = {}
+
+        def slow(topic: TopicData, typename: Any, data: bytes, log_ns: int) -> None:
+            _slow_one(conv, broken, deser, topic, typename, data, log_ns)
+
+        batcher = Batcher(conv, slow)
         done = 0
         total = sum(_size(p) for p in paths)
         with progress(total, f"reading {paths[0].name}", options.progress) as bar:
@@ -100,13 +136,8 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
                     if not topic.decode or topic.topic in broken:
                         conv.count(topic, log_ns)
                         continue
-                    try:
-                        msg = deser(data, conn.msgtype)
-                    except errors as err:
-                        broken[topic.topic] = _first_line(err)
-                        conv.count(topic, log_ns)
-                        continue
-                    conv.add(topic, msg, log_ns)
+                    batcher.push(topic, (fielddefs, conn.msgtype, reader.is2), conn.msgtype,
+                                 data, log_ns)
                     done += len(data)
                     if done > 1 << 20:
                         bar.update(done)
@@ -114,9 +145,64 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
             except errors as err:
                 raw.warnings.append(f"{raw.path}: reading stopped early ({_first_line(err)}); "
                                     "kept the messages read before that")
+            batcher.flush_all()
         _note_broken(conv, broken, raw)
         raw.extra["storage"] = "rosbag1" if not reader.is2 else _storage_name(paths[0])
         raw.extra["message_count"] = sum(c.msgcount for c in reader.connections)
+    return conv
+
+
+def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter | None:
+    """Indexed ROS 1 bag through :class:`Ros1Bag`; None when rosbags must read it."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    if not ros_fast.ENABLED:
+        return None
+    try:
+        bag = Ros1Bag(path)
+    except (NotFast, OSError):
+        return None
+    try:
+        first = bag.check_order()
+        conv = Converter(options)
+        conv.base_ns = None if first is None else int(first)
+        store = get_typestore(Stores.EMPTY)
+        topics: dict[int, tuple[TopicData, str]] = {}
+        for conn in bag.connections.values():
+            pkg, _, name = conn.msgtype.partition("/")
+            typename = f"{pkg}/msg/{name}"
+            topic = conv.topic(conn.topic, typename)
+            topics[conn.id] = (topic, typename)
+            if topic.decode:
+                if not conn.definition:
+                    raise NotFast("connection without definition")
+                store.register(get_types_from_msg(conn.definition, typename))
+        broken: dict[str, str] = {}
+        done = 0
+        with progress(path.stat().st_size, f"reading {path.name}", options.progress) as bar:
+            for conn, log_ns, arr, bodies in bag.messages():
+                topic, typename = topics[conn.id]
+                if not topic.decode or topic.topic in broken:
+                    conv.count_many(topic, log_ns)
+                    continue
+                if arr is not None and ros_fast.decode_batch(
+                        conv, topic, store.fielddefs, typename, arr, log_ns, cdr=False):
+                    done += arr.size
+                else:
+                    datas = bodies if arr is None else [row.tobytes() for row in arr]
+                    for data, t in zip(datas, log_ns.tolist(), strict=True):
+                        _slow_one(conv, broken, store.deserialize_ros1, topic, typename, data, t)
+                        done += len(data)
+                if done > 1 << 20:
+                    bar.update(done)
+                    done = 0
+    except (NotFast, OSError, struct.error, KeyError, ValueError, *_errors()):
+        return None
+    finally:
+        bag.close()
+    _note_broken(conv, broken, raw)
+    raw.extra["storage"] = "rosbag1"
+    raw.extra["message_count"] = sum(c.count for c in bag.connections.values())
     return conv
 
 
@@ -190,7 +276,7 @@ def _read_ros1(path: Path, options: ReadOptions, raw: RawLog) -> None:
 
     errors = _errors()
     try:
-        conv = _read_any([path], options, raw, ros1=True)
+        conv = _read_ros1_fast(path, options, raw) or _read_any([path], options, raw, ros1=True)
     except Reader1Error as err:
         text = _first_line(err)
         if "index" not in text.lower():
