@@ -232,9 +232,7 @@ def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs:
     IngestError
         The log cannot be read.
     """
-    from etsid.ingest import ReadOptions, load_any, read_raw
-    from etsid.ingest.align import build_table
-    from etsid.ingest.mapping import choose_signals
+    from etsid.ingest import ReadOptions, load_any, read_raw, table_from_raw
 
     options = options or ReadOptions()
     if is_table_path(path):
@@ -251,11 +249,7 @@ def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs:
         else:
             raise
     extra = [o for o in (choice.overrides if choice else []) if o.column not in user]
-    if not raw.signals:
-        return load_any(path, options, rate_hz=rate_hz)
-    chosen, notes = choose_signals(raw.signals, [*options.overrides, *extra], raw.path)
-    raw.warnings.extend(notes)
-    table = build_table(raw, chosen, rate_hz=rate_hz)
+    table = table_from_raw(raw, [*options.overrides, *extra], rate_hz=rate_hz)
     if choice is not None:
         mapping = table.attrs.get("mapping") or {}
         for column in choice.columns:

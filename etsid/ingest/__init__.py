@@ -55,12 +55,27 @@ def read_log(
     """
     options = options or ReadOptions()
     raw = read_raw(path, options)
+    return table_from_raw(raw, options.overrides, rate_hz=rate_hz, start=start, end=end)
+
+
+def table_from_raw(
+    raw: RawLog,
+    overrides: list[Override],
+    rate_hz: float | None = None,
+    start: float | None = None,
+    end: float | None = None,
+) -> pd.DataFrame:
+    """Choose one signal per column of ``raw`` (honouring ``overrides``) and align them.
+
+    The second half of :func:`read_log`, for callers that look at the reader's candidate
+    signals before deciding on overrides (e.g. ``etsid identify --inputs``).
+    """
     if not raw.signals:
         kinds = ", ".join(sorted({f"{c.name} ({c.type})" for c in raw.channels})[:12])
         raise IngestError(
             f"{raw.path}: no usable flight data; found {kinds or 'no messages'}"
         )
-    chosen, notes = choose_signals(raw.signals, options.overrides, raw.path)
+    chosen, notes = choose_signals(raw.signals, overrides, raw.path)
     raw.warnings.extend(notes)
     return build_table(raw, chosen, rate_hz=rate_hz, start=start, end=end)
 
