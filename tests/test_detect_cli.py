@@ -82,3 +82,12 @@ def test_version_and_help() -> None:
 def test_bad_option_is_usage_error(tmp_path: Path) -> None:
     code, output = run("ingest", str(tmp_path / "x.tlog"), "-o", str(tmp_path / "x.txt"))
     assert code == 2 and "parquet" in output
+
+
+def test_inspect_says_when_nothing_maps() -> None:
+    """inspect lists a log without flight data (exit 0) and says ingest has nothing to take."""
+    talker = Path(__file__).parent / "data" / "ros" / "ros2_talker_db3"
+    code, output = run("inspect", str(talker))
+    assert code == 0 and "std_msgs/msg/String" in output and "nothing to ingest" in output
+    code, output = run("ingest", str(talker), "-o", "unused.parquet")
+    assert code == 1 and "no usable flight data" in output

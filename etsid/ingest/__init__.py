@@ -102,6 +102,9 @@ def inspect_log(path: str | Path, options: ReadOptions | None = None) -> dict[st
         picked, notes = choose_signals(raw.signals, (options or ReadOptions()).overrides,
                                        raw.path)
         chosen = {c: s.source for c, s in picked.items()}
+    else:
+        notes.append("no topic or message fills a FlightTable column: nothing to ingest "
+                     "(use --map COLUMN=TOPIC.FIELD to map fields by hand)")
     return {
         "path": str(raw.path),
         "format": raw.format,
