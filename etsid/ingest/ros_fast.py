@@ -117,7 +117,8 @@ class _Walker:
         self.pos += size * max(count, 1)
 
     def string(self) -> None:
-        self.pos += self.length()
+        size = self.length()
+        self.pos += size
 
     def message(self, typename: str, prefix: str) -> None:
         if typename not in self.defs:
