@@ -26,37 +26,9 @@ from etsid.ets.kernels import (
     RADIUS_FLOOR,
     SQRT8,
     TIE,
-    firing,
-    output,
-    potential,
-    regressor,
     remove_rule,
     reparametrise,
-    scales,
 )
-
-
-@njit(cache=True)
-def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
-    """Batch prediction with frozen rules; NaN rows when the model has no rule."""
-    N, n = X.shape
-    m = Yhat.shape[1]
-    d = lo.shape[0]
-    s = np.empty(d)
-    scales(lo, hi, s)
-    lam = np.empty(max(n_rules, 1))
-    xe = np.empty(n + 1)
-    yh = np.empty(m)
-    for t in range(N):
-        if n_rules == 0:
-            for o in range(m):
-                Yhat[t, o] = np.nan
-            continue
-        firing(X[t], cz, rad, s, n_rules, lam)
-        regressor(X[t], lo, s, xe)
-        output(xe, lam, Pi, n_rules, yh)
-        for o in range(m):
-            Yhat[t, o] = yh[o]
 
 
 @njit(cache=True)
@@ -128,7 +100,148 @@ def _add_rule(
     return rid
 
 
-@njit(cache=True)
+@njit(cache=True, boundscheck=False)
+def _refresh_scales(lo, hi, s, w2, isx, n) -> None:
+    """s = hi - lo (1 where zero), w2 = 1 / s^2 over z, isx = 1 / s over the inputs."""
+    for j in range(lo.shape[0]):
+        w = hi[j] - lo[j]
+        sj = w if w > 0.0 else 1.0
+        s[j] = sj
+        w2[j] = 1.0 / (sj * sj)
+        if j < n:
+            isx[j] = 1.0 / sj
+
+
+@njit(cache=True, boundscheck=False)
+def _sync_rule(i, cz, rad, s, czT, aT) -> None:
+    """Copy rule i's focal point into the transposed work array and refresh its firing
+    coefficients aT[j, i] = 4 / (s_j r_ij)^2 (hoisted inverse radii squared)."""
+    for j in range(cz.shape[1]):
+        czT[j, i] = cz[i, j]
+    for j in range(aT.shape[0]):
+        q = s[j] * rad[i, j]
+        aT[j, i] = 4.0 / (q * q)
+
+
+@njit(cache=True, boundscheck=False)
+def _fire(X, t, czT, aT, R, ex, lam) -> None:
+    """Normalised firing lambda_i of rules 0..R-1 for input row X[t] (rules in the inner loop).
+
+    Same value as ``kernels.firing``: tau_i = exp(-sum_j aT[j, i] (x_j - x*_ij)^2), normalised
+    with the smallest exponent subtracted first.
+    """
+    n = aT.shape[0]
+    for i in range(R):
+        ex[i] = 0.0
+    for j in range(n):
+        xj = X[t, j]
+        for i in range(R):
+            dj = xj - czT[j, i]
+            ex[i] += dj * dj * aT[j, i]
+    emin = np.inf
+    for i in range(R):
+        emin = min(emin, ex[i])
+    tot = 0.0
+    for i in range(R):
+        v = np.exp(emin - ex[i])
+        lam[i] = v
+        tot += v
+    itot = 1.0 / tot
+    for i in range(R):
+        lam[i] *= itot
+
+
+@njit(cache=True, boundscheck=False)
+def _to_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
+    """Copy consequents (and local covariances) of rules 0..R-1 into the rule-minor work
+    arrays PiT[a, o, i], CT[a, b, i] so the per-rule updates vectorise over rules."""
+    n1 = Pi.shape[1]
+    m = Pi.shape[2]
+    for a in range(n1):
+        for o in range(m):
+            for i in range(R):
+                PiT[a, o, i] = Pi[i, a, o]
+        if not is_global:
+            for b in range(n1):
+                for i in range(R):
+                    CT[a, b, i] = Cl[i, a, b]
+
+
+@njit(cache=True, boundscheck=False)
+def _from_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
+    """Write the work arrays of rules 0..R-1 back into the state layout."""
+    n1 = Pi.shape[1]
+    m = Pi.shape[2]
+    for i in range(R):
+        for a in range(n1):
+            for o in range(m):
+                Pi[i, a, o] = PiT[a, o, i]
+            if not is_global:
+                for b in range(n1):
+                    Cl[i, a, b] = CT[a, b, i]
+
+
+@njit(cache=True, boundscheck=False)
+def _rule_outputs(xe, PiT, R, yrT) -> None:
+    """yrT[o, i] = x_e^T Pi_i[:, o] for every live rule (rules in the inner loop)."""
+    n1 = xe.shape[0]
+    m = yrT.shape[0]
+    for o in range(m):
+        for i in range(R):
+            yrT[o, i] = 0.0
+    for a in range(n1):
+        xa = xe[a]
+        for o in range(m):
+            for i in range(R):
+                yrT[o, i] += xa * PiT[a, o, i]
+
+
+@njit(cache=True, boundscheck=False)
+def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
+    """Batch prediction with frozen rules; NaN rows when the model has no rule.
+
+    Same arithmetic, in the same order, as step 1 of ``learn_kernel``, so a prediction
+    equals the one ``run`` would have made bit for bit.
+    """
+    N, n = X.shape
+    m = Yhat.shape[1]
+    d = lo.shape[0]
+    n1 = n + 1
+    R = n_rules
+    if R == 0:
+        for t in range(N):
+            for o in range(m):
+                Yhat[t, o] = np.nan
+        return
+    s = np.empty(d)
+    w2 = np.empty(d)
+    isx = np.empty(n)
+    _refresh_scales(lo, hi, s, w2, isx, n)
+    czT = np.empty((d, R))
+    aT = np.empty((n, R))
+    for i in range(R):
+        _sync_rule(i, cz, rad, s, czT, aT)
+    PiT = np.empty((n1, m, R))
+    CT = np.empty((1, 1, 1))
+    _to_soa(R, Pi, CT, PiT, CT, True)
+    ex = np.empty(R)
+    lam = np.empty(R)
+    xe = np.empty(n1)
+    yrT = np.empty((m, R))
+    for t in range(N):
+        _fire(X, t, czT, aT, R, ex, lam)
+        xe[0] = 1.0
+        for j in range(n):
+            xe[j + 1] = (X[t, j] - lo[j]) * isx[j]
+        _rule_outputs(xe, PiT, R, yrT)
+        for o in range(m):
+            acc = 0.0
+            for i in range(R):
+                acc += lam[i] * yrT[o, i]
+            Yhat[t, o] = acc
+
+
+@njit(cache=True, boundscheck=False)
 def learn_kernel(
     X,
     Y,
@@ -164,6 +277,14 @@ def learn_kernel(
     per-sample history (rules, potential, focal max, focal min) into ``hist``. Events
     (step, kind, rule id) are appended to ``ev`` from row ``nev[0]``; the caller sizes ``ev``
     for the worst case (4 N + max_rules rows).
+
+    Speed (docs/performance.md): all work arrays are allocated once per call; 1/s, 1/s^2 and
+    the firing coefficients 4/(s r)^2 are recomputed only when a range widens, a rule is
+    born, moved or removed, or a spread adapts; focal points are mirrored into a transposed
+    array so the per-rule loops (firing, potentials) run over rules in the inner loop; the
+    firing strengths and per-rule outputs of the prediction are reused by the update when
+    the rule base and the ranges did not change; covariance updates are written on whole
+    rows as C_ab - c (g_a g_b), which is exactly symmetric without mirroring.
     """
     N, n = X.shape
     m = Y.shape[1]
@@ -177,17 +298,28 @@ def learn_kernel(
     adaptive = ip[IP_ADAPTIVE] == 1
     omega = fp[FP_OMEGA]
     forget = fp[FP_FORGET]
+    omf = 1.0 - forget
     umin = fp[FP_UTILITY]
     rho_s = fp[FP_SPREAD_RHO]
     coverage = ip[IP_COVERAGE] == 1
 
     s = np.empty(d)
+    w2 = np.empty(d)
+    isx = np.empty(n)
     lo_old = np.empty(n)
     hi_old = np.empty(n)
+    czT = np.empty((d, rmax))
+    aT = np.empty((n, rmax))
+    ex = np.empty(rmax)
     lam = np.empty(rmax)
+    yrT = np.empty((m, rmax))
+    PiT = np.empty((n1, m, rmax))
+    CT = np.empty((1, 1, 1) if is_global else (n1, n1, rmax))
+    gT = np.empty((n1, rmax))
+    cw = np.empty(rmax)
+    fiv = np.empty(rmax)
     xe = np.empty(n1)
     z = np.empty(d)
-    w2 = np.empty(d)
     yh = np.empty(m)
     err = np.empty(m)
     pnew = np.zeros((n1, m))
@@ -195,112 +327,112 @@ def learn_kernel(
     g = np.empty(rmax * n1 if is_global else n1)
     phi = np.empty(rmax * n1 if is_global else 1)
 
+    _refresh_scales(lo, hi, s, w2, isx, n)
+    for i in range(si[1]):
+        _sync_rule(i, cz, rad, s, czT, aT)
+    _to_soa(si[1], Pi, Cl, PiT, CT, is_global)
+
     for t in range(N):
-        x = X[t]
-        y = Y[t]
         k = si[0]
         R = si[1]
-        scales(lo, hi, s)
-        # 1. one-step prediction before any update
+        for j in range(n):
+            z[j] = X[t, j]
+        for o in range(m):
+            z[n + o] = Y[t, o]
+        # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept)
         if R > 0:
-            firing(x, cz, rad, s, R, lam)
-            regressor(x, lo, s, xe)
-            output(xe, lam, Pi, R, yh)
+            _fire(X, t, czT, aT, R, ex, lam)
+            xe[0] = 1.0
+            for j in range(n):
+                xe[j + 1] = (z[j] - lo[j]) * isx[j]
+            _rule_outputs(xe, PiT, R, yrT)
             for o in range(m):
-                Yhat[t, o] = yh[o]
+                acc = 0.0
+                for i in range(R):
+                    acc += lam[i] * yrT[o, i]
+                Yhat[t, o] = acc
+                yh[o] = acc
         else:
             for o in range(m):
                 Yhat[t, o] = np.nan
         # 2. widen running ranges; rewrite consequents if an input range moved
-        for j in range(n):
-            lo_old[j] = lo[j]
-            hi_old[j] = hi[j]
         changed_x = False
+        changed_y = False
         for j in range(d):
-            v = x[j] if j < n else y[j - n]
-            z[j] = v
             if fixed[j] == 1:
                 continue
-            if k == 0:
-                lo[j] = v
-                hi[j] = v
-            elif v < lo[j]:
-                lo[j] = v
-                changed_x = changed_x or j < n
-            elif v > hi[j]:
-                hi[j] = v
-                changed_x = changed_x or j < n
-        scales(lo, hi, s)
-        if changed_x and R > 0:
-            reparametrise(lo_old, hi_old, lo, s, R, Pi, Cl, Cg, is_global)
+            v = z[j]
+            if k == 0 or v < lo[j] or v > hi[j]:
+                if not changed_x and not changed_y:
+                    for q in range(n):
+                        lo_old[q] = lo[q]
+                        hi_old[q] = hi[q]
+                if k == 0:
+                    lo[j] = v
+                    hi[j] = v
+                elif v < lo[j]:
+                    lo[j] = v
+                else:
+                    hi[j] = v
+                if j < n:
+                    changed_x = k > 0 or changed_x
+                changed_y = True
+        if changed_y:
+            _refresh_scales(lo, hi, s, w2, isx, n)
+        if changed_x:
+            for i in range(R):
+                _sync_rule(i, cz, rad, s, czT, aT)
+            if R > 0:
+                _from_soa(R, Pi, Cl, PiT, CT, is_global)
+                reparametrise(lo_old, hi_old, lo, s, R, Pi, Cl, Cg, is_global)
+                _to_soa(R, Pi, Cl, PiT, CT, is_global)
         # 3. running mean / variance of z (Welford)
         k += 1
         si[0] = k
+        ik = 1.0 / k
         for j in range(d):
             dj = z[j] - mean[j]
-            mean[j] += dj / k
+            mean[j] += dj * ik
             m2[j] += dj * (z[j] - mean[j])
-        # 4. potentials of the sample and of every focal point
-        P = potential(z, mean, m2, s, k)
+        # 4. potentials of the sample and of every focal point (rules in the inner loop)
         pmax = -np.inf
         pmin = np.inf
         if k >= 2:
-            # same expansion as potential(), with the variance term shared by all rules
             vterm = 0.0
+            acc = 0.0
             for j in range(d):
-                w2[j] = 1.0 / (s[j] * s[j])
-                vterm += m2[j] / k * w2[j]
+                vterm += m2[j] * w2[j]
+                dj = z[j] - mean[j]
+                acc += dj * dj * w2[j]
+            vterm *= ik
             kk = k / (k - 1.0)
+            P = 1.0 / (1.0 + (acc + vterm) * kk)
             for i in range(R):
-                acc = vterm
-                for j in range(d):
-                    dj = cz[i, j] - mean[j]
-                    acc += dj * dj * w2[j]
-                pi_ = 1.0 / (1.0 + acc * kk)
+                ex[i] = vterm
+            for j in range(d):
+                mj = mean[j]
+                wj = w2[j]
+                for i in range(R):
+                    dj = czT[j, i] - mj
+                    ex[i] += dj * dj * wj
+            for i in range(R):
+                pi_ = 1.0 / (1.0 + ex[i] * kk)
                 pot[i] = pi_
                 pmax = max(pmax, pi_)
                 pmin = min(pmin, pi_)
         else:
+            P = 1.0
             for i in range(R):
                 pot[i] = 1.0
             pmax = pmin = 1.0 if R > 0 else 0.0
         # 5. structure
-        for j in range(n):
-            scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
         changed = changed_x
         born = False
+        grow = False
+        target = -1
         if R == 0:
             pnew[:, :] = 0.0
-            rid = _add_rule(
-                z,
-                P,
-                k,
-                pnew,
-                si,
-                r0,
-                s,
-                omega,
-                scat0,
-                ids,
-                cz,
-                rad,
-                scat,
-                pot,
-                birth,
-                support,
-                lamsum,
-                tsum,
-                Pi,
-                Cl,
-                Cg,
-                is_global,
-            )
-            ev[nev[0], 0] = k
-            ev[nev[0], 1] = EV_BIRTH
-            ev[nev[0], 2] = rid
-            nev[0] += 1
-            changed = True
-            born = True
+            grow = True
         else:
             high = pmax * (1.0 + TIE) < P
             low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
@@ -313,7 +445,7 @@ def learn_kernel(
                     d2 = 0.0
                     dinf = 0.0
                     for j in range(n):
-                        q = abs(x[j] - cz[i, j]) / (s[j] * rad[i, j])
+                        q = abs(z[j] - cz[i, j]) / (s[j] * rad[i, j])
                         d2 += q * q
                         dinf = max(dinf, q)
                     if d2 < dmin:
@@ -339,6 +471,7 @@ def learn_kernel(
                     for j in range(d):
                         cz[target, j] = z[j]
                     pot[target] = P
+                    _sync_rule(target, cz, rad, s, czT, aT)
                     ev[nev[0], 0] = k
                     ev[nev[0], 1] = EV_REPLACE
                     ev[nev[0], 2] = ids[target]
@@ -346,49 +479,66 @@ def learn_kernel(
                     changed = True
                 elif grow:
                     if changed_x:
-                        firing(x, cz, rad, s, R, lam)
-                        regressor(x, lo, s, xe)
+                        _fire(X, t, czT, aT, R, ex, lam)
                     for a in range(n1):
                         for o in range(m):
                             acc = 0.0
                             for i in range(R):
-                                acc += lam[i] * Pi[i, a, o]
+                                acc += lam[i] * PiT[a, o, i]
                             pnew[a, o] = acc
-                    rid = _add_rule(
-                        z,
-                        P,
-                        k,
-                        pnew,
-                        si,
-                        r0,
-                        s,
-                        omega,
-                        scat0,
-                        ids,
-                        cz,
-                        rad,
-                        scat,
-                        pot,
-                        birth,
-                        support,
-                        lamsum,
-                        tsum,
-                        Pi,
-                        Cl,
-                        Cg,
-                        is_global,
-                    )
-                    ev[nev[0], 0] = k
-                    ev[nev[0], 1] = EV_BIRTH
-                    ev[nev[0], 2] = rid
-                    nev[0] += 1
-                    changed = True
-                    born = True
+        if grow:
+            for j in range(n):
+                scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
+            rid = _add_rule(
+                z,
+                P,
+                k,
+                pnew,
+                si,
+                r0,
+                s,
+                omega,
+                scat0,
+                ids,
+                cz,
+                rad,
+                scat,
+                pot,
+                birth,
+                support,
+                lamsum,
+                tsum,
+                Pi,
+                Cl,
+                Cg,
+                is_global,
+            )
+            _sync_rule(R, cz, rad, s, czT, aT)
+            for a in range(n1):
+                for o in range(m):
+                    PiT[a, o, R] = Pi[R, a, o]
+                if not is_global:
+                    for b in range(n1):
+                        CT[a, b, R] = Cl[R, a, b]
+            ev[nev[0], 0] = k
+            ev[nev[0], 1] = EV_BIRTH
+            ev[nev[0], 2] = rid
+            nev[0] += 1
+            changed = True
+            born = True
         R = si[1]
         # 6. firing with the updated rule base; support, age, spreads, utility
         if changed:
-            firing(x, cz, rad, s, R, lam)
-            regressor(x, lo, s, xe)
+            _fire(X, t, czT, aT, R, ex, lam)
+            xe[0] = 1.0
+            for j in range(n):
+                xe[j + 1] = (z[j] - lo[j]) * isx[j]
+            _rule_outputs(xe, PiT, R, yrT)
+            for o in range(m):
+                acc = 0.0
+                for i in range(R):
+                    acc += lam[i] * yrT[o, i]
+                yh[o] = acc
         if not born:
             w = 0
             for i in range(1, R):
@@ -398,10 +548,11 @@ def learn_kernel(
             tsum[w] += k
             if adaptive:
                 for j in range(n):
-                    dx = x[j] - cz[w, j]
+                    dx = z[j] - cz[w, j]
                     scat[w, j] += (dx * dx - scat[w, j]) / support[w]
                     rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
                     rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
+                _sync_rule(w, cz, rad, s, czT, aT)
         for i in range(R):
             lamsum[i] += lam[i]
         # 7. consequents: fuzzily weighted RLS
@@ -410,62 +561,86 @@ def learn_kernel(
             for i in range(R):
                 for a in range(n1):
                     phi[i * n1 + a] = lam[i] * xe[a]
-            output(xe, lam, Pi, R, yh)
             for o in range(m):
-                err[o] = y[o] - yh[o]
+                err[o] = z[n + o] - yh[o]
+            # g = Cg phi as a sum of columns; Cg is exactly symmetric, so column b equals
+            # row b and every g[a] is summed in the same order as the row dot product
+            for a in range(p):
+                g[a] = 0.0
+            for b in range(p):
+                pb = phi[b]
+                for a in range(p):
+                    g[a] += Cg[b, a] * pb
             den = forget
             for a in range(p):
-                acc = 0.0
-                for b in range(p):
-                    acc += Cg[a, b] * phi[b]
-                g[a] = acc
-                den += phi[a] * acc
+                den += phi[a] * g[a]
             iden = 1.0 / den
-            ifg = 1.0 / forget
-            for a in range(p):
-                ga = g[a] * iden
-                for b in range(a, p):
-                    v = (Cg[a, b] - ga * g[b]) * ifg
-                    Cg[a, b] = v
-                    Cg[b, a] = v
-            for i in range(R):
-                for a in range(n1):
-                    ga = g[i * n1 + a] / den
-                    for o in range(m):
-                        Pi[i, a, o] += ga * err[o]
+            # C_ab - (g_a g_b) / den is exactly symmetric: no mirroring needed
+            if forget == 1.0:
+                for a in range(p):
+                    ga = g[a]
+                    for b in range(p):
+                        Cg[a, b] -= (ga * g[b]) * iden
+            else:
+                ifg = 1.0 / forget
+                for a in range(p):
+                    ga = g[a]
+                    for b in range(p):
+                        Cg[a, b] = (Cg[a, b] - (ga * g[b]) * iden) * ifg
+            for a in range(n1):
+                for i in range(R):
+                    gT[a, i] = g[i * n1 + a] * iden
+            for a in range(n1):
+                for o in range(m):
+                    eo = err[o]
+                    for i in range(R):
+                        PiT[a, o, i] += gT[a, i] * eo
         else:
+            # every rule at once, rules in the inner (contiguous) loop; a rule with
+            # lambda = 0 gets f_i = 1 and gain 0, i.e. exactly no change
+            for i in range(R):
+                fiv[i] = 1.0 - lam[i] * omf
+                cw[i] = 0.0
+            for a in range(n1):
+                for i in range(R):
+                    gT[a, i] = 0.0
+                for b in range(n1):
+                    xb = xe[b]
+                    for i in range(R):
+                        gT[a, i] += CT[a, b, i] * xb
+            for a in range(n1):
+                xa = xe[a]
+                for i in range(R):
+                    cw[i] += xa * gT[a, i]
             for i in range(R):
                 wi = lam[i]
-                fi = 1.0 - wi * (1.0 - forget)
-                den = fi
+                cw[i] = wi / (fiv[i] + wi * cw[i])
+            # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
+            for a in range(n1):
+                for b in range(n1):
+                    for i in range(R):
+                        CT[a, b, i] -= cw[i] * (gT[a, i] * gT[b, i])
+            if forget != 1.0:
+                for i in range(R):
+                    fiv[i] = 1.0 / fiv[i]
                 for a in range(n1):
-                    acc = 0.0
                     for b in range(n1):
-                        acc += Cl[i, a, b] * xe[b]
-                    g[a] = acc
-                    den += wi * xe[a] * acc
-                cw = wi / den
-                ifi = 1.0 / fi
-                for a in range(n1):
-                    ga = cw * g[a]
-                    for b in range(a, n1):
-                        v = Cl[i, a, b] - ga * g[b]
-                        if fi != 1.0:
-                            v *= ifi
-                        Cl[i, a, b] = v
-                        Cl[i, b, a] = v
+                        for i in range(R):
+                            CT[a, b, i] *= fiv[i]
+            for o in range(m):
+                yo = z[n + o]
+                for i in range(R):
+                    yrT[o, i] = yo - yrT[o, i]
+            for a in range(n1):
+                for i in range(R):
+                    gT[a, i] *= cw[i]
                 for o in range(m):
-                    acc = y[o]
-                    for a in range(n1):
-                        acc -= xe[a] * Pi[i, a, o]
-                    err[o] = acc
-                for a in range(n1):
-                    ga = cw * g[a]
-                    for o in range(m):
-                        Pi[i, a, o] += ga * err[o]
+                    for i in range(R):
+                        PiT[a, o, i] += gT[a, i] * yrT[o, i]
         # 8. eTS+ quality: remove rules of low utility or tiny support
         if variant == 1:
             i = R - 1
+            removed = False
             while i >= 0 and R > 1:
                 life = k - birth[i]
                 if life >= prune_after:
@@ -475,6 +650,8 @@ def learn_kernel(
                         ev[nev[0], 1] = EV_REMOVAL
                         ev[nev[0], 2] = ids[i]
                         nev[0] += 1
+                        if not removed:
+                            _from_soa(R, Pi, Cl, PiT, CT, is_global)
                         remove_rule(
                             i,
                             R,
@@ -494,7 +671,12 @@ def learn_kernel(
                         )
                         R -= 1
                         si[1] = R
+                        removed = True
                 i -= 1
+            if removed:
+                for i in range(R):
+                    _sync_rule(i, cz, rad, s, czT, aT)
+                _to_soa(R, Pi, Cl, PiT, CT, is_global)
         # 9. history
         fmax = -np.inf
         fmin = np.inf
@@ -505,3 +687,4 @@ def learn_kernel(
         hist[t, 1] = P
         hist[t, 2] = fmax
         hist[t, 3] = fmin
+    _from_soa(si[1], Pi, Cl, PiT, CT, is_global)
