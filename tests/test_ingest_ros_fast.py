@@ -176,12 +176,12 @@ def _write_ros2(path: Path, messages: list[Message], storage: str) -> Path:
     return path
 
 
-def _write_mcap(path: Path, messages: list[Message], ros1: bool) -> Path:
+def _write_mcap(path: Path, messages: list[Message], ros1: bool, chunked: bool = True) -> Path:
     from mcap.writer import Writer
 
     store = typestore(ros1=ros1)
     with path.open("wb") as handle:
-        writer = Writer(handle, chunk_size=4096)
+        writer = Writer(handle, chunk_size=4096, use_chunking=chunked)
         writer.start(profile="ros1" if ros1 else "ros2", library="etsid-test")
         channels: dict[str, int] = {}
         for topic, msgtype, rec, fields in messages:
@@ -210,11 +210,12 @@ def odd(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             "ros2-db3": _write_ros2(tmp / "odd_db3", msgs, "sqlite3"),
             "ros2-mcap": _write_ros2(tmp / "odd_mcap", msgs, "mcap"),
             "mcap-ros2": _write_mcap(tmp / "odd2.mcap", msgs, ros1=False),
-            "mcap-ros1": _write_mcap(tmp / "odd1.mcap", msgs, ros1=True)}
+            "mcap-ros1": _write_mcap(tmp / "odd1.mcap", msgs, ros1=True),
+            "mcap-unchunked": _write_mcap(tmp / "odd3.mcap", msgs, ros1=False, chunked=False)}
 
 
 @pytest.mark.parametrize("name", ["ros1", "ros1-unordered", "ros2-db3", "ros2-mcap",
-                                  "mcap-ros2", "mcap-ros1"])
+                                  "mcap-ros2", "mcap-ros1", "mcap-unchunked"])
 @pytest.mark.parametrize("batch", [ros_fast.BATCH, 7, 1])
 def test_odd_inputs_fast_equals_slow(odd: dict[str, Path], name: str, batch: int,
                                      monkeypatch: pytest.MonkeyPatch) -> None:
@@ -225,3 +226,13 @@ def test_odd_inputs_fast_equals_slow(odd: dict[str, Path], name: str, batch: int
     assert any("header.stamp" in r.reason for r in fast.repaired)
     rc = next(c for c in fast.channels if c.name == "/mavros/rc/in")
     assert rc.count == 75
+
+
+def test_mcap_runs_span_unchunked_records(odd: dict[str, Path], monkeypatch: pytest.MonkeyPatch
+                                          ) -> None:
+    from etsid.ingest import ros_fast_mcap
+
+    monkeypatch.setattr(ros_fast_mcap, "_RUN_BYTES", 500)  # many small runs
+    fast, slow, used = _read_both(odd["mcap-unchunked"], monkeypatch)
+    _same(fast, slow)
+    assert used > 0

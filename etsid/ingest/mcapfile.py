@@ -25,7 +25,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from etsid.errors import IngestError
+from etsid.ingest import ros_fast, ros_fast_mcap
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.ros_fast import Batcher
 from etsid.ingest.ros_messages import Converter, TopicData, as_message
@@ -102,43 +105,35 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     from mcap.stream_reader import StreamReader
 
     path = Path(path)
+    if ros_fast.ENABLED:
+        raw = RawLog(path=path, format="mcap")
+        state = _State(options, raw)
+        try:
+            for record in ros_fast_mcap.records(path):
+                state.record(record)
+        except ros_fast_mcap.NotFast:
+            pass
+        else:
+            return state.finish()
     raw = RawLog(path=path, format="mcap")
-    conv = Converter(options)
-    decoders = _Decoders()
-    broken: dict[str, str] = {}
-    batcher = Batcher(conv, lambda topic, state, data, log_ns: _slow(conv, topic, state, data,
-                                                                     log_ns, broken))
-    schemas: dict[int, Any] = {}
-    channels: dict[int, tuple[TopicData, Any]] = {}
-    encodings: set[str] = set()
+    state = _State(options, raw)
     size = path.stat().st_size
     good_pos = 0
-    messages = 0
     with path.open("rb") as handle, progress(size, f"reading {path.name}",
                                              options.progress) as bar:
         try:
             for record in StreamReader(handle).records:
                 if isinstance(record, Message):
-                    messages += 1
-                    entry = channels.get(record.channel_id)
-                    if entry is None:
-                        continue
-                    _take(conv, batcher, entry, record, decoders, broken)
-                elif isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    if record.id not in channels:
-                        channels[record.id] = _open_channel(conv, record, schemas)
-                        encodings.add(record.message_encoding)
-                elif isinstance(record, Header):
-                    raw.extra["profile"] = record.profile
-                    raw.extra["library"] = record.library
+                    state.message(record)
+                elif isinstance(record, (Schema, Channel, Header)):
+                    state.record(record)
                 pos = handle.tell()
                 if pos - good_pos > 1 << 20:
                     bar.update(pos - good_pos)
                 good_pos = pos
         except Exception as err:  # the mcap/zstd/lz4 stack raises many types on bad bytes
             why = (" ".join(str(a) for a in err.args) or type(err).__name__).splitlines()[0]
+            messages = state.messages
             if messages == 0 and good_pos > 0 and "EndOfFile" in (why, type(err).__name__):
                 raise IngestError(f"{path}: truncated MCAP file: no complete message before "
                                   f"byte {good_pos} of {size}") from err
@@ -147,15 +142,92 @@ def read(path: Path, options: ReadOptions) -> RawLog:
             raw.warnings.append(f"{path}: truncated or damaged after byte {good_pos} ({why}); "
                                 f"kept {messages} message(s) before it, "
                                 f"{size - good_pos} byte(s) could not be read")
-    batcher.flush_all()
-    for name, why in broken.items():
-        topic = conv.topics[name]
-        topic.note = f"undecodable, skipped ({why})"
-        raw.warnings.append(f"{name}: {topic.count} message(s) could not be decoded and were "
-                            f"skipped ({why})")
-    raw.extra["encodings"] = sorted(encodings)
-    conv.finish(raw)
-    return raw
+    return state.finish()
+
+
+class _State:
+    """Channels, decoders and the converter of one read (stream reader or numpy walk)."""
+
+    def __init__(self, options: ReadOptions, raw: RawLog) -> None:
+        self.raw = raw
+        self.conv = Converter(options)
+        self.decoders = _Decoders()
+        self.broken: dict[str, str] = {}
+        self.batcher = Batcher(self.conv, lambda topic, state, data, log_ns: _slow(
+            self.conv, topic, state, data, log_ns, self.broken))
+        self.schemas: dict[int, Any] = {}
+        self.channels: dict[int, tuple[TopicData, Any]] = {}
+        self.encodings: set[str] = set()
+        self.messages = 0
+
+    def record(self, record: Any) -> None:
+        """Take a Schema, Channel or Header record, or a run of messages (numpy walk)."""
+        from mcap.records import Channel, Header, Schema
+
+        if isinstance(record, ros_fast_mcap.Messages):
+            self.run(record)
+        elif isinstance(record, Schema):
+            self.schemas[record.id] = record
+        elif isinstance(record, Channel):
+            if record.id not in self.channels:
+                self.channels[record.id] = _open_channel(self.conv, record, self.schemas)
+                self.encodings.add(record.message_encoding)
+        elif isinstance(record, Header):
+            self.raw.extra["profile"] = record.profile
+            self.raw.extra["library"] = record.library
+
+    def message(self, record: Any) -> None:
+        """Take one Message record (stream reader)."""
+        self.messages += 1
+        entry = self.channels.get(record.channel_id)
+        if entry is not None:
+            _take(self.conv, self.batcher, entry, record.log_time, record.data, self.decoders,
+                  self.broken)
+
+    def run(self, run: ros_fast_mcap.Messages) -> None:
+        """Take a run of messages at once: vectorised per channel where possible."""
+        self.messages += len(run.channel)
+        known = np.isin(run.channel, list(self.channels))
+        if not known.any():
+            return
+        if self.conv.base_ns is None:
+            self.conv.base_ns = int(run.log_ns[np.argmax(known)])
+        for cid in np.unique(run.channel[known]).tolist():
+            topic, state = self.channels[cid]
+            mask = run.channel == cid
+            logs = run.log_ns[mask]
+            if not topic.decode or topic.topic in self.broken:
+                self.conv.count_many(topic, logs)
+                continue
+            if state[2] is None:
+                _take(self.conv, self.batcher, (topic, state), int(logs[0]), None,
+                      self.decoders, self.broken, make_only=True)
+                if topic.topic in self.broken:
+                    self.conv.count_many(topic, logs[1:])
+                    continue
+            arr, bodies = run.bodies(mask)
+            if arr is not None and state[3] is not None and ros_fast.fast_kind(topic):
+                self.batcher.flush(topic.topic)
+                if ros_fast.decode_batch(self.conv, topic, state[3][0], state[3][1], arr, logs,
+                                         state[3][2]):
+                    continue
+            if arr is not None:
+                bodies = [row.tobytes() for row in arr]
+            for data, log_ns in zip(bodies, logs.tolist(), strict=True):
+                _take(self.conv, self.batcher, (topic, state), log_ns, data, self.decoders,
+                      self.broken)
+
+    def finish(self) -> RawLog:
+        """Convert what is queued and fill the raw log."""
+        self.batcher.flush_all()
+        for name, why in self.broken.items():
+            topic = self.conv.topics[name]
+            topic.note = f"undecodable, skipped ({why})"
+            self.raw.warnings.append(f"{name}: {topic.count} message(s) could not be decoded "
+                                     f"and were skipped ({why})")
+        self.raw.extra["encodings"] = sorted(self.encodings)
+        self.conv.finish(self.raw)
+        return self.raw
 
 
 def _open_channel(conv: Converter, record: Any, schemas: dict[int, Any]) -> tuple[TopicData, Any]:
@@ -165,20 +237,24 @@ def _open_channel(conv: Converter, record: Any, schemas: dict[int, Any]) -> tupl
     return topic, [record.message_encoding, schema, None, None]
 
 
-def _take(conv: Converter, batcher: Batcher, entry: tuple[TopicData, Any], record: Any,
-          decoders: _Decoders, broken: dict[str, str]) -> None:
+def _take(conv: Converter, batcher: Batcher, entry: tuple[TopicData, Any], log_ns: int,
+          data: bytes | None, decoders: _Decoders, broken: dict[str, str],
+          make_only: bool = False) -> None:
+    """Queue one message (``make_only``: only make the channel's decoder, or break it)."""
     topic, state = entry
     if not topic.decode or topic.topic in broken:
-        conv.count(topic, record.log_time)
+        if not make_only:
+            conv.count(topic, log_ns)
         return
     if state[2] is None:
         try:
             state[2] = decoders.make(state[0], state[1])
         except Exception as err:  # no decoder: this channel only is skipped
-            _broken(conv, topic, broken, err, record.log_time)
+            _broken(conv, topic, broken, err, log_ns)
             return
         state[3] = decoders.fast_info(state[2])
-    batcher.push(topic, state[3], state, record.data, record.log_time)
+    if not make_only:
+        batcher.push(topic, state[3], state, data, log_ns)
 
 
 def _broken(conv: Converter, topic: TopicData, broken: dict[str, str], err: Exception,
