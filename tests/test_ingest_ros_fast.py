@@ -205,16 +205,22 @@ def odd(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("odd")
     msgs = _odd_messages()
     shuffled = msgs[:40] + msgs[80:120] + msgs[40:80] + msgs[120:]  # time goes back
+    imu = [i for i, m in enumerate(msgs) if m[0] == "/mavros/imu/data"]
+    dup = list(msgs)
+    dup[imu[11]] = (*dup[imu[11]][:2], dup[imu[10]][2], dup[imu[11]][3])  # same record time
     return {"ros1": _write_ros1(tmp / "odd.bag", msgs),
             "ros1-unordered": _write_ros1(tmp / "unordered.bag", shuffled),
             "ros2-db3": _write_ros2(tmp / "odd_db3", msgs, "sqlite3"),
             "ros2-mcap": _write_ros2(tmp / "odd_mcap", msgs, "mcap"),
+            "ros2-db3-dup": _write_ros2(tmp / "dup_db3", dup, "sqlite3"),
+            "ros2-mcap-dup": _write_ros2(tmp / "dup_mcap", dup, "mcap"),
             "mcap-ros2": _write_mcap(tmp / "odd2.mcap", msgs, ros1=False),
             "mcap-ros1": _write_mcap(tmp / "odd1.mcap", msgs, ros1=True),
             "mcap-unchunked": _write_mcap(tmp / "odd3.mcap", msgs, ros1=False, chunked=False)}
 
 
 @pytest.mark.parametrize("name", ["ros1", "ros1-unordered", "ros2-db3", "ros2-mcap",
+                                  "ros2-db3-dup", "ros2-mcap-dup",
                                   "mcap-ros2", "mcap-ros1", "mcap-unchunked"])
 @pytest.mark.parametrize("batch", [ros_fast.BATCH, 7, 1])
 def test_odd_inputs_fast_equals_slow(odd: dict[str, Path], name: str, batch: int,

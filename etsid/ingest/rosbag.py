@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
-from etsid.ingest import ros_fast
+from etsid.ingest import ros_fast, ros_fast_mcap, ros_fast_ros2
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.ros_fast import Batcher
 from etsid.ingest.ros_fast_ros1 import NotFast, Ros1Bag
@@ -127,11 +127,15 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
             _slow_one(conv, broken, deser, topic, typename, data, log_ns)
 
         batcher = Batcher(conv, slow)
+        fast = _read_ros2_fast(reader, paths, options, deser) if reader.is2 else None
         done = 0
         total = sum(_size(p) for p in paths)
         with progress(total, f"reading {paths[0].name}", options.progress) as bar:
+            if fast is not None:
+                conv, broken = fast
+                bar.update(total)
             try:
-                for conn, log_ns, data in reader.messages():
+                for conn, log_ns, data in (() if fast is not None else reader.messages()):
                     topic = topics[conn.id]
                     if not topic.decode or topic.topic in broken:
                         conv.count(topic, log_ns)
@@ -150,6 +154,35 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
         raw.extra["storage"] = "rosbag1" if not reader.is2 else _storage_name(paths[0])
         raw.extra["message_count"] = sum(c.msgcount for c in reader.connections)
     return conv
+
+
+def _read_ros2_fast(reader: Any, paths: list[Path], options: ReadOptions,
+                    deser: Any) -> tuple[Converter, dict[str, str]] | None:
+    """A one-file ROS 2 bag through :mod:`etsid.ingest.ros_fast_ros2`; None when the
+    rosbags iteration must be used."""
+    storage = ros_fast_ros2.storage_file(paths)
+    if not ros_fast.ENABLED or storage is None:
+        return None
+    if not sum(c.msgcount for c in reader.connections):
+        return None
+    stream = reader.messages()
+    first = next(stream, None)  # rosbags yields nothing when metadata and storage disagree
+    stream.close()
+    if first is None or first[1] != reader.start_time:
+        return None
+    conv = Converter(options)
+    conv.base_ns = int(reader.start_time)
+    broken: dict[str, str] = {}
+
+    def slow(topic: TopicData, typename: str, data: bytes, log_ns: int) -> None:
+        _slow_one(conv, broken, deser, topic, typename, data, log_ns)
+
+    try:
+        ros_fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow,
+                           broken)
+    except (ros_fast_ros2.NotFast, ros_fast_mcap.NotFast, OSError):
+        return None
+    return conv, broken
 
 
 def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter | None:
