@@ -2,8 +2,8 @@
 
 rosbags (opened first: connections, type definitions, start time) yields one message at a
 time in time order across topics (≈ 150 k msg/s before any decoding). Here the storage file
-is read per topic (sqlite3: one ordered query per topic, fetched in batches) or run by run
-(mcap: :mod:`etsid.ingest.ros_fast_mcap`), and each batch goes to
+is read in storage order, a batch at a time (sqlite3: one scan of the messages table; mcap:
+:mod:`etsid.ingest.ros_fast_mcap`) and split per topic, and each batch goes to
 :func:`etsid.ingest.ros_fast.decode_batch` or, message by message, to the slow path.
 
 The result equals rosbags' order only when every topic's record times strictly increase
@@ -112,26 +112,31 @@ Batch = tuple[str, np.ndarray | None, list[bytes], np.ndarray]
 
 
 def _sqlite(path: Path, by_topic: dict[str, Any], decode: set[str]) -> Iterator[Batch]:
+    """One scan of the messages table in storage (rowid) order, batch by batch; the bodies
+    of topics that are not decoded are not fetched."""
     db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
     try:
-        ids = dict(db.execute("SELECT name, id FROM topics").fetchall())
-        if set(ids) != set(by_topic):
+        ids = dict(db.execute("SELECT id, name FROM topics").fetchall())
+        if sorted(ids.values()) != sorted(by_topic):
             raise NotFast("storage topics differ from the metadata")
-        for name, tid in ids.items():
-            if name not in decode:  # times only
-                cur = db.execute("SELECT timestamp FROM messages WHERE topic_id = ? "
-                                 "ORDER BY timestamp", (tid,))
-                while rows := cur.fetchmany(ros_fast.BATCH):
-                    yield name, None, [], np.array([r[0] for r in rows], dtype=np.int64)
-                continue
-            cur = db.execute("SELECT timestamp, data FROM messages WHERE topic_id = ? "
-                             "ORDER BY timestamp", (tid,))
-            while rows := cur.fetchmany(ros_fast.BATCH):
-                logs, datas = zip(*rows, strict=True)
-                bodies = list(datas)
+        wanted = ",".join(str(int(i)) for i, name in ids.items() if name in decode) or "-1"
+        cur = db.execute("SELECT topic_id, timestamp, CASE WHEN topic_id IN "
+                         f"({wanted}) THEN data END FROM messages")
+        while rows := cur.fetchmany(ros_fast.BATCH):
+            tids, logs, datas = zip(*rows, strict=True)
+            tid = np.array(tids, dtype=np.int64)
+            log_ns = np.array(logs, dtype=np.int64)
+            for one in np.unique(tid).tolist():
+                if one not in ids:
+                    raise NotFast("message of an unknown topic")
+                idx = np.flatnonzero(tid == one)
+                name = ids[one]
+                if name not in decode:
+                    yield name, None, [], log_ns[idx]
+                    continue
+                bodies = [datas[i] for i in idx.tolist()]
                 arr = ros_fast.same_length(bodies)
-                yield name, arr, ([] if arr is not None else bodies), np.array(logs,
-                                                                                dtype=np.int64)
+                yield name, arr, ([] if arr is not None else bodies), log_ns[idx]
     except sqlite3.Error as err:
         raise NotFast(str(err)) from err
     finally:
