@@ -237,10 +237,10 @@ def decode_batch(conv: Converter, topic: TopicData, fielddefs: dict[str, Any], t
 
 def same_length(datas: list[bytes]) -> np.ndarray | None:
     """The messages as one (messages, bytes) uint8 array, or None when lengths differ."""
-    size = len(datas[0])
-    if any(len(d) != size for d in datas):
+    sizes = set(map(len, datas))
+    if len(sizes) != 1:
         return None
-    return np.frombuffer(b"".join(datas), dtype=np.uint8).reshape(len(datas), size)
+    return np.frombuffer(b"".join(datas), dtype=np.uint8).reshape(len(datas), sizes.pop())
 
 
 class Batcher:

@@ -221,7 +221,9 @@ class Ros1Bag:
         header = _fields(bytes(buf[off[0] + 4:off[0] + 4 + h0]))
         if _op(header) != _OP_MSG:
             raise NotFast("index points at a non-message record")
-        heads = u8[off[:, None] + 4 + np.arange(h0)]
+        starts = (off + 4).tolist()
+        heads = np.frombuffer(b"".join([buf[o:o + h0] for o in starts]),
+                              dtype=np.uint8).reshape(-1, h0)
         tpos = bytes(buf[off[0] + 4:off[0] + 4 + h0]).find(b"time=") + 5
         mask = np.ones(h0, dtype=bool)
         mask[tpos:tpos + 8] = False
@@ -233,9 +235,10 @@ class Ros1Bag:
         if (start + dlen).max() > len(u8):
             raise NotFast("message outside the chunk")
         if (dlen == dlen[0]).all():
-            return u8[start[:, None] + np.arange(int(dlen[0]))], []
-        return None, [bytes(buf[s:s + n]) for s, n in zip(start.tolist(), dlen.tolist(),
-                                                           strict=True)]
+            size = int(dlen[0])
+            body = b"".join([buf[s:s + size] for s in start.tolist()])
+            return np.frombuffer(body, dtype=np.uint8).reshape(-1, size), []
+        return None, [buf[s:s + n] for s, n in zip(start.tolist(), dlen.tolist(), strict=True)]
 
     def messages(self) -> Iterator[tuple[Connection, np.ndarray, np.ndarray | None,
                                          list[bytes]]]:
