@@ -100,6 +100,11 @@ def _add_rule(
     return rid
 
 
+#: the rule loops of the learning kernel run over a multiple of this many lanes, so the
+#: vectorised loop bodies need no scalar remainder
+LANES = 4
+
+
 @njit(cache=True, boundscheck=False)
 def _refresh_scales(lo, hi, s, w2, isx, n) -> None:
     """s = hi - lo (1 where zero), w2 = 1 / s^2 over z, isx = 1 / s over the inputs."""
@@ -308,16 +313,19 @@ def learn_kernel(
     isx = np.empty(n)
     lo_old = np.empty(n)
     hi_old = np.empty(n)
-    czT = np.empty((d, rmax))
-    aT = np.empty((n, rmax))
-    ex = np.empty(rmax)
-    lam = np.empty(rmax)
-    yrT = np.empty((m, rmax))
-    PiT = np.empty((n1, m, rmax))
-    CT = np.empty((1, 1, 1) if is_global else (n1, n1, rmax))
-    gT = np.empty((n1, rmax))
-    cw = np.empty(rmax)
-    fiv = np.empty(rmax)
+    # rule-minor work arrays, lanes padded to a multiple of LANES; the padding lanes are
+    # zero or hold a removed rule, have lambda = 0 and are never read into a result
+    rpad = (rmax + LANES - 1) // LANES * LANES
+    czT = np.zeros((d, rpad))
+    aT = np.zeros((n, rpad))
+    ex = np.zeros(rpad)
+    lam = np.zeros(rpad)
+    yrT = np.zeros((m, rpad))
+    PiT = np.zeros((n1, m, rpad))
+    CT = np.zeros((1, 1, 1) if is_global else (n1, n1, rpad))
+    gT = np.zeros((n1, rpad))
+    cw = np.zeros(rpad)
+    fiv = np.zeros(rpad)
     xe = np.empty(n1)
     z = np.empty(d)
     yh = np.empty(m)
@@ -339,13 +347,41 @@ def learn_kernel(
             z[j] = X[t, j]
         for o in range(m):
             z[n + o] = Y[t, o]
-        # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept)
+        # lanes processed by the vectorised rule loops: R rounded up to a multiple of LANES
+        RL = (R + LANES - 1) // LANES * LANES
+        # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
+        # _fire and _rule_outputs written out: a call costs an atomic reference-count
+        # increment and decrement per array argument, more than the arithmetic here
         if R > 0:
-            _fire(X, t, czT, aT, R, ex, lam)
+            for i in range(RL):
+                ex[i] = 0.0
+            for j in range(n):
+                xj = z[j]
+                for i in range(RL):
+                    dj = xj - czT[j, i]
+                    ex[i] += dj * dj * aT[j, i]
+            emin = np.inf
+            for i in range(R):
+                emin = min(emin, ex[i])
+            tot = 0.0
+            for i in range(R):
+                v = np.exp(emin - ex[i])
+                lam[i] = v
+                tot += v
+            itot = 1.0 / tot
+            for i in range(R):
+                lam[i] *= itot
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (z[j] - lo[j]) * isx[j]
-            _rule_outputs(xe, PiT, R, yrT)
+            for o in range(m):
+                for i in range(RL):
+                    yrT[o, i] = 0.0
+            for a in range(n1):
+                xa = xe[a]
+                for o in range(m):
+                    for i in range(RL):
+                        yrT[o, i] += xa * PiT[a, o, i]
             for o in range(m):
                 acc = 0.0
                 for i in range(R):
@@ -407,12 +443,12 @@ def learn_kernel(
             vterm *= ik
             kk = k / (k - 1.0)
             P = 1.0 / (1.0 + (acc + vterm) * kk)
-            for i in range(R):
+            for i in range(RL):
                 ex[i] = vterm
             for j in range(d):
                 mj = mean[j]
                 wj = w2[j]
-                for i in range(R):
+                for i in range(RL):
                     dj = czT[j, i] - mj
                     ex[i] += dj * dj * wj
             for i in range(R):
@@ -527,6 +563,7 @@ def learn_kernel(
             changed = True
             born = True
         R = si[1]
+        RL = (R + LANES - 1) // LANES * LANES
         # 6. firing with the updated rule base; support, age, spreads, utility
         if changed:
             _fire(X, t, czT, aT, R, ex, lam)
@@ -552,7 +589,10 @@ def learn_kernel(
                     scat[w, j] += (dx * dx - scat[w, j]) / support[w]
                     rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
                     rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
-                _sync_rule(w, cz, rad, s, czT, aT)
+                    q = s[j] * rad[w, j]
+                    aT[j, w] = 4.0 / (q * q)  # as _sync_rule
+        for i in range(R, RL):
+            lam[i] = 0.0  # padding lanes: no update
         for i in range(R):
             lamsum[i] += lam[i]
         # 7. consequents: fuzzily weighted RLS
@@ -598,44 +638,44 @@ def learn_kernel(
         else:
             # every rule at once, rules in the inner (contiguous) loop; a rule with
             # lambda = 0 gets f_i = 1 and gain 0, i.e. exactly no change
-            for i in range(R):
+            for i in range(RL):
                 fiv[i] = 1.0 - lam[i] * omf
                 cw[i] = 0.0
             for a in range(n1):
-                for i in range(R):
+                for i in range(RL):
                     gT[a, i] = 0.0
                 for b in range(n1):
                     xb = xe[b]
-                    for i in range(R):
+                    for i in range(RL):
                         gT[a, i] += CT[a, b, i] * xb
             for a in range(n1):
                 xa = xe[a]
-                for i in range(R):
+                for i in range(RL):
                     cw[i] += xa * gT[a, i]
-            for i in range(R):
+            for i in range(RL):
                 wi = lam[i]
                 cw[i] = wi / (fiv[i] + wi * cw[i])
             # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
             for a in range(n1):
                 for b in range(n1):
-                    for i in range(R):
+                    for i in range(RL):
                         CT[a, b, i] -= cw[i] * (gT[a, i] * gT[b, i])
             if forget != 1.0:
-                for i in range(R):
+                for i in range(RL):
                     fiv[i] = 1.0 / fiv[i]
                 for a in range(n1):
                     for b in range(n1):
-                        for i in range(R):
+                        for i in range(RL):
                             CT[a, b, i] *= fiv[i]
             for o in range(m):
                 yo = z[n + o]
-                for i in range(R):
+                for i in range(RL):
                     yrT[o, i] = yo - yrT[o, i]
             for a in range(n1):
-                for i in range(R):
+                for i in range(RL):
                     gT[a, i] *= cw[i]
                 for o in range(m):
-                    for i in range(R):
+                    for i in range(RL):
                         PiT[a, o, i] += gT[a, i] * yrT[o, i]
         # 8. eTS+ quality: remove rules of low utility or tiny support
         if variant == 1:
