@@ -292,7 +292,7 @@ class ETS:
             )  # fmt: skip
             rec = self.recorder_
             rec.add(k0 + 1, hist)
-            for step, kind, rid in ev[: nev[0]]:
+            for step, kind, rid in ev[: nev[0]].tolist():
                 rec.add_event(step, K.EVENT_KINDS[kind], rid)
             k1 = int(st["si"][0])
             if k1 % every == 0:
