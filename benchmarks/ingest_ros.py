@@ -9,6 +9,11 @@ Usage::
 
     python benchmarks/ingest_ros.py                 # ROS 1 bag ≥ 1 M messages, others 1/4
     python benchmarks/ingest_ros.py --messages 200000 --scale 1
+    python benchmarks/ingest_ros.py --dir /tmp/b    # keep (and reuse) the written logs
+    ETSID_ROS_FAST=0 python benchmarks/ingest_ros.py --dir /tmp/b   # per-message path only
+
+The load average (``/proc/loadavg``) is printed before and after: the figures are only
+comparable at similar load.
 """
 
 from __future__ import annotations
@@ -49,33 +54,50 @@ def flight_table(seconds: float, rate: float = 250.0) -> pd.DataFrame:
     return table
 
 
-def write(fmt: str, table: pd.DataFrame, out: Path) -> Path:
-    """Write ``table`` in ``fmt`` under ``out``; returns the log path."""
+NAMES = {"ros1": "bench_{n}.bag", "ros2-db3": "bench_{n}_db3", "ros2-mcap": "bench_{n}_mcapbag",
+         "mcap": "bench_{n}.mcap"}
+
+
+def write(fmt: str, table: pd.DataFrame, out: Path, n: int = 0) -> Path:
+    """Write ``table`` in ``fmt`` under ``out`` (name tagged with ``n``); returns the path."""
     from etsid.sim.writers.mcapfile import write_mcap
     from etsid.sim.writers.rosbag import write_ros1_bag, write_ros2_bag
 
+    path = out / NAMES[fmt].format(n=n)
     if fmt == "ros1":
-        return write_ros1_bag(table, out / "bench.bag")
-    if fmt == "ros2-db3":
-        return write_ros2_bag(table, out / "bench_db3", storage="sqlite3")
-    if fmt == "ros2-mcap":
-        return write_ros2_bag(table, out / "bench_mcapbag", storage="mcap")
-    return write_mcap(table, out / "bench.mcap", encoding="ros2")
+        return write_ros1_bag(table, path)
+    if fmt in ("ros2-db3", "ros2-mcap"):
+        return write_ros2_bag(table, path, storage="sqlite3" if fmt == "ros2-db3" else "mcap")
+    return write_mcap(table, path, encoding="ros2")
 
 
 def measure(path: Path) -> dict[str, float]:
     """Read ``path`` once (run in a child process); time, messages, peak RSS."""
     from etsid.ingest import read_log, read_raw
 
+    base = _peak_rss_mb()
     start = time.perf_counter()
     table = read_log(path)
     seconds = time.perf_counter() - start
     peak = _peak_rss_mb()
+    try:
+        from etsid.ingest.ros_fast import STATS
+
+        fast = STATS["fast"]
+    except ImportError:  # an etsid without the vectorised path
+        fast = 0
     raw = read_raw(path)
     size = sum(p.stat().st_size for p in path.iterdir()) if path.is_dir() else path.stat().st_size
     return {"seconds": seconds, "messages": sum(c.count for c in raw.channels),
-            "bytes": size, "rows": len(table),
-            "peak_mb": peak}
+            "bytes": size, "rows": len(table), "peak_mb": peak, "start_mb": base,
+            "fast": fast}
+
+
+def _load() -> str:
+    try:
+        return " ".join(Path("/proc/loadavg").read_text().split()[:3])
+    except OSError:
+        return "?"
 
 
 def _peak_rss_mb() -> float:
@@ -95,19 +117,28 @@ def main() -> None:
                         help="messages in the ROS 1 bag (default 1 M)")
     parser.add_argument("--scale", type=float, default=0.25,
                         help="messages in the other formats, as a fraction of --messages")
+    parser.add_argument("--dir", type=Path,
+                        help="write the logs here and reuse those already there")
+    parser.add_argument("--formats", default="ros1,ros2-db3,ros2-mcap,mcap",
+                        help="comma-separated subset of ros1,ros2-db3,ros2-mcap,mcap")
     parser.add_argument("--read", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.read:
         print(json.dumps(measure(args.read)))
         return
     rows = []
+    print(f"load average before: {_load()}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
-        for fmt in ("ros1", "ros2-db3", "ros2-mcap", "mcap"):
+        out_dir = args.dir or Path(tmp)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        for fmt in args.formats.split(","):
             n = args.messages if fmt == "ros1" else int(args.messages * args.scale)
-            table = flight_table(n / MESSAGES_PER_SECOND)
+            path = out_dir / NAMES[fmt].format(n=n)
             t0 = time.perf_counter()
-            path = write(fmt, table, Path(tmp))
+            if not path.exists():
+                path = write(fmt, flight_table(n / MESSAGES_PER_SECOND), out_dir, n)
             wrote = time.perf_counter() - t0
+            # a fresh process per log: its VmHWM is this read's peak memory alone
             out = subprocess.run([sys.executable, __file__, "--read", str(path)],
                                  capture_output=True, text=True, check=True)
             res = json.loads(out.stdout)
@@ -116,8 +147,10 @@ def main() -> None:
                          res["peak_mb"], wrote))
             print(f"{fmt:10s} {res['messages']:>9d} msgs {res['bytes'] / 1e6:7.1f} MB  "
                   f"read {res['seconds']:6.2f} s  {rows[-1][4]:9.0f} msg/s  "
-                  f"{rows[-1][5]:6.1f} MB/s  peak {res['peak_mb']:6.0f} MB  "
+                  f"{rows[-1][5]:6.1f} MB/s  peak {res['peak_mb']:6.0f} MB "
+                  f"(at start {res['start_mb']:.0f})  vectorised {res['fast']:,} msgs  "
                   f"(write {wrote:.1f} s)", flush=True)
+    print(f"load average after: {_load()}")
     print("\n| format | messages | size MB | read s | messages/s | MB/s | peak RSS MB |")
     print("|---|---|---|---|---|---|---|")
     for fmt, n, mb, sec, mps, mbs, peak, _ in rows:
