@@ -147,13 +147,18 @@ def _odd_messages() -> list[Message]:
     return out
 
 
-def _write_ros1(path: Path, messages: list[Message]) -> Path:
+def _write_ros1(path: Path, messages: list[Message], two_imu_publishers: bool = False) -> Path:
     from rosbags.rosbag1 import Writer
 
     store = typestore(ros1=True)
     with Writer(path) as writer:
         conns: dict[str, Any] = {}
-        for topic, msgtype, rec, fields in messages:
+        if two_imu_publishers:  # a second connection on the same topic
+            conns["imu2"] = writer.add_connection("/mavros/imu/data", "sensor_msgs/msg/Imu",
+                                                  typestore=store, callerid="/other")
+        for i, (topic, msgtype, rec, fields) in enumerate(messages):
+            if two_imu_publishers and topic == "/mavros/imu/data" and i % 3 == 0:
+                topic = "imu2"
             if topic not in conns:
                 conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
             msg = instantiate(store, msgtype, fields)
@@ -210,6 +215,7 @@ def odd(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     dup[imu[11]] = (*dup[imu[11]][:2], dup[imu[10]][2], dup[imu[11]][3])  # same record time
     return {"ros1": _write_ros1(tmp / "odd.bag", msgs),
             "ros1-unordered": _write_ros1(tmp / "unordered.bag", shuffled),
+            "ros1-two-publishers": _write_ros1(tmp / "two.bag", msgs, two_imu_publishers=True),
             "ros2-db3": _write_ros2(tmp / "odd_db3", msgs, "sqlite3"),
             "ros2-mcap": _write_ros2(tmp / "odd_mcap", msgs, "mcap"),
             "ros2-db3-dup": _write_ros2(tmp / "dup_db3", dup, "sqlite3"),
@@ -219,7 +225,8 @@ def odd(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             "mcap-unchunked": _write_mcap(tmp / "odd3.mcap", msgs, ros1=False, chunked=False)}
 
 
-@pytest.mark.parametrize("name", ["ros1", "ros1-unordered", "ros2-db3", "ros2-mcap",
+@pytest.mark.parametrize("name", ["ros1", "ros1-unordered", "ros1-two-publishers",
+                                  "ros2-db3", "ros2-mcap",
                                   "ros2-db3-dup", "ros2-mcap-dup",
                                   "mcap-ros2", "mcap-ros1", "mcap-unchunked"])
 @pytest.mark.parametrize("batch", [ros_fast.BATCH, 7, 1])
@@ -242,3 +249,16 @@ def test_mcap_runs_span_unchunked_records(odd: dict[str, Path], monkeypatch: pyt
     fast, slow, used = _read_both(odd["mcap-unchunked"], monkeypatch)
     _same(fast, slow)
     assert used > 0
+
+
+def test_layout_refuses_big_endian_cdr_and_short_messages() -> None:
+    store = typestore()
+    msg = instantiate(store, "sensor_msgs/msg/Range", {"range": 1.5})
+    data = bytes(store.serialize_cdr(msg, "sensor_msgs/msg/Range"))
+    layout = ros_fast.layout_of(store.fielddefs, "sensor_msgs/msg/Range", data, cdr=True)
+    assert layout.size == len(data) and "range" in layout.fields
+    with pytest.raises(ros_fast.Unsupported):
+        ros_fast.layout_of(store.fielddefs, "sensor_msgs/msg/Range",
+                           data[:1] + b"\0" + data[2:], cdr=True)  # big-endian flag
+    with pytest.raises(ros_fast.Unsupported):
+        ros_fast.layout_of(store.fielddefs, "sensor_msgs/msg/Range", data[:-6], cdr=True)

@@ -77,6 +77,17 @@ def _record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes]:
     return _fields(header), data
 
 
+def _value_offset(buf: bytes, name: bytes) -> int:
+    """Offset in a record header of the value of field ``name``."""
+    pos = 0
+    while pos + 4 <= len(buf):
+        (size,) = struct.unpack_from("<I", buf, pos)
+        if buf[pos + 4:pos + 5 + len(name)] == name + b"=":
+            return pos + 5 + len(name)
+        pos += 4 + size
+    raise NotFast(f"record header without {name.decode()}")
+
+
 def _op(header: dict[str, bytes]) -> int:
     return header.get("op", b"\xff")[0]
 
@@ -224,7 +235,7 @@ class Ros1Bag:
         starts = (off + 4).tolist()
         heads = np.frombuffer(b"".join([buf[o:o + h0] for o in starts]),
                               dtype=np.uint8).reshape(-1, h0)
-        tpos = bytes(buf[off[0] + 4:off[0] + 4 + h0]).find(b"time=") + 5
+        tpos = _value_offset(bytes(buf[off[0] + 4:off[0] + 4 + h0]), b"time")
         mask = np.ones(h0, dtype=bool)
         mask[tpos:tpos + 8] = False
         if not (heads[:, mask] == heads[0, mask]).all():
