@@ -1,7 +1,9 @@
 """MCAP files (``.mcap``): ros1, ros2 (cdr) and json message encodings.
 
-One sequential pass with :class:`mcap.stream_reader.StreamReader` (memory bounded by the
-output; works on files cut short, whose summary is missing). Messages are decoded per
+One sequential pass (memory bounded by the output): complete files with the numpy record
+walker of :mod:`etsid.ingest.ros_fast_mcap` and batch decoding of
+:mod:`etsid.ingest.ros_fast`; files cut short (summary missing) or damaged with
+:class:`mcap.stream_reader.StreamReader`. Messages are decoded per
 channel: ``cdr`` (ROS 2) and ``ros1`` with rosbags' generated deserializers built from the
 channel's schema (5-10x faster than the pure-Python mcap decoders, and the very code the
 bag reader uses), falling back to mcap-ros2-support's / mcap-ros1-support's decoder

@@ -3,7 +3,11 @@
 Read with rosbags' :class:`~rosbags.highlevel.AnyReader`, streaming; each message is
 decoded only when its type maps to FlightTable columns (see
 :mod:`etsid.ingest.ros_messages` for types, frames, times and priorities) or a ``--map``
-asks for one of its fields.
+asks for one of its fields. Messages are converted a batch per topic at a time: batches of
+same-length hot-type messages with numpy (:mod:`etsid.ingest.ros_fast`), the rest one by
+one with rosbags' deserialisers. Indexed ROS 1 bags are read by
+:mod:`etsid.ingest.ros_fast_ros1` and one-file ROS 2 bags straight from their storage by
+:mod:`etsid.ingest.ros_fast_ros2` when their layout allows it (same signals, verified).
 
 Definitions: those embedded in the bag (ROS 1 connection headers, ROS 2 metadata or
 storage schemas); for bags without them, ROS 2 Humble's standard types plus the shipped
