@@ -114,7 +114,9 @@ Batch = tuple[str, np.ndarray | None, list[bytes], np.ndarray]
 def _sqlite(path: Path, by_topic: dict[str, Any], decode: set[str]) -> Iterator[Batch]:
     """One scan of the messages table in storage (rowid) order, batch by batch; the bodies
     of topics that are not decoded are not fetched."""
-    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    # immutable: no locking and no -shm/-wal files next to the bag (it may be read-only);
+    # a pending WAL is then not seen, the count check sends such bags to rosbags
+    db = sqlite3.connect(f"{path.resolve().as_uri()}?immutable=1", uri=True)
     try:
         ids = dict(db.execute("SELECT id, name FROM topics").fetchall())
         if sorted(ids.values()) != sorted(by_topic):
