@@ -301,6 +301,41 @@ def _split_index(n: int, validate: float) -> int:
     return split
 
 
+MIN_RATE_HZ = 20.0
+"""Below this sample rate a multirotor's body-rate dynamics (bandwidth of a few Hz) alias."""
+SAMPLES_PER_PARAMETER = 10
+"""Fewer usable samples than this many per consequent parameter of one rule: a warning."""
+
+
+def data_warnings(table: pd.DataFrame, n_samples: int, n_regressors: int,
+                  rate_model: bool) -> list[str]:
+    """Warnings about data too slow or too short to identify from (printed and in config).
+
+    Parameters
+    ----------
+    n_samples
+        Usable regression rows.
+    n_regressors
+        Regressors per output (a rule has ``n_regressors + 1`` parameters per output).
+    rate_model
+        True for the body-rate model (the sample-rate check applies to it only).
+    """
+    notes = []
+    t = table.index.to_numpy()
+    rate = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else 0.0
+    if rate_model and 0 < rate < MIN_RATE_HZ:
+        notes.append(f"warning: body rates sampled at {rate:.3g} Hz; a multirotor's rate "
+                     f"dynamics need ≥ {MIN_RATE_HZ:g} Hz (telemetry streams are often "
+                     "slow: log at a higher rate), expect poor fits")
+    needed = SAMPLES_PER_PARAMETER * (n_regressors + 1)
+    if n_samples < needed:
+        notes.append(f"warning: only {n_samples} usable samples for {n_regressors + 1} "
+                     f"parameters per rule and output (want ≥ {needed}): the log is too "
+                     "short for a reliable model; fewer lags (--output-lags/--input-lags) "
+                     "or a longer flight help")
+    return notes
+
+
 def identify(table: pd.DataFrame, config: IdentConfig | None = None,
              source: str | Path | None = None, show_progress: bool = False) -> Run:
     """Identify an eTS model of ``table`` (see the module docstring for the protocol).
@@ -330,6 +365,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     chosen.notes.append(_rate_note(table))
     reg = build(table, spec)
     n = len(reg.X)
+    chosen.notes.extend(data_warnings(table, n, reg.X.shape[1], rate_model=not config.outputs))
     split = _split_index(n, config.validate)
     model = _new_model(config, spec)
     try:
