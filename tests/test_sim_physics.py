@@ -115,7 +115,8 @@ def test_ground_effect_clips_and_vanishes() -> None:
     at_clip = ground_ratio(0.5 * r, r, CHEESEMAN_BENNETT, none, 0.3, 0.0, 0.5, 10.0)
     assert ground_ratio(0.1 * r, r, CHEESEMAN_BENNETT, none, 0.3, 0.0, 0.5, 10.0) == at_clip
     assert ground_ratio(0.1 * r, r, CHEESEMAN_BENNETT, none, 0.3, 0.0, 0.5, 1.2) == 1.2
-    assert ground_ratio(5.0 * r, r, CHEESEMAN_BENNETT, none, 0.3, 0.0, 0.5, 10.0) == 1.0
+    far = ground_ratio(50.0 * r, r, CHEESEMAN_BENNETT, none, 0.3, 0.0, 0.5, 10.0)
+    assert far == pytest.approx(1.0 / (1.0 - (1.0 / 200.0) ** 2), rel=1e-12)  # no cut-off
     heights = np.linspace(0.6 * r, 4.9 * r, 40)
     ratios = [ground_ratio(z, r, SANCHEZ_CUEVAS, np.array([0.34, 0.59, 0.68]), 0.34, 2.0, 0.5,
                            10.0) for z in heights]
