@@ -11,6 +11,7 @@ from etsid.cli.options import log_options, read_options
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
 from etsid.ident.resample import DEFAULT_RATE_HZ
+from etsid.ident.run import NORMALISE_MODES
 from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import load_any
 from etsid.progress import wanted
@@ -61,6 +62,12 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
 @click.option("--forgetting", type=click.FloatRange(0, 1, min_open=True),
               default=IdentConfig.forgetting, show_default=True,
               help="RLS forgetting factor (1: none).")
+@click.option("--normalise", type=click.Choice(list(NORMALISE_MODES)),
+              default=IdentConfig.normalise, show_default=True,
+              help="eTS normalisation ranges: learn = fixed, min/max of the learning part "
+                   "(+5 %; set before the online pass), running = running min/max "
+                   "(strictly causal, noisy start), apriori = fixed, loop commands ±1 "
+                   "(thrust 0..1), the rest as learn.")
 @click.option("--validate", type=click.FloatRange(0, 0.9), default=IdentConfig.validate,
               show_default=True,
               help="Fraction held out at the end: learn on the rest, freeze, then one-step "
@@ -84,7 +91,8 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
                  output_lags: int, input_lags: int, radius: float, omega: float, variant: str,
-                 max_rules: int, rls: str, forgetting: float, validate: float,
+                 max_rules: int, rls: str, forgetting: float, normalise: str,
+                 validate: float,
                  rate_hz: float | None, ident_rate: float | None, inputs: str, as_json: bool,
                  maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
                  quiet: bool) -> None:
@@ -104,7 +112,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          output_lags=output_lags, input_lags=input_lags, radius=radius,
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
-                         inputs=inputs)
+                         inputs=inputs, normalise=normalise)
     run = identify(table, config, source=log, show_progress=wanted(quiet))
     write_run(run, out)
     _print_run(run, out, as_json)

@@ -37,6 +37,16 @@ CHUNK = 4096
 MIN_TRAIN = 10
 """Fewest usable rows the learning part may have."""
 
+NORMALISE_MODES = ("learn", "running", "apriori")
+"""How eTS normalises its inputs and outputs (``--normalise``, docs/identify.md)."""
+
+RANGE_MARGIN = 0.05
+"""Fixed ranges are widened by this fraction of their width on each side."""
+
+APRIORI_RANGES = {"u_roll": (-1.0, 1.0), "u_pitch": (-1.0, 1.0), "u_yaw": (-1.0, 1.0),
+                  "u_thrust": (0.0, 1.0)}
+"""FlightTable contract ranges of the loop commands (``--normalise apriori``)."""
+
 
 @dataclass
 class IdentConfig:
@@ -56,6 +66,11 @@ class IdentConfig:
         eTS parameters (see :class:`etsid.ets.ETS`).
     validate
         Fraction of the usable rows, at the end, held out for frozen validation (0 … 0.9).
+    normalise
+        eTS normalisation ranges: ``learn`` (fixed, min/max of the learning part widened
+        by :data:`RANGE_MARGIN`), ``running`` (the eTS running min/max, strictly causal)
+        or ``apriori`` (fixed: :data:`APRIORI_RANGES` for the loop commands, learning-part
+        ranges for the rest). See :func:`fixed_ranges`.
     ident_rate
         Identification rate, Hz: the table is block-mean decimated by the integer factor
         whose rate is nearest (:func:`etsid.ident.resample.decimate`). ``None``: 50 Hz for
@@ -83,6 +98,7 @@ class IdentConfig:
     validate: float = 0.3
     ident_rate: float | None = None
     inputs: str = "auto"
+    normalise: str = "learn"
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""
@@ -291,6 +307,44 @@ def _input_info(table: pd.DataFrame, source: str | Path | None) -> dict[str, Any
     return info
 
 
+def _learn_range(v: np.ndarray) -> tuple[float, float]:
+    """[low, high] of learning-part values, widened by :data:`RANGE_MARGIN` of the width
+    on each side; a (near-)constant column gets width 1 around its value (the eTS rule for
+    a zero range) so that later excursions are not blown up."""
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return -0.5, 0.5
+    lo, hi = float(v.min()), float(v.max())
+    width = hi - lo
+    if width <= 1e-9 * max(1.0, abs(lo), abs(hi)):
+        mid = 0.5 * (lo + hi)
+        return mid - 0.5, mid + 0.5
+    return lo - RANGE_MARGIN * width, hi + RANGE_MARGIN * width
+
+
+def fixed_ranges(reg: Regression, spec: RegressorSpec, split: int,
+                 mode: str) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """eTS ``x_range``, ``y_range`` for ``--normalise mode`` (None, None for ``running``).
+
+    ``learn``: each regressor's and output's min/max over the learning part (the first
+    ``split`` rows), widened by :data:`RANGE_MARGIN`. ``apriori``: regressors of the loop
+    commands get :data:`APRIORI_RANGES` (the FlightTable contract), everything else as in
+    ``learn``.
+    """
+    if mode not in NORMALISE_MODES:
+        raise IdentError(f"--normalise {mode!r}: choose one of {', '.join(NORMALISE_MODES)}")
+    if mode == "running":
+        return None, None
+    X, Y = reg.X[:split], reg.Y[:split]
+    x_range = np.array([_learn_range(X[:, j]) for j in range(X.shape[1])])
+    y_range = np.array([_learn_range(Y[:, o]) for o in range(Y.shape[1])])
+    if mode == "apriori":
+        for j, term in enumerate(spec.terms):
+            if term.name in APRIORI_RANGES:
+                x_range[j] = APRIORI_RANGES[term.name]
+    return x_range, y_range
+
+
 def _split_index(n: int, validate: float) -> int:
     if not 0.0 <= validate <= 0.9:
         raise IdentError(f"--validate must be between 0 and 0.9, got {validate}")
@@ -367,7 +421,8 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     n = len(reg.X)
     chosen.notes.extend(data_warnings(table, n, reg.X.shape[1], rate_model=not config.outputs))
     split = _split_index(n, config.validate)
-    model = _new_model(config, spec)
+    x_range, y_range = fixed_ranges(reg, spec, split, config.normalise)
+    model = _new_model(config, spec, x_range, y_range)
     try:
         yhat, frozen_dict = _learn(model, reg, split if split < n else -1, show_progress,
                                    "identify")
@@ -398,7 +453,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,
                   "sample_rate": _rate_info(table)},
         "parameters": asdict(config),
-        "ets": config.ets_params(),
+        "ets": {**config.ets_params(), "normalise": config.normalise},
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
     }
@@ -422,10 +477,11 @@ def _validation_info(reg: Regression, split: int, fraction: float) -> dict[str, 
             "t_start": float(reg.t[split]) if split < n else None}
 
 
-def _new_model(config: IdentConfig, spec: RegressorSpec) -> ETS:
+def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | None = None,
+               y_range: np.ndarray | None = None) -> ETS:
     try:
         return ETS(**config.ets_params(), input_names=spec.input_names,
-                   output_names=list(spec.outputs))
+                   output_names=list(spec.outputs), x_range=x_range, y_range=y_range)
     except (ValueError, TypeError) as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
 
@@ -536,7 +592,8 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "model": {**spec.to_dict(), "inputs": {"columns": [
             c for c in spec.columns if c not in spec.outputs]}, "notes": []},
         "parameters": {"learn": learn, "sim_from": sim_from},
-        "ets": {k: data.get("params", {}).get(k) for k in ("radius", "omega", "variant")}
+        "ets": {**{k: data["params"].get(k) for k in ("radius", "omega", "variant")},
+                "fixed_ranges": data["params"].get("x_range") is not None}
         if isinstance(data.get("params"), dict) else {},
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
