@@ -57,6 +57,29 @@ def test_box_jenkins_cli_equals_python_api(tmp_path: Path) -> None:
     assert config["model"]["regressors"] == "co2[k-1],input_gas_rate[k-4]"
 
 
+def test_normalise_option_is_stored(tmp_path: Path) -> None:
+    # Box–Jenkins: running ranges reproduce the eTS-core numbers of docs/identify.md,
+    # learning-part ranges (the default) give one rule there at radius 2
+    args = [DATA / "gas_furnace.csv", "--output", "co2", "--regressors",
+            "co2[k-1],input_gas_rate[k-4]", "--validate", "0", "--json", "--quiet"]
+    runs = {}
+    for mode in ("running", "learn"):
+        out = tmp_path / mode
+        result = invoke("identify", *args, "--out", out, "--normalise", mode)
+        assert result.exit_code == 0, result.output
+        runs[mode] = json.loads(result.output)
+        config = json.loads((out / "config.json").read_text())
+        assert config["parameters"]["normalise"] == mode
+        rules = json.loads((out / "rules.json").read_text())
+        assert (rules["params"]["x_range"] is None) == (mode == "running")
+    assert runs["running"]["outputs"]["co2"]["online"]["rmse"] == pytest.approx(0.4309,
+                                                                                 abs=5e-5)
+    assert runs["running"]["rules"]["final"] == 2
+    assert runs["learn"]["outputs"]["co2"]["online"]["rmse"] == pytest.approx(0.4375,
+                                                                               abs=5e-5)
+    assert runs["learn"]["rules"]["final"] == 1
+
+
 def test_identify_writes_the_file_contract(run_dir: Path) -> None:
     for name in ("predictions.parquet", "history.parquet", "rules.json", "metrics.json",
                  "config.json"):

@@ -144,3 +144,60 @@ def test_refusals(table: pd.DataFrame) -> None:
         identify(table.iloc[:12], IdentConfig(validate=0.5, ident_rate=0, input_lags=2))
     with pytest.raises(IdentError, match="bad eTS parameter"):
         identify(table, IdentConfig(variant="nope"))
+    with pytest.raises(IdentError, match="--normalise 'minmax'"):
+        identify(table, IdentConfig(normalise="minmax", ident_rate=0, input_lags=2))
+
+
+def test_learn_ranges_are_the_learning_part_widened(table: pd.DataFrame) -> None:
+    from etsid.ident.run import RANGE_MARGIN
+
+    config = IdentConfig(validate=0.3, ident_rate=0, input_lags=2)
+    run = identify(table, config)
+    assert run.config["parameters"]["normalise"] == "learn"
+    spec = RegressorSpec.from_dict(run.rules["regressors"])
+    reg = build(table, spec)
+    split = run.metrics["validation"]["n_learn"]
+    lo, hi = reg.X[:split].min(0), reg.X[:split].max(0)
+    width = hi - lo
+    x_range = np.asarray(run.rules["params"]["x_range"])
+    np.testing.assert_allclose(x_range[:, 0], lo - RANGE_MARGIN * width)
+    np.testing.assert_allclose(x_range[:, 1], hi + RANGE_MARGIN * width)
+    y_range = np.asarray(run.rules["params"]["y_range"])
+    np.testing.assert_allclose(y_range[:, 1], reg.Y[:split].max(0)
+                               + RANGE_MARGIN * np.ptp(reg.Y[:split], axis=0))
+    # nothing of the validation part leaks into the ranges
+    other = identify(table, IdentConfig(validate=0.5, ident_rate=0, input_lags=2))
+    assert other.rules["params"]["x_range"] != run.rules["params"]["x_range"]
+
+
+def test_apriori_ranges_for_loop_commands(table: pd.DataFrame) -> None:
+    run = identify(table, IdentConfig(ident_rate=0, input_lags=2, normalise="apriori"))
+    spec = RegressorSpec.from_dict(run.rules["regressors"])
+    x_range = run.rules["params"]["x_range"]
+    for term, rng in zip(spec.terms, x_range, strict=True):
+        if term.name == "u_thrust":
+            assert rng == [0.0, 1.0]
+        elif term.name.startswith("u_"):
+            assert rng == [-1.0, 1.0]
+        else:
+            assert rng[0] < 0 < rng[1] and rng != [-1.0, 1.0]
+
+
+def test_constant_column_gets_a_unit_range() -> None:
+    from etsid.ident.run import _learn_range
+
+    assert _learn_range(np.full(10, 0.5)) == (0.0, 1.0)
+    assert _learn_range(np.array([np.nan, 2.0, 2.0])) == (1.5, 2.5)
+    assert _learn_range(np.array([0.0, 1.0])) == pytest.approx((-0.05, 1.05))
+
+
+@pytest.mark.parametrize("mode", ["running", "apriori"])
+def test_predict_reproduces_validation_in_every_mode(table: pd.DataFrame, tmp_path: Path,
+                                                     mode: str) -> None:
+    run = identify(table, IdentConfig(ident_rate=0, input_lags=2, normalise=mode))
+    write_run(run, tmp_path / "RUN")
+    again = predict(table, tmp_path / "RUN" / "rules.json",
+                    sim_from=run.metrics["validation"]["t_start"])
+    for y in ("p", "q", "r"):
+        assert (run.metrics["outputs"][y]["validation"]
+                == again.metrics["outputs"][y]["validation"])
