@@ -2,7 +2,8 @@
 
 Run:  /work/venv/bin/python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
 
-1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6, eTS+ radius 2) on a
+1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6, eTS+ radius 2, ranges
+   from the learning part) on a
    ``--duration`` s simulated hover-ige flight at 250 Hz. One warm-up run on a short flight
    first (numba compilation / cache load is start-up, not timed). Reports table samples/s
    (250 Hz rows in) and identification samples/s (50 Hz rows learned), CPU and wall time.
@@ -11,6 +12,9 @@ Run:  /work/venv/bin/python benchmarks/identify.py [--duration 600] [--seeds 21,
    decimation, σ_gyro/√5), free-run fit % for eTS and ARX, rules; then the same for
    forward-flight and for identification at the native 250 Hz (``ident_rate=0``).
 3. ``--lag-study``: the ARX lag/rate table of docs/identify.md (seeds 1, 2, 3).
+4. ``--normalise-study``: ``--normalise learn|running|apriori`` at radius 2 and ``learn``
+   at radii 1.0–1.75 on hover-ige and forward-flight ``--seeds`` (online RMSE of eTS and
+   ARX, validation one-step RMSE, free-run fit, rules; means over seeds).
 """
 
 from __future__ import annotations
@@ -50,20 +54,55 @@ def quality(scenario: str, seeds: list[int], config: IdentConfig, label: str) ->
                       out[y]["validation"]["free_run"]["fit"],
                       out[y]["arx"]["validation"]["free_run"]["fit"],
                       out[y]["validation"]["one_step"]["rmse"],
-                      out[y]["online"]["rmse_over_noise"]] for y in "pqr"]
+                      out[y]["online"]["rmse_over_noise"],
+                      out[y]["arx"]["online"]["rmse_over_noise"]] for y in "pqr"]
                     + [[run.metrics["rules"]["peak"], run.metrics["rules"]["frozen"],
-                        out["p"]["noise_std"], 0, 0, 0]])
+                        out["p"]["noise_std"], 0, 0, 0, 0]])
     mean = np.mean(np.array(rows, dtype=float), axis=0)
     low = np.min(np.array(rows, dtype=float), axis=0)
     print(f"\n{label}: {scenario}, seeds {seeds}, σ = {mean[3, 2]:.5f} rad/s, rules peak "
           f"{mean[3, 0]:.1f}, frozen {mean[3, 1]:.1f} (means over seeds; free-run min)")
     print("| output | eTS 1-step RMSE/σ | ARX 1-step RMSE/σ | eTS 1-step RMSE (rad/s) | "
-          "eTS free-run fit % (min) | ARX free-run fit % (min) | eTS online RMSE/σ |")
-    print("|---|---|---|---|---|---|---|")
+          "eTS free-run fit % (min) | ARX free-run fit % (min) | eTS online RMSE/σ | "
+          "ARX online RMSE/σ |")
+    print("|---|---|---|---|---|---|---|---|")
     for i, y in enumerate("pqr"):
         print(f"| {y} | {mean[i, 0]:.2f} | {mean[i, 1]:.2f} | {mean[i, 4]:.4f} | "
               f"{mean[i, 2]:.1f} ({low[i, 2]:.1f}) | {mean[i, 3]:.1f} ({low[i, 3]:.1f}) | "
-              f"{mean[i, 5]:.2f} |")
+              f"{mean[i, 5]:.2f} | {mean[i, 6]:.2f} |")
+
+
+def normalise_study(seeds: list[int]) -> None:
+    """eTS normalisation modes and, for ``learn``, radii (docs/identify.md)."""
+    print(f"\nnormalisation study, seeds {seeds}: online RMSE eTS / ARX, validation one-step "
+          "RMSE eTS / ARX, free-run fit % eTS (min) / ARX, rules peak / frozen (rad/s; "
+          "means over seeds)")
+    print("| normalise, radius | flight | output | online eTS / ARX | val 1-step eTS / ARX | "
+          "free-run fit % eTS (min) / ARX | rules peak / frozen |")
+    print("|---|---|---|---|---|---|---|")
+    settings = [("learn", 2.0), ("running", 2.0), ("apriori", 2.0), ("learn", 1.75),
+                ("learn", 1.5), ("learn", 1.25), ("learn", 1.0)]
+    for scenario in ("hover-ige", "forward-flight"):
+        tables = [simulate(scenario, duration=60.0, seed=s).table for s in seeds]
+        for mode, radius in settings:
+            rows = []
+            for table in tables:
+                run = identify(table, IdentConfig(normalise=mode, radius=radius))
+                out = run.metrics["outputs"]
+                rows.append([[out[y]["online"]["rmse"], out[y]["arx"]["online"]["rmse"],
+                              out[y]["validation"]["one_step"]["rmse"],
+                              out[y]["arx"]["validation"]["one_step"]["rmse"],
+                              out[y]["validation"]["free_run"]["fit"],
+                              out[y]["arx"]["validation"]["free_run"]["fit"],
+                              run.metrics["rules"]["peak"], run.metrics["rules"]["frozen"]]
+                             for y in "pqr"])
+            a = np.array(rows, dtype=float)
+            mean, low = a.mean(axis=0), a.min(axis=0)
+            for i, y in enumerate("pqr"):
+                print(f"| {mode}, {radius:g} | {scenario} | {y} | {mean[i, 0]:.4f} / "
+                      f"{mean[i, 1]:.4f} | {mean[i, 2]:.4f} / {mean[i, 3]:.4f} | "
+                      f"{mean[i, 4]:.1f} ({low[i, 4]:.1f}) / {mean[i, 5]:.1f} | "
+                      f"{mean[i, 6]:.1f} / {mean[i, 7]:.1f} |", flush=True)
 
 
 def lag_study(seeds: list[int]) -> None:
@@ -106,9 +145,14 @@ def main() -> None:
     parser.add_argument("--skip-quality", action="store_true")
     parser.add_argument("--lag-study", action="store_true",
                         help="only the ARX lag study on seeds 1, 2, 3")
+    parser.add_argument("--normalise-study", action="store_true",
+                        help="only the --normalise / radius study on --seeds")
     args = parser.parse_args()
     if args.lag_study:
         lag_study([1, 2, 3])
+        return
+    if args.normalise_study:
+        normalise_study([int(s) for s in args.seeds.split(",")])
         return
     print(f"python {platform.python_version()}, {platform.machine()}, "
           f"{os.cpu_count()} CPUs")
@@ -116,9 +160,14 @@ def main() -> None:
     if args.skip_quality:
         return
     seeds = [int(s) for s in args.seeds.split(",")]
-    quality("hover-ige", seeds, IdentConfig(), "defaults (50 Hz, lags 4/6, radius 2)")
-    quality("forward-flight", seeds, IdentConfig(), "defaults (50 Hz, lags 4/6, radius 2)")
-    quality("hover-ige", seeds, IdentConfig(ident_rate=0, input_lags=2, radius=1.5),
+    quality("hover-ige", seeds, IdentConfig(),
+            "defaults (50 Hz, lags 4/6, radius 2, --normalise learn)")
+    quality("forward-flight", seeds, IdentConfig(),
+            "defaults (50 Hz, lags 4/6, radius 2, --normalise learn)")
+    quality("hover-ige", seeds, IdentConfig(normalise="running"),
+            "running ranges (--normalise running)")
+    quality("hover-ige", seeds, IdentConfig(ident_rate=0, input_lags=2, radius=1.5,
+                                            normalise="running"),
             "previous defaults (250 Hz, lags 4/2, radius 1.5)")
 
 
