@@ -209,7 +209,10 @@ def load_table(path: str | Path) -> pd.DataFrame:
     elif frame.index.name != "t":
         frame.index = pd.Index(np.arange(len(frame), dtype=float), name="t")
         warnings.append(f"{path.name}: no 't' column, using the row number as t (s)")
-    frame.index = frame.index.astype(float)
+    try:
+        frame.index = frame.index.astype(float)
+    except (TypeError, ValueError) as err:
+        raise TableError(f"{path}: time column 't' is not numeric ({err})") from err
     numeric = frame.select_dtypes(include="number").columns
     frame[numeric] = frame[numeric].astype(float)
     if SEGMENT in frame.columns:

@@ -6,6 +6,7 @@ exit code 1; click's usage errors exit 2. Set ``ETSID_DEBUG=1`` to see traceback
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import sys
@@ -56,6 +57,11 @@ class EtsidGroup(click.Group):
             ctx.exit(1)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
             raise
+        except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
+            # silence the flush of the rest at exit
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            ctx.exit(0)
         except KeyboardInterrupt:
             click.echo("etsid: interrupted", err=True)
             ctx.exit(130)

@@ -9,7 +9,8 @@ from typing import Any
 
 import click
 
-from etsid.cli.options import log_options, read_options
+from etsid.cli.options import echo_table_notes, log_options, read_options
+from etsid.errors import IngestError
 from etsid.ingest import inspect_log, read_log
 from etsid.table import save_table
 
@@ -74,16 +75,16 @@ def ingest(log: Path, out: Path, rate_hz: float | None, start: float | None, end
         raise click.BadParameter("must end in .parquet or .csv", param_hint="--out")
     table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz,
                      start=start, end=end)
+    if len(table) == 0:
+        raise IngestError(f"{log}: the table has no rows")
     save_table(table, out)
-    attrs = table.attrs
+    t = table.index.to_numpy(dtype=float)
+    rate = table.attrs.get("rate_hz") or (
+        (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else float("nan"))
     click.echo(f"{out}: {len(table)} rows x {len(table.columns)} columns at "
-               f"{attrs['rate_hz']:.2f} Hz, {table.index[-1]:.2f} s "
+               f"{rate:.2f} Hz, {t[-1] - t[0]:.2f} s "
                f"({', '.join(c for c in table.columns)})")
-    for kind in ("dropped", "repaired"):
-        for item in attrs[kind]:
-            click.echo(f"{kind}: {item['count']} ({item['reason']}) {item['signal']}", err=True)
-    for warning in attrs["warnings"]:
-        click.echo(f"note: {warning}", err=True)
+    echo_table_notes(table)
 
 
 COMMANDS = [inspect, ingest]

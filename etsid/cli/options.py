@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+import pandas as pd
 
 from etsid.ingest.base import ReadOptions
 from etsid.ingest.mapping import load_mapping_file, parse_override
@@ -39,3 +40,13 @@ def read_options(maps: tuple[str, ...], mapping_file: Path | None, sysid: int | 
         options.rc_map = rc
     options.overrides.extend(parse_override(text) for text in maps)
     return options
+
+
+def echo_table_notes(table: pd.DataFrame) -> None:
+    """Print what reading the table dropped, repaired or noted (its attrs) on stderr."""
+    attrs = table.attrs
+    for kind in ("dropped", "repaired"):
+        for item in attrs.get(kind) or []:
+            click.echo(f"{kind}: {item['count']} ({item['reason']}) {item['signal']}", err=True)
+    for warning in attrs.get("warnings") or []:
+        click.echo(f"note: {warning}", err=True)

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from etsid.errors import IngestError, TableError
@@ -17,7 +18,7 @@ from etsid.ingest.align import build_table
 from etsid.ingest.base import Override, RawLog, ReadOptions
 from etsid.ingest.detect import FORMATS, detect_format, open_reader
 from etsid.ingest.mapping import choose_signals
-from etsid.table import is_table_path, load_table
+from etsid.table import COLUMNS, is_table_path, load_table
 
 __all__ = [
     "FORMATS",
@@ -28,6 +29,7 @@ __all__ = [
     "load_any",
     "read_log",
     "read_raw",
+    "read_table",
 ]
 
 
@@ -53,6 +55,8 @@ def read_log(
     IngestError
         One-line message naming the file and what is wrong.
     """
+    if is_table_path(path):
+        return read_table(path, options, rate_hz=rate_hz, start=start, end=end)
     options = options or ReadOptions()
     raw = read_raw(path, options)
     return table_from_raw(raw, options.overrides, rate_hz=rate_hz, start=start, end=end)
@@ -81,17 +85,87 @@ def table_from_raw(
 
 
 def load_any(path: str | Path, options: ReadOptions | None = None, **kwargs: Any) -> pd.DataFrame:
-    """A saved table (``.parquet``/``.csv``) or any log, as a FlightTable."""
+    """A saved table (``.parquet``/``.csv``) or any log, as a FlightTable.
+
+    A saved table is already on its grid: ``--map``/``--mapping``/``--sysid`` and ``rate_hz``
+    do not apply to it and are refused rather than ignored; ``start``/``end`` cut it.
+    """
     if is_table_path(path):
-        try:
-            return load_table(path)
-        except TableError as err:
-            raise IngestError(str(err)) from err
+        return read_table(path, options, **kwargs)
     return read_log(path, options, **kwargs)
+
+
+def read_table(path: str | Path, options: ReadOptions | None = None,
+               rate_hz: float | None = None, start: float | None = None,
+               end: float | None = None) -> pd.DataFrame:
+    """A saved table as a FlightTable, cut to ``start``..``end`` (s); see :func:`load_any`."""
+    options = options or ReadOptions()
+    unused = [name for name, given in (
+        ("--map/--mapping", bool(options.overrides) or options.rc_map != ReadOptions().rc_map),
+        ("--sysid", options.sysid is not None),
+        ("--rate", rate_hz is not None),
+    ) if given]
+    if unused:
+        raise IngestError(f"{path}: a saved table is already on its grid; "
+                          f"{', '.join(unused)} only apply to flight logs")
+    try:
+        table = load_table(path)
+    except TableError as err:
+        raise IngestError(str(err)) from err
+    if start is None and end is None:
+        return table
+    for name, value in (("--start", start), ("--end", end)):
+        if value is not None and not (np.isfinite(value) and value >= 0):
+            raise IngestError(f"{path}: {name} must be a time ≥ 0 s, got {value:g}")
+    t = table.index.to_numpy(dtype=float)
+    lo = (t[0] if t.size else 0.0) + (start or 0.0)
+    hi = np.inf if end is None else (t[0] if t.size else 0.0) + end
+    cut = table[(t >= lo) & (t <= hi)].copy()
+    if len(cut) < 2:
+        raise IngestError(f"{path}: the window --start/--end selects fewer than two rows")
+    cut.index = pd.Index(cut.index.to_numpy(dtype=float) - cut.index[0], name="t")
+    cut.attrs = dict(table.attrs)
+    return cut
+
+
+def inspect_table(path: str | Path) -> dict[str, Any]:
+    """``etsid inspect`` summary of a saved table: one row per column, with provenance notes."""
+    try:
+        table = load_table(path)
+    except TableError as err:
+        raise IngestError(str(err)) from err
+    attrs = table.attrs
+    t = table.index.to_numpy(dtype=float)
+    duration = float(t[-1] - t[0]) if t.size else None
+    channels = []
+    for column in table.columns:
+        count = int(table[column].notna().sum())
+        rate = (count - 1) / duration if duration and count > 1 else 0.0
+        channels.append({"name": column, "type": str(table[column].dtype), "count": count,
+                         "rate_hz": round(rate, 3),
+                         "columns": [column] if column in COLUMNS else [], "note": ""})
+    notes = list(attrs.get("warnings") or [])
+    if not t.size:
+        notes.append("the table has no rows")
+    return {
+        "path": str(path),
+        "format": f"table ({attrs.get('format', 'table')})",
+        "start_time": attrs.get("start_time"),
+        "duration_s": duration,
+        "channels": channels,
+        "mapping": dict(attrs.get("mapping") or {}),
+        "dropped": list(attrs.get("dropped") or []),
+        "repaired": list(attrs.get("repaired") or []),
+        "warnings": notes,
+        "extra": {"rows": len(table), "source": attrs.get("source", str(path))},
+    }
 
 
 def inspect_log(path: str | Path, options: ReadOptions | None = None) -> dict[str, Any]:
     """Summary of a log for ``etsid inspect``: format, duration, channels, mapping, issues."""
+    if is_table_path(path):
+        read_table(path, options)  # refuses --map/--sysid, which do not apply to a table
+        return inspect_table(path)
     raw = read_raw(path, options)
     times = [c for c in raw.channels if c.t_first is not None and c.t_last is not None]
     t_first = min((c.t_first for c in times), default=None)  # type: ignore[type-var]

@@ -26,6 +26,9 @@ from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
 
+MAX_GRID_POINTS = 50_000_000
+"""Refuse grids larger than this (a typo in ``--rate`` would otherwise exhaust memory)."""
+
 
 def clean_signal(sig: Signal, dropped: list[Issue], repaired: list[Issue]) -> Signal:
     """Drop non-finite samples, sort by time, merge duplicate timestamps; record counts."""
@@ -128,6 +131,10 @@ def build_table(
     """
     dropped, repaired = list(raw.dropped), list(raw.repaired)
     cleaned = {c: clean_signal(s, dropped, repaired) for c, s in chosen.items()}
+    for column, sig in cleaned.items():
+        if sig.t.size < 2:
+            raw.warnings.append(f"{column}: left out, {sig.source} has {sig.t.size} usable "
+                                "sample(s) (need 2)")
     cleaned = {c: s for c, s in cleaned.items() if s.t.size >= 2}
     if not cleaned:
         raise IngestError(f"{raw.path}: no usable samples in any mapped signal")
@@ -135,12 +142,21 @@ def build_table(
     rate = float(rate_hz) if rate_hz else native_rate(ref.t)
     if not np.isfinite(rate) or rate <= 0:
         raise IngestError(f"{raw.path}: cannot infer a sample rate from {ref.source}")
+    for name, value in (("--start", start), ("--end", end)):
+        if value is not None and not (np.isfinite(value) and value >= 0):
+            raise IngestError(f"{raw.path}: {name} must be a time ≥ 0 s from the first "
+                              f"sample, got {value:g}")
     t0 = float(ref.t[0])
     lo = t0 + (start or 0.0)
     hi = float(ref.t[-1]) if end is None else min(float(ref.t[-1]), t0 + end)
     if hi <= lo:
         raise IngestError(f"{raw.path}: the window --start/--end selects no data")
-    grid = lo + np.arange(int(np.floor((hi - lo) * rate + 1e-9)) + 1) / rate
+    n_grid = int(np.floor((hi - lo) * rate + 1e-9)) + 1
+    if n_grid > MAX_GRID_POINTS:
+        raise IngestError(f"{raw.path}: --rate {rate:g} Hz over {hi - lo:.1f} s gives "
+                          f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}); "
+                          "use a lower rate")
+    grid = lo + np.arange(n_grid) / rate
     keep = np.ones(grid.size, dtype=bool)
     gaps = []
     for gap_start, gap_end in find_gaps(ref.t):

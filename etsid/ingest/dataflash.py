@@ -263,6 +263,9 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
         if d is None or not d.has(o.field or ""):
             have = ", ".join(d.rec.dtype.names) if d is not None else "message not in log"
             raise IngestError(f"{path}: --map {o.text}: no such field ({have})")
+        if d.rec[o.field or ""].dtype.kind not in "biuf":
+            raise IngestError(f"{path}: --map {o.text}: field is not numeric "
+                              f"({d.rec[o.field or ''].dtype})")
         raw.signals.append(Signal(o.column, d.t, d.f(o.field or ""), f"{o.topic}.{o.field}",
                                   -1))
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]

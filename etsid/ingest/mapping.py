@@ -60,6 +60,9 @@ def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]
     unknown = set(data) - {"map", "rc"}
     if unknown:
         raise IngestError(f"{path}: unknown section(s) {sorted(unknown)}; use [map] and [rc]")
+    for section in ("map", "rc"):
+        if not isinstance(data.get(section, {}), dict):
+            raise IngestError(f"{path}: {section} must be a [{section}] table, not a value")
     overrides = []
     for column, source in data.get("map", {}).items():
         if not isinstance(source, str):
