@@ -44,7 +44,7 @@ def test_box_jenkins_cli_equals_python_api(tmp_path: Path) -> None:
     result = invoke("identify", DATA / "gas_furnace.csv", "--output", "co2", "--regressors",
                     "co2[k-1],input_gas_rate[k-4]", "--out", out, "--json")
     assert result.exit_code == 0, result.output
-    printed = json.loads(result.output)
+    printed = json.loads(result.stdout)  # notes go to stderr
     frame = pd.read_csv(DATA / "gas_furnace.csv")
     frame.index = pd.Index(np.arange(len(frame), dtype=float), name="t")
     api = identify(frame, IdentConfig(outputs=["co2"],
@@ -67,7 +67,7 @@ def test_normalise_option_is_stored(tmp_path: Path) -> None:
         out = tmp_path / mode
         result = invoke("identify", *args, "--out", out, "--normalise", mode)
         assert result.exit_code == 0, result.output
-        runs[mode] = json.loads(result.output)
+        runs[mode] = json.loads(result.stdout)
         config = json.loads((out / "config.json").read_text())
         assert config["parameters"]["normalise"] == mode
         rules = json.loads((out / "rules.json").read_text())

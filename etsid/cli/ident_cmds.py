@@ -6,8 +6,10 @@ import json
 from pathlib import Path
 
 import click
+import numpy as np
 
-from etsid.cli.options import log_options, read_options
+from etsid.cli.options import echo_table_notes, log_options, read_options
+from etsid.errors import IdentError
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
 from etsid.ident.resample import DEFAULT_RATE_HZ
@@ -22,6 +24,14 @@ def _outputs(text: str | None) -> list[str] | None:
     if not text:
         return None
     return [s.strip() for s in text.split(",") if s.strip()]
+
+
+def _naming(err: IdentError, *paths: Path) -> IdentError:
+    """``err`` with the input file named in front unless its message names one already."""
+    text = str(err)
+    if any(str(p) in text for p in paths):
+        return err
+    return IdentError(f"{paths[0]}: {text}")
 
 
 def _print_run(run: Run, out: Path, as_json: bool) -> None:
@@ -113,7 +123,11 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
                          inputs=inputs, normalise=normalise)
-    run = identify(table, config, source=log, show_progress=wanted(quiet))
+    try:
+        run = identify(table, config, source=log, show_progress=wanted(quiet))
+    except IdentError as err:
+        raise _naming(err, log) from err
+    echo_table_notes(table)  # after the run, so that an error stays one line
     write_run(run, out)
     _print_run(run, out, as_json)
 
@@ -137,9 +151,15 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
                 rate_hz: float | None, as_json: bool, maps: tuple[str, ...],
                 mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
+    if sim_from is not None and not np.isfinite(sim_from):
+        raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
     table = load_any(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
-    run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
-                  show_progress=wanted(quiet))
+    try:
+        run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
+                      show_progress=wanted(quiet))
+    except IdentError as err:
+        raise _naming(err, log, rules_path) from err
+    echo_table_notes(table)
     write_run(run, out)
     _print_run(run, out, as_json)
 

@@ -132,4 +132,11 @@ def read_run(path: str | Path) -> Run:
         rules_final = json.loads(final_path.read_text()) if final_path.exists() else None
     except (OSError, ValueError) as err:
         raise IdentError(f"{path}: unreadable run file ({err})") from err
+    outputs = metrics.get("outputs") if isinstance(metrics, dict) else None
+    if not isinstance(outputs, dict) or not outputs:
+        raise IdentError(f"{path}: metrics.json has no 'outputs' (not written by etsid)")
+    need = ["t"] + [f"{y}{suffix}" for y in outputs for suffix in ("", "_hat")]
+    absent = [c for c in need if c not in predictions.columns]
+    if absent:
+        raise IdentError(f"{path}: predictions.parquet lacks column(s) {', '.join(absent)}")
     return Run(predictions, metrics, config, history, consequents, rules, rules_final)
