@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import click
 
+from etsid.errors import SimError
 from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
 
 
@@ -13,6 +15,26 @@ def _scenario_names() -> list[str]:
     from etsid.sim import SCENARIOS
 
     return sorted(SCENARIOS)
+
+
+_SUFFIX_FORMATS = {".tlog": ("tlog",), ".bag": ("ros1",), ".db3": ("ros2-db3",),
+                   ".mcap": ("mcap", "mcap-ros1", "mcap-json", "ros2-mcap"),
+                   ".parquet": ("parquet",), ".csv": ("csv",)}
+
+
+def _check_out(out: Path, fmt: str | None) -> None:
+    """Refuse an output path that cannot be written, before minutes of simulation."""
+    chosen = format_for(out, fmt)
+    allowed = _SUFFIX_FORMATS.get(out.suffix.lower())
+    if fmt is not None and allowed is not None and chosen not in allowed:
+        raise SimError(f"{out}: --format {fmt} does not match the extension {out.suffix}")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise SimError(f"{out}: the directory {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise SimError(f"{out}: the directory {parent} is not writable")
+    if out.is_dir() and chosen not in ("ros2-db3", "ros2-mcap"):
+        raise SimError(f"{out}: is a directory; give a file name")
 
 
 @click.command()
@@ -24,13 +46,13 @@ def _scenario_names() -> list[str]:
               help="Log format when the extension is not enough (e.g. ros2-mcap).")
 @click.option("--vehicle", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Vehicle TOML file (default: the Tarot 680 hexacopter).")
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--duration", type=click.FloatRange(min=0, max=3600, min_open=True), default=None,
               help="Flight time, s (default: the scenario's).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed (noise, "
               "excitation).")
 @click.option("--ground-effect", type=click.Choice(["on", "off"]), default="on",
               show_default=True, help="Model ground effect.")
-@click.option("--rate", "rate_hz", type=click.FloatRange(min=1), default=250.0,
+@click.option("--rate", "rate_hz", type=click.FloatRange(min=1, max=10_000), default=250.0,
               show_default=True, help="Sensor/table rate, Hz.")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: Path | None,
@@ -51,6 +73,7 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
                                  f"{', '.join(_scenario_names())}", param_hint="SCENARIO")
     if out is None:
         raise click.UsageError("Missing option '-o' / '--out'.")
+    _check_out(out, fmt)
     flight = run_simulation(scenario, vehicle=vehicle, duration=duration, seed=seed,
                             ground_effect=ground_effect == "on", rate_hz=rate_hz)
     table = flight.table
@@ -58,7 +81,10 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
         # a saved table also carries the noise-free states (true_* columns) for tests
         table = table.join(flight.truth)
         table.attrs = dict(flight.table.attrs)
-    written = write_log(table, out, fmt)
+    try:
+        written = write_log(table, out, fmt)
+    except OSError as err:
+        raise SimError(f"{out}: cannot write ({err.strerror or err})") from err
     click.echo(f"{written}: {scenario}, {table.index[-1]:.1f} s at {rate_hz:g} Hz, "
                f"vehicle {table.attrs.get('vehicle', '?')}, seed {seed}, "
                f"ground effect {ground_effect}")

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from etsid.errors import SimError
 from etsid.sim.ground import CHEESEMAN_BENNETT, SANCHEZ_CUEVAS, ground_ratio
 from etsid.sim.params import open_circuit_voltage
 from etsid.sim.rotor import hover_omega, rotor_forces
@@ -57,7 +58,11 @@ def hover_trim(vehicle: Vehicle, height: float | None = None) -> HoverTrim:
                              g["min_height_ratio"], g["max_ratio"])
     args = (env["air_density"], r["radius"], vehicle.solidity, r["lift_slope"],
             vehicle.theta_0, r["twist"])
-    omega = hover_omega(weight_share / ratio, *args)
+    try:
+        omega = hover_omega(weight_share / ratio, *args)
+    except ValueError as err:  # brentq: no rotor speed up to its bracket gives the thrust
+        raise SimError(f"vehicle {vehicle.name!r}: its rotors cannot lift {vehicle.mass:g} kg "
+                       "(no hover rotor speed); check mass and rotor fields") from err
     t_oge, torque, lam = rotor_forces(omega, 0.0, 0.0, *args, r["cd0"], r["kappa"], 0.05)
     m = vehicle["motor"]
     b = vehicle["battery"]

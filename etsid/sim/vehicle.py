@@ -268,7 +268,7 @@ def load_vehicle(vehicle: str | Path | Vehicle | None = None) -> Vehicle:
             data = tomllib.load(fh)
     except OSError as err:
         raise SimError(f"{path}: cannot read vehicle file ({err.strerror})") from err
-    except tomllib.TOMLDecodeError as err:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise SimError(f"{path}: invalid TOML ({err})") from err
     return vehicle_from_dict(data, str(path))
 
