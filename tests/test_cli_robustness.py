@@ -109,6 +109,11 @@ def test_table_without_rate_attrs_can_be_ingested(tmp_path: Path) -> None:
     assert "10.00 Hz" in out
 
 
+def test_ingest_into_missing_directory(table: Path, tmp_path: Path) -> None:
+    assert_error(["ingest", table, "-o", tmp_path / "nope" / "o.parquet"], "o.parquet",
+                 "cannot write")
+
+
 def test_ingest_empty_table(table: Path, tmp_path: Path) -> None:
     empty = tmp_path / "empty.parquet"
     pd.read_parquet(table).head(0).to_parquet(empty)

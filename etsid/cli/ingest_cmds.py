@@ -77,7 +77,10 @@ def ingest(log: Path, out: Path, rate_hz: float | None, start: float | None, end
                      start=start, end=end)
     if len(table) == 0:
         raise IngestError(f"{log}: the table has no rows")
-    save_table(table, out)
+    try:
+        save_table(table, out)
+    except OSError as err:
+        raise IngestError(f"{out}: cannot write ({err.strerror or err})") from err
     t = table.index.to_numpy(dtype=float)
     rate = table.attrs.get("rate_hz") or (
         (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else float("nan"))
