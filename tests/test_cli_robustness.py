@@ -213,3 +213,13 @@ def test_simulate_vehicle_too_heavy(tmp_path: Path) -> None:
     heavy.write_text(VEHICLE.read_text().replace("mass = 4.2 ", "mass = 1e9 ", 1))
     assert_error(["simulate", "hover-ige", "--duration", "0.1", "-o", tmp_path / "s.tlog",
                   "--vehicle", heavy], "cannot lift")
+
+
+def test_simulate_with_output_but_no_scenario_is_a_usage_error(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from etsid.cli import cli
+
+    result = CliRunner().invoke(cli, ["simulate", "-o", str(tmp_path / "x.tlog")])
+    assert result.exit_code == 2 and "SCENARIO" in result.output
+    assert not (tmp_path / "x.tlog").exists()

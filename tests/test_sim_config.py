@@ -97,3 +97,18 @@ def test_invalid_scenario_settings(kwargs: dict, match: str) -> None:
     args = {"scenario": "hover-oge", "duration": 1.0, **kwargs}
     with pytest.raises(SimError, match=match):
         simulate(**args)
+
+
+def test_unknown_vehicle_field_is_an_error(tmp_path) -> None:
+    """A typo in a vehicle file (cdo for cd0) is refused, not silently ignored."""
+    import pytest
+
+    from etsid.errors import SimError
+    from etsid.sim import load_vehicle
+    from etsid.sim.vehicle import VEHICLE_DIR
+
+    text = (VEHICLE_DIR / "tarot680.toml").read_text().replace("cd0 = ", "cdo = 0.1\ncd0 = ")
+    path = tmp_path / "typo.toml"
+    path.write_text(text)
+    with pytest.raises(SimError, match=r"typo.toml: unknown field\(s\) \[rotor\] cdo"):
+        load_vehicle(path)

@@ -62,6 +62,8 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
     from etsid.sim import SCENARIOS
     from etsid.sim import simulate as run_simulation
 
+    if scenario is None and out is not None and not list_only:
+        raise click.UsageError("Missing argument 'SCENARIO' (see etsid simulate --list).")
     if list_only or scenario is None:
         for name in _scenario_names():
             info = SCENARIOS[name]

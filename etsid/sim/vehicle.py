@@ -225,6 +225,14 @@ def vehicle_from_dict(data: dict[str, Any], source: str = "<dict>") -> Vehicle:
             params[section][name] = _check(source, dotted, kind, table[name], n_rotors)
             if kind == "angles":
                 n_rotors = len(params[section][name])
+    for section, fields in _SCHEMA.items():  # a typo must not silently be ignored
+        table = data if section == "" else data[section]
+        known = set(fields) | ({"description"} | set(_SCHEMA) if not section else set())
+        unknown = sorted(set(table) - known)
+        if unknown:
+            where = f"[{section}] " if section else ""
+            raise SimError(f"{source}: unknown field(s) {where}{', '.join(unknown)}; known: "
+                           f"{', '.join(sorted(fields))}")
     g = params["ground"]
     if g["max_ratio"] <= 1.0:
         raise _fail(source, "ground.max_ratio", "must be greater than 1", g["max_ratio"])
