@@ -216,10 +216,6 @@ def test_simulate_vehicle_too_heavy(tmp_path: Path) -> None:
 
 
 def test_simulate_with_output_but_no_scenario_is_a_usage_error(tmp_path: Path) -> None:
-    from click.testing import CliRunner
-
-    from etsid.cli import cli
-
     result = CliRunner().invoke(cli, ["simulate", "-o", str(tmp_path / "x.tlog")])
     assert result.exit_code == 2 and "SCENARIO" in result.output
     assert not (tmp_path / "x.tlog").exists()
