@@ -292,6 +292,18 @@ def _predictions(reg: Regression, spec: RegressorSpec, table: pd.DataFrame, spli
     return pd.DataFrame(frame)
 
 
+def _run_header(command: str, table: pd.DataFrame, source: str | Path | None
+                ) -> dict[str, Any]:
+    """The first keys of config.json: schema, command, version, time and input file."""
+    return {
+        "schema": "etsid.run/1",
+        "command": command,
+        "etsid_version": __version__,
+        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "input": _input_info(table, source),
+    }
+
+
 def _input_info(table: pd.DataFrame, source: str | Path | None) -> dict[str, Any]:
     t = np.asarray(table.index, dtype=float)
     info: dict[str, Any] = {
@@ -445,11 +457,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "sample_rate": _rate_info(table),
     }
     run_config = {
-        "schema": "etsid.run/1",
-        "command": "identify",
-        "etsid_version": __version__,
-        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-        "input": _input_info(table, source),
+        **_run_header("identify", table, source),
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,
                   "sample_rate": _rate_info(table)},
         "parameters": asdict(config),
@@ -582,11 +590,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "sample_rate": _rate_info(table),
     }
     run_config = {
-        "schema": "etsid.run/1",
-        "command": "predict",
-        "etsid_version": __version__,
-        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-        "input": _input_info(table, source),
+        **_run_header("predict", table, source),
         "rules": {"path": str(path), "sha256": sha256(path if path.is_file()
                                                       else path / "rules.json")},
         "model": {**spec.to_dict(), "inputs": {"columns": [
