@@ -13,9 +13,9 @@ from etsid.cli import cli
 from etsid.errors import IngestError
 from etsid.ingest import inspect_log, read_log, read_raw
 
-DATA = Path(__file__).parent / "data" / "ros"
+DATA = Path(__file__).parents[1] / "data" / "ros"
 SITL = DATA / "mavros_from_sitl"
-TLOG = Path(__file__).parent / "data" / "ardupilot_sitl_quadplane.tlog"
+TLOG = Path(__file__).parents[1] / "data" / "ardupilot_sitl_quadplane.tlog"
 
 ROS_FILES = {
     "ros1": SITL / "mavros_vtol.bag",

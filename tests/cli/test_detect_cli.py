@@ -86,7 +86,7 @@ def test_bad_option_is_usage_error(tmp_path: Path) -> None:
 
 def test_inspect_says_when_nothing_maps() -> None:
     """inspect lists a log without flight data (exit 0) and says ingest has nothing to take."""
-    talker = Path(__file__).parent / "data" / "ros" / "ros2_talker_db3"
+    talker = Path(__file__).parents[1] / "data" / "ros" / "ros2_talker_db3"
     code, output = run("inspect", str(talker))
     assert code == 0 and "std_msgs/msg/String" in output and "nothing to ingest" in output
     code, output = run("ingest", str(talker), "-o", "unused.parquet")

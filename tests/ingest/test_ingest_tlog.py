@@ -27,7 +27,7 @@ from etsid.ingest.mavlink_scan import (
 )
 from etsid.sim.writers.tlog import write_tlog
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 SITL = DATA / "ardupilot_sitl_quadplane.tlog"
 START = 1.7e9
 

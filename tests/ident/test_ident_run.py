@@ -17,7 +17,7 @@ from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.simulate import free_run
 from etsid.ident.synthetic import rate_table
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 
 
 @pytest.fixture(scope="module")

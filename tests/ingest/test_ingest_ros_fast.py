@@ -21,7 +21,7 @@ from etsid.ingest.ros_messages import typestore
 from etsid.sim.writers.mcapfile import write_mcap
 from etsid.sim.writers.rosbag import instantiate, write_ros1_bag, write_ros2_bag
 
-DATA = Path(__file__).parent / "data" / "ros"
+DATA = Path(__file__).parents[1] / "data" / "ros"
 SITL = DATA / "mavros_from_sitl"
 REAL = [SITL / "mavros_vtol.bag", SITL / "mavros_vtol_ros2_db3",
         SITL / "mavros_vtol_ros2_db3" / "mavros_vtol_ros2_db3.db3", SITL / "mavros_vtol_ros2_mcap",

@@ -15,7 +15,7 @@ from etsid.ingest import read_log, read_raw
 from etsid.ingest.base import Override, ReadOptions
 from etsid.ingest.ulog import _signals, _Topic
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 CUBE = DATA / "px4_cubeorange_real.ulg"
 SITL = DATA / "px4_sitl_tagged.ulg"
 

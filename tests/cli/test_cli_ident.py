@@ -16,8 +16,8 @@ from etsid.ident import IdentConfig, identify, read_run
 from etsid.ident.synthetic import rate_table
 from etsid.table import save_table
 
-DATA = Path(__file__).parent / "data"
-DOCS = Path(__file__).parent.parent / "docs"
+DATA = Path(__file__).parents[1] / "data"
+DOCS = Path(__file__).parents[2] / "docs"
 
 
 def invoke(*args: str) -> object:

@@ -15,7 +15,7 @@ from etsid.errors import IngestError
 from etsid.ingest import read_log, read_raw
 from etsid.ingest.base import Override, ReadOptions
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 BIN = DATA / "arduplane_truncated.BIN"
 HEAD = b"\xa3\x95"
 _STRUCT = {"Q": "Q", "f": "f", "H": "H", "B": "B", "h": "h", "C": "H"}
