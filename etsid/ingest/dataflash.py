@@ -42,7 +42,7 @@ import numpy as np
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
-from etsid.ingest.mavlink_signals import stick
+from etsid.ingest.mavlink.signals import stick
 from etsid.progress import progress
 
 DEG = np.pi / 180.0

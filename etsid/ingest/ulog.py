@@ -39,9 +39,9 @@ import numba
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.frames import quat_to_euler
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
-from etsid.ingest.frames import quat_to_euler
-from etsid.ingest.mavlink_signals import stick
+from etsid.ingest.mavlink.signals import stick
 from etsid.progress import progress
 
 TOPICS = (

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from etsid.frames import euler_to_quat
 from etsid.ingest import read_log, read_raw
-from etsid.ingest.frames import euler_to_quat
-from etsid.ingest.ros_messages import typestore
+from etsid.rosmsgs import typestore
 from etsid.sim.writers.rosbag import instantiate
 
 T0 = 1_700_000_000 * 10**9

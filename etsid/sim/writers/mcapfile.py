@@ -37,7 +37,7 @@ def write_mcap(table: pd.DataFrame, path: Path, encoding: str = "ros2") -> Path:
 def _write_ros2(table: pd.DataFrame, handle: Any) -> None:
     from mcap_ros2.writer import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     store = typestore(ros1=False)
     topics, messages = mavros_messages(table)
@@ -54,7 +54,7 @@ def _write_ros1(table: pd.DataFrame, handle: Any) -> None:
     from mcap_ros1._vendor.genpy.dynamic import generate_dynamic
     from mcap_ros1.writer import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     store = typestore(ros1=True)
     topics, messages = mavros_messages(table)

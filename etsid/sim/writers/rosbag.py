@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from etsid.ingest.frames import ned_frd_euler_to_enu_flu_quat
+from etsid.frames import ned_frd_euler_to_enu_flu_quat
 
 NS = 1_000_000_000
 RECORD_DELAY_NS = 1_000_000
@@ -260,7 +260,7 @@ def write_ros1_bag(table: pd.DataFrame, path: Path) -> Path:
     """Write ``table`` as a ROS 1 bag (lz4 chunks) with MAVROS topics; returns ``path``."""
     from rosbags.rosbag1 import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     path = Path(path)
     path.unlink(missing_ok=True)
@@ -283,7 +283,7 @@ def write_ros2_bag(table: pd.DataFrame, path: Path, storage: str = "sqlite3") ->
 
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     path = Path(path)
     if path.exists():

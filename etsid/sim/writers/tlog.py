@@ -9,7 +9,7 @@ time plus a seeded random link delay (a few ms, with occasional stalls of up to 
 that release queued frames in a burst); the link is FIFO, so frames stay in send order.
 Only streams whose columns the table has are written; HEARTBEAT always is.
 
-Inverse of :mod:`etsid.ingest.tlog`: sticks → PWM 1500 ± 500 µs (throttle 1000…2000 µs),
+Inverse of :mod:`etsid.ingest.mavlink.tlog`: sticks → PWM 1500 ± 500 µs (throttle 1000…2000 µs),
 motors 0…1 → 1000…2000 µs, alt → DISTANCE_SENSOR cm (orientation 25, downward) and
 LOCAL_POSITION_NED −z, vbat → SYS_STATUS mV. NaN in an integer field becomes the field's
 "unknown" value (UINT16_MAX for RC channels and voltage, 0 for servo outputs).
@@ -194,7 +194,7 @@ def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: d
 
 def _attitude_target(mav: Any, ts: np.ndarray, col: dict[str, np.ndarray | None],
                      boot_ms: Callable[[str], np.ndarray]) -> Callable[[int], Any]:
-    from etsid.ingest.frames import euler_to_quat
+    from etsid.frames import euler_to_quat
 
     zero = np.zeros(ts.size)
     rates = [col.get(c) for c in ("sp_p", "sp_q", "sp_r")]
