@@ -242,7 +242,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                       "autopilot clock", late, names[mid]))
         times[mid] = (float(t[0]), float(t[-1]))
         if names[mid] in DECODERS:
-            raw.signals.extend(DECODERS[names[mid]](rec, t, options))
+            raw.signals.extend(DECODERS[names[mid]](rec, t, options, raw.repaired))
         for o in overrides:
             if o.topic == names[mid]:
                 raw.signals.append(_override_signal(o, rec, t, path))

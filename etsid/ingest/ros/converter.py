@@ -199,7 +199,7 @@ class Converter:
         if data.spec is not None and data.width and len(data.t):
             t = np.frombuffer(data.t, dtype=float) + shift
             rows = np.frombuffer(data.rows, dtype=float).reshape(len(data.t), data.width)
-            batch = Batch(data.topic, t, rows, self.options, raw.dropped)
+            batch = Batch(data.topic, t, rows, self.options, raw.dropped, raw.repaired)
             out = data.spec.finish(batch)
         for req, tt, vv in zip(data.requests, data.req_t, data.req_v, strict=True):
             if len(tt):

@@ -50,6 +50,7 @@ import numpy as np
 
 from etsid.frames import enu_flu_quat_to_ned_frd_euler, quat_to_euler, quat_to_matrix
 from etsid.ingest.base import Issue, ReadOptions, Signal
+from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 
 NS = 1_000_000_000
 NAN = math.nan
@@ -109,6 +110,7 @@ class Batch:
     rows: np.ndarray
     options: ReadOptions
     dropped: list[Issue]
+    repaired: list[Issue]
 
     def col(self, i: int) -> np.ndarray:
         return self.rows[:, i]
@@ -233,32 +235,28 @@ def _battery_finish(b: Batch) -> list[Signal]:
 
 
 def _sticks(b: Batch, pwm: np.ndarray, fields: Callable[[int], str], prio: int) -> list[Signal]:
-    lo, centre, hi = b.options.rc_range_us
     out = []
     for stick, channel in b.options.rc_map.items():
         if channel > pwm.shape[1]:
             continue
-        raw = pwm[:, channel - 1]
-        if stick == "u_thrust":
-            values = (raw - lo) / (hi - lo)
-        else:
-            values = (raw - centre) / (0.5 * (hi - lo))
-        keep = np.isfinite(raw) & (raw > 0)
+        fld = fields(channel)
+        values = stick_from_pwm(pwm[:, channel - 1], stick, f"{b.topic}.{fld}", b.options,
+                                b.repaired)
+        keep = np.isfinite(values)
         if keep.any():
-            out.append(b.signal(stick, values, fields(channel), prio, keep,
-                                "RC channel missing or 0"))
+            out.append(b.signal(stick, values, fld, prio, keep, "RC channel missing or unused"))
     return out
 
 
 def _motors(b: Batch, pwm: np.ndarray, fields: Callable[[int], str], prio: int) -> list[Signal]:
-    lo, _, hi = b.options.rc_range_us
     out = []
     for i in range(min(8, pwm.shape[1])):
-        raw = pwm[:, i]
-        keep = np.isfinite(raw) & (raw > 0)
+        fld = fields(i + 1)
+        values = motor_from_pwm(pwm[:, i], f"{b.topic}.{fld}", b.options, b.repaired)
+        keep = np.isfinite(values)
         if keep.any():
-            out.append(b.signal(f"m{i + 1}", (raw - lo) / (hi - lo), fields(i + 1), prio, keep,
-                                "output channel missing or 0"))
+            out.append(b.signal(f"m{i + 1}", values, fld, prio, keep,
+                                "output channel missing or unused"))
     return out
 
 
