@@ -11,8 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_ingest_ros_px4 import _px4_messages
-from test_ingest_ros_px4 import _write as _write_px4
+from test_ingest_ros_px4 import px4_messages, write_px4_bag
 from test_ingest_ros_roundtrip import synthetic_table
 
 from etsid.ingest import ReadOptions, read_raw
@@ -74,7 +73,7 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             "ros2-mcap": write_ros2_bag(table, tmp / "g_mcap", storage="mcap"),
             "mcap-ros2": write_mcap(table, tmp / "g2.mcap", encoding="ros2"),
             "mcap-ros1": write_mcap(table, tmp / "g1.mcap", encoding="ros1"),
-            "px4": _write_px4(tmp / "px4_bag", _px4_messages(120))}
+            "px4": write_px4_bag(tmp / "px4_bag", px4_messages(120))}
 
 
 @pytest.mark.parametrize("name", ["ros1", "ros2-db3", "ros2-mcap", "mcap-ros2", "mcap-ros1",

@@ -179,6 +179,10 @@ class Cols:
     def __init__(self, rec: np.ndarray, prefix: str = "") -> None:
         self._rec, self._prefix = rec, prefix
 
+    def __len__(self) -> int:
+        """Number of messages in the batch."""
+        return len(self._rec)
+
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):
             raise AttributeError(name)

@@ -32,7 +32,7 @@ def _pad(values: np.ndarray, n: int, rows: int) -> np.ndarray:
 
 
 def _rows(m: Any) -> int:
-    return len(m._rec)
+    return len(m)
 
 
 def _imu(m: Any) -> np.ndarray:
