@@ -11,13 +11,12 @@ import numpy as np
 
 from etsid.ets import kernels as K
 from etsid.ets.history import History, HistoryRecorder
+from etsid.ets.params import DEFAULTS, RLS_KINDS, VARIANTS
 from etsid.ets.recursion import learn_kernel, predict_kernel
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-VARIANTS = ("ets", "ets+")
-RLS_KINDS = ("local", "global")
 #: names of the state arrays, in the order the learning kernel takes them
 STATE_ARRAYS = (
     "si", "lo", "hi", "fixed", "mean", "m2", "ids", "cz", "rad", "scat", "pot",
@@ -109,20 +108,20 @@ class ETS:
 
     def __init__(
         self,
-        radius: float | Sequence[float] = 0.4,
-        omega: float = 1000.0,
-        variant: str = "ets+",
-        max_rules: int = 50,
-        rls: str = "local",
-        forgetting: float = 1.0,
-        utility_threshold: float = 0.05,
-        min_support: int = 3,
-        prune_after: int = 50,
-        adaptive_spread: bool = False,
-        coverage: bool = False,
+        radius: float | Sequence[float] = DEFAULTS.radius,
+        omega: float = DEFAULTS.omega,
+        variant: str = DEFAULTS.variant,
+        max_rules: int = DEFAULTS.max_rules,
+        rls: str = DEFAULTS.rls,
+        forgetting: float = DEFAULTS.forgetting,
+        utility_threshold: float = DEFAULTS.utility_threshold,
+        min_support: int = DEFAULTS.min_support,
+        prune_after: int = DEFAULTS.prune_after,
+        adaptive_spread: bool = DEFAULTS.adaptive_spread,
+        coverage: bool = DEFAULTS.coverage,
         x_range: Any = None,
         y_range: Any = None,
-        history_every: int = 1000,
+        history_every: int = DEFAULTS.history_every,
         input_names: Sequence[str] | None = None,
         output_names: Sequence[str] | None = None,
     ) -> None:

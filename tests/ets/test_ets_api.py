@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from etsid.ets import ETS
+from etsid.ets.params import DEFAULTS, PARAM_NAMES
+from etsid.ets.reference import ReferenceETS
 
 
 def _data(N: int = 400) -> tuple[np.ndarray, np.ndarray]:
@@ -23,6 +25,16 @@ def test_init_stores_parameters_only() -> None:
     params = model.get_params()
     assert params["radius"] == 0.2 and params["rls"] == "global" and params["max_rules"] == 7
     assert model.n_rules == 0 and len(model) == 0
+
+
+def test_defaults_come_from_params_and_the_reference_shares_them() -> None:
+    params = ETS().get_params()
+    assert set(params) == {*PARAM_NAMES, "x_range", "y_range", "input_names", "output_names"}
+    assert {k: params[k] for k in PARAM_NAMES} == DEFAULTS.to_dict()
+    X, Y = _data(300)
+    yhat = ETS().run(X, Y)
+    yref = ReferenceETS(2, 2, np.full(2, DEFAULTS.radius)).run(X, Y)
+    np.testing.assert_allclose(yhat[1:], yref[1:], rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize(
