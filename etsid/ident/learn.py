@@ -62,7 +62,7 @@ def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFr
             text[i] = (text[i] + "; " if text[i] else "") + f"{event['kind']} {event['rule_id']}"
     frame["events"] = text
     rows = []
-    inputs, outputs = model.names_()
+    inputs, outputs = model.names()
     terms = ["1", *inputs]
     for snap in hist.snapshots:
         i = int(snap["step"]) - first_step - 1

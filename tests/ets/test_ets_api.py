@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 
@@ -130,6 +131,29 @@ def test_rules_are_printed_in_original_units() -> None:
     np.testing.assert_allclose(model.consequents_raw()[0, :, 0], [1.0, 2.0], atol=1e-3)
     text = model.rules()
     assert "IF thrust ≈" in text and "THEN az = 1 + 2·thrust" in text
+
+
+@pytest.mark.parametrize("rls", ["local", "global"])
+def test_exported_state_is_read_only_and_restores_the_same_model(rls: str) -> None:
+    X, Y = _data()
+    model = ETS(radius=0.3, rls=rls, input_names=["a", "b"])
+    model.run(X[:200], Y[:200])
+    state = model.export_state()
+    assert state.n_rules == model.n_rules >= 2 and state.samples == 200
+    assert state.focal_points.shape == (model.n_rules, 4)
+    with pytest.raises(ValueError, match="read-only"):
+        state.focal_points[0, 0] = 1.0
+    copy = ETS(**model.get_params()).restore_state(state)
+    for f in dataclasses.fields(state):  # slots beyond the live rules are not state
+        np.testing.assert_array_equal(getattr(copy.export_state(), f.name),
+                                      getattr(state, f.name), err_msg=f.name)
+    np.testing.assert_array_equal(copy.run(X[200:], Y[200:]), model.run(X[200:], Y[200:]))
+    assert copy.names() == (["a", "b"], ["y1", "y2"])
+    np.testing.assert_array_equal(copy.scales(), model.scales())
+    with pytest.raises(ValueError, match="max_rules"):
+        ETS(max_rules=1).restore_state(state)
+    with pytest.raises(ValueError, match="not learned"):
+        ETS().export_state()
 
 
 def test_core_imports_nothing_else_of_etsid() -> None:
