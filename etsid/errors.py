@@ -27,5 +27,13 @@ class IdentError(EtsidError):
     """An identification run cannot be set up (missing columns, bad regressor spec)."""
 
 
+class ReportError(EtsidError):
+    """A report cannot be written: not a run directory, or a bad figure format."""
+
+
 class GapError(EtsidError):
-    """Sim-vs-real gap analysis cannot be carried out."""
+    """Sim-vs-real gap analysis cannot be carried out.
+
+    Not raised yet: reserved for the gap-analysis room (``etsid/gap/``, the next issue),
+    so that its errors have their own class from the first line of code.
+    """

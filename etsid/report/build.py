@@ -11,7 +11,7 @@ from typing import Any
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-from etsid.errors import IdentError
+from etsid.errors import IdentError, ReportError
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.tables import metrics_rows, rules_text
@@ -49,12 +49,16 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
 
     Raises
     ------
-    IdentError
-        Not a run directory, or an unknown format.
+    ReportError
+        Not a run directory (the cause, an :class:`~etsid.errors.IdentError` of
+        :func:`~etsid.ident.rundir.read_run`, is chained), or an unknown format.
     """
     if fmt not in FORMATS:
-        raise IdentError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
-    run = read_run(run_dir)
+        raise ReportError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+    try:
+        run = read_run(run_dir)
+    except IdentError as err:
+        raise ReportError(str(err)) from err
     out = Path(run_dir) / "report"
     out.mkdir(exist_ok=True)
     report = Report(out)
