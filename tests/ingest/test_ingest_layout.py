@@ -41,12 +41,3 @@ def test_ulog_and_dataflash_stand_apart_from_mavlink(module: str) -> None:
 def test_neutral_modules_import_neither_ingest_nor_sim() -> None:
     for path in sources("frames.py") + sources("pwm.py") + sources("rosmsgs"):
         assert not [m for m, _ in imports(path) if m.startswith(("etsid.ingest", "etsid.sim"))]
-
-
-def test_no_private_names_imported_across_modules() -> None:
-    bad = [(str(p.relative_to(ETSID)), m, n)
-           for p in sources("ingest") + sources("sim") + sources("frames.py")
-           + sources("pwm.py") + sources("rosmsgs")
-           for m, names in imports(p) if m.startswith("etsid")
-           for n in names if n.startswith("_") and not n.startswith("__")]
-    assert bad == []
