@@ -13,10 +13,12 @@ error row.
 from __future__ import annotations
 
 import multiprocessing
+import signal
 from collections import Counter
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from multiprocessing import forkserver
 from pathlib import Path
 from typing import Any
 
@@ -24,18 +26,29 @@ from etsid.batch import tasks
 from etsid.batch.spec import BatchSpec
 from etsid.batch.worker import Item, Outcome, error_fields, init_worker, run_log, run_pooled
 
-TASKS_PER_CHILD = 20
+TASKS_PER_CHILD = 50
 """Logs a pool process runs before it is replaced by a fresh one."""
 
 WORKER_DIED = ("worker process died while reading this log (killed by the system, "
                "probably out of memory, or crashed)")
 
 
-def _context() -> Any:
-    methods = multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    if hasattr(ctx, "set_forkserver_preload"):
-        ctx.set_forkserver_preload(["etsid.batch.worker", *tasks.PRELOAD])
+def _context(command: str) -> Any:
+    """The forkserver context (spawn where there is none), preloaded with etsid's modules
+    and, for identify, the loaded numba kernels."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        tasks.warm(command)  # compile once here; spawned workers load the cache
+        return multiprocessing.get_context("spawn")
+    ctx = multiprocessing.get_context("forkserver")
+    warm = ["etsid.batch.preload_identify"] if command == "identify" else []
+    ctx.set_forkserver_preload(["etsid.batch.worker", *tasks.PRELOAD, *warm])
+    # start the server with Ctrl-C ignored: it and the workers it forks inherit that, so
+    # Ctrl-C reaches only this process, which stops the pool
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return ctx
 
 
@@ -71,7 +84,6 @@ class LocalRunner:
             on_running: Callable[[int], None]) -> None:
         """Run every item; Ctrl-C stops the workers and re-raises :class:`KeyboardInterrupt`."""
         items = list(items)
-        tasks.warm(self.spec.command)
         if self.jobs <= 1:
             for item in items:
                 on_running(1)
@@ -92,7 +104,8 @@ class LocalRunner:
                    jobs: int) -> list[Item]:
         """Run ``items`` in one pool; returns those left unfinished by a broken pool."""
         executor = ProcessPoolExecutor(
-            max_workers=min(jobs, len(items)), mp_context=_context(), initializer=init_worker,
+            max_workers=min(jobs, len(items)), mp_context=_context(self.spec.command),
+            initializer=init_worker,
             initargs=(self.spec, str(self.out), self.done, self.max_memory_mb),
             max_tasks_per_child=TASKS_PER_CHILD)
         unfinished: list[Item] = []

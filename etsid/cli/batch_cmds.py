@@ -36,7 +36,7 @@ def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
                         default=None, metavar="MB",
                         help="Memory limit of each local worker process, MB: a log whose "
                              "worker grows past it becomes an error row (default: no "
-                             "limit; each worker is renewed every 20 logs anyway).")(func)
+                             "limit; each worker is renewed every 50 logs anyway).")(func)
     func = click.option("--resume", is_flag=True,
                         help="Skip every log that has a result for the same input (SHA-256) "
                              "and options.")(func)
