@@ -37,3 +37,8 @@ class GapError(EtsidError):
     Not raised yet: reserved for the gap-analysis room (``etsid/gap/``, the next issue),
     so that its errors have their own class from the first line of code.
     """
+
+
+class BatchError(EtsidError):
+    """A batch cannot be set up or one log cannot be run: no inputs, an unreadable list
+    file, a bad pairs CSV, a missing input, an unreachable scheduler."""
