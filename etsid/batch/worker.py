@@ -28,7 +28,8 @@ from etsid.batch import tasks
 from etsid.batch.inputs import is_url, run_name
 from etsid.batch.results import RUNS
 from etsid.batch.spec import BatchSpec
-from etsid.errors import BatchError, EtsidError
+from etsid.errors import BatchError
+from etsid.ident.rundir import EtsidError, sha256
 
 Item = str | tuple[str, str]
 """A log (path or URL), or for ``gap`` a ``(sim, real)`` pair."""
@@ -41,17 +42,6 @@ class Outcome:
     item: Item
     key: str | None
     row: dict[str, Any] | None
-
-
-def sha256(path: Path) -> str:
-    """SHA-256 (hex) of a file, or of every file below a directory in path order."""
-    digest = hashlib.sha256()
-    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
-    for item in files:
-        with item.open("rb") as handle:
-            for block in iter(lambda: handle.read(1 << 20), b""):
-                digest.update(block)
-    return digest.hexdigest()
 
 
 @contextlib.contextmanager
