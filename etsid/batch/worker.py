@@ -28,8 +28,8 @@ from etsid.batch import tasks
 from etsid.batch.inputs import is_url, run_name
 from etsid.batch.results import RUNS
 from etsid.batch.spec import BatchSpec
-from etsid.errors import BatchError
-from etsid.ident.rundir import EtsidError, sha256
+from etsid.errors import BatchError, EtsidError
+from etsid.ident.rundir import sha256
 
 Item = str | tuple[str, str]
 """A log (path or URL), or for ``gap`` a ``(sim, real)`` pair."""
