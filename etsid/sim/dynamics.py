@@ -125,6 +125,10 @@ def derivative(
     power = 0.0
     rad = P[RADIUS]
     cgx, cgy, cgz = P[CG], P[CG + 1], P[CG + 2]
+    ge_on = P[GE_ON] > 0.5
+    ge_torque = P[GE_TORQUE] > 0.5
+    scale_t = P[THRUST_SCALE]
+    scale_q = P[TORQUE_SCALE]
     for k in range(n):
         rx, ry, rz = rpos[k, 0] - cgx, rpos[k, 1] - cgy, rpos[k, 2] - cgz  # hub from the CG
         vhx = vb0 + w[1] * rz - w[2] * ry
@@ -136,17 +140,16 @@ def derivative(
                                  P[TWIST], P[CD0], P[KAPPA], lam[k])
         lam[k] = li
         ratio = 1.0
-        if P[GE_ON] > 0.5:
+        if ge_on:
             z_hub = -(x[X_POS + 2] + R[2, 0] * rx + R[2, 1] * ry + R[2, 2] * rz)
             ratio = ground_ratio(z_hub, rad, int(P[GE_MODEL]), dists[k],
                                  math.sqrt(rpos[k, 0] ** 2 + rpos[k, 1] ** 2), P[K_BODY],
                                  P[GE_MINH], P[GE_MAXR])
-            if P[GE_TORQUE] > 0.5:
+            if ge_torque:
                 qa = ground_effect_torque(t, li, ratio, om, -vhz, v_inplane, P[RHO], rad,
                                           P[SIGMA], P[LIFT], P[CD0], P[KAPPA])
-        t *= ratio
-        t *= P[THRUST_SCALE]
-        qa *= P[TORQUE_SCALE]
+        t *= ratio * scale_t
+        qa *= scale_q
         thrust[k] = t
         torque[k] = qa
         ge[k] = ratio
@@ -185,9 +188,13 @@ def derivative(
     fb0 += fd0
     fb1 += fd1
     fb2 += fd2
-    m0 += P[M_OFF] - (cgy * fd2 - cgz * fd1)
-    m1 += P[M_OFF + 1] - (cgz * fd0 - cgx * fd2)
-    m2 += P[M_OFF + 2] - (cgx * fd1 - cgy * fd0)
+    if cgx != 0.0 or cgy != 0.0 or cgz != 0.0:
+        m0 -= cgy * fd2 - cgz * fd1
+        m1 -= cgz * fd0 - cgx * fd2
+        m2 -= cgx * fd1 - cgy * fd0
+    m0 += P[M_OFF]
+    m1 += P[M_OFF + 1]
+    m2 += P[M_OFF + 2]
     # ground contact: spring-damper under the CG, viscous friction, rotational damping
     fc0 = fc1 = fc2 = 0.0
     pen = P[GEAR_H] + x[X_POS + 2]
