@@ -100,6 +100,12 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
     if replay_log is not None:
         if scenario is not None:
             raise click.UsageError("give either SCENARIO or --replay LOG, not both.")
+        ctx = click.get_current_context()
+        for name, flag in (("duration", "--duration"), ("rate_hz", "--rate"),
+                           ("list_only", "--list")):
+            if ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE:
+                raise click.UsageError(f"{flag} does not apply to --replay (the log sets "
+                                       "the duration and rate).")
         if out is None:
             raise click.UsageError("Missing option '-o' / '--out'.")
         _replay(replay_log, out, fmt, vehicle, seed, ground_effect == "on",

@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import math
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import pytest
-from click.testing import CliRunner
 
-from etsid.cli import cli
 from etsid.errors import SimError
 from etsid.sim import load_vehicle, simulate
 from etsid.sim.params import pack
@@ -109,29 +104,6 @@ def test_replay_refuses_what_it_cannot_do(flight) -> None:
     # missing optional columns are assumed and said so
     twin = replay(table.iloc[:500].drop(columns=["vx", "vy", "vz"]))
     assert twin.sources["vx"].startswith("not in the log")
-
-
-def test_cli_replay_writes_the_twin(tmp_path: Path) -> None:
-    log = tmp_path / "flight.parquet"
-    runner = CliRunner()
-    result = runner.invoke(cli, ["simulate", "hover-oge", "--duration", "4", "-o", str(log)])
-    assert result.exit_code == 0, result.output
-    out = tmp_path / "twin.parquet"
-    result = runner.invoke(cli, ["simulate", "--replay", str(log), "-o", str(out),
-                                 "--thrust", "alt-hold", "--set", "vehicle.thrust_scale=1.0"])
-    assert result.exit_code == 0, result.output
-    assert "twin of" in result.output and "controller: vehicle file" in result.output
-    twin = pd.read_parquet(out)
-    original = pd.read_parquet(log)
-    assert len(twin) == len(original)
-    d = twin["true_p"] - original["true_p"]
-    assert math.sqrt(float(np.mean(d**2))) < 0.01  # rad/s
-    result = runner.invoke(cli, ["simulate", "hover-oge", "--replay", str(log), "-o",
-                                 str(out)])
-    assert result.exit_code == 2 and "either SCENARIO or --replay" in result.output
-    result = runner.invoke(cli, ["simulate", "--replay", str(log), "-o", str(out), "--set",
-                                 "scenario.duration=2"])
-    assert result.exit_code == 1 and "vehicle settings only" in result.stderr
 
 
 def test_motor_replay_tells_delay_from_lag() -> None:
