@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from etsid.cli import cli
+from etsid.cli.settings import parse_value
 from etsid.sim import simulate
 
 
@@ -83,3 +84,11 @@ def test_cli_replay_refuses_scenario_options(tmp_path: Path, opt: list[str]) -> 
     result = CliRunner().invoke(cli, ["simulate", "--replay", str(log), "-o",
                                       str(tmp_path / "t.parquet"), *opt])
     assert result.exit_code == 2 and f"{opt[0]} does not apply to --replay" in result.output
+
+
+def test_parse_value_uses_toml_and_bare_words() -> None:
+    assert parse_value("0.02") == 0.02 and parse_value("[0.02, 0, 0]") == [0.02, 0, 0]
+    assert parse_value("false") is False and parse_value("mahony") == "mahony"
+    assert parse_value('"a b"') == "a b"
+    with pytest.raises(ValueError, match="is not a number"):
+        parse_value("[1,")

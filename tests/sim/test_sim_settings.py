@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from etsid.cli.settings import parse_value
 from etsid.errors import SimError
 from etsid.sim import load_vehicle, simulate
 from etsid.sim.settings import split_settings
@@ -93,11 +92,3 @@ def test_split_settings_and_simulate_settings() -> None:
                                              "scenario.altitude": 2.0})
     assert flight.vehicle.mass == 4.0 and flight.params["altitude"] == 2.0
     assert flight.table.index[-1] == pytest.approx(1.0 - 1 / 250)
-
-
-def test_parse_value_uses_toml_and_bare_words() -> None:
-    assert parse_value("0.02") == 0.02 and parse_value("[0.02, 0, 0]") == [0.02, 0, 0]
-    assert parse_value("false") is False and parse_value("mahony") == "mahony"
-    assert parse_value('"a b"') == "a b"
-    with pytest.raises(ValueError, match="is not a number"):
-        parse_value("[1,")
