@@ -14,6 +14,10 @@ MIN_TRAIN = 10
 MIN_RATE_HZ = 20.0
 """Below this sample rate a multirotor's body-rate dynamics (bandwidth of a few Hz) alias."""
 
+COARSE_HZ = 10.0
+"""Below this identification rate the rate model is refused: the body rates of a
+multirotor change within one sample (2–10 Hz telemetry or default low-rate logging)."""
+
 SAMPLES_PER_PARAMETER = 10
 """Fewer usable samples than this many per consequent parameter of one rule: a warning."""
 
@@ -113,3 +117,18 @@ def excitation_warnings(excited: np.ndarray, split: int, n_regressors: int, dt: 
                      f"excited data (want ≥ {MIN_VALIDATION_EXCITED * params * dt:.1f} s): "
                      "its numbers say little about the model")
     return notes
+
+
+def refuse_coarse(rate_hz: float, source: str) -> None:
+    """Refuse the rate model on a table slower than :data:`COARSE_HZ`.
+
+    Raises
+    ------
+    IdentError
+        One line naming the rate, the body-rate source and what would help.
+    """
+    if 0 < rate_hz < COARSE_HZ:
+        raise IdentError(f"body rates at {rate_hz:.3g} Hz ({source}): too coarse for the "
+                         f"rate loop (need ≥ {COARSE_HZ:g} Hz, better ≥ {MIN_RATE_HZ:g}); "
+                         "log the gyro at a higher rate (PX4 high-rate logging profile, "
+                         "ArduPilot IMU) or model other columns with --output/--regressors")

@@ -23,7 +23,12 @@ import pandas as pd
 
 from etsid.errors import IdentError
 from etsid.ets import ETS
-from etsid.ident.checks import data_warnings, excitation_warnings, split_excited
+from etsid.ident.checks import (
+    data_warnings,
+    excitation_warnings,
+    refuse_coarse,
+    split_excited,
+)
 from etsid.ident.config import IdentConfig
 from etsid.ident.evaluate import (
     noise_std,
@@ -103,6 +108,9 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     table = apply_selection(table, selection)
     table = decimate(table, rate_hz)
     chosen.notes.append(_rate_note(table))
+    if rate_model:
+        refuse_coarse(float(table.attrs["decimation"]["rate_hz"]),
+                      str((table.attrs.get("mapping") or {}).get("p", "p")))
     reg = build(table, spec)
     n = len(reg.X)
     dt = 1.0 / float(table.attrs["decimation"]["rate_hz"])

@@ -4,6 +4,8 @@ from the simulator's scenarios with ground time around and between them."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -136,3 +138,21 @@ def test_free_run_stops_at_divergence_and_says_when() -> None:
     first = int(np.searchsorted(reg.t[10:], diverged[0]))
     assert np.isfinite(sim[first - 1, 0]) and np.isnan(sim[first:first + 5, 0]).all()
     assert diverged[0] < 15.0 < diverged[1]
+
+
+def test_coarse_log_is_refused_in_one_line() -> None:
+    table = simulate("hover-oge", duration=20.0, seed=33).table.iloc[::50].copy()  # 5 Hz
+    table.attrs["rate_hz"] = 5.0
+    with pytest.raises(IdentError, match=r"body rates at 5 Hz .*too coarse for the rate loop"):
+        identify(table, IdentConfig())
+
+
+LOWRATE = Path("/work/shared/data/logs/px4_quad_mission_lowrate_real.ulg")
+
+
+@pytest.mark.skipif(not LOWRATE.exists(), reason="real low-rate PX4 log not available")
+def test_real_low_rate_px4_log_is_refused() -> None:
+    from etsid.ident.inputs import load_for_ident
+
+    with pytest.raises(IdentError, match=r"8.6 Hz \(sensor_combined.gyro_rad\[0\]\)"):
+        identify(load_for_ident(LOWRATE), IdentConfig())
