@@ -53,6 +53,9 @@ COLUMNS: dict[str, ColumnSpec] = {
     "sp_p": _spec("rad/s", "roll rate setpoint", "hold"),
     "sp_q": _spec("rad/s", "pitch rate setpoint", "hold"),
     "sp_r": _spec("rad/s", "yaw rate setpoint", "hold"),
+    "sp_roll": _spec("rad", "roll angle setpoint (attitude loop command)", "hold"),
+    "sp_pitch": _spec("rad", "pitch angle setpoint (attitude loop command)", "hold"),
+    "sp_yaw": _spec("rad", "yaw angle setpoint (attitude loop command), NED", "hold"),
     "alt": _spec("m", "height above ground (rangefinder, else -z local)"),
     "vx": _spec("m/s", "velocity north (NED)"),
     "vy": _spec("m/s", "velocity east (NED)"),
@@ -61,6 +64,8 @@ COLUMNS: dict[str, ColumnSpec] = {
     "ay": _spec("m/s²", "specific force, body y (FRD)"),
     "az": _spec("m/s²", "specific force, body z (FRD)"),
     "vbat": _spec("V", "battery voltage"),
+    "landed": _spec("1", "autopilot land detector: 1 on the ground (or disarmed), "
+                         "0 airborne", "hold"),
     **{f"m{i}": _spec("1", f"motor {i} output, 0..1", "hold") for i in range(1, 9)},
 }
 """Every FlightTable column, in canonical order."""

@@ -94,18 +94,22 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
                    "--output; 0 keeps the table's rate.")
 @click.option("--inputs", "inputs", type=click.Choice(list(MODES)), default="auto",
               show_default=True,
-              help="Rate-model inputs: pilot sticks, controller torque commands or rate "
-                   "setpoints; auto = sticks if they carry excitation (std ≥ "
-                   f"{STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each axis), else "
-                   "torque, else setpoints.")
+              help="Rate-model inputs: pilot sticks, controller torque commands, rate "
+                   "or attitude setpoints; auto = sticks if they carry excitation (std ≥ "
+                   f"{STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each axis), else the "
+                   "first of torque, rate setpoints, attitude setpoints at ≥ 20 Hz, else "
+                   "the fastest.")
+@click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
+              help="Rows to identify on: auto = airborne samples (land detector, else the "
+                   "thrust/altitude rule), all = every row, or time windows in s.")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
                  output_lags: int, input_lags: int, radius: float, omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
-                 rate_hz: float | None, ident_rate: float | None, inputs: str, as_json: bool,
-                 maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
+                 rate_hz: float | None, ident_rate: float | None, inputs: str, segments: str,
+                 as_json: bool, maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
                  quiet: bool) -> None:
     """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
 
@@ -123,7 +127,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          output_lags=output_lags, input_lags=input_lags, radius=radius,
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
-                         inputs=inputs, normalise=normalise)
+                         inputs=inputs, normalise=normalise, segments=segments)
     try:
         run = identify(table, config, source=log, show_progress=wanted(quiet))
     except IdentError as err:

@@ -64,6 +64,9 @@ class IdentConfig:
     inputs
         Input family of the default rate model: ``auto``, ``sticks``, ``torque`` or
         ``setpoints`` (:mod:`etsid.ident.inputs`).
+    segments
+        Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
+        (:mod:`etsid.ident.flight`).
     """
 
     outputs: list[str] | None = None
@@ -86,6 +89,7 @@ class IdentConfig:
     ident_rate: float | None = None
     inputs: str = "auto"
     normalise: str = "learn"
+    segments: str = "auto"
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""

@@ -47,6 +47,7 @@ INPUT_LAGS = 6
 FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),
     ("rate setpoints", ("sp_p", "sp_q", "sp_r"), ()),
+    ("attitude setpoints", ("sp_roll", "sp_pitch", "sp_yaw"), ("u_thrust",)),
     ("motor outputs", ("m1", "m2", "m3", "m4"), ("m5", "m6", "m7", "m8")),
 )
 
@@ -102,11 +103,17 @@ def _family(table: pd.DataFrame, inputs: str,
         if "rate setpoints" not in found:
             raise IdentError("--inputs setpoints: the table has no sp_p sp_q sp_r")
         return "rate setpoints", "--inputs setpoints"
+    if inputs == "attitude":
+        if "attitude setpoints" not in found:
+            raise IdentError("--inputs attitude: the table has no sp_roll sp_pitch sp_yaw")
+        return "attitude setpoints", "--inputs attitude"
     if inputs != "auto":
-        raise IdentError(f"--inputs {inputs!r}: choose one of auto, sticks, torque, setpoints")
+        raise IdentError(f"--inputs {inputs!r}: choose one of auto, sticks, torque, "
+                         "setpoints, attitude")
     selection = table.attrs.get("input_selection")
     if isinstance(selection, dict) and selection.get("kind"):
-        want = "rate setpoints" if selection["kind"] == "setpoints" else loop
+        want = {"setpoints": "rate setpoints", "attitude": "attitude setpoints"}.get(
+            selection["kind"], loop)
         if want in found:
             return want, str(selection.get("reason", ""))
     if loop in found:
@@ -117,7 +124,7 @@ def _family(table: pd.DataFrame, inputs: str,
         if excited(stats):
             return loop, ""
         flat = ", ".join(f"{c} std {v['std']:.3g}" for c, v in stats.items())
-        for other in ("rate setpoints", "motor outputs"):
+        for other in ("rate setpoints", "attitude setpoints", "motor outputs"):
             if other in found:
                 return other, f"loop commands without excitation ({flat}): {other}"
         return loop, f"loop commands without excitation ({flat}), nothing else: used anyway"
@@ -167,6 +174,6 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
     spec = RegressorSpec.parse(",".join(terms), RATE_COLUMNS)
     mapping = dict(table.attrs.get("mapping") or {})
     sources = {c: str(mapping[c]) for c in inputs_used if c in mapping}
-    kind = ("setpoints" if family == "rate setpoints" else "motors"
-            if family == "motor outputs" else _u_kind(table))
+    kind = {"rate setpoints": "setpoints", "attitude setpoints": "attitude",
+            "motor outputs": "motors"}.get(family) or _u_kind(table)
     return DefaultModel(spec, inputs_used, family, sources, kind, reason)

@@ -12,7 +12,7 @@ from etsid.ets import ETS
 from etsid.ident.arx import ARX, rls_online
 from etsid.ident.metrics import scores
 from etsid.ident.regressors import Regression, RegressorSpec
-from etsid.ident.simulate import free_run
+from etsid.ident.simulate import envelope, free_run
 from etsid.table import COLUMNS
 
 
@@ -39,28 +39,82 @@ def _unit(name: str) -> str:
     return spec.unit if spec else ""
 
 
+def persistence(reg: Regression, spec: RegressorSpec, table: pd.DataFrame | None = None
+                ) -> np.ndarray:
+    """The "no change" prediction ŷ_k = y_{k−1} (N, m): from the regressor ``y[k-1]`` when
+    the model has it, else from the table row before (NaN across a segment start)."""
+    n, m = reg.Y.shape
+    out = np.full((n, m), np.nan)
+    names = [str(t) for t in spec.terms]
+    for o, y in enumerate(spec.outputs):
+        if f"{y}[k-1]" in names:
+            out[:, o] = reg.X[:, names.index(f"{y}[k-1]")]
+        elif table is not None and y in table.columns:
+            values = table[y].to_numpy(dtype=float)
+            seg = (table["segment"].to_numpy() if "segment" in table.columns
+                   else np.zeros(len(table)))
+            prev = reg.rows - 1
+            ok = (prev >= 0) & (seg[np.maximum(prev, 0)] == seg[reg.rows])
+            out[ok, o] = values[prev[ok]]
+    return out
+
+
 def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table: int,
-             yhat: np.ndarray, frozen: ETS | None) -> dict[str, np.ndarray]:
-    """All prediction columns: online, frozen one-step and free-run, ARX online/val/sim."""
+                       yhat: np.ndarray, frozen: ETS | None,
+                       table: pd.DataFrame | None = None
+                       ) -> tuple[dict[str, np.ndarray], dict[str, list[float]]]:
+    """All prediction columns: online, frozen one-step and free-run, ARX online/val/sim,
+    persistence; and the times at which each free run diverged
+    (:mod:`etsid.ident.simulate`), keyed ``ets`` and ``arx``."""
     n, m = reg.Y.shape
     cols = {k: np.full((n, m), np.nan) for k in ("y_val", "y_sim", "y_arx_val", "y_arx_sim")}
     cols["y_hat"] = yhat
     cols["y_arx"] = rls_online(reg.X, reg.Y)
+    cols["y_persist"] = persistence(reg, spec, table)
+    diverged: dict[str, list[float]] = {"ets": [], "arx": []}
+    bounds = envelope(reg.Y)
     if frozen is not None and split < n:
         cols["y_val"][split:] = np.asarray(frozen.predict(reg.X[split:])).reshape(n - split, m)
-        cols["y_sim"][split:] = free_run(frozen.predict_one, reg, spec, split, n_table)
+        cols["y_sim"][split:] = free_run(frozen.predict_one, reg, spec, split, n_table,
+                                         bounds, diverged["ets"])
     if split >= reg.X.shape[1] + 1 and split < n:
         arx = ARX.fit(reg.X[:split], reg.Y[:split])
         cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
-        cols["y_arx_sim"][split:] = free_run(arx.predict_one, reg, spec, split, n_table)
-    return cols
+        cols["y_arx_sim"][split:] = free_run(arx.predict_one, reg, spec, split, n_table,
+                                             bounds, diverged["arx"])
+    return cols, diverged
+
+
+def _free_run_scores(meas: np.ndarray, sim: np.ndarray, reg: Regression, split: int,
+                     diverged: list[float]) -> dict[str, Any]:
+    """Free-run scores on the rows simulated before any divergence, the divergence flag
+    and times, and the fit of every segment of the validation part."""
+    block: dict[str, Any] = scores(meas, sim)
+    block["diverged"] = bool(diverged)
+    block["diverged_at"] = diverged[0] if diverged else None
+    block["diverged_times"] = list(diverged)
+    seg = reg.segment if reg.segment is not None else np.zeros(len(reg.Y), dtype=np.int64)
+    per = []
+    t = reg.t[split:]
+    for value in np.unique(seg[split:]):
+        rows = seg[split:] == value
+        stop = [d for d in diverged if t[rows][0] <= d <= t[rows][-1]]
+        per.append({"segment": int(value), "t_start": float(t[rows][0]),
+                    "t_end": float(t[rows][-1]), "fit": scores(meas[rows], sim[rows])["fit"],
+                    "n": int(np.count_nonzero(np.isfinite(sim[rows]))),
+                    "diverged_at": stop[0] if stop else None})
+    block["segments"] = per
+    return block
 
 
 def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
                    cols: dict[str, np.ndarray], sigma: dict[str, float],
-                   sigma_native: dict[str, float] | None = None) -> dict[str, Any]:
-    """metrics.json ``outputs``: online, validation and ARX scores per output."""
+                   sigma_native: dict[str, float] | None = None,
+                   diverged: dict[str, list[float]] | None = None) -> dict[str, Any]:
+    """metrics.json ``outputs``: online, validation, ARX and persistence scores per
+    output; free-run blocks carry ``diverged``, ``diverged_at`` (s) and ``segments``."""
     n = len(reg.Y)
+    diverged = diverged or {"ets": [], "arx": []}
     out: dict[str, Any] = {}
     val = slice(split, n)
     for o, y in enumerate(spec.outputs):
@@ -69,17 +123,24 @@ def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
                                  "noise_std_native": (sigma_native or {}).get(y)}
         entry["online"] = scores(meas, cols["y_hat"][:, o])
         if split < n:
-            entry["validation"] = {"one_step": scores(meas[val], cols["y_val"][val, o]),
-                                   "free_run": scores(meas[val], cols["y_sim"][val, o])}
+            entry["validation"] = {
+                "one_step": scores(meas[val], cols["y_val"][val, o]),
+                "free_run": _free_run_scores(meas[val], cols["y_sim"][val, o], reg, split,
+                                             diverged["ets"])}
         else:
             entry["validation"] = None
         arx: dict[str, Any] = {"online": scores(meas, cols["y_arx"][:, o])}
         if split < n and np.isfinite(cols["y_arx_val"][val, o]).any():
-            arx["validation"] = {"one_step": scores(meas[val], cols["y_arx_val"][val, o]),
-                                 "free_run": scores(meas[val], cols["y_arx_sim"][val, o])}
+            arx["validation"] = {
+                "one_step": scores(meas[val], cols["y_arx_val"][val, o]),
+                "free_run": _free_run_scores(meas[val], cols["y_arx_sim"][val, o], reg, split,
+                                             diverged["arx"])}
         else:
             arx["validation"] = None
         entry["arx"] = arx
+        entry["persistence"] = {"online": scores(meas, cols["y_persist"][:, o]),
+                                "validation": scores(meas[val], cols["y_persist"][val, o])
+                                if split < n else None}
         if y in sigma and sigma[y] > 0:
             for block in (entry["online"], *((entry["validation"] or {}).values()),
                           arx["online"], *((arx["validation"] or {}).values())):
@@ -101,7 +162,8 @@ def predictions_frame(reg: Regression, spec: RegressorSpec, table: pd.DataFrame,
     frame["part"] = part
     for o, y in enumerate(spec.outputs):
         frame[y] = reg.Y[:, o]
-        for key in ("y_hat", "y_val", "y_sim", "y_arx", "y_arx_val", "y_arx_sim"):
+        for key in ("y_hat", "y_val", "y_sim", "y_arx", "y_arx_val", "y_arx_sim",
+                    "y_persist"):
             frame[y + key[1:]] = cols[key][:, o]
     return pd.DataFrame(frame)
 
@@ -118,4 +180,5 @@ def validation_info(reg: Regression, split: int, fraction: float) -> dict[str, A
     """metrics.json ``validation``: the split between learning and validation rows."""
     n = len(reg.t)
     return {"fraction": fraction, "n_learn": split, "n_validation": n - split,
-            "t_start": float(reg.t[split]) if split < n else None}
+            "t_start": float(reg.t[split]) if split < n else None,
+            "t_end": float(reg.t[-1]) if split < n else None}

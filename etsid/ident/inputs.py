@@ -13,11 +13,17 @@
 ``setpoints``
     Rate setpoints ``sp_p sp_q sp_r`` (PX4 ``vehicle_rates_setpoint``, MAVLink
     ``ATTITUDE_TARGET`` body rates, DataFlash ``RATE.RDes…``).
+``attitude``
+    Attitude setpoints ``sp_roll sp_pitch sp_yaw`` (PX4 ``vehicle_attitude_setpoint``,
+    DataFlash ``ATT.DesRoll…``, MAVLink/MAVROS ``ATTITUDE_TARGET`` quaternions) with the
+    thrust setpoint as ``u_thrust``: the commands to the attitude loops.
 ``auto`` (default)
     Sticks when they carry excitation — on each of roll, pitch and yaw the stick signal
     has a standard deviation of at least :data:`STICK_STD_MIN` (normalised units) and a
-    native rate of at least :data:`STICK_RATE_MIN` Hz — else torque commands, else rate
-    setpoints, else sticks anyway (with a note).
+    native rate of at least :data:`STICK_RATE_MIN` Hz — else the first of torque
+    commands, rate setpoints, attitude setpoints whose native rate is at least
+    :data:`INPUT_RATE_MIN` Hz, else the fastest of them, else sticks anyway (with a note);
+    a saved table without any of these falls back to motor outputs.
 
 The choice is made on the reader's candidate signals (:class:`etsid.ingest.base.Signal`),
 ranked within each family by ingest's own order (:func:`etsid.ingest.mapping.signal_rank`),
@@ -42,7 +48,7 @@ if TYPE_CHECKING:  # ingest is imported only when a log is read (ident → inges
     from etsid.ingest import ReadOptions
     from etsid.ingest.base import Signal
 
-MODES = ("auto", "sticks", "torque", "setpoints")
+MODES = ("auto", "sticks", "torque", "setpoints", "attitude")
 """Values of ``--inputs``."""
 
 STICK_STD_MIN = 0.02
@@ -53,9 +59,16 @@ STICK_RATE_MIN = 10.0
 """Least native rate of the stick signals for ``auto`` to use them, Hz (a 2–5 Hz RC
 stream holds one value for several identification samples)."""
 
+INPUT_RATE_MIN = 20.0
+"""Least native rate, Hz, of a controller family (torque commands, rate or attitude
+setpoints) for ``auto`` to take it in its turn: a 10 Hz command held over five 50 Hz
+identification samples describes the rate loop poorly. When no family passes, ``auto``
+takes the fastest one and says so."""
+
 AXES = ("u_roll", "u_pitch", "u_yaw")
 LOOP = (*AXES, "u_thrust")
 SETPOINTS = ("sp_p", "sp_q", "sp_r")
+ATTITUDE = ("sp_roll", "sp_pitch", "sp_yaw")
 
 TORQUE_TOPICS = frozenset({
     "actuator_controls_0", "actuator_controls", "vehicle_torque_setpoint",
@@ -78,6 +91,9 @@ def kind_of(source: str | None) -> str:
     topic = source.partition(".")[0]  # topic names hold no dot (etsid.ingest.base)
     if topic in TORQUE_TOPICS or "torque" in topic or "actuator_control" in topic:
         return "torque"
+    if any(key in topic for key in ("rates_setpoint", "attitude_setpoint", "setpoint_attitude",
+                                    "setpoint_raw", "ATTITUDE_TARGET")):
+        return "setpoint"
     return "sticks"
 
 
@@ -181,14 +197,25 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
     sticks = _best([s for s in loop if kind_of(s.source) == "sticks"], LOOP)
     torque = _best([s for s in loop if kind_of(s.source) == "torque"], LOOP)
     setpoints = _best(signals, SETPOINTS)
+    attitude = _best(signals, ATTITUDE)
+    thrust_sp = _best([s for s in loop if kind_of(s.source) == "setpoint"], ("u_thrust",))
+    if attitude:
+        attitude.update(thrust_sp or {k: v for k, v in _best(loop, ("u_thrust",)).items()})
     stats = excitation(sticks)
     has = {"sticks": all(c in sticks for c in AXES), "torque": all(c in torque for c in AXES),
-           "setpoints": all(c in setpoints for c in SETPOINTS)}
-    picked = {"sticks": sticks, "torque": torque, "setpoints": setpoints}
+           "setpoints": all(c in setpoints for c in SETPOINTS),
+           "attitude": all(c in attitude for c in ATTITUDE)}
+    picked = {"sticks": sticks, "torque": torque, "setpoints": setpoints,
+              "attitude": attitude}
+    order = {"sticks": LOOP, "torque": LOOP, "setpoints": SETPOINTS,
+             "attitude": (*ATTITUDE, "u_thrust")}
+
+    def rate(kind: str) -> float:
+        return min(picked[kind][c].rate_hz for c in order[kind][:3])
 
     def make(kind: str, reason: str) -> InputChoice:
         chosen = picked[kind]
-        columns = [c for c in (SETPOINTS if kind == "setpoints" else LOOP) if c in chosen]
+        columns = [c for c in order[kind] if c in chosen]
         return InputChoice(mode, kind, columns, {c: chosen[c].source for c in columns},
                            reason, stats, {c: chosen[c] for c in columns})
 
@@ -202,14 +229,24 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
         return make("sticks", f"sticks carry excitation ({_describe(stats)})")
     why = (f"sticks without excitation ({_describe(stats)}; need std ≥ {STICK_STD_MIN} "
            f"and rate ≥ {STICK_RATE_MIN:g} Hz on each axis)" if has["sticks"] else "no sticks")
-    if has["torque"]:
-        return make("torque", f"{why}: torque commands")
-    if has["setpoints"]:
-        return make("setpoints", f"{why}, no torque commands: rate setpoints")
+    names = {"torque": "torque commands", "setpoints": "rate setpoints",
+             "attitude": "attitude setpoints"}
+    slow = []
+    for kind in ("torque", "setpoints", "attitude"):
+        if has[kind]:
+            if rate(kind) >= INPUT_RATE_MIN:
+                skipped = f"; slower: {', '.join(slow)}" if slow else ""
+                return make(kind, f"{why}: {names[kind]} at {rate(kind):.3g} Hz{skipped}")
+            slow.append(f"{names[kind]} {rate(kind):.3g} Hz")
+    if slow:
+        kind = max((k for k in ("torque", "setpoints", "attitude") if has[k]), key=rate)
+        return make(kind, f"{why}; every controller command is below {INPUT_RATE_MIN:g} Hz "
+                          f"({', '.join(slow)}): the fastest, {names[kind]}")
     if has["sticks"]:
         return make("sticks", f"{why}, no torque commands or setpoints: sticks anyway")
-    raise IdentError(f"{path}: no inputs for the rate model: no sticks, torque commands or "
-                     "rate setpoints on all three axes (use --map or --regressors)")
+    raise IdentError(f"{path}: no inputs for the rate model: no sticks, torque commands, "
+                     "rate or attitude setpoints on all three axes (use --map or "
+                     "--regressors)")
 
 
 def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs: str = "auto",

@@ -88,7 +88,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         yhat, _ = learn_online(model, reg, -1, show_progress, "predict")
     else:
         yhat = np.asarray(frozen.predict(reg.X)).reshape(n, -1)
-    cols = prediction_columns(reg, spec, split, len(table), yhat, frozen)
+    cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
     cols["y_val"][:split] = np.nan
     if not learn:
         cols["y_val"][split:] = yhat[split:]
@@ -101,7 +101,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
                   "frozen": frozen.n_rules},
         "skipped": reg.skipped,
         "validation": validation_info(reg, split, (n - split) / n),
-        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native),
+        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged),
         "sample_rate": rate_info(table),
     }
     run_config = {

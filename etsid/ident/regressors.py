@@ -173,6 +173,8 @@ class Regression:
     skipped : dict
         Table rows not used and why (``history`` = too close to the start of a segment,
         ``missing`` = NaN in a needed sample).
+    segment : ndarray of int, shape (N,), optional
+        Segment of each usable row (None: one segment).
     """
 
     X: np.ndarray
@@ -180,6 +182,7 @@ class Regression:
     rows: np.ndarray
     t: np.ndarray
     skipped: dict[str, int] = field(default_factory=dict)
+    segment: np.ndarray | None = None
 
     @property
     def n_skipped(self) -> int:
@@ -254,7 +257,7 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
                          f"{skipped['missing']} with NaN in a needed column")
     rows = idx[use]
     t = np.asarray(table.index, dtype=float)[rows]
-    return Regression(X[use], Y[use], rows, t, skipped)
+    return Regression(X[use], Y[use], rows, t, skipped, seg[use])
 
 
 def feedback_map(spec: RegressorSpec) -> list[tuple[int, int, int]]:

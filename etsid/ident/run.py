@@ -23,7 +23,12 @@ import pandas as pd
 
 from etsid.errors import IdentError
 from etsid.ets import ETS
-from etsid.ident.checks import data_warnings, split_index
+from etsid.ident.checks import (
+    data_warnings,
+    excitation_warnings,
+    refuse_coarse,
+    split_excited,
+)
 from etsid.ident.config import IdentConfig
 from etsid.ident.evaluate import (
     noise_std,
@@ -32,6 +37,13 @@ from etsid.ident.evaluate import (
     predictions_frame,
     rate_info,
     validation_info,
+)
+from etsid.ident.flight import (
+    EXCITE_STD,
+    FlightSelection,
+    apply_selection,
+    excited_mask,
+    select_flight,
 )
 from etsid.ident.learn import history_frames, learn_online
 from etsid.ident.model_choice import choose_model
@@ -47,6 +59,14 @@ def _rate_note(work: pd.DataFrame) -> str:
         return (f"identification rate {d['rate_hz']:.4g} Hz: {d['native_rate_hz']:.4g} Hz "
                 f"table, block mean of {d['factor']} samples (noise σ / √{d['factor']})")
     return f"identification rate {d.get('rate_hz', 0):.4g} Hz (the table's rate)"
+
+
+def _flight_note(selection: FlightSelection, excited: np.ndarray, dt: float) -> str:
+    windows = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in selection.windows[:6])
+    more = f" (+{len(selection.windows) - 6} more)" if len(selection.windows) > 6 else ""
+    return (f"flight ({selection.method}): {selection.airborne_s:.1f} s of "
+            f"{selection.total_s:.1f} s kept in {len(selection.windows)} segment(s) "
+            f"[{windows}{more} s]; {np.count_nonzero(excited) * dt:.1f} s with excitation")
 
 
 def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | None = None,
@@ -83,12 +103,24 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     chosen = choose_model(table, config)
     spec = chosen.spec
     sigma_native = noise_std(table, spec.outputs)
+    rate_model = not config.outputs
+    selection = select_flight(table, config.segments)
+    table = apply_selection(table, selection)
     table = decimate(table, rate_hz)
     chosen.notes.append(_rate_note(table))
+    if rate_model:
+        refuse_coarse(float(table.attrs["decimation"]["rate_hz"]),
+                      str((table.attrs.get("mapping") or {}).get("p", "p")))
     reg = build(table, spec)
     n = len(reg.X)
-    chosen.notes.extend(data_warnings(table, n, reg.X.shape[1], rate_model=not config.outputs))
-    split = split_index(n, config.validate)
+    dt = 1.0 / float(table.attrs["decimation"]["rate_hz"])
+    excited = (excited_mask(table, spec.outputs)[reg.rows] if rate_model
+               else np.ones(n, dtype=bool))
+    chosen.notes.append(_flight_note(selection, excited, dt))
+    chosen.notes.extend(data_warnings(table, n, reg.X.shape[1], rate_model=rate_model))
+    split = split_excited(excited, config.validate)
+    if rate_model:
+        chosen.notes.extend(excitation_warnings(excited, split, reg.X.shape[1], dt))
     x_range, y_range = fixed_ranges(reg, spec, split, config.normalise)
     model = _new_model(config, spec, x_range, y_range)
     try:
@@ -99,7 +131,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     if split == n:
         frozen_dict = model.to_dict()
     frozen = ETS.from_dict(frozen_dict) if frozen_dict is not None else None
-    cols = prediction_columns(reg, spec, split, len(table), yhat, frozen)
+    cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
     history, consequents = history_frames(model, reg)
     sigma = noise_std(table, spec.outputs)
     frozen_rules = frozen.n_rules if frozen is not None else 0
@@ -109,8 +141,11 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "rules": {"final": model.n_rules, "peak": int(history["n_rules"].max()),
                   "frozen": frozen_rules},
         "skipped": reg.skipped,
-        "validation": validation_info(reg, split, config.validate),
-        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native),
+        "validation": {**validation_info(reg, split, config.validate),
+                       "excited_s": float(np.count_nonzero(excited[split:]) * dt)},
+        "flight": {**selection.to_dict(), "excited_s": float(np.count_nonzero(excited) * dt),
+                   "excitation_std_min": EXCITE_STD if rate_model else None},
+        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged),
         "sample_rate": rate_info(table),
     }
     run_config = {

@@ -3,7 +3,16 @@
 Lagged-output regressors of row ``i ≥ start`` take the simulated value of the row they
 refer to when that row was simulated; otherwise (before ``start``, or after a gap where the
 history had to be rebuilt from the log) they take the measured value — the simulation's
-initial conditions.
+initial conditions. Each segment (airborne stretch, or stretch between gaps) is therefore
+its own simulation.
+
+**Divergence.** A simulation that leaves the measured envelope by far is stopped: with
+``lo``/``hi`` the least and greatest measured value of an output over the usable rows and
+``w = hi − lo``, the simulation of a segment *diverges* at the first row where any output
+is outside ``[lo − K·w, hi + K·w]`` with K = :data:`DIVERGE_FACTOR` (or is not finite).
+That row and the rest of its segment are NaN; the next segment starts afresh from measured
+initial conditions. The times are returned so that metrics use only the rows before the
+divergence and the report can say "diverged at t = … s".
 """
 
 from __future__ import annotations
@@ -14,9 +23,23 @@ import numpy as np
 
 from etsid.ident.regressors import Regression, RegressorSpec, feedback_map
 
+DIVERGE_FACTOR = 2.0
+"""A free-run value more than this many measured ranges outside the measured envelope of
+its output means the simulation diverged."""
+
+
+def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:
+    """Bounds (2, m) outside which a simulated output counts as diverged."""
+    Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
+    lo, hi = np.nanmin(Y, axis=0), np.nanmax(Y, axis=0)
+    width = np.where(hi > lo, hi - lo, np.maximum(np.abs(hi), 1e-6))
+    return np.vstack([lo - factor * width, hi + factor * width])
+
 
 def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
-             spec: RegressorSpec, start: int, n_table: int) -> np.ndarray:
+             spec: RegressorSpec, start: int, n_table: int,
+             bounds: np.ndarray | None = None,
+             diverged: list[float] | None = None) -> np.ndarray:
     """Simulate rows ``start …`` of ``reg`` with the model fed its own past outputs.
 
     Parameters
@@ -31,26 +54,44 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
         First row of ``reg`` to simulate.
     n_table
         Number of rows of the table (``reg.rows`` index into it).
+    bounds
+        (2, m) lower and upper bound of each output (:func:`envelope`); None: never stop.
+    diverged
+        When given, the time (s) of every divergence is appended to it.
 
     Returns
     -------
     ndarray, shape (len(reg.X) - start, m)
-        Simulated outputs, NaN where the model returned a non-finite value.
+        Simulated outputs, NaN where the model returned a non-finite value and from a
+        divergence to the end of its segment.
     """
     links = feedback_map(spec)
     m = len(spec.outputs)
     sim = np.full((n_table, m), np.nan)
     out = np.full((len(reg.X) - start, m), np.nan)
     x = np.empty(reg.X.shape[1])
+    seg = reg.segment if reg.segment is not None else np.zeros(len(reg.X), dtype=np.int64)
+    stopped = None  # the segment whose simulation diverged
     for i in range(start, len(reg.X)):
         row = int(reg.rows[i])
+        if stopped is not None:
+            if seg[i] == stopped:
+                continue
+            stopped = None
         x[:] = reg.X[i]
         for j, o, lag in links:
             value = sim[row - lag, o]
             if np.isfinite(value):
                 x[j] = value
         y = np.asarray(predict_one(x), dtype=float).reshape(m)
+        if bounds is not None and (not np.all(np.isfinite(y)) or np.any(y < bounds[0])
+                                   or np.any(y > bounds[1])):
+            if diverged is not None:
+                diverged.append(float(reg.t[i]))
+            stopped = seg[i]
+            continue
         y = np.where(np.isfinite(y), y, np.nan)
         sim[row] = y
         out[i - start] = y
     return out
+

@@ -11,8 +11,11 @@ Columns, units and priorities (lower wins):
 ============ ============================================================================
 column       candidates (priority)
 ============ ============================================================================
-p q r        RATE R/P/Y deg/s (0), IMU GyrX… rad/s (2), IMU2 (3), IMU3 (4)
+p q r        RATE R/P/Y deg/s (0), IMU GyrX… rad/s (2), IMU2 (3), IMU3 (4); RATE is
+             ~10 Hz in most logs: the ingest rule "rate beats priority"
+             (:func:`etsid.ingest.mapping.prefer_rate`) then takes IMU
 roll…        ATT Roll/Pitch/Yaw deg (0; Yaw 0…360 wrapped to ±180)
+sp_roll…     ATT DesRoll/DesPitch/DesYaw deg (0; DesYaw wrapped to ±180): attitude setpoints
 ax ay az     IMU AccX… m/s² (0), IMU2 (1), IMU3 (2)
 u_*          RCIN C1… via ``rc_map`` (0); RATE ROut/POut/YOut, AOut (5: controller outputs)
 sp_*         RATE RDes/PDes/YDes deg/s (0)
@@ -175,6 +178,10 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
         if d.has("Yaw"):
             yaw = np.angle(np.exp(1j * d.f("Yaw", DEG)))
             out.append(Signal("yaw", d.t, yaw, "ATT.Yaw", 0))
+        out += _xyz(d, ("DesRoll", "DesPitch"), ("sp_roll", "sp_pitch"), DEG, 0)
+        if d.has("DesYaw"):
+            out.append(Signal("sp_yaw", d.t, np.angle(np.exp(1j * d.f("DesYaw", DEG))),
+                              "ATT.DesYaw", 0))
     if (d := msgs.get("RATE")) is not None:
         out += _xyz(d, ("R", "P", "Y"), ("p", "q", "r"), DEG, 0)
         out += _xyz(d, ("RDes", "PDes", "YDes"), ("sp_p", "sp_q", "sp_r"), DEG, 0)

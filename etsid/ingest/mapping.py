@@ -7,7 +7,11 @@ Rule when several signals can fill one column (documented in docs/ingest.md):
 2. otherwise the lowest reader priority (e.g. ATTITUDE rates before raw gyro; a fused
    ``/mavros/imu/data`` before ``data_raw``);
 3. then the highest native rate, then the most samples, then the topic name (A→Z)
-   (:func:`signal_rank`).
+   (:func:`signal_rank`);
+4. rate beats priority for the body rates: when the preferred ``p``/``q``/``r`` source is
+   slower than :data:`SLOW_RATE_HZ` (too slow for the rate loop, e.g. DataFlash ``RATE`` at
+   10 Hz) and another candidate is at least twice as fast (``IMU.GyrX`` at 49 Hz), the
+   fastest candidate wins (:func:`prefer_rate`).
 
 A caller that has already chosen the signal of some columns by its own rule (identify's
 input family, :mod:`etsid.ident.inputs`) passes them as ``preset``; they are used as given
@@ -82,6 +86,22 @@ def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]
     return overrides, rc
 
 
+SLOW_RATE_HZ = 20.0
+"""A body-rate source slower than this, Hz, gives way to a candidate twice as fast."""
+
+
+def prefer_rate(column: str, cands: list[Signal]) -> list[Signal]:
+    """``cands`` (sorted by :func:`signal_rank`) with the fastest first when rule 4 of the
+    module docstring applies."""
+    if column not in ("p", "q", "r") or len(cands) < 2:
+        return cands
+    first = cands[0]
+    fastest = max(cands, key=lambda s: s.rate_hz)
+    if first.rate_hz < SLOW_RATE_HZ and fastest.rate_hz >= 2.0 * first.rate_hz:
+        return [fastest] + [s for s in cands if s is not fastest]
+    return cands
+
+
 def signal_rank(sig: Signal) -> tuple[int, float, int, str]:
     """Sort key of rules 2–3 of the module docstring: the best candidate sorts first."""
     return (sig.priority, -sig.rate_hz, -sig.t.size, sig.source)
@@ -138,6 +158,8 @@ def choose_signals(
                 )
             cands = picked
         cands = sorted(cands, key=signal_rank)
+        if override is None:
+            cands = prefer_rate(column, cands)
         chosen[column] = cands[0]
         if len({s.source for s in cands}) > 1 and override is None:
             others = ", ".join(s.source for s in cands[1:])

@@ -9,15 +9,21 @@ vehicle_local_position. Multi-instance topics use instance 0.
 ============ ============================================================================
 column       candidates (priority, lower wins)
 ============ ============================================================================
-p q r        vehicle_angular_velocity xyz (0), sensor_combined gyro_rad (2)
+p q r        vehicle_angular_velocity xyz (0), sensor_gyro x/y/z (1; the high-rate
+             logging profile, raw FRD rad/s), sensor_combined gyro_rad (2)
 roll…        vehicle_attitude q (0)
-ax ay az     sensor_combined accelerometer_m_s2 (0)
+sp_roll…     vehicle_attitude_setpoint q_d (0), roll_body/pitch_body/yaw_body (1)
+ax ay az     sensor_combined accelerometer_m_s2 (0), sensor_accel x/y/z (1)
+landed       vehicle_land_detected landed (0)
 u_*          manual_control_setpoint (0; old fields x pitch, y roll, z throttle 0…1, r yaw;
              new fields roll, pitch, yaw, throttle −1…1 → 0…1), input_rc values via
              ``rc_map`` (1), controller torque/thrust commands: actuator_controls_0
              control[0..3] (5), vehicle_torque_setpoint xyz and −vehicle_thrust_setpoint
              xyz[2] (4)
 sp_*         vehicle_rates_setpoint roll/pitch/yaw (0)
+u_thrust     also the thrust setpoints: vehicle_rates_setpoint thrust (old) / −thrust_body[2],
+             vehicle_attitude_setpoint thrust / −thrust_body[2] (6: after every other
+             thrust command; used with rate or attitude setpoints as inputs)
 m1…m8        actuator_motors control[0..7] (0), actuator_outputs output[0..7] PWM,
              RC range (1000–2000 µs) → 0…1 (1)
 alt          distance_sensor current_distance, downward (orientation 25) (0),
@@ -49,9 +55,11 @@ TOPICS = (
     "manual_control_setpoint", "input_rc", "vehicle_rates_setpoint", "actuator_controls_0",
     "vehicle_torque_setpoint", "vehicle_thrust_setpoint", "actuator_motors",
     "actuator_outputs", "vehicle_local_position", "distance_sensor", "battery_status",
-    "vehicle_gps_position", "sensor_gps",
+    "vehicle_gps_position", "sensor_gps", "vehicle_land_detected", "sensor_gyro",
+    "sensor_accel", "vehicle_attitude_setpoint",
 )
-SAMPLE_TIME = ("vehicle_angular_velocity", "vehicle_attitude", "vehicle_local_position")
+SAMPLE_TIME = ("vehicle_angular_velocity", "vehicle_attitude", "vehicle_local_position",
+               "sensor_gyro", "sensor_accel")
 COMMAND_NOTE = "controller torque/thrust commands, not pilot sticks"
 
 
@@ -125,6 +133,27 @@ def _motors(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue
     return out
 
 
+def _setpoints(topics: dict[str, Topic]) -> list[Signal]:
+    """Attitude setpoints (rad) and thrust setpoints (0…1) of the attitude/rate loops."""
+    out: list[Signal] = []
+    if (d := topics.get("vehicle_attitude_setpoint")) is not None:
+        if all(d.has(f"q_d[{i}]") for i in range(4)):
+            q = [d.f(f"q_d[{i}]") for i in range(4)]
+            ok = np.abs(q[0]) + np.abs(q[1]) + np.abs(q[2]) + np.abs(q[3]) > 0
+            angles = quat_to_euler(*(np.where(ok, c, np.nan) for c in q))
+            out += [Signal(c, d.t, a, f"{d.name}.q_d", 0)
+                    for c, a in zip(("sp_roll", "sp_pitch", "sp_yaw"), angles, strict=True)]
+        out += [d.sig(c, f, 1) for c, f in (("sp_roll", "roll_body"), ("sp_pitch", "pitch_body"),
+                                            ("sp_yaw", "yaw_body")) if d.has(f)]
+    for name in ("vehicle_rates_setpoint", "vehicle_attitude_setpoint"):
+        if (d := topics.get(name)) is not None:
+            if d.has("thrust_body[2]"):
+                out.append(d.sig("u_thrust", "thrust_body[2]", 6, -1.0))
+            elif d.has("thrust"):
+                out.append(d.sig("u_thrust", "thrust", 6))
+    return out
+
+
 def _position(topics: dict[str, Topic]) -> list[Signal]:
     out: list[Signal] = []
     if (d := topics.get("vehicle_local_position")) is not None:
@@ -164,6 +193,14 @@ def signals(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue
     if (d := topics.get("vehicle_rates_setpoint")) is not None:
         out += [d.sig(c, f, 0) for c, f in (("sp_p", "roll"), ("sp_q", "pitch"), ("sp_r", "yaw"))
                 if d.has(f)]
+    out += _setpoints(topics)
+    if (d := topics.get("sensor_gyro")) is not None:
+        out += [d.sig(c, f, 1) for c, f in zip("pqr", "xyz", strict=True) if d.has(f)]
+    if (d := topics.get("sensor_accel")) is not None:
+        out += [d.sig(c, f, 1) for c, f in zip(("ax", "ay", "az"), "xyz", strict=True)
+                if d.has(f)]
+    if (d := topics.get("vehicle_land_detected")) is not None and d.has("landed"):
+        out.append(d.sig("landed", "landed", 0))
     if (d := topics.get("battery_status")) is not None:
         out += [d.sig("vbat", f, k) for k, f in enumerate(("voltage_filtered_v", "voltage_v"))
                 if d.has(f)]
@@ -252,6 +289,8 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         name = d.name if d.multi_id == 0 else f"{d.name}.{d.multi_id}"
         note = COMMAND_NOTE if d.name in ("actuator_controls_0", "vehicle_torque_setpoint",
                                           "vehicle_thrust_setpoint") else ""
+        if d.name in ("vehicle_attitude_setpoint", "vehicle_rates_setpoint"):
+            note = "setpoints: fill only sp_* and u_thrust, never a measured column"
         if d.multi_id:
             note = "instance > 0, not used"
         raw.channels.append(Channel(name, d.name, int(t.size),

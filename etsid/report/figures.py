@@ -14,6 +14,7 @@ from typing import Any
 import matplotlib
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
@@ -297,6 +298,15 @@ def fig_residuals(run: Run, max_lag: int = 40) -> Figure:
     return fig
 
 
+def _keep_measured_range(ax: Axes, measured: np.ndarray) -> None:
+    """Y limits from the measured values (a diverging prediction cannot rescale them)."""
+    finite = measured[np.isfinite(measured)]
+    if finite.size:
+        lo, hi = float(finite.min()), float(finite.max())
+        pad = 0.25 * (hi - lo) if hi > lo else max(abs(hi), 1e-3)
+        ax.set_ylim(lo - pad, hi + pad)
+
+
 def fig_validation(run: Run) -> Figure:
     """Validation part: measured, frozen one-step, free-run simulation, ARX free-run."""
     pred = run.predictions
@@ -321,10 +331,18 @@ def fig_validation(run: Run) -> Figure:
             tg, *gs = with_gaps(t, *cols)
             for (_, label, color, alpha), g in zip(series, gs, strict=True):
                 ax.plot(tg, g, color=color, label=label, alpha=alpha)
-            fr = (((run.metrics["outputs"][y] or {}).get("validation") or {})
-                  .get("free_run") or {}).get("fit")
-            if fr is not None:
-                ax.set_title(f"free-run fit {fr:.1f} %", loc="left")
+            _keep_measured_range(ax, cols[0])
+            block = (((run.metrics["outputs"][y] or {}).get("validation") or {})
+                     .get("free_run") or {})
+            fr = block.get("fit")
+            title = f"free-run fit {fr:.1f} %" if fr is not None else ""
+            for when in block.get("diverged_times") or []:
+                ax.axvline(when, color=COLORS["free_run"], linestyle="--", linewidth=1.0)
+            if block.get("diverged"):
+                title = (f"eTS free-run diverged at t = {block['diverged_at']:.2f} s"
+                         + (f" (fit {fr:.1f} % before)" if fr is not None else ""))
+            if title:
+                ax.set_title(title, loc="left")
             ax.set_ylabel(label_of(run, y))
         axes[0].legend(loc="upper right", ncols=4)
         axes[-1].set_xlabel("time t (s)")

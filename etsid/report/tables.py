@@ -8,7 +8,8 @@ from etsid.ident.rundir import Run
 
 HEAD = ["output", "unit", "σ noise", "online RMSE", "RMSE/σ", "online NDEI", "online fit %",
         "val 1-step RMSE", "val 1-step fit %", "free-run RMSE", "free-run fit %",
-        "ARX online RMSE", "ARX val 1-step RMSE", "ARX free-run fit %"]
+        "ARX online RMSE", "ARX val 1-step RMSE", "ARX free-run fit %",
+        "no-change val 1-step RMSE"]
 
 
 def _get(entry: Any, *keys: str) -> Any:
@@ -28,6 +29,17 @@ def fmt(value: Any, digits: int = 4) -> str:
     return str(value)
 
 
+def free_run_text(block: Any) -> str:
+    """Free-run fit %, or ``diverged at t = … s (fit … before)`` when it diverged."""
+    if not isinstance(block, dict):
+        return "–"
+    if block.get("diverged"):
+        before = block.get("fit")
+        tail = f", fit {before:.3g} % before" if isinstance(before, float) else ""
+        return f"diverged at t = {block['diverged_at']:.2f} s{tail}"
+    return fmt(block.get("fit"), 3)
+
+
 def metrics_rows(run: Run) -> tuple[list[str], list[list[str]]]:
     """Header and one row of strings per output (see :data:`HEAD`)."""
     rows = []
@@ -39,10 +51,11 @@ def metrics_rows(run: Run) -> tuple[list[str], list[list[str]]]:
             fmt(_get(m, "validation", "one_step", "rmse")),
             fmt(_get(m, "validation", "one_step", "fit"), 3),
             fmt(_get(m, "validation", "free_run", "rmse")),
-            fmt(_get(m, "validation", "free_run", "fit"), 3),
+            free_run_text(_get(m, "validation", "free_run")),
             fmt(_get(m, "arx", "online", "rmse")),
             fmt(_get(m, "arx", "validation", "one_step", "rmse")),
-            fmt(_get(m, "arx", "validation", "free_run", "fit"), 3),
+            free_run_text(_get(m, "arx", "validation", "free_run")),
+            fmt(_get(m, "persistence", "validation", "rmse")),
         ])
     return HEAD, rows
 
@@ -61,7 +74,7 @@ def text_table(head: list[str], rows: list[list[str]]) -> str:
 
 def summary_table(run: Run) -> str:
     """The short stdout summary of ``identify`` / ``predict``: key metrics and rules."""
-    keep = [0, 2, 3, 4, 6, 7, 10, 11]
+    keep = [0, 2, 3, 4, 7, 12, 14, 10]
     head, rows = metrics_rows(run)
     table = text_table([head[i] for i in keep], [[r[i] for i in keep] for r in rows])
     rules = run.metrics["rules"]

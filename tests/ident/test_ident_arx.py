@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from etsid.ident.arx import ARX, rls_online, rls_reference
+from etsid.ident.arx import ARX, RLS_OMEGA, rls_online, rls_reference
 
 
 def _data(n: int = 400, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
@@ -27,8 +27,7 @@ def test_least_squares_recovers_the_coefficients() -> None:
 
 def test_rls_kernel_matches_numpy_reference() -> None:
     X, Y = _data(200)
-    scale = np.abs(X).max(axis=0)
-    ref = rls_reference(X / scale, Y)
+    ref = rls_reference((X - X.mean(axis=0)) / X.std(axis=0), Y, omega=RLS_OMEGA)
     online = rls_online(X, Y)
     assert np.isnan(online[:4]).all()
     assert np.abs(online[4:] - ref[4:]).max() < 1e-9
@@ -38,6 +37,30 @@ def test_online_prediction_uses_only_the_past() -> None:
     X, Y = _data(300)
     online = rls_online(X, Y, omega=1e8)
     k = 250
-    batch = ARX.fit(X[:k], Y[:k]).predict(X[k:k + 1])[0]
+    batch = ARX.fit(X[:k], Y[:k], ridge=0.0).predict(X[k:k + 1])[0]
     assert online[k] == pytest.approx(batch, abs=1e-4)
     assert np.isnan(online[3]).all() and np.isfinite(online[4]).all()
+
+
+def test_batch_fit_stays_bounded_on_collinear_regressors() -> None:
+    # still hover: two regressors that are the same signal up to 1e-9 (plain least squares
+    # splits a large coefficient between them); the regularised fit shares it evenly
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=400)
+    X = np.column_stack([a, a + 1e-9 * rng.normal(size=400)])
+    Y = (2.0 * a + 0.01 * rng.normal(size=400))[:, None]
+    theta = ARX.fit(X, Y).theta
+    assert np.abs(theta[1:, 0]).max() < 1.5
+    assert theta[1, 0] + theta[2, 0] == pytest.approx(2.0, abs=0.01)
+
+
+def test_online_rls_does_not_blow_up_on_still_data() -> None:
+    # long still stretch (noise only), then excitation: the start must not spike
+    rng = np.random.default_rng(4)
+    u = np.r_[1e-4 * rng.normal(size=500), rng.normal(size=500)]
+    y = np.zeros(1000)
+    for k in range(1, 1000):
+        y[k] = 0.9 * y[k - 1] + 0.5 * u[k - 1] + 1e-3 * rng.normal()
+    X = np.column_stack([np.r_[0, y[:-1]], np.r_[0, u[:-1]]])
+    online = rls_online(X, y[:, None])[:, 0]
+    assert np.nanmax(np.abs(online)) < 2 * np.abs(y).max()

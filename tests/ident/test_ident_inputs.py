@@ -81,8 +81,12 @@ def test_table_with_flat_sticks_uses_setpoints() -> None:
 @pytest.mark.skipif(not CUBE.exists(), reason="real PX4 log not available")
 def test_real_px4_log_auto_uses_torque_commands(tmp_path: Path) -> None:
     out = tmp_path / "RUN"
-    result = CliRunner().invoke(cli, ["identify", str(CUBE), "--out", str(out), "--quiet"],
-                                catch_exceptions=False)
+    # the land detector says airborne for 1.1 s only (a hop): auto refuses in one line
+    result = CliRunner().invoke(cli, ["identify", str(CUBE), "--out", str(out), "--quiet"])
+    assert result.exit_code == 1
+    assert "no airborne stretch of ≥ 2 s (longest 1.1 s)" in result.output
+    result = CliRunner().invoke(cli, ["identify", str(CUBE), "--out", str(out), "--quiet",
+                                      "--segments", "all"], catch_exceptions=False)
     assert result.exit_code == 0, result.output
     assert "[torque] from u_roll <- actuator_controls_0.control[0]" in result.output
     config = json.loads((out / "config.json").read_text())

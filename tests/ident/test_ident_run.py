@@ -44,7 +44,8 @@ def test_identify_file_contract(run_dir: Path, table: pd.DataFrame) -> None:
     assert run.metrics["skipped"] == {"history": 8, "missing": 0}
     assert run.metrics["n_samples"] == len(table) - 8 == len(pred)
     val = pred["part"] == "validation"
-    assert val.sum() == round(0.3 * len(pred))
+    # the validation part holds the last 30 % of the excited rows (all rows here, ±1)
+    assert abs(val.sum() - round(0.3 * len(pred))) <= 2
     assert pred.loc[~val, "p_sim"].isna().all() and pred.loc[val, "p_sim"].notna().all()
     m = run.metrics["outputs"]["p"]
     assert set(m) >= {"online", "validation", "arx"}
@@ -113,7 +114,7 @@ def test_free_run_feeds_back_its_own_outputs() -> None:
     frame = pd.DataFrame({"y": y, "u": u}, index=pd.Index(np.arange(n) * 1.0, name="t"))
     spec = RegressorSpec.parse("y[k-1],u[k-1]", ["y"])
     reg = build(frame, spec)
-    model = ARX.fit(reg.X, reg.Y)
+    model = ARX.fit(reg.X, reg.Y, ridge=0.0)
     sim = free_run(model.predict_one, reg, spec, 10, n)
     np.testing.assert_allclose(sim[:, 0], y[11:], atol=1e-9)
     # a biased model drifts only through its own feedback
@@ -141,7 +142,8 @@ def test_refusals(table: pd.DataFrame) -> None:
     with pytest.raises(IdentError, match="needs p, q, r: no data in r"):
         identify(table.drop(columns=["r"]))
     with pytest.raises(IdentError, match="too few to learn"):
-        identify(table.iloc[:12], IdentConfig(validate=0.5, ident_rate=0, input_lags=2))
+        identify(table.iloc[:12], IdentConfig(validate=0.5, ident_rate=0, input_lags=2,
+                                              segments="all"))
     with pytest.raises(IdentError, match="bad eTS parameter"):
         identify(table, IdentConfig(variant="nope"))
     with pytest.raises(IdentError, match="--normalise 'minmax'"):

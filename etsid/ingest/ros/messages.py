@@ -40,6 +40,7 @@ Covariance −1 in sensor_msgs/Imu marks a field the driver does not provide: it
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -273,8 +274,8 @@ def _rcout_finish(b: Batch) -> list[Signal]:
 
 
 def _attitude_target_row(m: Any) -> tuple[float, ...]:
-    r = m.body_rate
-    return (m.type_mask, r.x, r.y, r.z, m.thrust)
+    r, o = m.body_rate, m.orientation
+    return (m.type_mask, r.x, r.y, r.z, m.thrust, o.w, o.x, o.y, o.z)
 
 
 def _attitude_target_finish(b: Batch) -> list[Signal]:
@@ -289,7 +290,46 @@ def _attitude_target_finish(b: Batch) -> list[Signal]:
     keep = (mask & 64) == 0
     if keep.any():
         out.append(b.signal("u_thrust", b.col(4), "thrust", 5, keep, "type_mask ignores thrust"))
+    quat = b.rows[:, 5:9]
+    keep = ((mask & 128) == 0) & (np.einsum("ij,ij->i", quat, quat) > 0.25)
+    if keep.any():
+        euler = enu_flu_quat_to_ned_frd_euler(*quat.T)
+        for name, values in zip(ATTITUDE_SETPOINTS, euler, strict=True):
+            out.append(b.signal(name, values, "orientation", 2, keep,
+                                "type_mask ignores the attitude"))
     return out
+
+
+ATTITUDE_SETPOINTS = ("sp_roll", "sp_pitch", "sp_yaw")
+SETPOINT_COLUMNS = frozenset({"sp_p", "sp_q", "sp_r", *ATTITUDE_SETPOINTS, "u_thrust"})
+"""The only columns a setpoint topic may fill: a commanded pose is never a measurement."""
+
+
+def _setpoint_pose(b: Batch) -> list[Signal]:
+    """A commanded pose (``…/setpoint_attitude/attitude``, ``…/setpoint_position/local``):
+    its orientation as attitude setpoints; its position fills nothing."""
+    quat = b.rows[:, 3:7]
+    keep = np.einsum("ij,ij->i", quat, quat) > 0.25
+    if not keep.any():
+        return []
+    euler = enu_flu_quat_to_ned_frd_euler(*quat.T)
+    return [b.signal(name, values, "pose.orientation", 3, keep, "zero orientation quaternion")
+            for name, values in zip(ATTITUDE_SETPOINTS, euler, strict=True)]
+
+
+def is_setpoint_topic(topic: str) -> bool:
+    """A topic that carries loop commands, not measurements: MAVROS ``…/setpoint_*/…``
+    plugins, PX4 ``vehicle_attitude_setpoint`` and ``trajectory_setpoint``."""
+    low = topic.lower()
+    return ("/setpoint_" in low or low.endswith("vehicle_attitude_setpoint")
+            or low.endswith("trajectory_setpoint"))
+
+
+def _only_setpoints(spec: Spec) -> Spec:
+    """``spec`` whose signals are restricted to :data:`SETPOINT_COLUMNS`."""
+    def finish(b: Batch) -> list[Signal]:
+        return [s for s in spec.finish(b) if s.column in SETPOINT_COLUMNS]
+    return dataclasses.replace(spec, finish=finish)
 
 
 def _xyz_signals(b: Batch, names: Sequence[str], fld: str, start: int, prio: int,
@@ -424,7 +464,14 @@ def spec_for(msgtype: str, topic: str) -> tuple[Spec | None, str]:
         return None, "twist frame not known from the topic name (use --map)"
     if kind == "sensor_msgs/Range" and not any(h in low for h in DOWNWARD_HINTS):
         return None, "range sensor not known to face down (use --map alt=TOPIC)"
+    if is_setpoint_topic(topic) and kind == "geometry_msgs/PoseStamped":
+        return Spec(lambda m: _pose_row(m.pose), _setpoint_pose), ""
+    if is_setpoint_topic(topic) and kind == "std_msgs/Float64" and "throttle" in low:
+        return Spec(lambda m: (m.data,),
+                    lambda b: [b.signal("u_thrust", b.col(0), "data", 5)]), ""
     spec = SPECS.get(kind)
     if spec is None:
         return None, "message type not converted (use --map COLUMN=TOPIC.FIELD)"
+    if is_setpoint_topic(topic):
+        return _only_setpoints(spec), ""
     return spec, ""

@@ -1,0 +1,261 @@
+"""Which samples are in flight, and which of them carry excitation (``--segments``).
+
+Real logs hold time on the ground before take-off and after landing; a model of the
+airborne rate dynamics must neither learn nor be judged there. ``--segments``:
+
+``auto`` (default)
+    Airborne samples only. The autopilot's own land detector where the table has it
+    (column ``landed``: PX4 ``vehicle_land_detected.landed``, MAVLink
+    ``EXTENDED_SYS_STATE.landed_state``, MAVROS ``extended_state``; a disarmed vehicle is on
+    the ground): airborne where ``landed`` < 0.5; rows where the detector has no value yet
+    are not airborne. Without a detector, the rule of :func:`airborne_rule` on the thrust
+    command, the altitude and the vertical speed. Without any of them every row counts.
+``all``
+    Every row (the table's own segments).
+``T0:T1[,T0:T1…]``
+    Only these time windows, s (table time).
+
+Airborne stretches shorter than :data:`MIN_AIR_S` are dropped and ground blips shorter
+than :data:`GROUND_BLIP_S` inside a flight are filled. Every kept stretch is its own
+``segment``: no regressor reaches across two of them.
+
+**Excitation** (rate model only): a sample is *excited* when, over the
+:data:`EXCITE_WINDOW_S` window centred on it, the standard deviation of at least one body
+rate (p, q or r) is at least :data:`EXCITE_STD` rad/s. Still hover (rates at sensor-noise
+and vibration level, a few mrad/s) is not excited. The validation part is placed inside
+excited, airborne data (:func:`etsid.ident.checks.split_excited`).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from etsid.errors import IdentError
+from etsid.table import SEGMENT
+
+LANDED = "landed"
+"""FlightTable column of the autopilot's land detector (1 on the ground, 0 airborne)."""
+
+THRUST_AIR = 0.2
+"""Rule: least collective thrust command (0…1) of an airborne sample. Multirotors hover
+at 0.3–0.7; on the ground, armed or not, the command sits near 0."""
+
+ALT_AIR_M = 0.5
+"""Rule without thrust: least height above the log's ground level (the 2nd percentile of
+``alt``), m, of an airborne sample."""
+
+VZ_AIR = 0.3
+"""Rule without thrust: a vertical speed of at least this, m/s, also counts as airborne
+(the climb of a take-off before it reaches :data:`ALT_AIR_M`)."""
+
+MIN_AIR_S = 2.0
+"""Airborne stretches shorter than this, s, are dropped (a hop, a detector blip)."""
+
+GROUND_BLIP_S = 0.5
+"""Ground stretches shorter than this, s, between two airborne ones are filled."""
+
+EXCITE_WINDOW_S = 1.0
+"""Window of the excitation test, s."""
+
+EXCITE_STD = 0.05
+"""Least standard deviation of one body rate over the window for a sample to be excited,
+rad/s (≈ 3 °/s; gyro noise and vibration in still hover are 0.002–0.02 rad/s)."""
+
+SEGMENT_MODES = ("auto", "all")
+
+_WINDOW = re.compile(r"^\s*(-?[0-9.]+)\s*:\s*(-?[0-9.]+)\s*$")
+
+
+@dataclass
+class FlightSelection:
+    """The rows kept for identification and why.
+
+    Attributes
+    ----------
+    mode
+        ``auto``, ``all`` or the windows as given.
+    method
+        ``land detector``, ``rule (thrust)``, ``rule (altitude, vertical speed)``,
+        ``none (no detector, thrust or altitude: every row)``, ``all`` or ``windows``.
+    keep
+        Boolean mask over the table's rows.
+    windows
+        ``[t0, t1]`` of every kept stretch, s.
+    total_s, airborne_s
+        Seconds of the whole table and of the kept rows.
+    """
+
+    mode: str
+    method: str
+    keep: np.ndarray
+    windows: list[list[float]] = field(default_factory=list)
+    total_s: float = 0.0
+    airborne_s: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (metrics.json ``flight``)."""
+        return {"mode": self.mode, "method": self.method, "total_s": self.total_s,
+                "airborne_s": self.airborne_s, "windows": self.windows}
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end) of every run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+
+
+def _duration(t: np.ndarray, a: int, b: int, dt: float) -> float:
+    return float(t[b - 1] - t[a] + dt)
+
+
+def clean_mask(mask: np.ndarray, t: np.ndarray, min_air_s: float = MIN_AIR_S,
+               blip_s: float = GROUND_BLIP_S) -> np.ndarray:
+    """``mask`` with ground blips shorter than ``blip_s`` filled and airborne stretches
+    shorter than ``min_air_s`` removed (s)."""
+    mask = np.asarray(mask, dtype=bool).copy()
+    if mask.size < 2:
+        return mask
+    dt = float(np.median(np.diff(t)))
+    ground = _runs(~mask)
+    for a, b in ground:
+        if a > 0 and b < mask.size and _duration(t, a, b, dt) < blip_s:
+            mask[a:b] = True
+    for a, b in _runs(mask):
+        if _duration(t, a, b, dt) < min_air_s:
+            mask[a:b] = False
+    return mask
+
+
+def _column(table: pd.DataFrame, name: str) -> np.ndarray | None:
+    if name in table.columns and table[name].notna().any():
+        return table[name].to_numpy(dtype=float)
+    return None
+
+
+def airborne_rule(table: pd.DataFrame) -> tuple[np.ndarray, str]:
+    """Airborne rows without a land detector.
+
+    With a thrust command ``u_thrust``: airborne where it is ≥ :data:`THRUST_AIR`. Without
+    one: where ``alt`` is ≥ :data:`ALT_AIR_M` above the ground level (2nd percentile of
+    ``alt``) or ``|vz|`` ≥ :data:`VZ_AIR`. With neither: every row.
+    """
+    n = len(table)
+    thrust = _column(table, "u_thrust")
+    if thrust is not None:
+        with np.errstate(invalid="ignore"):
+            return np.nan_to_num(thrust, nan=0.0) >= THRUST_AIR, "rule (thrust)"
+    alt = _column(table, "alt")
+    vz = _column(table, "vz")
+    if alt is None and vz is None:
+        return np.ones(n, dtype=bool), "none (no detector, thrust or altitude: every row)"
+    air = np.zeros(n, dtype=bool)
+    if alt is not None:
+        ground = np.nanpercentile(alt, 2)
+        air |= np.nan_to_num(alt - ground, nan=0.0) >= ALT_AIR_M
+    if vz is not None:
+        air |= np.abs(np.nan_to_num(vz, nan=0.0)) >= VZ_AIR
+    return air, "rule (altitude, vertical speed)"
+
+
+def parse_windows(text: str) -> list[tuple[float, float]]:
+    """``"T0:T1,T0:T1"`` → windows, s.
+
+    Raises
+    ------
+    IdentError
+        Not ``auto``/``all`` and not a list of ``T0:T1`` with T0 < T1.
+    """
+    out = []
+    for part in text.split(","):
+        match = _WINDOW.match(part)
+        if match is None:
+            raise IdentError(f"--segments {text!r}: write auto, all or T0:T1[,T0:T1…] "
+                             "(seconds), e.g. 12.5:40,55:80")
+        t0, t1 = float(match[1]), float(match[2])
+        if not t1 > t0:
+            raise IdentError(f"--segments {part.strip()!r}: the end must be after the start")
+        out.append((t0, t1))
+    return out
+
+
+def select_flight(table: pd.DataFrame, mode: str = "auto") -> FlightSelection:
+    """The rows to identify on (module docstring).
+
+    Raises
+    ------
+    IdentError
+        Bad ``mode``, or no row left.
+    """
+    t = np.asarray(table.index, dtype=float)
+    n = len(t)
+    total = float(t[-1] - t[0]) if n > 1 else 0.0
+    if mode == "all":
+        keep, method = np.ones(n, dtype=bool), "all"
+    elif mode == "auto":
+        landed = _column(table, LANDED)
+        if landed is not None:
+            with np.errstate(invalid="ignore"):
+                keep, method = (np.nan_to_num(landed, nan=1.0) < 0.5), "land detector"
+        else:
+            keep, method = airborne_rule(table)
+        raw_air = keep
+        keep = clean_mask(keep, t)
+    else:
+        keep = np.zeros(n, dtype=bool)
+        for t0, t1 in parse_windows(mode):
+            keep |= (t >= t0) & (t <= t1)
+        method = "windows"
+    if not keep.any():
+        what = "no sample inside the windows"
+        if mode == "auto":
+            dt0 = float(np.median(np.diff(t))) if n > 1 else 0.0
+            longest = max((_duration(t, a, b, dt0) for a, b in _runs(raw_air)), default=0.0)
+            what = (f"no airborne stretch of ≥ {MIN_AIR_S:g} s (longest {longest:.1f} s)"
+                    if longest else "no airborne sample")
+        raise IdentError(f"--segments {mode}: {what} ({method}, {total:.1f} s of log); "
+                         "use --segments all or T0:T1 to choose the data yourself")
+    dt = float(np.median(np.diff(t))) if n > 1 else 0.0
+    runs = _runs(keep)
+    windows = [[float(t[a]), float(t[b - 1])] for a, b in runs]
+    air = float(sum(_duration(t, a, b, dt) for a, b in runs))
+    return FlightSelection(mode, method, keep, windows, total, air)
+
+
+def apply_selection(table: pd.DataFrame, selection: FlightSelection) -> pd.DataFrame:
+    """The kept rows, each contiguous kept stretch (and each of the table's own segments
+    inside it) numbered as its own ``segment``."""
+    keep = selection.keep
+    seg = (table[SEGMENT].to_numpy(dtype=np.int64) if SEGMENT in table.columns
+           else np.zeros(len(table), dtype=np.int64))
+    start = np.r_[True, (seg[1:] != seg[:-1]) | (keep[1:] & ~keep[:-1])]
+    new_seg = np.cumsum(start & keep)
+    out = table.loc[keep].copy()
+    out[SEGMENT] = new_seg[keep] - 1
+    out.attrs = dict(table.attrs)
+    return out
+
+
+def excited_mask(table: pd.DataFrame, outputs: tuple[str, ...] = ("p", "q", "r"),
+                 window_s: float = EXCITE_WINDOW_S, threshold: float = EXCITE_STD
+                 ) -> np.ndarray:
+    """Rows where the centred ``window_s`` standard deviation of at least one output is
+    ≥ ``threshold`` (computed inside each segment)."""
+    t = np.asarray(table.index, dtype=float)
+    n = len(t)
+    if n < 2:
+        return np.zeros(n, dtype=bool)
+    dt = float(np.median(np.diff(t)))
+    width = max(3, round(window_s / dt) | 1)
+    seg = (table[SEGMENT].to_numpy() if SEGMENT in table.columns else np.zeros(n))
+    out = np.zeros(n, dtype=bool)
+    frame = table[[c for c in outputs if c in table.columns]]
+    for value in np.unique(seg):
+        rows = seg == value
+        std = frame.loc[rows].rolling(width, center=True, min_periods=3).std()
+        out[rows] = (std >= threshold).any(axis=1).to_numpy()
+    return out
