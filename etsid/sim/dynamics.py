@@ -174,11 +174,17 @@ def derivative(
     aux[AUX_CUR] = cur
     # motors: first-order lag towards the commanded speed (scaled by battery voltage)
     wtop = P[W_MAX] * vbat / P[V_REF]
+    tau_up = P[TAU_M]
+    tau_dn = P[TAU_DN]
+    asymmetric = tau_dn != tau_up
     for k in range(n):
         m = mcmd[k]
         m = 0.0 if m < 0.0 else (1.0 if m > 1.0 else m)
         wss = P[W_IDLE] + (wtop - P[W_IDLE]) * m
-        omd = (wss - x[X_OM + k]) / (P[TAU_M] if wss > x[X_OM + k] else P[TAU_DN])
+        tau = tau_up
+        if asymmetric and wss <= x[X_OM + k]:  # predictable branch when symmetric
+            tau = tau_dn
+        omd = (wss - x[X_OM + k]) / tau
         dx[X_OM + k] = omd
         m2 += spin[k] * (torque[k] + P[J_ROT] * omd)
     # body drag, acting at the geometric centre (-cg from the CG), and a constant moment
