@@ -149,6 +149,31 @@ def test_inertia_scale_divides_angular_acceleration() -> None:
     assert np.all(np.linalg.eigvalsh(axes) > 0)
 
 
+def _roll_rate_after_differential(settings: dict[str, object]) -> float:
+    """True roll rate (rad/s) 50 ms after the right-hand rotors are commanded 4 % down from
+    hover, open loop, in flight (the signature of inertia in a flown vehicle)."""
+    sim = Simulator(loop_input="motors", noise=False, ground_effect=False,
+                    settings={**QUIET, **settings})
+    state = sim.hover(3.0)
+    n = sim.vehicle.n_rotors
+    right = sim.vehicle.rotor_positions[:, 1] > 1e-6
+    motors = np.full((50, n), sim.hover_command)
+    motors[:, right] -= 0.04
+    _, rec = sim.step(state, 50, motors=motors)
+    return float(rec["true_p"][-1])
+
+
+def test_inertia_scale_slows_the_flown_roll_response_by_the_scale() -> None:
+    base = _roll_rate_after_differential({})
+    doubled = _roll_rate_after_differential({"inertia_scale": 2.0})
+    roll_only = _roll_rate_after_differential({"inertia_scale": [2.0, 1.0, 1.0]})
+    pitch_only = _roll_rate_after_differential({"inertia_scale": [1.0, 2.0, 1.0]})
+    assert base > 0.05  # right side weaker: right side drops, a positive roll in FRD
+    assert doubled == pytest.approx(base / 2.0, rel=0.03)  # same torque, twice the inertia
+    assert roll_only == pytest.approx(base / 2.0, rel=0.03)
+    assert pitch_only == pytest.approx(base, rel=0.03)  # only the axis that was scaled
+
+
 @pytest.mark.parametrize(("cg", "moment"), [([0.03, -0.02, 0.0], [0.0, 0.0, 0.0]),
                                             ([0.0, 0.0, 0.0], [0.4, -0.3, 0.0])])
 def test_cg_or_torque_offset_needs_steady_differential_thrust_to_hover_level(
