@@ -29,3 +29,7 @@ class IdentError(EtsidError):
 
 class GapError(EtsidError):
     """Sim-vs-real gap analysis cannot be carried out."""
+
+
+class ControlError(EtsidError):
+    """A control experiment cannot be set up (unknown scenario or controller, bad setting)."""

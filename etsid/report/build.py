@@ -42,7 +42,8 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     Parameters
     ----------
     run_dir
-        A directory written by ``etsid identify`` or ``etsid predict``.
+        A directory written by ``etsid identify`` or ``etsid predict`` (or by
+        ``etsid control``: see :mod:`etsid.report.control`).
     fmt
         Figure format: png, svg or pdf. The HTML embeds PNG or SVG; for PDF it also
         writes PNG copies to embed.
@@ -54,6 +55,10 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     """
     if fmt not in FORMATS:
         raise IdentError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+    from etsid.report.control import is_control_run, make_control_report
+
+    if is_control_run(run_dir):  # written by ``etsid control``
+        return make_control_report(run_dir, fmt)
     run = read_run(run_dir)
     out = Path(run_dir) / "report"
     out.mkdir(exist_ok=True)
