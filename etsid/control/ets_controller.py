@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from etsid.control.pid import Command, Feedback, Gains, saturate, tilt_factor
+from etsid.control.pid import PID_GAINS, Command, Feedback, Gains, saturate, tilt_factor
 from etsid.control.plant import Observation
 from etsid.control.scenarios import Scenario
 from etsid.ets import ETS
@@ -57,13 +57,18 @@ class ETSSettings:
         Time constant of the first-order filter on h, w and the applied command, s.
     warmup, blend : float
         Seconds of learnt data before the learnt feed-forward is used, and of its blend-in.
+    query : {"state", "reference"}
+        Where the inverse is evaluated: at the measured height and climb rate with the
+        reference acceleration ("state": the operating point the data come from), or all
+        three from the reference ("reference": pure feed-forward).
     gains : Gains
-        The stabilising feedback (smaller than the PID baseline's).
+        The stabilising feedback: by default the PID baseline's own gains, so that the
+        learnt feed-forward is the only difference between the two controllers.
     """
 
-    radius: tuple[float, float, float] = (0.25, 0.5, 0.5)
+    radius: tuple[float, float, float] = (0.1, 0.5, 0.5)
     x_range: tuple[tuple[float, float], ...] = ((0.0, 4.0), (-2.0, 2.0), (-3.0, 3.0))
-    forgetting: float = 0.995
+    forgetting: float = 0.98
     omega: float = 1000.0
     max_rules: int = 30
     window: float = 0.2
@@ -71,7 +76,8 @@ class ETSSettings:
     filter_tau: float = 0.1
     warmup: float = 1.0
     blend: float = 1.0
-    gains: Gains = field(default_factory=lambda: Gains(kp=0.12, kd=0.10, ki=0.03))
+    query: str = "reference"
+    gains: Gains = PID_GAINS
 
 
 class ETSController:
@@ -153,6 +159,8 @@ class ETSController:
         learnt_for = self.learned * self.dt
         if self.model.n_rules == 0 or learnt_for < s.warmup:
             return self.hover_command
+        if s.query == "state":
+            r, rd = self.hf, self.wf
         u_model = float(self.model.predict_one(np.array([r, rd, rdd]))[0])
         if not math.isfinite(u_model):
             return self.hover_command

@@ -37,15 +37,19 @@ class Gains:
         Collective per metre-second of integrated height error, 1/(m s).
     i_limit : float
         Bound on the integrator's contribution, collective units.
+    leak : float
+        Integrator leak rate, 1/s (0: a pure integrator). The eTS controller leaks its
+        integrator so that steady offsets end up in the learnt feed-forward, not in both.
     """
 
     kp: float
     kd: float
     ki: float
     i_limit: float = 0.2
+    leak: float = 0.0
 
 
-PID_GAINS = Gains(kp=0.16, kd=0.12, ki=0.06)
+PID_GAINS = Gains(kp=1.35, kd=0.40, ki=0.06)
 """Baseline gains, tuned on the nominal Tarot 680 (docs/control.md)."""
 
 
@@ -85,6 +89,7 @@ class Feedback:
         """Advance the integrator by one period unless saturation (+1 high, −1 low) forbids it."""
         g = self.gains
         e = r - obs.alt
+        self.integral *= 1.0 - g.leak * self.dt
         if (saturated > 0 and e > 0.0) or (saturated < 0 and e < 0.0):
             return
         self.integral = min(max(self.integral + g.ki * e * self.dt, -g.i_limit), g.i_limit)
