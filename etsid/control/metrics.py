@@ -29,8 +29,9 @@ def settle_band(step: float) -> float:
 
 def settling_times(t: np.ndarray, r: np.ndarray, h: np.ndarray,
                    step_times: list[float]) -> list[float | None]:
-    """Settling time of every reference step (see the module docstring), s."""
+    """Settling time of every reference step within the flight (module docstring), s."""
     out: list[float | None] = []
+    step_times = [w for w in step_times if t.size and w < t[-1]]
     ends = [*step_times[1:], np.inf]
     for when, end in zip(step_times, ends, strict=True):
         sel = (t >= when) & (t < end)
