@@ -20,9 +20,9 @@ from etsid.control.pid import Gains, PIDController
 from etsid.control.scenarios import SCENARIOS
 from etsid.control.simplant import SimPlant
 
-KP = (0.16, 0.25, 0.4, 0.6, 0.9, 1.35, 2.0, 3.0)
-KD = (0.12, 0.18, 0.27, 0.4, 0.5)
-KI = (0.03, 0.06, 0.12)
+KP = (0.4, 0.6, 0.9, 1.35, 2.0, 3.0)
+KD = (0.18, 0.27, 0.4, 0.5)
+KI = (0.06, 0.24, 0.48, 0.96, 1.92)
 MAX_OVERSHOOT = 0.10
 MAX_EFFORT = 1.0
 

@@ -155,7 +155,7 @@ class ETSController:
         """The learnt inverse queried with the reference a little ahead of ``t``."""
         s = self.settings
         tq = t + 0.5 * self.dt + s.lag
-        r, rd, rdd = (float(v) for v in scenario.reference(tq))
+        r, rd, rdd = scenario.at(tq)
         learnt_for = self.learned * self.dt
         if self.model.n_rules == 0 or learnt_for < s.warmup:
             return self.hover_command
@@ -172,7 +172,7 @@ class ETSController:
         """Learn from the last period, then choose the collective for the next one."""
         self._filter(obs)
         self._learn(t)
-        r, rd, _ = (float(v) for v in scenario.reference(t))
+        r, rd, _ = scenario.at(t)
         u_ff = self.feed_forward(t, scenario)
         u_fb = self.feedback(r, rd, obs)
         tilt = tilt_factor(obs)

@@ -43,7 +43,9 @@ class ControlFlight:
     controller : Controller
         The controller after the flight (the eTS one holds its learnt model).
     timing : dict
-        Wall-clock seconds in the controller and in the plant, and the flight time.
+        CPU seconds spent in the controller and in the plant (``time.process_time``, so
+        other processes on the machine do not count), per control period in µs, the
+        flight time and the real-time factor (flight time / CPU time).
     diverged : bool
         True if the height error exceeded :data:`DIVERGED_ERROR` and the flight was stopped.
     """
@@ -93,18 +95,18 @@ def fly(scenario: Scenario, controller: Controller, plant: Plant,
         if not mass_done and t >= scenario.mass_change[0]:
             plant.set_mass(obs.mass + scenario.mass_change[1])
             mass_done = True
-        c0 = time.perf_counter()
+        c0 = time.process_time()
         cmd = controller.update(t, obs, scenario)
-        c1 = time.perf_counter()
-        r, rd, _ = scenario.reference(t)
+        c1 = time.process_time()
+        r, rd, _ = scenario.at(t)
         rows[k] = (obs.alt, obs.vz, obs.roll, obs.pitch, cmd.u, r, rd, obs.true_alt,
                    cmd.u_ff, cmd.u_fb, obs.mass)
-        if abs(float(r) - obs.true_alt) > DIVERGED_ERROR or not np.isfinite(obs.true_alt):
+        if abs(r - obs.true_alt) > DIVERGED_ERROR or not np.isfinite(obs.true_alt):
             diverged = True
             rows = rows[: k + 1]
             break
         obs = plant.step(cmd.u)
-        t_plant += time.perf_counter() - c1
+        t_plant += time.process_time() - c1
         t_ctrl += c1 - c0
     index = pd.Index(np.arange(rows.shape[0]) * dt, name="t")
     table = pd.DataFrame(rows, index=index, columns=list(COLUMNS))

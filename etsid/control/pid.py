@@ -49,7 +49,7 @@ class Gains:
     leak: float = 0.0
 
 
-PID_GAINS = Gains(kp=1.35, kd=0.40, ki=0.06)
+PID_GAINS = Gains(kp=1.35, kd=0.40, ki=0.48)
 """Baseline gains, tuned on the nominal Tarot 680 (docs/control.md)."""
 
 
@@ -130,7 +130,7 @@ class PIDController:
 
     def update(self, t: float, obs: Observation, scenario: Scenario) -> Command:
         """The collective for the next control period, from the observation at ``t``."""
-        r, rd, _ = (float(v) for v in scenario.reference(t))
+        r, rd, _ = scenario.at(t)
         u_fb = self.feedback(r, rd, obs)
         u, sat = saturate((self.hover_command + u_fb) / tilt_factor(obs))
         self.feedback.integrate(r, obs, sat)

@@ -92,6 +92,25 @@ class Scenario:
             rdd = rdd + a * (dds * sn + 2.0 * ds * w * cs - s * w * w * sn)
         return r, rd, rdd
 
+    def at(self, t: float) -> tuple[float, float, float]:
+        """:meth:`reference` at one time ``t`` (s), as floats, without numpy (fast path)."""
+        r, rd, rdd = self.centre, 0.0, 0.0
+        for when, height in self.steps:
+            if t >= when:
+                r = height
+        if self.amplitude > 0.0:
+            w = 2.0 * math.pi / self.period
+            x = min(max(t / self.ramp, 0.0), 1.0)
+            s = x**3 * (10.0 - 15.0 * x + 6.0 * x**2)
+            ds = 30.0 * x**2 * (1.0 - x) ** 2 / self.ramp
+            dds = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / self.ramp**2
+            a = self.amplitude
+            sn, cs = math.sin(w * t), math.cos(w * t)
+            r += a * s * sn
+            rd += a * (ds * sn + s * w * cs)
+            rdd += a * (dds * sn + 2.0 * ds * w * cs - s * w * w * sn)
+        return r, rd, rdd
+
     def step_times(self) -> list[float]:
         """Times of the reference steps, s."""
         return [float(w) for w, _ in self.steps]

@@ -18,20 +18,21 @@ def _obs(alt: float, vz: float = 0.0) -> Observation:
 
 
 def test_pid_hover_converges_to_the_blade_element_trim_in_ground_effect() -> None:
-    hold = Scenario("hold", "constant 0.4 m", duration=30.0, start=0.4, centre=0.4)
+    hold = Scenario("hold", "constant 0.4 m", duration=20.0, start=0.4, centre=0.4)
     plant = SimPlant(seed=1)
     ctrl = PIDController(plant.dt, plant.hover_command)
     table = fly(hold, ctrl, plant).table
     err = table["alt_ref"] - table["true_alt"]
-    early = err[(table.index > 5.0) & (table.index < 10.0)].mean()
-    late = err[table.index > 25.0].mean()
-    assert abs(late) < 0.5 * abs(early) and abs(late) < 0.01  # the integrator works
+    # the free-air hover prior is too much thrust at 0.4 m: it climbs first ...
+    assert err[table.index < 3.0].min() < -0.01
+    # ... until the integrator has found the ground-effect trim
+    assert abs(err[table.index > 15.0].mean()) < 0.002
     # in ground effect the hover collective is below the free-air prior; the loop's
     # command settles on the trim the blade-element model gives at the height flown
     veh = load_vehicle("tarot680")
-    h = table["true_alt"][table.index > 25.0].mean()
+    h = table["true_alt"][table.index > 15.0].mean()
     assert hover_trim(veh, h).command < plant.hover_command - 0.02
-    u = table["u_thrust"][table.index > 25.0].mean()
+    u = table["u_thrust"][table.index > 15.0].mean()
     assert u == pytest.approx(hover_trim(veh, h).command, abs=0.003)
     assert ctrl.feedback.integral < 0.0
 
@@ -66,5 +67,5 @@ def test_pid_feed_forward_is_the_hover_prior_and_gains_are_documented() -> None:
     cmd = ctrl.update(0.0, _obs(2.0), Scenario("c", "", 1.0, 2.0, 2.0))
     assert cmd.u_ff == pytest.approx(0.5545, abs=1e-3)  # Tarot 680 free-air hover
     assert cmd.u == pytest.approx(cmd.u_ff)  # no error, no feedback
-    assert (PID_GAINS.kp, PID_GAINS.kd, PID_GAINS.ki) == (1.35, 0.40, 0.06)
+    assert (PID_GAINS.kp, PID_GAINS.kd, PID_GAINS.ki) == (1.35, 0.40, 0.48)
     assert np.isfinite(cmd.u_fb)

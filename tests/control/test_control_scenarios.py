@@ -41,3 +41,12 @@ def test_documented_envelopes() -> None:
 def test_unknown_scenario_is_a_control_error() -> None:
     with pytest.raises(ControlError, match="unknown control scenario 'nope'.*sine"):
         get_scenario("nope")
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_scalar_fast_path_equals_the_vectorised_reference(name: str) -> None:
+    sc = SCENARIOS[name]
+    t = np.linspace(-0.5, sc.duration + 1.0, 997)
+    expected = np.array(sc.reference(t)).T
+    got = np.array([sc.at(float(x)) for x in t])
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
