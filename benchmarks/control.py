@@ -7,12 +7,15 @@ controller with a small feedback (a third of the PID's proportional gain), on th
 seeds. Printed per scenario and controller: tracking RMSE after 10 s (mean over seeds
 and worst seed), worst max error after 10 s, mean settling time (``step``), control
 effort, final rules and rule replacements (seed 0), and whether every flight was stable.
-Then the cost of one control period: controller and plant, µs, and the real-time factor.
+Then the cost of one control period: controller and plant, CPU µs, and the real-time
+factor. ``--sensitivity`` instead flies the eTS controller with other forgetting factors
+and height radii (seed 0) on the four smooth scenarios.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 
@@ -31,10 +34,33 @@ VARIANTS = {
 }
 
 
+def sensitivity() -> None:
+    """eTS tracking RMSE (mm, seed 0) against forgetting factor and height radius."""
+    names = ("sine", "hover-ige", "ige-sine", "mass-change")
+    print("| forgetting | radius h | " + " | ".join(names) + " |")
+    print("|---|---|" + "---|" * len(names))
+    for forgetting in (0.9, 0.95, 0.98, 0.995):
+        for rh in (0.1, 0.25):
+            settings = dataclasses.replace(ETSSettings(), forgetting=forgetting,
+                                           radius=(rh, 0.5, 0.5))
+            cells = []
+            for name in names:
+                plant = SimPlant(seed=0)
+                ctrl = ETSController(plant.dt, plant.hover_command, settings)
+                m = evaluate(fly(SCENARIOS[name], ctrl, plant))
+                cells.append(f"{1e3 * m['tracking_rmse']:.1f} ({m['rules_final']} rules)")
+            print(f"| {forgetting} | {rh} | " + " | ".join(cells) + " |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    seeds = ap.parse_args().seeds
+    ap.add_argument("--sensitivity", action="store_true")
+    args = ap.parse_args()
+    if args.sensitivity:
+        sensitivity()
+        return
+    seeds = args.seeds
     print(f"seeds {seeds}; RMSE and max error after 10 s, true height; effort = RMS du/dt")
     print("| scenario | controller | RMSE mean (worst), mm | max error, mm | settling, s | "
           "effort, 1/s | rules | replacements | stable |")
@@ -65,7 +91,7 @@ def main() -> None:
                   f"{'—' if rep is None else rep} | "
                   f"{'yes' if all(m['stable'] for m in ms) else 'NO'} |", flush=True)
     print()
-    print(f"controller per 20 ms period: eTS {np.median(timing['ets']):.0f} µs, PID "
+    print(f"CPU per 20 ms control period: eTS {np.median(timing['ets']):.0f} µs, PID "
           f"{np.median(timing['pid']):.0f} µs; plant (20 physics steps) "
           f"{np.median(timing['plant']):.0f} µs; closed loop "
           f"{np.median(timing['rt']):.0f}x real time (medians)")

@@ -121,6 +121,13 @@ def run_control(scenario: str | Scenario, controller: str = "ets", *,
         "control_hz": 1.0 / plant.dt,
         "hover_command": plant.hover_command,
     }
+    if controller == "ets":
+        config["rules"] = {
+            "what": "inverse model of the vertical loop: u_thrust = f(h, w, a)",
+            "inputs": {"h": "height over the learning window, m",
+                       "w": "climb rate over the window, m/s",
+                       "a": "climb acceleration over the window, m/s^2"},
+            "output": "u_thrust: mean collective (level-flight units) that produced them"}
     flight.table.attrs.update({"seed": seed, "vehicle": config["plant"].get("vehicle")})
     result = ControlResult(flight=flight, metrics=metrics, config=config)
     if out is not None:

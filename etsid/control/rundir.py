@@ -80,12 +80,7 @@ def write_run(out: str | Path, table: pd.DataFrame, metrics: dict[str, Any],
         (out / stale).unlink(missing_ok=True)
     save_table(table, out / "flight.parquet")
     if model is not None and model.n_rules > 0:
-        model.save(out / "rules.json", regressors={
-            "kind": "inverse model of the vertical loop",
-            "inputs": {"h": "height over the learning window, m",
-                       "w": "climb rate over the window, m/s",
-                       "a": "climb acceleration over the window, m/s^2"},
-            "output": "u_thrust: mean collective (level-flight units) that produced it"})
+        model.save(out / "rules.json")
         frame, events = history_frames(model, learn_times or [])
         frame.to_parquet(out / "history.parquet", index=False)
         events.to_parquet(out / "events.parquet", index=False)

@@ -35,6 +35,8 @@ def test_control_writes_run_dir_and_figures_and_report_rerenders_it(tmp_path: Pa
     for key in ("tracking_rmse", "max_error", "settling_time", "control_effort",
                 "rules_final", "rule_replacements"):
         assert key in metrics
+    rules = invoke("rules", out / "rules.json")
+    assert rules.exit_code == 0 and "THEN u_thrust =" in rules.output
     (out / "report" / "potential.png").unlink()
     rep = invoke("report", out, "--format", "svg")
     assert rep.exit_code == 0, rep.output
