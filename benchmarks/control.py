@@ -35,7 +35,7 @@ VARIANTS = {
 
 
 def sensitivity() -> None:
-    """eTS tracking RMSE (mm, seed 0) against forgetting factor and height radius."""
+    """eTS tracking RMSE (mm, seed 0; final rules) against forgetting and height radius."""
     names = ("sine", "hover-ige", "ige-sine", "mass-change")
     print("| forgetting | radius h | " + " | ".join(names) + " |")
     print("|---|---|" + "---|" * len(names))
@@ -48,7 +48,7 @@ def sensitivity() -> None:
                 plant = SimPlant(seed=0)
                 ctrl = ETSController(plant.dt, plant.hover_command, settings)
                 m = evaluate(fly(SCENARIOS[name], ctrl, plant))
-                cells.append(f"{1e3 * m['tracking_rmse']:.1f} ({m['rules_final']} rules)")
+                cells.append(f"{1e3 * m['tracking_rmse']:.1f} ({m['rules_final']})")
             print(f"| {forgetting} | {rh} | " + " | ".join(cells) + " |", flush=True)
 
 

@@ -17,10 +17,11 @@ SINE_RMSE_BOUND = 0.015
 @pytest.mark.parametrize("controller", ["ets", "pid"])
 @pytest.mark.parametrize("scenario", sorted(SCENARIOS))
 def test_closed_loop_is_stable_on_every_scenario(
-        flights: dict[tuple[str, str], ControlResult], scenario: str, controller: str) -> None:
+        flights: dict[tuple[str, str], ControlResult], durations: dict[str, float],
+        scenario: str, controller: str) -> None:
     res = flights[(scenario, controller)]
     m = res.metrics
-    assert m["stable"] and m["duration_s"] == pytest.approx(SCENARIOS[scenario].duration)
+    assert m["stable"] and m["duration_s"] == pytest.approx(durations[scenario])
     table = res.flight.table
     err = (table["alt_ref"] - table["true_alt"]).to_numpy()
     # bounded error, and the last 5 s no worse than the scored flight as a whole: no growth
@@ -62,7 +63,7 @@ def test_ets_starts_from_zero_rules_and_grows_its_rule_base(
     # before the warm-up the feed-forward is the hover prior; afterwards it is learnt
     table = res.flight.table
     assert np.all(table["u_ff"][table.index < 0.5] == plant.hover_command)
-    assert table["u_ff"][table.index > 20].std() > 1e-3
+    assert table["u_ff"][table.index > 15].std() > 1e-3
 
 
 def test_mass_change_is_a_real_payload(flights: dict[tuple[str, str], ControlResult]) -> None:
@@ -72,5 +73,5 @@ def test_mass_change_is_a_real_payload(flights: dict[tuple[str, str], ControlRes
     assert table["mass"][table.index < 30.0].max() == pytest.approx(4.2)
     # the PID's hover command rises as sqrt of the weight ratio, roughly (thrust ~ Omega^2)
     u = table["u_thrust"]
-    before, after = u[(u.index > 20) & (u.index < 30)].mean(), u[u.index > 50].mean()
+    before, after = u[(u.index > 20) & (u.index < 30)].mean(), u[u.index > 40].mean()
     assert 1.06 < after / before < 1.16
