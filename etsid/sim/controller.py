@@ -114,10 +114,9 @@ def control_step(
             cs[CS_GF + i] = ms[MS_GYRO + i]
         cs[CS_INIT] = 1.0
     mode = int(P[LOOP_INPUT])
-    cr = math.cos(roll)
-    cp = math.cos(pitch)
     tau = cs[CS_TAU:CS_TAU + 3]
     if mode in (LOOP_RATES, LOOP_TORQUE):
+        crcp = math.cos(roll) * math.cos(pitch)
         for i in range(3):
             u_out[i] = exc[i]
             sp_out[i] = exc[i] if mode == LOOP_RATES else 0.0
@@ -128,15 +127,17 @@ def control_step(
                 tau[i] = exc[i]
             _clip_torque(P, tau)
     else:
-        _pilot_and_angle_loop(P, cs, ms, exc, vel_sp, u_out, sp_out)
+        crcp = _pilot_and_angle_loop(P, cs, ms, exc, vel_sp, u_out, sp_out)
         _rate_loop(P, cs, ms, sp_out, tau)
-    _altitude_and_mixer(P, cs, ms, alt_sp, alt_rate, thr_manual, cr * cp, tau, mix, m_out,
+    _altitude_and_mixer(P, cs, ms, alt_sp, alt_rate, thr_manual, crcp, tau, mix, m_out,
                         u_out)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pilot_and_angle_loop(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, exc: np.ndarray,
-                          vel_sp: np.ndarray, u_out: np.ndarray, sp_out: np.ndarray) -> None:
+                          vel_sp: np.ndarray, u_out: np.ndarray, sp_out: np.ndarray) -> float:
+    """Pilot and angle loop: sticks into ``u_out``, rate setpoints into ``sp_out``;
+    returns cos(roll)·cos(pitch) for the altitude loop's tilt compensation."""
     dt = P[DT]
     roll, pitch, yaw = ms[MS_ATT], ms[MS_ATT + 1], ms[MS_ATT + 2]
     # --- pilot ---------------------------------------------------------------------------
@@ -168,9 +169,10 @@ def _pilot_and_angle_loop(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, exc: np
     sp_out[0] = _clip(droll - dyaw * sp_, -mr, mr)
     sp_out[1] = _clip(dpitch * cr + dyaw * cp * sr, -mr, mr)
     sp_out[2] = _clip(-dpitch * sr + dyaw * cp * cr, -P[MAX_YAW_RATE], P[MAX_YAW_RATE])
+    return cr * cp
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rate_loop(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, sp_out: np.ndarray,
                tau: np.ndarray) -> None:
     dt = P[DT]
@@ -186,14 +188,14 @@ def _rate_loop(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, sp_out: np.ndarray
     _clip_torque(P, tau)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _clip_torque(P: np.ndarray, tau: np.ndarray) -> None:
     tau[0] = _clip(tau[0], -1.0, 1.0)
     tau[1] = _clip(tau[1], -1.0, 1.0)
     tau[2] = _clip(tau[2], -P[YAW_MIX], P[YAW_MIX])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _altitude_and_mixer(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, alt_sp: float,
                         alt_rate: float, thr_manual: float, crcp: float, tau: np.ndarray,
                         mix: np.ndarray, m_out: np.ndarray, u_out: np.ndarray) -> None:

@@ -125,6 +125,10 @@ def derivative(
     power = 0.0
     rad = P[RADIUS]
     cgx, cgy, cgz = P[CG], P[CG + 1], P[CG + 2]
+    ge_on = P[GE_ON] > 0.5
+    ge_torque = P[GE_TORQUE] > 0.5
+    scale_t = P[THRUST_SCALE]
+    scale_q = P[TORQUE_SCALE]
     for k in range(n):
         rx, ry, rz = rpos[k, 0] - cgx, rpos[k, 1] - cgy, rpos[k, 2] - cgz  # hub from the CG
         vhx = vb0 + w[1] * rz - w[2] * ry
@@ -136,17 +140,16 @@ def derivative(
                                  P[TWIST], P[CD0], P[KAPPA], lam[k])
         lam[k] = li
         ratio = 1.0
-        if P[GE_ON] > 0.5:
+        if ge_on:
             z_hub = -(x[X_POS + 2] + R[2, 0] * rx + R[2, 1] * ry + R[2, 2] * rz)
             ratio = ground_ratio(z_hub, rad, int(P[GE_MODEL]), dists[k],
                                  math.sqrt(rpos[k, 0] ** 2 + rpos[k, 1] ** 2), P[K_BODY],
                                  P[GE_MINH], P[GE_MAXR])
-            if P[GE_TORQUE] > 0.5:
+            if ge_torque:
                 qa = ground_effect_torque(t, li, ratio, om, -vhz, v_inplane, P[RHO], rad,
                                           P[SIGMA], P[LIFT], P[CD0], P[KAPPA])
-        t *= ratio
-        t *= P[THRUST_SCALE]
-        qa *= P[TORQUE_SCALE]
+        t *= ratio * scale_t
+        qa *= scale_q
         thrust[k] = t
         torque[k] = qa
         ge[k] = ratio
@@ -171,11 +174,17 @@ def derivative(
     aux[AUX_CUR] = cur
     # motors: first-order lag towards the commanded speed (scaled by battery voltage)
     wtop = P[W_MAX] * vbat / P[V_REF]
+    tau_up = P[TAU_M]
+    tau_dn = P[TAU_DN]
+    asymmetric = tau_dn != tau_up
     for k in range(n):
         m = mcmd[k]
         m = 0.0 if m < 0.0 else (1.0 if m > 1.0 else m)
         wss = P[W_IDLE] + (wtop - P[W_IDLE]) * m
-        omd = (wss - x[X_OM + k]) / (P[TAU_M] if wss > x[X_OM + k] else P[TAU_DN])
+        tau = tau_up
+        if asymmetric and wss <= x[X_OM + k]:  # predictable branch when symmetric
+            tau = tau_dn
+        omd = (wss - x[X_OM + k]) / tau
         dx[X_OM + k] = omd
         m2 += spin[k] * (torque[k] + P[J_ROT] * omd)
     # body drag, acting at the geometric centre (-cg from the CG), and a constant moment
@@ -185,9 +194,13 @@ def derivative(
     fb0 += fd0
     fb1 += fd1
     fb2 += fd2
-    m0 += P[M_OFF] - (cgy * fd2 - cgz * fd1)
-    m1 += P[M_OFF + 1] - (cgz * fd0 - cgx * fd2)
-    m2 += P[M_OFF + 2] - (cgx * fd1 - cgy * fd0)
+    if cgx != 0.0 or cgy != 0.0 or cgz != 0.0:
+        m0 -= cgy * fd2 - cgz * fd1
+        m1 -= cgz * fd0 - cgx * fd2
+        m2 -= cgx * fd1 - cgy * fd0
+    m0 += P[M_OFF]
+    m1 += P[M_OFF + 1]
+    m2 += P[M_OFF + 2]
     # ground contact: spring-damper under the CG, viscous friction, rotational damping
     fc0 = fc1 = fc2 = 0.0
     pen = P[GEAR_H] + x[X_POS + 2]

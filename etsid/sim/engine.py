@@ -126,11 +126,12 @@ def advance(
     dt = P[DT]
     jinv = np.linalg.inv(inertia)
     nx = o_lam
-    x = S[:nx]
-    lam = S[o_lam:o_cs]
-    cs = S[o_cs:o_est]
-    est = S[o_est:o_misc]
-    buf = S[o_buf:o_buf + cap * n_rot].reshape((cap, n_rot))
+    # work on private copies (no aliasing between the blocks: faster), written back at the end
+    x = S[:nx].copy()
+    lam = S[o_lam:o_cs].copy()
+    cs = S[o_cs:o_est].copy()
+    est = S[o_est:o_misc].copy()
+    buf = S[o_buf:o_buf + cap * n_rot].copy().reshape((cap, n_rot))
     est_on = P[EST_ON] > 0.5
     mode = int(P[LOOP_INPUT])
     delay = P[DELAY]
@@ -281,6 +282,11 @@ def advance(
         for j in range(4):
             x[X_Q + j] /= qn
         step += 1
+    S[:nx] = x
+    S[o_lam:o_cs] = lam
+    S[o_cs:o_est] = cs
+    S[o_est:o_misc] = est
+    S[o_buf:o_buf + cap * n_rot] = buf.ravel()
     S[o_misc + MISC_ALT] = alt_held
     S[o_misc + MISC_STEP] = step
     S[o_misc + MISC_HEAD] = head

@@ -39,6 +39,7 @@ from etsid.sim.controller import N_CS
 from etsid.sim.engine import MEAS_COLUMNS, ROTOR_BLOCKS, TRUTH_COLUMNS, advance, state_offsets
 from etsid.sim.estimator import EST_B, EST_Q, N_EST
 from etsid.sim.params import (
+    ALT_HOLD,
     LOOP_MOTORS,
     LOOP_RATES,
     LOOP_STICKS,
@@ -53,6 +54,7 @@ from etsid.sim.params import (
     X_W,
 )
 from etsid.sim.plant import Plant, initial_state, make_plant
+from etsid.sim.trim import HoverTrim, hover_trim
 from etsid.sim.vehicle import Vehicle, load_vehicle, resolve_vehicle_key
 
 LOOP_INPUTS = {"sticks": LOOP_STICKS, "rates": LOOP_RATES, "torque": LOOP_TORQUE,
@@ -269,6 +271,24 @@ class Simulator:
     def hover_command(self) -> float:
         """Collective that hovers the vehicle out of ground effect at its file mass."""
         return self.plant.trim_oge.command
+
+    @property
+    def alt_hold(self) -> bool:
+        """The simulator's altitude hold on (settable between calls: off hands the
+        collective to ``step(thrust=...)``)."""
+        return bool(self.plant.P[ALT_HOLD] > 0.5)
+
+    @alt_hold.setter
+    def alt_hold(self, on: bool) -> None:
+        self.plant.P[ALT_HOLD] = 1.0 if on else 0.0
+
+    def trim(self, altitude: float | None = None) -> HoverTrim:
+        """Hover trim (rotor speed, command …) at CG height ``altitude`` in ground effect
+        (None: out of ground effect), for the current mass."""
+        veh = self.vehicle
+        if self.mass != veh.mass:
+            veh = veh.with_settings({"mass": self.mass})
+        return hover_trim(veh, altitude if self.ground_effect else None)
 
     @property
     def mass(self) -> float:

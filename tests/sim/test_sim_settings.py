@@ -5,12 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
-from click.testing import CliRunner
 
-from etsid.cli import cli
-from etsid.cli.settings import parse_value
 from etsid.errors import SimError
 from etsid.sim import load_vehicle, simulate
 from etsid.sim.settings import split_settings
@@ -96,49 +92,3 @@ def test_split_settings_and_simulate_settings() -> None:
                                              "scenario.altitude": 2.0})
     assert flight.vehicle.mass == 4.0 and flight.params["altitude"] == 2.0
     assert flight.table.index[-1] == pytest.approx(1.0 - 1 / 250)
-
-
-def test_parse_value_uses_toml_and_bare_words() -> None:
-    assert parse_value("0.02") == 0.02 and parse_value("[0.02, 0, 0]") == [0.02, 0, 0]
-    assert parse_value("false") is False and parse_value("mahony") == "mahony"
-    assert parse_value('"a b"') == "a b"
-    with pytest.raises(ValueError, match="is not a number"):
-        parse_value("[1,")
-
-
-def test_cli_set_changes_vehicle_and_scenario(tmp_path: Path) -> None:
-    out = tmp_path / "f.parquet"
-    result = CliRunner().invoke(cli, ["simulate", "hover-oge", "-o", str(out),
-                                      "--set", "scenario.duration=1.0",
-                                      "--set", "scenario.altitude=2.5",
-                                      "--set", "vehicle.thrust_scale=1.2"])
-    assert result.exit_code == 0, result.output
-    table = pd.read_parquet(out)
-    assert len(table) == 250
-    assert table["true_alt"].iloc[0] == pytest.approx(2.5)
-    # 20 % more thrust per rotor speed: hovers at 1/sqrt(1.2) of the nominal rotor speed
-    nominal = simulate("hover-oge", duration=1.0, altitude=2.5).truth["true_w1"].iloc[0]
-    assert table["true_w1"].iloc[0] == pytest.approx(nominal / np.sqrt(1.2), rel=1e-9)
-
-
-@pytest.mark.parametrize(
-    ("item", "code", "words"),
-    [
-        ("vehicle.thrust_scal=1.1", 1, ["unknown vehicle setting 'thrust_scal'"]),
-        ("vehicle.thrust_scale=-1", 1, ["effects.thrust_scale", "positive"]),
-        ("scenario.altitud=1", 1, ["unknown setting 'altitud'"]),
-        ("altitude=1", 1, ["'vehicle.' or 'scenario.'"]),
-        ("vehicle.cg_offset", 2, ["expected KEY=VALUE"]),
-        ("vehicle.cg_offset=[0.1,", 2, ["vehicle.cg_offset", "is not a number"]),
-    ],
-)
-def test_cli_set_errors_are_one_line(tmp_path: Path, item: str, code: int,
-                                     words: list[str]) -> None:
-    result = CliRunner().invoke(cli, ["simulate", "hover-oge", "--duration", "0.5",
-                                      "-o", str(tmp_path / "f.parquet"), "--set", item])
-    assert result.exit_code == code
-    err = result.stderr.strip()
-    assert "Traceback" not in err
-    for word in words:
-        assert word in err.splitlines()[-1]
-    assert not (tmp_path / "f.parquet").exists()

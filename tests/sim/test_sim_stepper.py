@@ -70,6 +70,11 @@ def test_mass_change_mid_flight_is_caught_by_the_altitude_hold() -> None:
     heavy = hover_trim(load_vehicle().with_settings({**quiet, "mass": 5.0}))
     assert rec["u_thrust"][-200:].mean() == pytest.approx(heavy.command, rel=2e-3)
     assert sim.mass == 5.0
+    assert sim.trim().command == pytest.approx(heavy.command, rel=1e-12)
+    sim.alt_hold = False  # hand the collective over mid-flight
+    state, rec = sim.step(state, 500, thrust=heavy.command + 0.05)
+    assert not sim.alt_hold and np.all(rec["u_thrust"] == heavy.command + 0.05)
+    assert state.velocity[2] < -0.2  # climbing on the extra collective
     with pytest.raises(SimError, match="mass must be a positive number"):
         sim.set_mass(0.0)
 
