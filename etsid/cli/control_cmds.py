@@ -14,7 +14,8 @@ SCENARIO_NAMES = ("hover-ige", "ige-sine", "mass-change", "sine", "step")
 @click.command()
 @click.argument("scenario", type=click.Choice(SCENARIO_NAMES))
 @click.option("-o", "--out", "out", type=click.Path(file_okay=False, path_type=Path),
-              required=True, help="RUN_DIR to write (flight, metrics, rules, report/).")
+              default=None, help="RUN_DIR to write (flight, metrics, rules, report/); "
+              "default ./control-SCENARIO-CONTROLLER.")
 @click.option("--controller", type=click.Choice(["ets", "pid"]), default="ets",
               show_default=True, help="eTS controller learning from zero rules, or the PID "
               "baseline.")
@@ -25,7 +26,7 @@ SCENARIO_NAMES = ("hover-ige", "ige-sine", "mass-change", "sine", "step")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the sensor noise.")
 @click.option("--no-report", is_flag=True, help="Do not draw the figures (RUN_DIR/report/).")
-def control(scenario: str, out: Path, controller: str, vehicle: Path | None,
+def control(scenario: str, out: Path | None, controller: str, vehicle: Path | None,
             duration: float | None, seed: int, no_report: bool) -> None:
     """Fly SCENARIO with the vertical loop closed by CONTROLLER; write RUN_DIR and figures.
 
@@ -34,6 +35,8 @@ def control(scenario: str, out: Path, controller: str, vehicle: Path | None,
     """
     from etsid.control import run_control
 
+    if out is None:
+        out = Path(f"control-{scenario}-{controller}")
     result = run_control(scenario, controller, vehicle=vehicle, duration=duration, seed=seed,
                          out=out)
     m = result.metrics

@@ -56,6 +56,15 @@ def test_pid_run_has_no_rule_base_and_steps_have_settling_times(tmp_path: Path) 
     assert all(s is not None and 0 < s < 5 for s in metrics["settling_time"])
 
 
+def test_default_run_dir_is_named_after_scenario_and_controller(
+        tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    res = invoke("control", "hover-ige", "--controller", "pid", "--duration", 2, "--no-report")
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "control-hover-ige-pid" / "metrics.json").is_file()
+    assert not (tmp_path / "control-hover-ige-pid" / "report").exists()
+
+
 def test_errors_are_one_line(tmp_path: Path) -> None:
     res = invoke("control", "nope", "--out", tmp_path / "x")
     assert res.exit_code == 2 and "nope" in res.output
