@@ -32,13 +32,13 @@ class ReportError(EtsidError):
 
 
 class GapError(EtsidError):
-    """Sim-vs-real gap analysis cannot be carried out.
-
-    Not raised yet: reserved for the gap-analysis room (``etsid/gap/``, the next issue),
-    so that its errors have their own class from the first line of code.
-    """
+    """Sim-vs-real gap analysis cannot be carried out."""
 
 
 class BatchError(EtsidError):
     """A batch cannot be set up or one log cannot be run: no inputs, an unreadable list
     file, a bad pairs CSV, a missing input, an unreachable scheduler."""
+
+
+class ControlError(EtsidError):
+    """A control experiment cannot be set up (unknown scenario or controller, bad setting)."""

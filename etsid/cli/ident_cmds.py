@@ -174,11 +174,29 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
 @click.option("--json", "as_json", is_flag=True, help="Print the raw rules.json.")
 def rules_cmd(path: Path, as_json: bool) -> None:
     """Print the rule base in PATH (rules.json or a RUN_DIR) as readable IF … THEN … rules."""
-    _, _, data = load_rules(path)
+    data = _control_rules(path)  # a control run's rule base has no regressor spec
+    if data is None:
+        _, _, data = load_rules(path)
     if as_json:
         click.echo(json.dumps(data, indent=1))
         return
     click.echo(rules_text(data))
+
+
+def _control_rules(path: Path) -> dict | None:
+    """The rules.json of an ``etsid control`` run (checked by the model loader), else None."""
+    file = path / "rules.json" if path.is_dir() else path
+    config = file.parent / "config.json"
+    try:
+        if json.loads(config.read_text()).get("kind") != "control":
+            return None
+        data = json.loads(file.read_text())
+    except (OSError, ValueError, AttributeError):
+        return None
+    from etsid.ets import ETS
+
+    ETS.from_dict(data)  # ModelError names what is wrong
+    return data
 
 
 COMMANDS = [identify_cmd, predict_cmd, rules_cmd]

@@ -42,8 +42,9 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     Parameters
     ----------
     run_dir
-        A directory written by ``etsid identify`` or ``etsid predict``, or a batch
-        directory of ``etsid batch`` (then: :func:`etsid.report.fleet.make_fleet_report`).
+        A directory written by ``etsid identify`` or ``etsid predict``, a batch directory
+        of ``etsid batch`` (then: :func:`etsid.report.fleet.make_fleet_report`), or a run
+        of ``etsid control`` (:mod:`etsid.report.control`).
     fmt
         Figure format: png, svg or pdf. The HTML embeds PNG or SVG; for PDF it also
         writes PNG copies to embed.
@@ -56,10 +57,13 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     """
     if fmt not in FORMATS:
         raise ReportError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+    from etsid.report.control import is_control_run, make_control_report
     from etsid.report.fleet import is_batch_dir, make_fleet_report
 
     if is_batch_dir(run_dir):  # a directory written by etsid batch: the fleet report
         return make_fleet_report(run_dir, fmt)
+    if is_control_run(run_dir):  # written by ``etsid control``
+        return make_control_report(run_dir, fmt)
     try:
         run = read_run(run_dir)
     except IdentError as err:
