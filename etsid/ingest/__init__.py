@@ -13,9 +13,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from etsid.errors import IngestError, TableError
+from etsid.errors import EtsidError, IngestError, TableError
 from etsid.ingest.align import build_table
 from etsid.ingest.base import Override, RawLog, ReadOptions, Signal
+from etsid.ingest.damage import decoder_errors, describe
 from etsid.ingest.detect import FORMATS, detect_format, open_reader
 from etsid.ingest.mapping import choose_signals
 from etsid.table import COLUMNS, is_table_path, load_table
@@ -37,7 +38,13 @@ def read_raw(path: str | Path, options: ReadOptions | None = None) -> RawLog:
     path = Path(path)
     fmt = detect_format(path)
     reader = open_reader(fmt)
-    return reader(path, options or ReadOptions())
+    try:
+        return reader(path, options or ReadOptions())
+    except EtsidError:
+        raise
+    except decoder_errors() as err:  # the one error path for damaged bytes (damage.py)
+        raise IngestError(f"{path}: damaged {fmt} file, nothing could be read "
+                          f"({describe(err)})") from err
 
 
 def read_log(

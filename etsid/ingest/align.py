@@ -12,7 +12,9 @@ Rules (docs/ingest.md):
   the ``segment`` column counts up after it; inside a gap of another signal its column
   is NaN. Outside a signal's span its column is NaN.
 * Non-finite samples are dropped, out-of-order samples sorted and duplicate timestamps
-  merged (first kept); every count lands in ``attrs["dropped"]`` / ``attrs["repaired"]``.
+  merged (first kept); physically implausible samples and stray timestamps are dropped
+  (:mod:`etsid.ingest.plausibility`); every count lands in ``attrs["dropped"]`` /
+  ``attrs["repaired"]``.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import pandas as pd
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
+from etsid.ingest.plausibility import check_signals
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
 
 MAX_GRID_POINTS = 50_000_000
@@ -131,6 +134,9 @@ def build_table(
     """
     dropped, repaired = list(raw.dropped), list(raw.repaired)
     cleaned = {c: clean_signal(s, dropped, repaired) for c, s in chosen.items()}
+    cleaned, note = check_signals(cleaned, dropped)
+    if note:
+        raw.warnings.append(f"{raw.path}: {note}")
     for column, sig in cleaned.items():
         if sig.t.size < 2:
             raw.warnings.append(f"{column}: left out, {sig.source} has {sig.t.size} usable "

@@ -100,6 +100,15 @@ def _reader_class() -> type:
         def init_clock(self) -> None:
             self.clock = DFReader.DFReaderClock_usec()
 
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            try:
+                super().__init__(*args, **kwargs)
+            except BaseException:  # a broken file: do not leak the handle DFReader opened
+                for name in ("data_map", "filehandle"):
+                    with contextlib.suppress(Exception):
+                        getattr(self, name).close()
+                raise
+
     return IndexOnly
 
 
