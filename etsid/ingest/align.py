@@ -159,9 +159,13 @@ def build_table(
         raise IngestError(f"{raw.path}: the window --start/--end selects no data")
     n_grid = int(np.floor((hi - lo) * rate + 1e-9)) + 1
     if n_grid > MAX_GRID_POINTS:
-        raise IngestError(f"{raw.path}: --rate {rate:g} Hz over {hi - lo:.1f} s gives "
-                          f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}); "
-                          "use a lower rate")
+        if rate_hz:
+            raise IngestError(f"{raw.path}: --rate {rate:g} Hz over {hi - lo:.1f} s gives "
+                              f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}); "
+                              "use a lower rate")
+        raise IngestError(f"{raw.path}: {ref.source} spans {hi - lo:.3g} s at {rate:.4g} Hz, "
+                          f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}): its "
+                          "timestamps look damaged; cut a window with --start/--end")
     grid = lo + np.arange(n_grid) / rate
     keep = np.ones(grid.size, dtype=bool)
     gaps = []
