@@ -32,6 +32,9 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=60.0, help="s per mutant")
     parser.add_argument("--memory-gb", type=float, default=4.0, help="address-space limit")
     parser.add_argument("--formats", default=",".join(mutants.SOURCES))
+    parser.add_argument("--rules", type=int, default=0,
+                        help="also this many seeded byte mutations of a rules.json (plus the "
+                             "fixed hostile variants), through `etsid rules` and `predict`")
     args = parser.parse_args()
     formats = args.formats.split(",")
     todo = [(formats[i % len(formats)], args.first_seed + i) for i in range(args.mutants)]
@@ -64,10 +67,39 @@ def main() -> None:
         total.update(tally[fmt])
         print(f"{fmt:<10}" + "".join(f"{tally[fmt][k]:>16}" for k in mutants.OUTCOMES))
     print(f"{'all':<10}" + "".join(f"{total[k]:>16}" for k in mutants.OUTCOMES))
+    if args.rules:
+        rules_tally(args.rules)
     finite = sorted(s for s in seconds if s == s)
     if finite:
         print(f"time per mutant: median {finite[len(finite) // 2]:.2f} s, "
               f"max {finite[-1]:.1f} s; peak worker RSS {max(p for p in peaks if p == p):.0f} MiB")
+
+
+def rules_tally(count: int) -> None:
+    """Run the rule-base variants in this process and print their tally."""
+    import json
+
+    root = Path(__file__).resolve().parents[1]
+    gas = root / "tests" / "data" / "gas_furnace.csv"
+    tally: Counter = Counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        made = mutants.run_cli(["identify", str(gas), "--output", "co2", "--regressors",
+                                "co2[k-1],input_gas_rate[k-4]", "--out", str(work / "run"),
+                                "--quiet"])
+        assert made.kind == "read ok", made.detail
+        pristine = json.loads((work / "run" / "rules.json").read_text())
+        variants = mutants.rules_variants(pristine, work, mutations=count)
+        for what, path in variants:
+            for args in (["rules", str(path)], ["predict", str(gas), "--rules", str(path),
+                                                "-o", str(work / "p"), "--quiet"]):
+                verdict = mutants.run_cli(args, names=path.name)
+                tally[verdict.kind] += 1
+                if verdict.kind not in ("read ok", "clean error"):
+                    print(f"  {verdict.kind}: rules variant {what!r}: {verdict.detail}")
+    print(f"\nrule bases: {len(variants)} variants x 2 commands (rules, predict)")
+    print("".join(f"{k:>16}" for k in mutants.OUTCOMES))
+    print("".join(f"{tally[k]:>16}" for k in mutants.OUTCOMES))
 
 
 if __name__ == "__main__":

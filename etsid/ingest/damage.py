@@ -33,6 +33,12 @@ def decoder_errors() -> tuple[type[BaseException], ...]:
     except ImportError:  # pragma: no cover - zstandard ships with mcap
         pass
     try:
+        import apsw  # rosbags' SQLite binding for ROS 2 .db3 storage
+
+        errors.append(apsw.Error)
+    except ImportError:  # pragma: no cover - not every rosbags install uses apsw
+        pass
+    try:
         from rosbags.highlevel import AnyReaderError
         from rosbags.rosbag1 import ReaderError as Reader1Error
         from rosbags.rosbag2 import ReaderError as Reader2Error

@@ -255,6 +255,8 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         del data
         with contextlib.suppress(Exception):
             reader.close()  # type: ignore[attr-defined]
+        with contextlib.suppress(Exception):
+            reader.filehandle.close()  # type: ignore[attr-defined]  # close() leaves it open
 
 
 def _read(path: Path, reader: object, data: np.ndarray, noise: str,

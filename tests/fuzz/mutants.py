@@ -133,8 +133,10 @@ def make_mutant(source: str, seed: int, workdir: Path) -> Mutant:
 # rule bases
 
 
-def rules_variants(pristine: dict, workdir: Path) -> list[tuple[str, Path]]:
-    """Hostile variants of a valid rules.json document: (what, path) pairs."""
+def rules_variants(pristine: dict, workdir: Path, mutations: int = 12,
+                   seed: int = 9) -> list[tuple[str, Path]]:
+    """Hostile variants of a valid rules.json document: (what, path) pairs — the fixed
+    list below, then ``mutations`` seeded byte-level mutations of the document."""
     out: list[tuple[str, Path]] = []
 
     def put(name: str, text: str) -> None:
@@ -185,9 +187,9 @@ def rules_variants(pristine: dict, workdir: Path) -> list[tuple[str, Path]]:
         doc = json.loads(text)
         doc["rules"] = doc.get("rules", [])[:1] * (10 ** (2 + depth))
         put(f"{10 ** (2 + depth)} copies of one rule", json.dumps(doc))
-    rng = random.Random(9)
+    rng = random.Random(seed)
     data = text.encode()
-    for i in range(12):
+    for i in range(mutations):
         kind = ("truncate", "flip", "duplicate", "append")[i % 4]
         mutated, what = mutate_bytes(data, kind, rng)
         put(f"rules.json {what}", mutated.decode("utf-8", "replace"))

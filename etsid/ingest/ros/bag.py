@@ -333,6 +333,22 @@ def _read_ros2(path: Path, options: ReadOptions, raw: RawLog) -> None:
                                   f"({salvage_err})") from err
             return
     assert conv is not None
+    if len(storage) == 1 and storage[0].suffix == ".db3" and any(
+            "reading stopped early" in w for w in raw.warnings):
+        trial = RawLog(path=raw.path, format=raw.format)
+        try:
+            _salvage(storage[0], options, trial)
+        except IngestError:
+            trial = None
+        kept = sum(t.count for t in conv.topics.values())
+        if trial is not None and int(trial.extra.get("message_count", 0)) > kept:
+            early = [w for w in raw.warnings if "reading stopped early" in w]
+            raw.warnings[:] = [w for w in raw.warnings if w not in early]
+            for name in ("channels", "signals", "start_time", "dropped", "repaired", "extra"):
+                setattr(raw, name, getattr(trial, name))
+            raw.warnings.append(f"{early[0].split('; ')[0]}; read on past the damage")
+            raw.warnings.extend(trial.warnings)
+            return
     conv.finish(raw)
 
 
@@ -357,7 +373,7 @@ def _salvage(storage: Path, options: ReadOptions, raw: RawLog) -> None:
     if storage.suffix == ".mcap":
         salvage.read_mcap(storage, options, raw)
         return
-    conv = salvage.read_db3(storage, options, raw, _slow_one, _note_broken)
+    conv = salvage.read_db3(storage, options, raw)
     conv.finish(raw)
 
 

@@ -17,7 +17,7 @@ import shutil
 import sqlite3
 import struct
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -92,18 +92,19 @@ def db3_rows(db: sqlite3.Connection, lost: list[LostRows]) -> Iterator[tuple[int
         last_id = resumed[0] - 1 if moved or step == 1 else resumed[0]
 
 
-def read_db3(storage: Path, options: ReadOptions, raw: RawLog, convert_one: Callable[..., None],
-             note_broken: Callable[..., None]) -> Converter:
+def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
     """Convert the readable rows of a damaged ``.db3`` into a fresh Converter.
 
-    ``convert_one(conv, broken, deserialise, topic, typename, data, log_ns)`` and
-    ``note_broken(conv, broken, raw)`` are the bag reader's per-message path and note.
+    A message that does not deserialise is skipped alone (damaged bytes hit single rows);
+    the counts are noted per topic.
     """
+    from etsid.ingest.damage import decoder_errors
     from etsid.rosmsgs import typestore
 
     conv = Converter(options)
     store = typestore(ros1=False)
-    broken: dict[str, str] = {}
+    errors = decoder_errors()
+    bad: dict[str, int] = {}
     lost: list[LostRows] = []
     with tempfile.TemporaryDirectory() as tmp:
         copy = _padded_copy(storage, Path(tmp))
@@ -119,14 +120,21 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog, convert_one: Call
                 topic = topics.get(tid)
                 if topic is None:
                     continue
-                if not topic.decode or topic.topic in broken or data is None:
+                if not topic.decode or data is None:
                     conv.count(topic, stamp)
                     continue
-                convert_one(conv, broken, store.deserialize_cdr, topic, topic.msgtype,
-                          bytes(data), stamp)
+                try:
+                    msg = store.deserialize_cdr(bytes(data), topic.msgtype)
+                except errors:
+                    bad[topic.topic] = bad.get(topic.topic, 0) + 1
+                    conv.count(topic, stamp)
+                    continue
+                conv.add(topic, msg, stamp)
         finally:
             db.close()
-    note_broken(conv, broken, raw)
+    for name, count in bad.items():
+        raw.warnings.append(f"{name}: {count} damaged message(s) could not be decoded and "
+                            "were skipped")
     kept = sum(t.count for t in conv.topics.values())
     if not kept:
         raise IngestError(f"{storage}: damaged ROS 2 storage, no message could be read")
