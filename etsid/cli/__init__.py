@@ -81,10 +81,14 @@ def one_line(err: BaseException) -> str:
     return text.splitlines()[0] if text else type(err).__name__
 
 
-@click.group(cls=EtsidGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=EtsidGroup, context_settings={"help_option_names": ["-h", "--help"]},
+             invoke_without_command=True)
 @click.version_option(__version__, prog_name="etsid")
-def cli() -> None:
+@click.pass_context
+def cli(ctx: click.Context) -> None:
     """Learn a drone's rate dynamics from its flight logs with evolving fuzzy models (eTS)."""
+    if ctx.invoked_subcommand is None:  # plain `etsid`: the help, on stdout, exit 0
+        click.echo(ctx.get_help())
 
 
 def main() -> None:

@@ -8,7 +8,13 @@ from pathlib import Path
 import click
 import numpy as np
 
-from etsid.cli.options import echo_table_notes, log_options, read_options
+from etsid.cli.options import (
+    RateHz,
+    check_output_dir,
+    echo_table_notes,
+    log_options,
+    read_options,
+)
 from etsid.errors import IdentError
 from etsid.ets.params import RLS_KINDS, VARIANTS
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
@@ -44,6 +50,17 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     click.echo(summary_table(run))
     click.echo(f"wrote {out}/ (predictions.parquet, metrics.json, rules.json, …); "
                f"next: etsid report {out}")
+
+
+def _table_rate(table: object) -> float | None:
+    """Grid rate of a table, Hz (None when it cannot be told)."""
+    rate = getattr(table, "attrs", {}).get("rate_hz")
+    if rate:
+        return float(rate)
+    t = np.asarray(getattr(table, "index", []), dtype=float)
+    if t.size > 1 and t[-1] > t[0]:
+        return float((t.size - 1) / (t[-1] - t[0]))
+    return None
 
 
 @click.command("identify")
@@ -83,10 +100,10 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
               show_default=True,
               help="Fraction held out at the end: learn on the rest, freeze, then one-step "
                    "and free-run on it (0: no validation).")
-@click.option("--rate", "rate_hz", type=click.FloatRange(0, min_open=True), default=None,
+@click.option("--rate", "rate_hz", type=RateHz(), default=None,
               help="Grid rate of a log when it is read, Hz (default: native rate of the "
                    "body rates). Identification then runs at --ident-rate.")
-@click.option("--ident-rate", "ident_rate", type=click.FloatRange(0), default=None,
+@click.option("--ident-rate", "ident_rate", type=RateHz(allow_zero=True), default=None,
               metavar="HZ",
               help="Identification rate, Hz: the table is averaged over blocks of k samples "
                    "(integer k, rate nearest HZ; noise σ becomes σ/√k). Default: "
@@ -118,11 +135,17 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     50 Hz (--ident-rate). Writes RUN_DIR/ predictions.parquet,
     history.parquet, rules.json, metrics.json, config.json.
     """
+    check_output_dir(out)
     options = read_options(maps, mapping_file, sysid, quiet)
     if outputs:
         table = read_log(log, options, rate_hz=rate_hz)
     else:
         table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
+    table_rate = _table_rate(table)
+    if ident_rate and table_rate and ident_rate > 1.01 * table_rate:
+        raise click.BadParameter(f"{ident_rate:g} Hz is above the rate of {log} "
+                                 f"({table_rate:.4g} Hz); it can only lower the rate",
+                                 param_hint="--ident-rate")
     config = IdentConfig(outputs=_outputs(outputs), regressors=regressors,
                          output_lags=output_lags, input_lags=input_lags, radius=radius,
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
@@ -147,7 +170,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
 @click.option("--sim-from", type=float, default=None, metavar="SECONDS",
               help="Start the free-run simulation at this time, s (default: the start). "
                    "Identify's validation start reproduces its validation predictions.")
-@click.option("--rate", "rate_hz", type=click.FloatRange(0, min_open=True), default=None,
+@click.option("--rate", "rate_hz", type=RateHz(), default=None,
               help="Grid rate of a log, Hz (the rules are applied at their own "
                    "identification rate, stored in rules.json).")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
@@ -158,7 +181,12 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
     if sim_from is not None and not np.isfinite(sim_from):
         raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
+    check_output_dir(out)
     table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    t = table.index.to_numpy(dtype=float)
+    if sim_from is not None and len(t) and not t[0] <= sim_from < t[-1]:
+        raise click.BadParameter(f"{sim_from:g} s is outside {log} (0 … {t[-1]:.2f} s)",
+                                 param_hint="--sim-from")
     try:
         run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
                       show_progress=wanted(quiet))

@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from etsid.cli.options import echo_table_notes, log_options, read_options
+from etsid.cli.options import RateHz, echo_table_notes, log_options, read_options
 from etsid.errors import IngestError
 from etsid.ingest import inspect_log, read_log
 from etsid.table import save_table
@@ -62,7 +62,7 @@ def format_inspect(info: dict[str, Any]) -> str:
 @click.argument("log", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Output table, .parquet or .csv.")
-@click.option("--rate", "rate_hz", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--rate", "rate_hz", type=RateHz(), default=None,
               help="Grid rate in Hz (default: native rate of the body-rate source).")
 @click.option("--start", type=float, default=None, help="Start, s from the first sample.")
 @click.option("--end", type=float, default=None, help="End, s from the first sample.")
@@ -77,6 +77,7 @@ def ingest(log: Path, out: Path, rate_hz: float | None, start: float | None, end
                      start=start, end=end)
     if len(table) == 0:
         raise IngestError(f"{log}: the table has no rows")
+    overwrote = out.exists()
     try:
         save_table(table, out)
     except OSError as err:
@@ -86,7 +87,8 @@ def ingest(log: Path, out: Path, rate_hz: float | None, start: float | None, end
         (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else float("nan"))
     click.echo(f"{out}: {len(table)} rows x {len(table.columns)} columns at "
                f"{rate:.2f} Hz, {t[-1] - t[0]:.2f} s "
-               f"({', '.join(c for c in table.columns)})")
+               f"({', '.join(c for c in table.columns)})"
+               + ("; overwrote the existing file" if overwrote else ""))
     echo_table_notes(table)
 
 

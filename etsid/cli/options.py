@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -12,6 +13,50 @@ import pandas as pd
 from etsid.ingest.base import ReadOptions
 from etsid.ingest.mapping import load_mapping_file, parse_override
 from etsid.progress import wanted
+
+MAX_RATE_HZ = 100_000.0
+"""Highest grid or identification rate accepted, Hz (no flight log samples faster)."""
+
+
+class RateHz(click.ParamType):
+    """A rate in Hz: finite, above zero (or zero when ``allow_zero``), at most MAX_RATE_HZ.
+
+    ``nan``, ``inf`` and ``1e-6`` are refused here, naming the option, rather than failing
+    later with a message about something else.
+    """
+
+    name = "HZ"
+
+    def __init__(self, allow_zero: bool = False, min_hz: float = 1e-3) -> None:
+        self.allow_zero = allow_zero
+        self.min_hz = min_hz
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:
+        try:
+            rate = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number of Hz", param, ctx)
+        if self.allow_zero and rate == 0:
+            return 0.0
+        if not (self.min_hz <= rate <= MAX_RATE_HZ):
+            low = "0 or " if self.allow_zero else ""
+            self.fail(f"{value} is not a rate in Hz ({low}{self.min_hz:g} … {MAX_RATE_HZ:g})",
+                      param, ctx)
+        return rate
+
+
+def check_output_dir(out: Path, option: str = "--out") -> None:
+    """Refuse an output directory that cannot be written, before any log is read."""
+    target = out
+    while not target.exists() and target != target.parent:
+        target = target.parent
+    if target.exists() and not target.is_dir():
+        raise click.BadParameter(f"{target} is not a directory", param_hint=option)
+    if not os.access(target, os.W_OK | os.X_OK) or str(target.resolve()).startswith(
+            ("/proc", "/sys")):
+        raise click.BadParameter(f"{out}: cannot write there ({target} is not writable)",
+                                 param_hint=option)
 
 
 def log_options(func: Callable[..., Any]) -> Callable[..., Any]:

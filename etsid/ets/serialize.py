@@ -19,6 +19,13 @@ from etsid.errors import ModelError
 from etsid.ets.state import LearnedState
 
 SCHEMA_NAME = "etsid.rules/1"
+MAX_FILE_BYTES = 100 * 2**20
+"""A rules.json larger than this is refused before it is read (bounded memory and time)."""
+MAX_RULES = 1000
+"""Most rules a rule base may hold or allow (``params/max_rules``), as ``--max-rules``."""
+MAX_ABS_NUMBER = 1e100
+"""Numbers beyond ±this (and integers beyond 64 bits) are refused: no model state is that
+large, and numpy would overflow on them."""
 SCHEMA_PATH = Path(__file__).with_name("rules.schema.json")
 #: top-level fields the identification code may add freely
 FREE_FIELDS = ("regressors", "lags")
@@ -113,8 +120,49 @@ def _matrix(v: Any, shape: tuple[int, ...], what: str, source: str) -> np.ndarra
     return a
 
 
+def check_caps(data: Any, source: str) -> None:
+    """Cheap checks made before the schema check, so that its time and memory stay bounded.
+
+    Refuses a rule list longer than :data:`MAX_RULES`, ``params/max_rules`` beyond it,
+    integers beyond 64 bits and numbers beyond :data:`MAX_ABS_NUMBER` or non-finite.
+    """
+    if not isinstance(data, dict):
+        raise _fail(f"not a {SCHEMA_NAME} rule base (the top level is not an object)", source)
+    rules = data.get("rules")
+    if isinstance(rules, list):
+        if len(rules) > MAX_RULES:
+            raise _fail(f"{len(rules)} rules, more than the {MAX_RULES} a rule base may hold",
+                        source)
+        if not rules:
+            raise _fail("the rule base holds no rules (nothing to predict with)", source)
+    params = data.get("params")
+    if isinstance(params, dict):
+        cap = params.get("max_rules")
+        if isinstance(cap, (int, float)) and not isinstance(cap, bool) and not (
+                1 <= cap <= MAX_RULES):
+            text = str(cap)
+            shown = text if len(text) <= 20 else f"{text[:12]}… ({len(text)} digits)"
+            raise _fail(f"params/max_rules = {shown} is outside 1…{MAX_RULES}", source)
+    stack: list[tuple[str, Any]] = [("", data)]
+    while stack:
+        where, node = stack.pop()
+        if isinstance(node, dict):
+            stack.extend((f"{where}/{k}", v) for k, v in node.items())
+        elif isinstance(node, list):
+            stack.extend((f"{where}/{i}", v) for i, v in enumerate(node))
+        elif isinstance(node, bool) or node is None or isinstance(node, str):
+            continue
+        elif isinstance(node, int):
+            if not -(2**63) <= node < 2**63:
+                raise _fail(f"the integer at {where or '/'} does not fit in 64 bits", source)
+        elif isinstance(node, float) and not (abs(node) <= MAX_ABS_NUMBER):
+            raise _fail(f"the number at {where or '/'} is {node!r}, beyond "
+                        f"±{MAX_ABS_NUMBER:.0e}", source)
+
+
 def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
     """Validate ``data`` against the schema and rebuild the model; ModelError if invalid."""
+    check_caps(data, source)
     try:
         jsonschema.validate(data, schema())
     except jsonschema.ValidationError as err:
@@ -214,15 +262,39 @@ def _no_constant(name: str) -> Any:
     raise ValueError(f"{name} is not allowed in a rule base")
 
 
-def load(cls: type, path: str | Path) -> Any:
-    """Read and validate a rule-base file written by :func:`save`."""
+def read_document(path: str | Path) -> Any:
+    """The JSON document in a rule-base file, read within bounds.
+
+    Raises
+    ------
+    ModelError
+        Missing, unreadable or larger than :data:`MAX_FILE_BYTES`; not JSON; nested too
+        deeply; NaN/Infinity constants. Names the file.
+    """
     p = Path(path)
     try:
-        data = json.loads(p.read_text(encoding="utf-8"), parse_constant=_no_constant)
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ModelError(f"{p}: {size / 2**20:.0f} MiB is too large for a rule base "
+                             f"(limit {MAX_FILE_BYTES / 2**20:.0f} MiB)")
+        text = p.read_text(encoding="utf-8")
     except OSError as err:
         raise ModelError(f"{p}: cannot read rule base ({err.strerror or err})") from err
-    except (UnicodeDecodeError, ValueError) as err:
+    except UnicodeDecodeError as err:
+        raise ModelError(f"{p}: not a JSON file ({err}); expected a {SCHEMA_NAME} rule base"
+                         ) from err
+    try:
+        return json.loads(text, parse_constant=_no_constant)
+    except RecursionError as err:
+        raise ModelError(f"{p}: JSON nested too deeply; expected a {SCHEMA_NAME} rule base"
+                         ) from err
+    except ValueError as err:
+        first = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
         raise ModelError(
-            f"{p}: not a JSON file ({err}); expected a {SCHEMA_NAME} rule base"
+            f"{p}: not a JSON file ({first}); expected a {SCHEMA_NAME} rule base"
         ) from err
-    return model_from_dict(cls, data, source=str(p))
+
+
+def load(cls: type, path: str | Path) -> Any:
+    """Read and validate a rule-base file written by :func:`save`."""
+    return model_from_dict(cls, read_document(path), source=str(path))

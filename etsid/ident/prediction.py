@@ -3,7 +3,6 @@ over another table (one-step and free-run, optionally learning on)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +11,7 @@ import pandas as pd
 
 from etsid.errors import IdentError, ModelError
 from etsid.ets import ETS
+from etsid.ets.serialize import check_caps, read_document
 from etsid.ident.evaluate import (
     noise_std,
     output_metrics,
@@ -40,18 +40,33 @@ def load_rules(path: str | Path) -> tuple[ETS, RegressorSpec, dict[str, Any]]:
     if not path.exists():
         raise IdentError(f"{path}: no such rule-base file")
     try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as err:
-        raise IdentError(f"{path}: not a JSON rule base ({err})") from err
-    if not isinstance(data, dict) or "regressors" not in data:
+        data = read_document(path)
+        check_caps(data, str(path))
+    except ModelError as err:
+        raise IdentError(str(err)) from err
+    if not isinstance(data, dict) or not isinstance(data.get("regressors"), dict):
         raise IdentError(f"{path}: the rule base has no 'regressors' spec; "
                          "it was not written by etsid identify")
-    spec = RegressorSpec.from_dict(data["regressors"])
+    rate = data["regressors"].get("sample_rate_hz")
+    if rate is not None and (isinstance(rate, bool) or not isinstance(rate, (int, float))
+                             or not 0 < rate <= MAX_SAMPLE_RATE_HZ):
+        raise IdentError(f"{path}: regressors/sample_rate_hz must be a rate in Hz, "
+                         f"0 < rate ≤ {MAX_SAMPLE_RATE_HZ:g}, got {rate!r}")
+    try:
+        spec = RegressorSpec.from_dict(data["regressors"])
+    except IdentError as err:
+        raise IdentError(f"{path}: {err}") from err
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        raise IdentError(f"{path}: the 'regressors' spec is not valid ({err})") from err
     try:
         model = ETS.from_dict(data)
     except ModelError as err:
-        raise IdentError(f"{path}: {err}") from err
+        raise IdentError(f"{path}: {err}" if str(path) not in str(err) else str(err)) from err
     return model, spec, data
+
+
+MAX_SAMPLE_RATE_HZ = 10_000.0
+"""Highest identification rate a rule base may state (Hz); no flight log samples faster."""
 
 
 def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,

@@ -13,9 +13,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from etsid.errors import IngestError, TableError
-from etsid.ingest.align import build_table
-from etsid.ingest.base import Override, RawLog, ReadOptions, Signal
+from etsid.errors import EtsidError, IngestError, TableError
+from etsid.ingest.align import build_table, native_rate
+from etsid.ingest.base import Channel, Override, RawLog, ReadOptions, Signal
+from etsid.ingest.damage import decoder_errors, describe
 from etsid.ingest.detect import FORMATS, detect_format, open_reader
 from etsid.ingest.mapping import choose_signals
 from etsid.table import COLUMNS, is_table_path, load_table
@@ -37,7 +38,13 @@ def read_raw(path: str | Path, options: ReadOptions | None = None) -> RawLog:
     path = Path(path)
     fmt = detect_format(path)
     reader = open_reader(fmt)
-    return reader(path, options or ReadOptions())
+    try:
+        return reader(path, options or ReadOptions())
+    except EtsidError:
+        raise
+    except decoder_errors() as err:  # the one error path for damaged bytes (damage.py)
+        raise IngestError(f"{path}: damaged {fmt} file, nothing could be read "
+                          f"({describe(err)})") from err
 
 
 def read_log(
@@ -87,7 +94,29 @@ def table_from_raw(
         )
     chosen, notes = choose_signals(raw.signals, overrides, raw.path, preset)
     raw.warnings.extend(notes)
-    return build_table(raw, chosen, rate_hz=rate_hz, start=start, end=end)
+    table = build_table(raw, chosen, rate_hz=rate_hz, start=start, end=end)
+    note = missing_core_note(raw, list(table.columns))
+    if note:
+        table.attrs["warnings"].append(note)
+    return table
+
+
+CORE_COLUMNS = ("p", "q", "r", "roll", "pitch", "yaw")
+"""Columns every flight log is expected to fill; a table without them gets a note."""
+
+
+def missing_core_note(raw: RawLog, columns: list[str]) -> str | None:
+    """A note naming the core columns the table lacks and the channels that might have
+    filled them (an unrecognised or undecodable type, e.g. a damaged type name)."""
+    missing = [c for c in CORE_COLUMNS if c not in columns]
+    if not missing:
+        return None
+    suspects = [f"{c.name} ({c.type}: {c.note})" if c.note else f"{c.name} ({c.type})"
+                for c in raw.channels if not c.columns and c.count and (
+                    c.note or any(k in c.name.lower() for k in ("imu", "att", "gyro")))]
+    hint = f"; not understood: {', '.join(suspects[:3])}" if suspects else ""
+    return (f"{raw.path}: no {' '.join(missing)} in the table: nothing in the log fills "
+            f"{'it' if len(missing) == 1 else 'them'}{hint}")
 
 
 def read_table(path: str | Path, options: ReadOptions | None = None,
@@ -156,6 +185,39 @@ def inspect_table(path: str | Path) -> dict[str, Any]:
     }
 
 
+BURST_SPAN = 0.1
+"""A channel whose messages span less than this fraction of the log came in a burst."""
+
+
+def robust_rate(channel: Channel, signals: list[Signal], log_first: float | None,
+                log_last: float | None) -> tuple[float, str]:
+    """Rate of ``channel`` for ``inspect``, Hz, and a note on how it was told.
+
+    From the timestamps of a signal of the channel when there is one: the reciprocal of
+    the typical spacing (:func:`etsid.ingest.align.native_rate`, robust to gaps and bursts).
+    Otherwise count / span; a channel whose messages all came within a small part of the
+    log (a burst of parameters or mission items at start-up) is given its mean rate over
+    the whole log instead, and the note says so.
+    """
+    for sig in signals:
+        if sig.topic == channel.name and sig.t.size > 2:
+            t = np.sort(np.asarray(sig.t, dtype=float)[np.isfinite(sig.t)])
+            t = t[np.concatenate(([True], np.diff(t) > 0))] if t.size else t
+            if t.size > 2:
+                rate = native_rate(t)
+                if np.isfinite(rate):
+                    return float(rate), ""
+    rate = channel.rate_hz
+    if (log_first is None or log_last is None or channel.t_first is None
+            or channel.t_last is None or channel.count < 2):
+        return rate, ""
+    log_span = log_last - log_first
+    span = channel.t_last - channel.t_first
+    if log_span > 0 and span < BURST_SPAN * log_span:
+        return channel.count / log_span, "burst: mean rate over the log"
+    return rate, ""
+
+
 def inspect_log(path: str | Path, options: ReadOptions | None = None) -> dict[str, Any]:
     """Summary of a log for ``etsid inspect``: format, duration, channels, mapping, issues."""
     if is_table_path(path):
@@ -181,8 +243,10 @@ def inspect_log(path: str | Path, options: ReadOptions | None = None) -> dict[st
         "duration_s": None if t_first is None else float(t_last - t_first),  # type: ignore[operator]
         "channels": [
             {"name": c.name, "type": c.type, "count": c.count,
-             "rate_hz": round(c.rate_hz, 3), "columns": c.columns, "note": c.note}
+             "rate_hz": round(rate, 3), "columns": c.columns,
+             "note": "; ".join(n for n in (c.note, why) if n)}
             for c in raw.channels
+            for rate, why in [robust_rate(c, raw.signals, t_first, t_last)]
         ],
         "mapping": chosen,
         "dropped": [vars(i) for i in raw.dropped],

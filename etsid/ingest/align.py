@@ -12,7 +12,9 @@ Rules (docs/ingest.md):
   the ``segment`` column counts up after it; inside a gap of another signal its column
   is NaN. Outside a signal's span its column is NaN.
 * Non-finite samples are dropped, out-of-order samples sorted and duplicate timestamps
-  merged (first kept); every count lands in ``attrs["dropped"]`` / ``attrs["repaired"]``.
+  merged (first kept); physically implausible samples and stray timestamps are dropped
+  (:mod:`etsid.ingest.plausibility`); every count lands in ``attrs["dropped"]`` /
+  ``attrs["repaired"]``.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import pandas as pd
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
+from etsid.ingest.plausibility import check_signals
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
 
 MAX_GRID_POINTS = 50_000_000
@@ -131,6 +134,9 @@ def build_table(
     """
     dropped, repaired = list(raw.dropped), list(raw.repaired)
     cleaned = {c: clean_signal(s, dropped, repaired) for c, s in chosen.items()}
+    cleaned, note = check_signals(cleaned, dropped)
+    if note:
+        raw.warnings.append(f"{raw.path}: {note}")
     for column, sig in cleaned.items():
         if sig.t.size < 2:
             raw.warnings.append(f"{column}: left out, {sig.source} has {sig.t.size} usable "
@@ -153,9 +159,13 @@ def build_table(
         raise IngestError(f"{raw.path}: the window --start/--end selects no data")
     n_grid = int(np.floor((hi - lo) * rate + 1e-9)) + 1
     if n_grid > MAX_GRID_POINTS:
-        raise IngestError(f"{raw.path}: --rate {rate:g} Hz over {hi - lo:.1f} s gives "
-                          f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}); "
-                          "use a lower rate")
+        if rate_hz:
+            raise IngestError(f"{raw.path}: --rate {rate:g} Hz over {hi - lo:.1f} s gives "
+                              f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}); "
+                              "use a lower rate")
+        raise IngestError(f"{raw.path}: {ref.source} spans {hi - lo:.3g} s at {rate:.4g} Hz, "
+                          f"{n_grid:.3g} grid points (limit {MAX_GRID_POINTS:.0e}): its "
+                          "timestamps look damaged; cut a window with --start/--end")
     grid = lo + np.arange(n_grid) / rate
     keep = np.ones(grid.size, dtype=bool)
     gaps = []

@@ -103,6 +103,15 @@ def _reader_class() -> type:
         def init_clock(self) -> None:
             self.clock = DFReader.DFReaderClock_usec()
 
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            try:
+                super().__init__(*args, **kwargs)
+            except BaseException:  # a broken file: do not leak the handle DFReader opened
+                for name in ("data_map", "filehandle"):
+                    with contextlib.suppress(Exception):
+                        getattr(self, name).close()
+                raise
+
     return IndexOnly
 
 
@@ -253,6 +262,8 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         del data
         with contextlib.suppress(Exception):
             reader.close()  # type: ignore[attr-defined]
+        with contextlib.suppress(Exception):
+            reader.filehandle.close()  # type: ignore[attr-defined]  # close() leaves it open
 
 
 def _read(path: Path, reader: object, data: np.ndarray, noise: str,

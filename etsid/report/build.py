@@ -5,6 +5,9 @@ from __future__ import annotations
 import base64
 import html
 import json
+import shutil
+import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -69,11 +72,45 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     except IdentError as err:
         raise ReportError(str(err)) from err
     out = Path(run_dir) / "report"
-    out.mkdir(exist_ok=True)
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=".report-", dir=Path(run_dir)))
+    except OSError as err:
+        raise ReportError(f"{run_dir}: cannot write a report there "
+                          f"({err.strerror or err})") from err
+    try:
+        report = _write(run, staging, fmt)
+        _replace(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    report.directory = out
+    report.figures = {name: out / path.name for name, path in report.figures.items()}
+    report.html, report.markdown = out / "index.html", out / "report.md"
+    return report
+
+
+def _replace(staging: Path, out: Path) -> None:
+    """Put the finished ``staging`` directory at ``out`` (the old report goes only then)."""
+    old = None
+    if out.exists():
+        old = out.with_name(f".{out.name}-old-{staging.name}")
+        out.rename(old)
+    try:
+        staging.rename(out)
+    except OSError:
+        if old is not None:
+            old.rename(out)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _write(run: Run, out: Path, fmt: str) -> Report:
+    """Every figure, index.html and report.md of ``run`` into ``out``."""
     report = Report(out)
     embedded: dict[str, tuple[str, str]] = {}
-    for name, (builder, _) in FIGURES.items():
-        fig = builder(run)
+    for name, (builder, caption) in FIGURES.items():
+        fig = _build(builder, run, caption)
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
         if fmt == "png":
             embedded[name] = ("image/png", base64.b64encode(
@@ -90,6 +127,27 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     report.markdown = out / "report.md"
     report.markdown.write_text(render_markdown(run, report.figures, rules))
     return report
+
+
+def _build(builder: Any, run: Run, caption: str) -> Any:
+    """The figure of ``builder``; on data too short or degenerate for it, a figure that
+    says so. Warnings of numpy and matplotlib about such data (empty legends, overflow)
+    are not passed on: the figure itself says what is missing."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return builder(run)
+        except (ValueError, IndexError, ZeroDivisionError, FloatingPointError, KeyError) as err:
+            from matplotlib.figure import Figure
+
+            fig = Figure(figsize=(6, 1.2))
+            n = (run.metrics.get("validation") or {}).get("n_validation") \
+                if isinstance(run.metrics, dict) else None
+            more = f" ({n} validation samples)" if n is not None else ""
+            fig.text(0.02, 0.5, f"{caption.split('.')[0]}: not drawn, the run's data are too "
+                     f"short or degenerate for it{more}: {err}"[:160], va="center",
+                     fontsize=8)
+            return fig
 
 
 def _title(run: Run) -> str:

@@ -285,8 +285,9 @@ def fig_residuals(run: Run, max_lag: int = 40) -> Figure:
             ax_h.set_ylabel(f"density (1/{unit})" if unit and unit != "1" else "density")
             ax_h.set_title(what, loc="left")
             ax_h.legend(loc="upper right")
-            lags = np.arange(max_lag + 1)
-            ac = autocorrelation(res, max_lag)
+            lag_count = min(max_lag, res.size - 1)  # short validation parts: fewer lags
+            lags = np.arange(lag_count + 1)
+            ac = autocorrelation(res, lag_count)
             ax_a.vlines(lags, 0, ac, color="tab:blue")
             ax_a.plot(lags, ac, "o", ms=2.5, color="tab:blue", label="autocorrelation")
             band = 1.96 / np.sqrt(res.size)

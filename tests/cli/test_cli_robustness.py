@@ -57,9 +57,42 @@ def test_ingest_bad_window(tmp_path: Path, opt: list[str]) -> None:
     assert_error(["ingest", "-q", TLOG, "-o", tmp_path / "o.parquet", *opt], TLOG.name, opt[0])
 
 
-def test_ingest_huge_rate(tmp_path: Path) -> None:
-    assert_error(["ingest", "-q", TLOG, "-o", tmp_path / "o.parquet", "--rate", "1e9"],
-                 TLOG.name, "--rate")
+@pytest.mark.parametrize("rate", ["1e9", "nan", "inf", "-inf", "1e-6", "0", "fast"])
+def test_ingest_absurd_rate_names_the_option(tmp_path: Path, rate: str) -> None:
+    line = assert_error(["ingest", "-q", TLOG, "-o", tmp_path / "o.parquet", "--rate", rate],
+                        "--rate", code=2)
+    assert rate in line
+    assert not (tmp_path / "o.parquet").exists()
+
+
+def test_ident_rate_above_the_log_rate_is_refused(tmp_path: Path) -> None:
+    gas = ROOT / "tests" / "data" / "gas_furnace.csv"
+    assert_error(["identify", gas, "--output", "co2", "--regressors", "co2[k-1]",
+                  "--ident-rate", "5000", "--out", tmp_path / "run"], "--ident-rate",
+                 "gas_furnace.csv", code=2)
+    assert_error(["identify", gas, "--output", "co2", "--regressors", "co2[k-1]",
+                  "--ident-rate", "1e9", "--out", tmp_path / "run"], "--ident-rate", code=2)
+
+
+def test_unwritable_out_is_refused_before_the_log_is_read(tmp_path: Path) -> None:
+    # the log does not exist: had it been read first, the error would name it
+    line = assert_error(["identify", tmp_path / "missing.tlog", "--out", "/proc/x"], "--out",
+                        code=2)
+    assert "missing.tlog" not in line
+
+
+def test_ingest_says_it_overwrote(tmp_path: Path) -> None:
+    out = tmp_path / "o.parquet"
+    first = run("ingest", "-q", TLOG, "-o", out)
+    assert first[0] == 0 and "overwrote the existing file" not in first[1]
+    second = run("ingest", "-q", TLOG, "-o", out)
+    assert second[0] == 0 and "overwrote the existing file" in second[1]
+
+
+def test_bare_etsid_prints_help_to_stdout() -> None:
+    code, out, err = run()
+    assert code == 0 and err == ""
+    assert "Usage:" in out and "ingest" in out and "identify" in out
 
 
 def test_map_non_numeric_dataflash_field(tmp_path: Path) -> None:

@@ -109,11 +109,20 @@ def test_xsens_custom_types_imu_only() -> None:
 
 def test_old_metadata_bag_uses_shipped_definitions() -> None:
     table = read_log(DATA / "ros2_old_metadata_bag")
-    assert {"p", "q", "r", "ax", "ay", "az", "roll", "vbat", "alt"} <= set(table.columns)
-    assert table.attrs["mapping"]["p"] == "/imu.angular_velocity.x"
+    assert {"roll", "vbat", "alt"} <= set(table.columns)
     assert len(table) == 1565
     assert {"reason": "voltage 0 or unknown", "count": 785, "signal": "/battery.voltage"} \
         in table.attrs["dropped"]
+    # its IMU holds placeholders (p = 131 rad/s, 151 m/s² on every axis, vbat near 0 V):
+    # dropped as physically implausible and said, not passed on
+    dropped = {(d["signal"], d["reason"]): d["count"] for d in table.attrs["dropped"]}
+    assert dropped["/imu.angular_velocity.x", "implausible value (|p| ≤ 35 rad/s)"] == 1565
+    assert dropped["/imu.linear_acceleration.z",
+                   "implausible value (|specific force| ≤ 16 g = 156.9 m/s²)"] == 1565
+    assert dropped["/battery.voltage", "implausible value (0.5 ≤ vbat ≤ 100 V)"] == 262
+    assert not {"p", "q", "r", "ax", "ay", "az"} & set(table.columns)
+    assert table["vbat"].min() >= 0.5
+    assert any("physically implausible" in w for w in table.attrs["warnings"])
 
 
 @pytest.mark.parametrize("name", ["ros2_talker_db3", "ros2_talker_mcap"])

@@ -33,12 +33,13 @@ from typing import Any
 
 from etsid.errors import IngestError
 from etsid.ingest.base import RawLog, ReadOptions
+from etsid.ingest.damage import decoder_errors
 from etsid.ingest.ros.converter import Converter, TopicData
 from etsid.ingest.ros.fast import decode as fast
 from etsid.ingest.ros.fast import mcap as fast_mcap
 from etsid.ingest.ros.fast import ros2 as fast_ros2
 from etsid.ingest.ros.fast.decode import Batcher
-from etsid.ingest.ros.fast.ros1 import NotFast, Ros1Bag
+from etsid.ingest.ros.fast.ros1 import LostChunk, NotFast, Ros1Bag
 from etsid.progress import progress
 from etsid.rosmsgs import typestore
 
@@ -66,14 +67,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
 
 
 def _errors() -> tuple[type[BaseException], ...]:
-    from rosbags.highlevel import AnyReaderError
-    from rosbags.rosbag1 import ReaderError as Reader1Error
-    from rosbags.rosbag2 import ReaderError as Reader2Error
-    from rosbags.serde import SerdeError
-    from rosbags.typesys import TypesysError
-
-    return (AnyReaderError, Reader1Error, Reader2Error, SerdeError, TypesysError, KeyError,
-            ValueError, struct.error, OSError, EOFError, AssertionError)
+    return decoder_errors()
 
 
 def _first_line(err: BaseException) -> str:
@@ -241,9 +235,28 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
     finally:
         bag.close()
     _note_broken(conv, broken, raw)
+    _note_lost(bag.lost, conv, raw)
     raw.extra["storage"] = "rosbag1"
     raw.extra["message_count"] = sum(c.count for c in bag.connections.values())
     return conv
+
+
+def _note_lost(lost: list[LostChunk], conv: Converter, raw: RawLog) -> None:
+    """One coverage note for the damaged chunks the fast reader skipped."""
+    if not lost:
+        return
+    base = conv.base_ns
+    spans = [((c.start_ns - base) * 1e-9, (c.end_ns - base) * 1e-9) for c in lost
+             if base is not None and c.end_ns >= c.start_ns > 0]
+    spans = [(a, b) for a, b in spans if -1e6 < a <= b < 1e6]
+    what = (f"skipped {len(lost)} damaged chunk(s) at byte "
+            f"{', '.join(str(c.pos) for c in lost[:5])}{' …' if len(lost) > 5 else ''} "
+            f"({lost[0].why}): {sum(c.messages for c in lost)} message(s) lost")
+    if spans:
+        where = ", ".join(f"{a:.1f}–{b:.1f} s" for a, b in spans[:5])
+        what += (f"; {sum(b - a for a, b in spans):.1f} s of the recording missing "
+                 f"(t = {where})")
+    raw.warnings.append(f"{raw.path}: {what}")
 
 
 def _missing_types(default: Any, have: Any, names: set[str]) -> dict[str, Any]:
@@ -293,7 +306,16 @@ def _read_ros2(path: Path, options: ReadOptions, raw: RawLog) -> None:
         fallback, conv = path.is_dir(), None
         why = f"metadata.yaml unusable ({_first_line(err)})"
         if not fallback:
-            raise IngestError(f"{path}: not a readable ROS 2 bag ({_first_line(err)})") from err
+            try:
+                _salvage(path, options, raw)
+            except IngestError:
+                raise IngestError(f"{path}: not a readable ROS 2 bag ({_first_line(err)})"
+                                  ) from err
+            raw.warnings.insert(0, f"{path}: damaged storage file ({_first_line(err)}); "
+                                "kept what can be read")
+            return
+        if _metadata_loads(path):
+            why = f"storage file damaged ({_first_line(err)})"
     if fallback:
         if not storage:
             raise IngestError(f"{path}: {why}, and no .db3/.mcap storage file next to it")
@@ -301,9 +323,57 @@ def _read_ros2(path: Path, options: ReadOptions, raw: RawLog) -> None:
         try:
             conv = _read_any(storage, options, raw, ros1=False)
         except errors as err:
-            raise IngestError(f"{path}: {why}; its storage file is not readable either "
-                              f"({_first_line(err)})") from err
+            if len(storage) != 1:
+                raise IngestError(f"{path}: {why}; its storage files are not readable either "
+                                  f"({_first_line(err)})") from err
+            try:
+                _salvage(storage[0], options, raw)
+            except IngestError as salvage_err:
+                raise IngestError(f"{path}: {why}; its storage file is not readable either "
+                                  f"({salvage_err})") from err
+            return
     assert conv is not None
+    if len(storage) == 1 and storage[0].suffix == ".db3" and any(
+            "reading stopped early" in w for w in raw.warnings):
+        trial = RawLog(path=raw.path, format=raw.format)
+        try:
+            _salvage(storage[0], options, trial)
+        except IngestError:
+            trial = None
+        kept = sum(t.count for t in conv.topics.values())
+        if trial is not None and int(trial.extra.get("message_count", 0)) > kept:
+            early = [w for w in raw.warnings if "reading stopped early" in w]
+            raw.warnings[:] = [w for w in raw.warnings if w not in early]
+            for name in ("channels", "signals", "start_time", "dropped", "repaired", "extra"):
+                setattr(raw, name, getattr(trial, name))
+            raw.warnings.append(f"{early[0].split('; ')[0]}; read on past the damage")
+            raw.warnings.extend(trial.warnings)
+            return
+    conv.finish(raw)
+
+
+def _metadata_loads(path: Path) -> bool:
+    """True when the bag's metadata.yaml is valid YAML naming storage files that exist."""
+    import yaml
+
+    try:
+        data = yaml.safe_load((path / "metadata.yaml").read_text())
+    except (OSError, ValueError, yaml.YAMLError):
+        return False
+    info = data.get("rosbag2_bagfile_information") if isinstance(data, dict) else None
+    files = info.get("relative_file_paths") if isinstance(info, dict) else None
+    return isinstance(files, list) and bool(files) and all(
+        isinstance(f, str) and (path / f).is_file() for f in files)
+
+
+def _salvage(storage: Path, options: ReadOptions, raw: RawLog) -> None:
+    """Read what a damaged storage file still holds (:mod:`etsid.ingest.ros.salvage`)."""
+    from etsid.ingest.ros import salvage
+
+    if storage.suffix == ".mcap":
+        salvage.read_mcap(storage, options, raw)
+        return
+    conv = salvage.read_db3(storage, options, raw)
     conv.finish(raw)
 
 
@@ -342,7 +412,7 @@ def _fields(buf: bytes | memoryview) -> dict[str, bytes]:
     while pos + 4 <= len(buf):
         (size,) = struct.unpack_from("<I", buf, pos)
         name, _, value = bytes(buf[pos + 4:pos + 4 + size]).partition(b"=")
-        out[name.decode()] = value
+        out[name.decode("latin-1")] = value
         pos += 4 + size
     return out
 
@@ -394,7 +464,7 @@ def _scan_ros1(path: Path, options: ReadOptions, raw: RawLog) -> Converter:
     for header, body, end in _records(data, len(magic)):
         op = header.get("op", b"\0")[0]
         if op == _OP_CHUNK:
-            kind = header.get("compression", b"none").decode()
+            kind = header.get("compression", b"none").decode("latin-1")
             try:
                 inner = _decompress(kind, body)
             except (OSError, EOFError, ValueError, RuntimeError) as err:
@@ -433,7 +503,7 @@ def _partial_chunk(data: bytes, pos: int) -> Iterator[tuple[str, memoryview]]:
         return
     header = _fields(view[pos + 4:pos + 4 + hlen])
     if header.get("op", b"\0")[0] == _OP_CHUNK:
-        yield header.get("compression", b"none").decode(), view[pos + 8 + hlen:]
+        yield header.get("compression", b"none").decode("latin-1"), view[pos + 8 + hlen:]
 
 
 def _add_connection(header: dict[str, bytes], body: memoryview, conns: dict[int, Any],
@@ -442,8 +512,8 @@ def _add_connection(header: dict[str, bytes], body: memoryview, conns: dict[int,
     if cid in conns:
         return
     info = _fields(body)
-    topic = header.get("topic", info.get("topic", b"")).decode()
-    msgtype = info.get("type", b"").decode()
+    topic = header.get("topic", info.get("topic", b"")).decode("utf-8", "replace")
+    msgtype = info.get("type", b"").decode("utf-8", "replace")
     pkg, _, name = msgtype.partition("/")
     typename = f"{pkg}/msg/{name}"
     try:

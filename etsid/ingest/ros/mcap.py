@@ -163,6 +163,7 @@ class _State:
         self.channels: dict[int, tuple[TopicData, Any]] = {}
         self.encodings: set[str] = set()
         self.messages = 0
+        self.lost: list[fast_mcap.LostChunk] = []
 
     def record(self, record: Any) -> None:
         """Take a Schema, Channel or Header record, or a run of messages (numpy walk)."""
@@ -170,6 +171,8 @@ class _State:
 
         if isinstance(record, fast_mcap.Messages):
             self.run(record)
+        elif isinstance(record, fast_mcap.LostChunk):
+            self.lost.append(record)
         elif isinstance(record, Schema):
             self.schemas[record.id] = record
         elif isinstance(record, Channel):
@@ -230,8 +233,29 @@ class _State:
             self.raw.warnings.append(f"{name}: {topic.count} message(s) could not be decoded "
                                      f"and were skipped ({why})")
         self.raw.extra["encodings"] = sorted(self.encodings)
+        self._note_lost()
         self.conv.finish(self.raw)
         return self.raw
+
+    def _note_lost(self) -> None:
+        """One coverage note for the damaged chunks that were skipped."""
+        if not self.lost:
+            return
+        base = self.conv.base_ns
+        spans = [(c.start_ns, c.end_ns) for c in self.lost]
+        seconds = None
+        if base is not None:
+            seconds = [((a - base) * 1e-9, (b - base) * 1e-9) for a, b in spans]
+            seconds = [(a, b) for a, b in seconds if -1e6 < a <= b < 1e6] or None
+        what = (f"skipped {len(self.lost)} damaged chunk(s) at byte "
+                f"{', '.join(str(c.pos) for c in self.lost[:5])}"
+                f"{' …' if len(self.lost) > 5 else ''} ({self.lost[0].why}); "
+                f"kept {self.messages} message(s) from the other chunks")
+        if seconds:
+            lost_s = sum(b - a for a, b in seconds)
+            where = ", ".join(f"{a:.1f}–{b:.1f} s" for a, b in seconds[:5])
+            what += f"; {lost_s:.1f} s of the recording missing (t = {where})"
+        self.raw.warnings.append(f"{self.raw.path}: {what}")
 
 
 def _open_channel(conv: Converter, record: Any, schemas: dict[int, Any]) -> tuple[TopicData, Any]:

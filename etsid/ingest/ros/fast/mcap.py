@@ -8,8 +8,10 @@ Schema/Channel records) are read at once with numpy gathers: channel id, log tim
 offset and length. Same-length bodies of one channel come out as a (messages, bytes)
 array for :func:`etsid.ingest.ros.fast.decode.decode_batch`.
 
-Only complete files (closing magic present) are read here; a cut or damaged file raises
-:class:`NotFast` and the caller uses the stream reader, which reports the damage.
+Only complete files (closing magic present) are read here; a cut file, or damage outside
+the chunks, raises :class:`NotFast` and the caller uses the stream reader, which reports
+the damage. A chunk that does not decompress, fails its CRC or holds broken records is
+skipped whole and reported as a :class:`LostChunk` (the chunks after it are still read).
 """
 
 from __future__ import annotations
@@ -29,6 +31,24 @@ _RECORD = struct.Struct("<BQ")
 
 class NotFast(Exception):
     """The file needs the stream reader (cut short, damaged, unknown compression)."""
+
+
+MAX_CHUNK_BYTES = 1 << 30
+"""A chunk claiming to decompress to more than this is damaged (checked before allocating)."""
+
+
+@dataclass
+class LostChunk:
+    """A chunk skipped because it is damaged: where, which log times, and why."""
+
+    pos: int
+    start_ns: int
+    end_ns: int
+    why: str
+
+
+class _Damaged(Exception):
+    """A chunk's bytes are broken (bad compression, CRC, length or inner record)."""
 
 
 @dataclass
@@ -139,8 +159,7 @@ def _walk(buf: bytes, start: int, end: int, top: bool) -> Iterator[Any]:
             elif op == _OP_HEADER:
                 yield _header(buf, pos + 9)
             elif op == _OP_CHUNK and top:
-                inner = _chunk(buf, pos + 9)
-                yield from _walk(inner, 0, len(inner), False)
+                yield from _chunk_records(buf, pos + 9, length)
             elif op == _OP_FOOTER:
                 return
         pos = nxt
@@ -148,22 +167,55 @@ def _walk(buf: bytes, start: int, end: int, top: bool) -> Iterator[Any]:
         yield _messages(buf, run)
 
 
-def _chunk(buf: bytes, pos: int) -> bytes:
-    (size,) = struct.unpack_from("<Q", buf, pos + 16)
-    kind, pos = _string(buf, pos + 28)
-    (n,) = struct.unpack_from("<Q", buf, pos)
-    data = buf[pos + 8:pos + 8 + n]
+def _chunk_records(buf: bytes, pos: int, length: int) -> Iterator[Any]:
+    """The records of the chunk at ``pos``, or one :class:`LostChunk` when it is damaged."""
+    start_ns, end_ns = struct.unpack_from("<QQ", buf, pos)
+    try:
+        inner = _chunk(buf, pos, length)
+        found = list(_walk(inner, 0, len(inner), False))
+    except NotFast as err:
+        if str(err).startswith("compression"):
+            raise
+        yield LostChunk(pos - 9, start_ns, end_ns, str(err))
+    except (_Damaged, struct.error, UnicodeDecodeError, ValueError, IndexError,
+            RuntimeError, MemoryError, *_zstd_error()) as err:
+        yield LostChunk(pos - 9, start_ns, end_ns, str(err) or type(err).__name__)
+    else:
+        yield from found
+
+
+def _zstd_error() -> tuple[type[Exception], ...]:
+    import zstandard
+
+    return (zstandard.ZstdError,)
+
+
+def _chunk(buf: bytes, pos: int, length: int) -> bytes:
+    import zlib
+
+    size, crc = struct.unpack_from("<QI", buf, pos + 16)
+    kind, at = _string(buf, pos + 28)
+    (n,) = struct.unpack_from("<Q", buf, at)
+    if at + 8 + n > pos + length or size > MAX_CHUNK_BYTES:
+        raise _Damaged("corrupt chunk length")
+    data = buf[at + 8:at + 8 + n]
     if kind == "":
-        return bytes(data)
-    if kind == "zstd":
+        out = bytes(data)
+    elif kind == "zstd":
         import zstandard
 
-        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    if kind == "lz4":
+        out = zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
+    elif kind == "lz4":
         import lz4.frame
 
-        return lz4.frame.decompress(data)
-    raise NotFast(f"compression {kind!r}")
+        out = lz4.frame.decompress(data)
+    else:
+        raise NotFast(f"compression {kind!r}")
+    if len(out) != size:
+        raise _Damaged(f"chunk decompresses to {len(out)} bytes, not {size}")
+    if crc and zlib.crc32(out) != crc:
+        raise _Damaged("chunk CRC mismatch")
+    return out
 
 
 def _top(handle: Any, end: int) -> Iterator[Any]:
@@ -190,8 +242,12 @@ def _top(handle: Any, end: int) -> Iterator[Any]:
         if run:
             yield from _walk(bytes(run), 0, len(run), False)
             run = bytearray()
+        base = handle.tell() - 9
         body = head + handle.read(length)
-        yield from _walk(body, 0, len(body), True)
+        for rec in _walk(body, 0, len(body), True):
+            if isinstance(rec, LostChunk):
+                rec.pos += base
+            yield rec
         if op == _OP_FOOTER:
             return
     if run:

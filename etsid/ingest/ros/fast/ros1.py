@@ -19,6 +19,7 @@ chunks, one connection per topic, every message record header alike); otherwise
 from __future__ import annotations
 
 import bz2
+import os
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -51,6 +52,23 @@ class Connection:
 class _Chunk:
     pos: int
     counts: dict[int, int]
+    start_ns: int = 0
+    end_ns: int = 0
+
+
+class Damaged(NotFast):
+    """A chunk's bytes are broken (bad compression, length, offset or record)."""
+
+
+@dataclass
+class LostChunk:
+    """A chunk skipped because it is damaged: where, how many messages, which times, why."""
+
+    pos: int
+    messages: int
+    start_ns: int
+    end_ns: int
+    why: str
 
 
 def _fields(buf: bytes) -> dict[str, bytes]:
@@ -68,9 +86,14 @@ def _record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes]:
     head = handle.read(4)
     if len(head) < 4:
         raise NotFast("record cut short")
+    left = os.fstat(handle.fileno()).st_size - handle.tell()
     (hlen,) = struct.unpack("<I", head)
+    if hlen > left:  # a corrupt length: refuse before allocating
+        raise Damaged("record length beyond the end of the file")
     header = handle.read(hlen)
     (dlen,) = struct.unpack("<I", handle.read(4))
+    if dlen > left - hlen:
+        raise Damaged("record length beyond the end of the file")
     data = handle.read(dlen)
     if len(header) < hlen or len(data) < dlen:
         raise NotFast("record cut short")
@@ -90,6 +113,13 @@ def _value_offset(buf: bytes, name: bytes) -> int:
 
 def _op(header: dict[str, bytes]) -> int:
     return header.get("op", b"\xff")[0]
+
+
+def _time_ns(value: bytes | None) -> int:
+    if value is None or len(value) < 8:
+        return 0
+    sec, nsec = struct.unpack("<II", value[:8])
+    return sec * 1_000_000_000 + nsec
 
 
 def _u32(value: bytes) -> int:
@@ -146,7 +176,9 @@ class Ros1Bag:
             if _op(header) != _OP_CHUNK_INFO or _u32(header["ver"]) != 1:
                 raise NotFast("bad chunk info record")
             counts = dict(struct.iter_unpack("<II", data[:8 * _u32(header["count"])]))
-            self.chunks.append(_Chunk(struct.unpack("<Q", header["chunk_pos"])[0], counts))
+            self.chunks.append(_Chunk(struct.unpack("<Q", header["chunk_pos"])[0], counts,
+                                      _time_ns(header.get("start_time")),
+                                      _time_ns(header.get("end_time"))))
             for cid, n in counts.items():
                 self.connections[cid].count += n
         topics = [c.topic for c in self.connections.values()]
@@ -159,23 +191,26 @@ class Ros1Bag:
         h.seek(chunk.pos)
         header, data = _record(h)
         if _op(header) != _OP_CHUNK:
-            raise NotFast("bad chunk record")
-        kind = header.get("compression", b"none").decode()
-        if kind == "lz4":
-            import lz4.frame
+            raise Damaged("bad chunk record")
+        kind = header.get("compression", b"none").decode("latin-1")
+        try:
+            if kind == "lz4":
+                import lz4.frame
 
-            buf = lz4.frame.decompress(data)
-        elif kind == "bz2":
-            buf = bz2.decompress(data)
-        elif kind == "none":
-            buf = data
-        else:
-            raise NotFast(f"compression {kind}")
+                buf = lz4.frame.decompress(data)
+            elif kind == "bz2":
+                buf = bz2.decompress(data)
+            elif kind == "none":
+                buf = data
+            else:
+                raise NotFast(f"compression {kind}")
+        except (RuntimeError, OSError, ValueError, EOFError, MemoryError) as err:
+            raise Damaged(f"{kind} chunk does not decompress ({err})") from err
         index: dict[int, np.ndarray] = {}
         for _ in range(len(chunk.counts)):
             header, data = _record(h)
             if _op(header) != _OP_INDEX or _u32(header["ver"]) != 1:
-                raise NotFast("bad index data record")
+                raise Damaged("bad index data record")
             cid, count = _u32(header["conn"]), _u32(header["count"])
             index[cid] = np.frombuffer(data, dtype=_INDEX, count=count)
         return buf, index
@@ -223,7 +258,7 @@ class Ros1Bag:
         if len(off) == 0:
             return np.zeros((0, 0), dtype=np.uint8), []
         if off.max() + 8 > len(u8):
-            raise NotFast("index offset outside the chunk")
+            raise Damaged("index offset outside the chunk")
         four = np.arange(4)
         hlen = u8[off[:, None] + four].view("<u4").ravel().astype(np.int64)
         h0 = int(hlen[0])
@@ -231,7 +266,7 @@ class Ros1Bag:
             raise NotFast("message record headers differ")
         header = _fields(bytes(buf[off[0] + 4:off[0] + 4 + h0]))
         if _op(header) != _OP_MSG:
-            raise NotFast("index points at a non-message record")
+            raise Damaged("index points at a non-message record")
         starts = (off + 4).tolist()
         heads = np.frombuffer(b"".join([buf[o:o + h0] for o in starts]),
                               dtype=np.uint8).reshape(-1, h0)
@@ -244,7 +279,7 @@ class Ros1Bag:
         dlen = u8[dpos[:, None] + four].view("<u4").ravel().astype(np.int64)
         start = dpos + 4
         if (start + dlen).max() > len(u8):
-            raise NotFast("message outside the chunk")
+            raise Damaged("message outside the chunk")
         if (dlen == dlen[0]).all():
             size = int(dlen[0])
             body = b"".join([buf[s:s + size] for s in start.tolist()])
@@ -253,12 +288,23 @@ class Ros1Bag:
 
     def messages(self) -> Iterator[tuple[Connection, np.ndarray, np.ndarray | None,
                                          list[bytes]]]:
-        """Per chunk and connection: connection, int64 record times (ns), bodies."""
+        """Per chunk and connection: connection, int64 record times (ns), bodies.
+
+        A damaged chunk is skipped whole and listed in :attr:`lost`.
+        """
+        self.lost: list[LostChunk] = []
         for chunk in self.chunks:
-            buf, index = self.chunk_messages(chunk)
-            for cid, entries in index.items():
-                arr, bodies = self.gather(buf, entries)
-                yield self.connections[cid], times_ns(entries), arr, bodies
+            try:
+                buf, index = self.chunk_messages(chunk)
+                out = []
+                for cid, entries in index.items():
+                    arr, bodies = self.gather(buf, entries)
+                    out.append((self.connections[cid], times_ns(entries), arr, bodies))
+            except (Damaged, struct.error, KeyError, IndexError) as err:
+                self.lost.append(LostChunk(chunk.pos, sum(chunk.counts.values()),
+                                           chunk.start_ns, chunk.end_ns, str(err)))
+                continue
+            yield from out
 
 
 def times_ns(entries: np.ndarray) -> np.ndarray:
