@@ -73,6 +73,9 @@ def _table_rate(table: object) -> float | None:
 @click.option("--regressors", metavar="SPEC",
               help='NARX regressors, e.g. "co2[k-1],input_gas_rate[k-4]" or '
                    '"p[k-1..k-3],u_roll[k-1..k-2]".')
+@click.option("--antecedent", metavar="SPEC",
+              help='Scheduling terms the rules fire on (consequents stay on all '
+                   'regressors), e.g. "alt[k-1],u_thrust[k-1]"; default: the regressors.')
 @click.option("--output-lags", type=click.IntRange(1, 50), default=IdentConfig.output_lags,
               show_default=True, help="Default rate model: lags of each rate, samples.")
 @click.option("--input-lags", type=click.IntRange(1, 50), default=IdentConfig.input_lags,
@@ -122,7 +125,8 @@ def _table_rate(table: object) -> float | None:
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
-                 output_lags: int, input_lags: int, radius: float, omega: float, variant: str,
+                 antecedent: str | None, output_lags: int, input_lags: int, radius: float,
+                 omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
                  rate_hz: float | None, ident_rate: float | None, inputs: str, segments: str,
@@ -150,7 +154,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          output_lags=output_lags, input_lags=input_lags, radius=radius,
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
-                         inputs=inputs, normalise=normalise, segments=segments)
+                         inputs=inputs, normalise=normalise, segments=segments,
+                         antecedent=antecedent)
     try:
         run = identify(table, config, source=log, show_progress=wanted(quiet))
     except IdentError as err:

@@ -5,7 +5,7 @@
   ``u_ff``, ``u_fb``, ``mass``;
 * ``metrics.json`` — scores (:mod:`etsid.control.metrics`), rule counts, timing;
 * ``config.json`` — ``"kind": "control"``, scenario, controller and its settings, vehicle, seed;
-* eTS only: ``rules.json`` (the learnt inverse model, schema ``etsid.rules/1``),
+* eTS only: ``rules.json`` (the learnt inverse model, schema ``etsid.rules/2``),
   ``history.parquet`` (per learned sample: ``t``, ``step``, ``n_rules``, ``potential``,
   ``focal_max`` = P_max, ``focal_min`` = P_min, cumulative ``births``, ``replacements``,
   ``removals``) and ``events.parquet`` (``t``, ``step``, ``kind``, ``rule_id``).

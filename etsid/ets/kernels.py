@@ -24,6 +24,7 @@ from etsid.ets.layout import (
     IP_MAX_RULES,
     IP_MIN_SUPPORT,
     IP_PRUNE_AFTER,
+    IP_SCHEDULED,
     IP_VARIANT,
     RADIUS_FLOOR,
     SQRT8,
@@ -60,7 +61,7 @@ def _add_rule(
     """Append a rule centred on z (raw units); returns its id."""
     R = si[1]
     n = r0.shape[0]
-    n1 = n + 1
+    n1 = Pi.shape[1]
     m = Pi.shape[2]
     rid = si[2]
     si[2] = rid + 1
@@ -136,15 +137,16 @@ def remove_rule(
 
 
 @njit(cache=True, boundscheck=False)
-def _refresh_scales(lo, hi, s, w2, isx, n) -> None:
-    """s = hi - lo (1 where zero), w2 = 1 / s^2 over z, isx = 1 / s over the inputs."""
+def _refresh_scales(lo, hi, s, w2, isx, n, xo) -> None:
+    """s = hi - lo (1 where zero), w2 = 1 / s^2 over z, isx = 1 / s over the consequent
+    inputs (z[xo : xo + n])."""
     for j in range(lo.shape[0]):
         w = hi[j] - lo[j]
         sj = w if w > 0.0 else 1.0
         s[j] = sj
         w2[j] = 1.0 / (sj * sj)
-        if j < n:
-            isx[j] = 1.0 / sj
+        if xo <= j < xo + n:
+            isx[j - xo] = 1.0 / sj
 
 
 @njit(cache=True, boundscheck=False)
@@ -232,13 +234,16 @@ def _rule_outputs(xe, PiT, R, yrT) -> None:
 
 
 @njit(cache=True, boundscheck=False)
-def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
+def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo) -> None:
     """Batch prediction with frozen rules; NaN rows when the model has no rule.
 
+    ``S`` holds the antecedent (scheduling) inputs, ``X`` the consequent inputs (the same
+    array when the model is not scheduled); ``xo`` is the offset of x in z.
     Same arithmetic, in the same order, as step 1 of ``learn_kernel``, so a prediction
     equals the one ``run`` would have made bit for bit.
     """
     N, n = X.shape
+    na = S.shape[1]
     m = Yhat.shape[1]
     d = lo.shape[0]
     n1 = n + 1
@@ -251,9 +256,9 @@ def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
     s = np.empty(d)
     w2 = np.empty(d)
     isx = np.empty(n)
-    _refresh_scales(lo, hi, s, w2, isx, n)
+    _refresh_scales(lo, hi, s, w2, isx, n, xo)
     czT = np.empty((d, R))
-    aT = np.empty((n, R))
+    aT = np.empty((na, R))
     for i in range(R):
         _sync_rule(i, cz, rad, s, czT, aT)
     PiT = np.empty((n1, m, R))
@@ -264,10 +269,10 @@ def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
     xe = np.empty(n1)
     yrT = np.empty((m, R))
     for t in range(N):
-        _fire(X, t, czT, aT, R, ex, lam)
+        _fire(S, t, czT, aT, R, ex, lam)
         xe[0] = 1.0
         for j in range(n):
-            xe[j + 1] = (X[t, j] - lo[j]) * isx[j]
+            xe[j + 1] = (X[t, j] - lo[xo + j]) * isx[j]
         _rule_outputs(xe, PiT, R, yrT)
         for o in range(m):
             acc = 0.0
@@ -279,6 +284,7 @@ def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
 @njit(cache=True, boundscheck=False)
 def learn_kernel(
     X,
+    S,
     Y,
     Yhat,
     hist,
@@ -308,6 +314,10 @@ def learn_kernel(
 ) -> None:
     """Online predict-then-learn over all rows of X (N, n), Y (N, m); mutates the state.
 
+    ``S`` (N, na) holds the antecedent inputs: potentials, firing and births work on
+    z_a = S (scheduled, ``ip[IP_SCHEDULED] = 1``, then z = [s; y; x] and the potential
+    space is s alone) or, unscheduled, on z = [x; y] with ``S`` the same array as ``X``.
+
     Writes the one-step predictions made *before* each update into ``Yhat`` and the
     per-sample history (rules, potential, focal max, focal min) into ``hist``. Events
     (step, kind, rule id) are appended to ``ev`` from row ``nev[0]``; the caller sizes ``ev``
@@ -322,9 +332,13 @@ def learn_kernel(
     rows as C_ab - c (g_a g_b), which is exactly symmetric without mirroring.
     """
     N, n = X.shape
+    na = S.shape[1]
     m = Y.shape[1]
-    d = n + m
+    d = lo.shape[0]
     n1 = n + 1
+    scheduled = ip[IP_SCHEDULED] == 1
+    xo = na + m if scheduled else 0  # offset of x in z
+    dp = na if scheduled else na + m  # dimensions of the potential space
     variant = ip[IP_VARIANT]
     is_global = ip[IP_GLOBAL] == 1
     rmax = ip[IP_MAX_RULES]
@@ -347,7 +361,7 @@ def learn_kernel(
     # zero or hold a removed rule, have lambda = 0 and are never read into a result
     rpad = (rmax + LANES - 1) // LANES * LANES
     czT = np.zeros((d, rpad))
-    aT = np.zeros((n, rpad))
+    aT = np.zeros((na, rpad))
     ex = np.zeros(rpad)
     lam = np.zeros(rpad)
     yrT = np.zeros((m, rpad))
@@ -361,11 +375,11 @@ def learn_kernel(
     yh = np.empty(m)
     err = np.empty(m)
     pnew = np.zeros((n1, m))
-    scat0 = np.empty(n)
+    scat0 = np.empty(na)
     g = np.empty(rmax * n1 if is_global else n1)
     phi = np.empty(rmax * n1 if is_global else 1)
 
-    _refresh_scales(lo, hi, s, w2, isx, n)
+    _refresh_scales(lo, hi, s, w2, isx, n, xo)
     for i in range(si[1]):
         _sync_rule(i, cz, rad, s, czT, aT)
     _to_soa(si[1], Pi, Cl, PiT, CT, is_global)
@@ -373,10 +387,13 @@ def learn_kernel(
     for t in range(N):
         k = si[0]
         R = si[1]
-        for j in range(n):
-            z[j] = X[t, j]
+        for j in range(na):
+            z[j] = S[t, j]
         for o in range(m):
-            z[n + o] = Y[t, o]
+            z[na + o] = Y[t, o]
+        if scheduled:
+            for j in range(n):
+                z[xo + j] = X[t, j]
         # lanes processed by the vectorised rule loops: R rounded up to a multiple of LANES
         RL = (R + LANES - 1) // LANES * LANES
         # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
@@ -385,7 +402,7 @@ def learn_kernel(
         if R > 0:
             for i in range(RL):
                 ex[i] = 0.0
-            for j in range(n):
+            for j in range(na):
                 xj = z[j]
                 for i in range(RL):
                     dj = xj - czT[j, i]
@@ -403,7 +420,7 @@ def learn_kernel(
                 lam[i] *= itot
             xe[0] = 1.0
             for j in range(n):
-                xe[j + 1] = (z[j] - lo[j]) * isx[j]
+                xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
             for o in range(m):
                 for i in range(RL):
                     yrT[o, i] = 0.0
@@ -423,6 +440,7 @@ def learn_kernel(
                 Yhat[t, o] = np.nan
         # 2. widen running ranges; rewrite consequents if an input range moved
         changed_x = False
+        changed_a = False
         changed_y = False
         for j in range(d):
             if fixed[j] == 1:
@@ -431,8 +449,8 @@ def learn_kernel(
             if k == 0 or v < lo[j] or v > hi[j]:
                 if not changed_x and not changed_y:
                     for q in range(n):
-                        lo_old[q] = lo[q]
-                        hi_old[q] = hi[q]
+                        lo_old[q] = lo[xo + q]
+                        hi_old[q] = hi[xo + q]
                 if k == 0:
                     lo[j] = v
                     hi[j] = v
@@ -440,18 +458,21 @@ def learn_kernel(
                     lo[j] = v
                 else:
                     hi[j] = v
-                if j < n:
+                if xo <= j < xo + n:
                     changed_x = k > 0 or changed_x
+                if j < na:
+                    changed_a = k > 0 or changed_a
                 changed_y = True
         if changed_y:
-            _refresh_scales(lo, hi, s, w2, isx, n)
-        if changed_x:
+            _refresh_scales(lo, hi, s, w2, isx, n, xo)
+        if changed_a:
             for i in range(R):
                 _sync_rule(i, cz, rad, s, czT, aT)
-            if R > 0:
-                _from_soa(R, Pi, Cl, PiT, CT, is_global)
-                reparametrise(lo_old, hi_old, lo, s, R, Pi, Cl, Cg, is_global)
-                _to_soa(R, Pi, Cl, PiT, CT, is_global)
+        if changed_x and R > 0:
+            _from_soa(R, Pi, Cl, PiT, CT, is_global)
+            reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
+                          is_global)
+            _to_soa(R, Pi, Cl, PiT, CT, is_global)
         # 3. running mean / variance of z (Welford)
         k += 1
         si[0] = k
@@ -466,7 +487,7 @@ def learn_kernel(
         if k >= 2:
             vterm = 0.0
             acc = 0.0
-            for j in range(d):
+            for j in range(dp):
                 vterm += m2[j] * w2[j]
                 dj = z[j] - mean[j]
                 acc += dj * dj * w2[j]
@@ -475,7 +496,7 @@ def learn_kernel(
             P = 1.0 / (1.0 + (acc + vterm) * kk)
             for i in range(RL):
                 ex[i] = vterm
-            for j in range(d):
+            for j in range(dp):
                 mj = mean[j]
                 wj = w2[j]
                 for i in range(RL):
@@ -492,7 +513,7 @@ def learn_kernel(
                 pot[i] = 1.0
             pmax = pmin = 1.0 if R > 0 else 0.0
         # 5. structure
-        changed = changed_x
+        changed = changed_x or changed_a
         born = False
         grow = False
         target = -1
@@ -510,7 +531,7 @@ def learn_kernel(
                 for i in range(R):
                     d2 = 0.0
                     dinf = 0.0
-                    for j in range(n):
+                    for j in range(na):
                         q = abs(z[j] - cz[i, j]) / (s[j] * rad[i, j])
                         d2 += q * q
                         dinf = max(dinf, q)
@@ -544,8 +565,8 @@ def learn_kernel(
                     nev[0] += 1
                     changed = True
                 elif grow:
-                    if changed_x:
-                        _fire(X, t, czT, aT, R, ex, lam)
+                    if changed_a:
+                        _fire(S, t, czT, aT, R, ex, lam)
                     for a in range(n1):
                         for o in range(m):
                             acc = 0.0
@@ -553,7 +574,7 @@ def learn_kernel(
                                 acc += lam[i] * PiT[a, o, i]
                             pnew[a, o] = acc
         if grow:
-            for j in range(n):
+            for j in range(na):
                 scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
             rid = _add_rule(
                 z,
@@ -596,10 +617,10 @@ def learn_kernel(
         RL = (R + LANES - 1) // LANES * LANES
         # 6. firing with the updated rule base; support, age, spreads, utility
         if changed:
-            _fire(X, t, czT, aT, R, ex, lam)
+            _fire(S, t, czT, aT, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
-                xe[j + 1] = (z[j] - lo[j]) * isx[j]
+                xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
             _rule_outputs(xe, PiT, R, yrT)
             for o in range(m):
                 acc = 0.0
@@ -614,7 +635,7 @@ def learn_kernel(
             support[w] += 1
             tsum[w] += k
             if adaptive:
-                for j in range(n):
+                for j in range(na):
                     dx = z[j] - cz[w, j]
                     scat[w, j] += (dx * dx - scat[w, j]) / support[w]
                     rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
@@ -632,7 +653,7 @@ def learn_kernel(
                 for a in range(n1):
                     phi[i * n1 + a] = lam[i] * xe[a]
             for o in range(m):
-                err[o] = z[n + o] - yh[o]
+                err[o] = z[na + o] - yh[o]
             # g = Cg phi as a sum of columns; Cg is exactly symmetric, so column b equals
             # row b and every g[a] is summed in the same order as the row dot product
             for a in range(p):
@@ -698,7 +719,7 @@ def learn_kernel(
                         for i in range(RL):
                             CT[a, b, i] *= fiv[i]
             for o in range(m):
-                yo = z[n + o]
+                yo = z[na + o]
                 for i in range(RL):
                     yrT[o, i] = yo - yrT[o, i]
             for a in range(n1):

@@ -8,13 +8,15 @@ State layout (all preallocated for ``max_rules`` rules, rules ``0 .. R-1`` are l
 kept in birth order; removing a rule shifts the later ones down):
 
 ``si``      int64[3]: samples learned ``k``, live rules ``R``, next rule id
-``lo, hi``  float64[d]: normalisation range of z = [x; y] (raw units), ``d = n + m``
+``lo, hi``  float64[d]: normalisation range of z = [x; y] (raw units), ``d = n + m``;
+            a scheduled model (antecedents on s, na inputs) uses z = [s; y; x],
+            ``d = na + m + n``, and its potentials on s alone
 ``fixed``   int8[d]: 1 where the range was given by the caller and is never widened
 ``mean, m2`` float64[d]: Welford running mean and sum of squared deviations of z (raw units)
 ``ids``     int64[Rmax]: stable rule ids (never reused)
 ``cz``      float64[Rmax, d]: focal points z*_i in raw units
-``rad``     float64[Rmax, n]: per-rule, per-input radius in normalised units
-``scat``    float64[Rmax, n]: local scatter (variance, raw units squared) for exTS spreads
+``rad``     float64[Rmax, na]: per-rule, per-antecedent radius in normalised units
+``scat``    float64[Rmax, na]: local scatter (variance, raw units squared) for exTS spreads
 ``pot``     float64[Rmax]: focal potentials P_k(z*_i)
 ``birth``   int64[Rmax]: step t*_i at which the rule was born
 ``support`` int64[Rmax]: samples for which the rule fired strongest (including its birth)
@@ -37,7 +39,8 @@ IP_MIN_SUPPORT = 3
 IP_PRUNE_AFTER = 4
 IP_ADAPTIVE = 5
 IP_COVERAGE = 6  # eTS+: also grow wherever no rule covers the sample
-N_IP = 7
+IP_SCHEDULED = 7  # 1: antecedents on a separate scheduling vector s, z = [s; y; x]
+N_IP = 8
 # float parameters ``fp``
 FP_OMEGA = 0
 FP_FORGET = 1

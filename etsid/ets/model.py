@@ -83,6 +83,16 @@ class ETS:
         Record a snapshot of all consequents every this many learned samples.
     input_names, output_names : sequence of str, optional
         Names used by :meth:`rules` and the rule-base JSON (default x1.., y1..).
+    antecedent_names : sequence of str, optional
+        Names of the scheduling inputs S of a scheduled model (default s1..).
+
+    Notes
+    -----
+    Scheduling: ``run(X, Y, S)`` puts the antecedents (potentials, firing, births and
+    the radius) on the scheduling vector ``S`` (N, na) while the consequents stay local
+    linear models on the full ``X``: rule i reads IF s is near s*_i THEN y_i = x_e^T Pi_i.
+    The potentials are then computed on s alone. Without ``S`` the antecedents are on x
+    and the potentials on z = [x; y], as in eTS.
 
     Examples
     --------
@@ -121,6 +131,7 @@ class ETS:
         history_every: int = DEFAULTS.history_every,
         input_names: Sequence[str] | None = None,
         output_names: Sequence[str] | None = None,
+        antecedent_names: Sequence[str] | None = None,
     ) -> None:
         self.radius = radius
         self.omega = omega
@@ -138,6 +149,7 @@ class ETS:
         self.history_every = history_every
         self.input_names = input_names
         self.output_names = output_names
+        self.antecedent_names = antecedent_names
 
     # ------------------------------------------------------------------ parameters
     def get_params(self) -> dict[str, Any]:
@@ -165,21 +177,27 @@ class ETS:
             raise ValueError("prune_after and min_support must be >= 0")
 
     # ------------------------------------------------------------------ state
-    def _init_state(self, n: int, m: int) -> None:
+    def _init_state(self, n: int, m: int, na: int | None = None) -> None:
+        """Allocate the state for n consequent inputs, m outputs and, if ``na`` is given,
+        na scheduling inputs (z = [s; y; x]); otherwise z = [x; y]."""
         self._check_params()
+        scheduled = na is not None
+        na = n if na is None else na
         r = np.atleast_1d(np.asarray(self.radius, dtype=np.float64))
         if r.size == 1:
-            r = np.full(n, r[0])
-        if r.size != n:
-            raise ValueError(f"radius has {r.size} values but the model has {n} inputs")
+            r = np.full(na, r[0])
+        if r.size != na:
+            what = "scheduling inputs" if scheduled else "inputs"
+            raise ValueError(f"radius has {r.size} values but the model has {na} {what}")
         rmax = int(self.max_rules)
-        d = n + m
+        xo = na + m if scheduled else 0
+        d = na + m + (n if scheduled else 0)
         lo = np.zeros(d)
         hi = np.zeros(d)
         fixed = np.zeros(d, dtype=np.int8)
         for rng_, sl, name, width in (
-            (self.x_range, slice(0, n), "x_range", n),
-            (self.y_range, slice(n, d), "y_range", m),
+            (self.x_range, slice(xo, xo + n), "x_range", n),
+            (self.y_range, slice(na, na + m), "y_range", m),
         ):
             if rng_ is None:
                 continue
@@ -191,6 +209,9 @@ class ETS:
         pg = rmax * (n + 1) if glob else 1
         self.n_inputs_ = n
         self.n_outputs_ = m
+        self.n_antecedents_ = na
+        self.scheduled_ = scheduled
+        self.x_offset_ = xo
         self.radius_ = r
         self.state_ = {
             "si": np.zeros(3, dtype=np.int64),
@@ -201,8 +222,8 @@ class ETS:
             "m2": np.zeros(d),
             "ids": np.zeros(rmax, dtype=np.int64),
             "cz": np.zeros((rmax, d)),
-            "rad": np.zeros((rmax, n)),
-            "scat": np.zeros((rmax, n)),
+            "rad": np.zeros((rmax, na)),
+            "scat": np.zeros((rmax, na)),
             "pot": np.zeros(rmax),
             "birth": np.zeros(rmax, dtype=np.int64),
             "support": np.zeros(rmax, dtype=np.int64),
@@ -223,6 +244,7 @@ class ETS:
         ip[L.IP_PRUNE_AFTER] = int(self.prune_after)
         ip[L.IP_ADAPTIVE] = int(bool(self.adaptive_spread))
         ip[L.IP_COVERAGE] = int(bool(self.coverage))
+        ip[L.IP_SCHEDULED] = int(self.scheduled_)
         fp = np.zeros(L.N_FP)
         fp[L.FP_OMEGA] = float(self.omega)
         fp[L.FP_FORGET] = float(self.forgetting)
@@ -247,16 +269,34 @@ class ETS:
             raise ValueError(f"X has {Xa.shape[0]} rows but Y has {Ya.shape[0]}")
         return Xa, Ya, y1d
 
+    def _check_s(self, S: Any, rows: int, X: np.ndarray) -> np.ndarray:
+        """The antecedent array: ``X`` itself when unscheduled, else S checked."""
+        if self._fitted and self.scheduled_ != (S is not None):
+            raise ValueError(
+                "this model was learned with a scheduling vector S; pass S"
+                if self.scheduled_ else "this model was learned without S; do not pass S"
+            )
+        if S is None:
+            return X
+        Sa = _finite_2d(S, "S", self.n_antecedents_ if self._fitted else None)
+        if Sa.shape[0] != rows:
+            raise ValueError(f"X has {rows} rows but S has {Sa.shape[0]}")
+        return Sa
+
     # ------------------------------------------------------------------ learning
-    def run(self, X: Any, Y: Any) -> np.ndarray:
+    def run(self, X: Any, Y: Any, S: Any = None) -> np.ndarray:
         """Online predict-then-learn over all samples.
 
         Parameters
         ----------
         X : array-like, shape (N, n)
-            Inputs in original units.
+            Inputs (consequent regressors) in original units.
         Y : array-like, shape (N, m) or (N,)
             Targets in original units (1-D for a single output).
+        S : array-like, shape (N, na), optional
+            Scheduling inputs for the antecedents (see Notes of the class); None (the
+            default) puts the antecedents on ``X``. A model keeps the choice it was first
+            run with.
 
         Returns
         -------
@@ -265,8 +305,9 @@ class ETS:
             (NaN for the very first sample of a new model, which has no rule yet).
         """
         Xa, Ya, y1d = self._check_xy(X, Y)
+        Sa = self._check_s(S, Xa.shape[0], Xa)
         if not self._fitted:
-            self._init_state(Xa.shape[1], Ya.shape[1])
+            self._init_state(Xa.shape[1], Ya.shape[1], None if S is None else Sa.shape[1])
             self.y_1d_ = y1d
         st = self.state_
         ip, fp = self._kernel_params()
@@ -283,7 +324,7 @@ class ETS:
             ev = np.empty((4 * nc + rmax + 1, 3), dtype=np.int64)
             nev = np.zeros(1, dtype=np.int64)
             learn_kernel(
-                Xa[start:stop], Ya[start:stop], Yhat[start:stop], hist, ev, nev,
+                Xa[start:stop], Sa[start:stop], Ya[start:stop], Yhat[start:stop], hist, ev, nev,
                 *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
             )  # fmt: skip
             rec = self.recorder_
@@ -297,14 +338,17 @@ class ETS:
             start = stop
         return Yhat[:, 0] if y1d else Yhat
 
-    def learn_one(self, x: Any, y: Any) -> ETS:
-        """Learn one sample (predict-then-learn); ``x`` shape (n,), ``y`` scalar or (m,)."""
+    def learn_one(self, x: Any, y: Any, s: Any = None) -> ETS:
+        """Learn one sample (predict-then-learn); ``x`` shape (n,), ``y`` scalar or (m,),
+        ``s`` shape (na,) for a scheduled model."""
         y_arr = np.atleast_1d(np.asarray(y, dtype=np.float64))
-        self.run(np.atleast_2d(np.asarray(x, dtype=np.float64)), y_arr[None, :])
+        S = None if s is None else np.atleast_2d(np.asarray(s, dtype=np.float64))
+        self.run(np.atleast_2d(np.asarray(x, dtype=np.float64)), y_arr[None, :], S)
         return self
 
-    def predict(self, X: Any) -> np.ndarray:
-        """Predict every row of ``X`` (N, n) with the current rules, without learning.
+    def predict(self, X: Any, S: Any = None) -> np.ndarray:
+        """Predict every row of ``X`` (N, n) with the current rules, without learning;
+        ``S`` (N, na) are the scheduling inputs of a scheduled model.
 
         Returns an (N, m) array, or (N,) if the model was trained with 1-D ``Y``;
         NaN if the model has no rule yet.
@@ -312,15 +356,18 @@ class ETS:
         if not self._fitted:
             raise ValueError("the model has not learned anything yet; call run() or learn_one()")
         Xa = _finite_2d(X, "X", self.n_inputs_)
+        Sa = self._check_s(S, Xa.shape[0], Xa)
         st = self.state_
         Yhat = np.empty((Xa.shape[0], self.n_outputs_))
         R = int(st["si"][1])
-        predict_kernel(Xa, Yhat, R, st["lo"], st["hi"], st["cz"], st["rad"], st["Pi"])
+        predict_kernel(Xa, Sa, Yhat, R, st["lo"], st["hi"], st["cz"], st["rad"], st["Pi"],
+                       self.x_offset_)
         return Yhat[:, 0] if self.y_1d_ else Yhat
 
-    def predict_one(self, x: Any) -> np.ndarray:
-        """Predict one sample ``x`` (n,); returns an array of shape (m,)."""
-        y = self.predict(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+    def predict_one(self, x: Any, s: Any = None) -> np.ndarray:
+        """Predict one sample ``x`` (n,) (and ``s`` (na,) if scheduled); shape (m,)."""
+        S = None if s is None else np.atleast_2d(np.asarray(s, dtype=np.float64))
+        y = self.predict(np.atleast_2d(np.asarray(x, dtype=np.float64)), S)
         return np.atleast_1d(y[0])
 
     # ------------------------------------------------------------------ inspection
@@ -357,9 +404,9 @@ class ETS:
         Row 0 is the intercept and row j the coefficient of input j: y_i = c_0 + sum_j c_j x_j.
         """
         st = self.state_
-        n, R = self.n_inputs_, self.n_rules
-        s = self.scales()[:n]
-        lo = st["lo"][:n]
+        n, R, xo = self.n_inputs_, self.n_rules, self.x_offset_
+        s = self.scales()[xo : xo + n]
+        lo = st["lo"][xo : xo + n]
         Pi = st["Pi"][:R]
         out = np.empty_like(Pi)
         out[:, 1:, :] = Pi[:, 1:, :] / s[None, :, None]
@@ -376,6 +423,15 @@ class ETS:
         if len(yout) != m:
             yout = [f"y{o + 1}" for o in range(m)]
         return xin, yout
+
+    def antecedents(self) -> list[str]:
+        """Names of the antecedent inputs: the scheduling names (default s1..) of a
+        scheduled model, else the input names."""
+        if not self.scheduled_:
+            return self.names()[0]
+        na = self.n_antecedents_
+        names = list(self.antecedent_names) if self.antecedent_names is not None else []
+        return names if len(names) == na else [f"s{j + 1}" for j in range(na)]
 
     def export_state(self) -> LearnedState:
         """The learned state as read-only views trimmed to the live rules (see
@@ -409,6 +465,7 @@ class ETS:
             consequents=view(st["Pi"][:R]),
             covariances=None if glob else view(st["Cl"][:R]),
             global_covariance=view(st["Cg"][:p, :p]) if glob else None,
+            scheduled=bool(self.scheduled_), n_antecedents=int(self.n_antecedents_),
         )
 
     def restore_state(self, state: LearnedState) -> ETS:
@@ -421,7 +478,7 @@ class ETS:
             Invalid parameters, or arrays whose shapes do not fit the parameters.
         """
         n, m, R = state.n_inputs, state.n_outputs, state.n_rules
-        self._init_state(n, m)
+        self._init_state(n, m, state.n_antecedents if state.scheduled else None)
         if int(self.max_rules) < R:
             raise ValueError(f"{R} rules exceed max_rules = {self.max_rules}")
         glob = self.rls == "global"
@@ -465,7 +522,7 @@ class ETS:
 
     # ------------------------------------------------------------------ persistence
     def to_dict(self) -> dict[str, Any]:
-        """The rule base and learner state as a JSON-ready dict (schema ``etsid.rules/1``)."""
+        """The rule base and learner state as a JSON-ready dict (schema ``etsid.rules/2``)."""
         from etsid.ets.serialize import model_to_dict
 
         return model_to_dict(self)

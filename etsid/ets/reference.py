@@ -93,6 +93,7 @@ class ReferenceETS:
     prune_after: int = DEFAULTS.prune_after
     adaptive_spread: bool = DEFAULTS.adaptive_spread
     coverage: bool = DEFAULTS.coverage
+    na: int | None = None
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
     fixed: np.ndarray | None = None
@@ -104,7 +105,14 @@ class ReferenceETS:
     history: list[tuple[int, float, float, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        d = self.n + self.m
+        # scheduled (na given): z = [s; y; x], antecedents on s, potentials on s alone;
+        # else z = [x; y], antecedents on x, potentials on z
+        self.sched = self.na is not None
+        if not self.sched:
+            self.na = self.n
+        self.xo = self.na + self.m if self.sched else 0
+        self.dp = self.na if self.sched else self.n + self.m
+        d = self.na + self.m + (self.n if self.sched else 0)
         self.lo = np.zeros(d) if self.lo is None else np.array(self.lo, dtype=float)
         self.hi = np.zeros(d) if self.hi is None else np.array(self.hi, dtype=float)
         self.fixed = np.zeros(d, bool) if self.fixed is None else np.array(self.fixed, bool)
@@ -115,37 +123,42 @@ class ReferenceETS:
         w = self.hi - self.lo
         return np.where(w > 0, w, 1.0)
 
-    def _lam(self, x: np.ndarray, s: np.ndarray) -> np.ndarray:
-        sx = s[: self.n]
-        e = np.array([-4.0 * np.sum(((x - r.z[: self.n]) / (sx * r.rad)) ** 2) for r in self.rules])
+    def _lam(self, a: np.ndarray, s: np.ndarray) -> np.ndarray:
+        na = self.na
+        sa = s[:na]
+        e = np.array([-4.0 * np.sum(((a - r.z[:na]) / (sa * r.rad)) ** 2) for r in self.rules])
         t = np.exp(e - e.max())
         return t / t.sum()
 
     def _xe(self, x: np.ndarray, s: np.ndarray) -> np.ndarray:
-        return np.concatenate([[1.0], (x - self.lo[: self.n]) / s[: self.n]])
+        xs = slice(self.xo, self.xo + self.n)
+        return np.concatenate([[1.0], (x - self.lo[xs]) / s[xs]])
 
     def _potential(self, z: np.ndarray, s: np.ndarray) -> float:
         # the definition, over every sample stored so far (self included, divisor k-1)
         if self.k < 2:
             return 1.0
-        D = np.array(self.data)
-        return 1.0 / (1.0 + np.sum(((D - z) / s) ** 2) / (self.k - 1))
+        dp = self.dp
+        D = np.array(self.data)[:, :dp]
+        return 1.0 / (1.0 + np.sum(((D - z[:dp]) / s[:dp]) ** 2) / (self.k - 1))
 
-    def predict(self, x: np.ndarray) -> np.ndarray:
-        """Output with the current rules (NaN without rules)."""
+    def predict(self, x: np.ndarray, a: np.ndarray | None = None) -> np.ndarray:
+        """Output with the current rules (NaN without rules); ``a`` = s if scheduled."""
         if not self.rules:
             return np.full(self.m, np.nan)
+        a = x if a is None else a
         s = self._s()
-        lam = self._lam(x, s)
+        lam = self._lam(a, s)
         xe = self._xe(x, s)
         return sum(li * (xe @ r.Pi) for li, r in zip(lam, self.rules, strict=True))
 
     # learning ---------------------------------------------------------------------
-    def learn(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Predict, then learn one sample; returns the prediction."""
-        n = self.n
-        yhat = self.predict(x)
-        z = np.concatenate([x, y])
+    def learn(self, x: np.ndarray, y: np.ndarray, a: np.ndarray | None = None) -> np.ndarray:
+        """Predict, then learn one sample (``a`` = s if scheduled); returns the prediction."""
+        n, na = self.n, self.na
+        a = x if a is None else a
+        yhat = self.predict(x, a)
+        z = np.concatenate([a, y, x]) if self.sched else np.concatenate([x, y])
         lo_old, hi_old, s_old = self.lo.copy(), self.hi.copy(), self._s()
         free = ~self.fixed
         if self.k == 0:
@@ -155,11 +168,12 @@ class ReferenceETS:
             self.lo[free] = np.minimum(self.lo[free], z[free])
             self.hi[free] = np.maximum(self.hi[free], z[free])
         s = self._s()
-        if self.rules and (np.any(self.lo[:n] != lo_old[:n]) or np.any(self.hi[:n] != hi_old[:n])):
-            so = np.where(hi_old[:n] - lo_old[:n] > 0, s_old[:n], s[:n])
+        xs = slice(self.xo, self.xo + n)
+        if self.rules and (np.any(self.lo[xs] != lo_old[xs]) or np.any(self.hi[xs] != hi_old[xs])):
+            so = np.where(hi_old[xs] - lo_old[xs] > 0, s_old[xs], s[xs])
             T = np.eye(n + 1)
-            T[1:, 0] = (self.lo[:n] - lo_old[:n]) / so
-            T[1:, 1:] = np.diag(s[:n] / so)
+            T[1:, 0] = (self.lo[xs] - lo_old[xs]) / so
+            T[1:, 1:] = np.diag(s[xs] / so)
             for r in self.rules:
                 r.Pi = T.T @ r.Pi
                 if r.C is not None:
@@ -184,7 +198,7 @@ class ReferenceETS:
             high = pots.max() * (1.0 + 1e-10) < P
             low = self.variant == "ets+" and (pots.min() * (1.0 - 1e-10) > P or self.coverage)
             if high or low:
-                q = np.array([np.abs(x - r.z[:n]) / (s[:n] * r.rad) for r in self.rules])
+                q = np.array([np.abs(a - r.z[:na]) / (s[:na] * r.rad) for r in self.rules])
                 d2 = np.sum(q**2, axis=1)
                 inear = int(np.argmin(d2))
                 cov = np.where(q.max(axis=1) < 0.5)[0]
@@ -201,11 +215,11 @@ class ReferenceETS:
                     self.rules[target].pot = P
                     self.events.append((k, "replace", self.rules[target].rid))
                 elif grow:
-                    lam = self._lam(x, s)
+                    lam = self._lam(a, s)
                     pnew = sum(li * r.Pi for li, r in zip(lam, self.rules, strict=True))
                     self._add(z, P, pnew, s)
                     born = True
-        lam = self._lam(x, s)
+        lam = self._lam(a, s)
         xe = self._xe(x, s)
         if not born:
             w = int(np.argmax(lam))
@@ -213,8 +227,8 @@ class ReferenceETS:
             r.support += 1
             r.tsum += k
             if self.adaptive_spread:
-                r.scat = r.scat + ((x - r.z[:n]) ** 2 - r.scat) / r.support
-                rad = 0.5 * r.rad + 0.5 * np.sqrt(8.0) * np.sqrt(r.scat) / s[:n]
+                r.scat = r.scat + ((a - r.z[:na]) ** 2 - r.scat) / r.support
+                rad = 0.5 * r.rad + 0.5 * np.sqrt(8.0) * np.sqrt(r.scat) / s[:na]
                 r.rad = np.maximum(rad, 0.01 * self.radius)
         for li, r in zip(lam, self.rules, strict=True):
             r.lamsum += li
@@ -260,7 +274,7 @@ class ReferenceETS:
             Cg[: R * (n + 1), : R * (n + 1)] = rho * self.Cg
             Cg[R * (n + 1) :, R * (n + 1) :] = self.omega * np.eye(n + 1)
             self.Cg = Cg
-        scat0 = (self.radius * s[:n] / np.sqrt(8.0)) ** 2
+        scat0 = (self.radius * s[: self.na] / np.sqrt(8.0)) ** 2
         rule = RefRule(self.next_id, z.copy(), self.radius.copy(), scat0, P, self.k,
                        np.array(pnew, dtype=float), local, tsum=float(self.k))  # fmt: skip
         self.rules.append(rule)
@@ -275,9 +289,13 @@ class ReferenceETS:
             keep = np.r_[0 : i * n1, (i + 1) * n1 : self.Cg.shape[0]]
             self.Cg = self.Cg[np.ix_(keep, keep)]
 
-    def run(self, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """Predict-then-learn over all rows; returns the predictions (N, m)."""
-        return np.array([self.learn(x, y) for x, y in zip(X, Y, strict=True)])
+    def run(self, X: np.ndarray, Y: np.ndarray, S: np.ndarray | None = None) -> np.ndarray:
+        """Predict-then-learn over all rows (antecedents on ``S`` if given); returns the
+        predictions (N, m)."""
+        if S is None:
+            return np.array([self.learn(x, y) for x, y in zip(X, Y, strict=True)])
+        rows = zip(X, Y, S, strict=True)
+        return np.array([self.learn(x, y, a) for x, y, a in rows])
 
     def state(self) -> dict[str, Any]:
         """Arrays comparable with the kernel state of the live rules."""

@@ -1,4 +1,8 @@
-"""Rule-base JSON (schema ``etsid.rules/1``): export, schema-checked import, files.
+"""Rule-base JSON (schema ``etsid.rules/2``; ``etsid.rules/1`` files still load):
+export, schema-checked import, files.
+
+Version 2 adds ``antecedents`` (scheduled or not, the names and the dimension of the
+antecedent inputs); a version-1 file is an unscheduled model (antecedents = inputs).
 
 Floats are written with Python's shortest round-trip repr, so export → import restores
 every state array bit for bit: the loaded model predicts and continues learning exactly
@@ -18,7 +22,9 @@ import numpy as np
 from etsid.errors import ModelError
 from etsid.ets.state import LearnedState
 
-SCHEMA_NAME = "etsid.rules/1"
+SCHEMA_NAME = "etsid.rules/2"
+#: versions this module reads (it writes :data:`SCHEMA_NAME`)
+SCHEMA_NAMES = ("etsid.rules/1", "etsid.rules/2")
 MAX_FILE_BYTES = 100 * 2**20
 """A rules.json larger than this is refused before it is read (bounded memory and time)."""
 MAX_RULES = 1000
@@ -53,6 +59,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     params = model.get_params()
     params.pop("input_names")
     params.pop("output_names")
+    params.pop("antecedent_names")
     for key in ("radius", "x_range", "y_range"):
         v = params[key]
         params[key] = None if v is None else _listify(np.asarray(v, dtype=float))
@@ -86,6 +93,11 @@ def model_to_dict(model: Any) -> dict[str, Any]:
         "params": params,
         "inputs": xin,
         "outputs": yout,
+        "antecedents": {
+            "scheduled": bool(state.scheduled),
+            "names": model.antecedents(),
+            "dimension": int(model.n_antecedents_),
+        },
         "y_1d": state.y_1d,
         "normalisation": {
             "low": state.low.tolist(),
@@ -172,8 +184,15 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
         ) from err
     params = dict(data["params"])
     n, m = len(data["inputs"]), len(data["outputs"])
-    model = cls(**params, input_names=data["inputs"], output_names=data["outputs"])
-    d = n + m
+    ante = data.get("antecedents") or {"scheduled": False}
+    scheduled = bool(ante["scheduled"])
+    na = int(ante["dimension"]) if scheduled else n
+    if scheduled and len(ante["names"]) != na:
+        raise _fail(f"antecedents/names has {len(ante['names'])} entries, expected {na}",
+                    source)
+    model = cls(**params, input_names=data["inputs"], output_names=data["outputs"],
+                antecedent_names=ante["names"] if scheduled else None)
+    d = na + m + (n if scheduled else 0)
     norm, lrn, rules = data["normalisation"], data["learner"], data["rules"]
     low = _matrix(norm["low"], (d,), "normalisation/low", source)
     high = _matrix(norm["high"], (d,), "normalisation/high", source)
@@ -197,10 +216,10 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
     for i, r in enumerate(rules):
         w = f"rules/{i}"
         focal.append(_matrix(r["focal_point"], (d,), f"{w}/focal_point", source))
-        radii.append(_matrix(r["radius"], (n,), f"{w}/radius", source))
+        radii.append(_matrix(r["radius"], (na,), f"{w}/radius", source))
         if np.any(radii[-1] <= 0):
             raise _fail(f"{w}/radius must be positive", source)
-        scatter.append(_matrix(r["scatter"], (n,), f"{w}/scatter", source))
+        scatter.append(_matrix(r["scatter"], (na,), f"{w}/scatter", source))
         consequents.append(_matrix(r["consequent"], (n + 1, m), f"{w}/consequent", source))
         if not glob:
             if r["covariance"] is None:
@@ -225,7 +244,7 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
         next_rule_id=lrn["next_rule_id"], low=low, high=high,
         fixed=np.array(fixed, dtype=np.int8), mean=mean, m2=m2,
         rule_ids=np.array(ids, dtype=np.int64), focal_points=stack(focal, (d,)),
-        radii=stack(radii, (n,)), scatter=stack(scatter, (n,)),
+        radii=stack(radii, (na,)), scatter=stack(scatter, (na,)),
         potentials=np.array([r["potential"] for r in rules], dtype=np.float64),
         births=np.array([r["birth"] for r in rules], dtype=np.int64),
         support=np.array([r["support"] for r in rules], dtype=np.int64),
@@ -233,7 +252,7 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
         time_sums=np.array([r["time_sum"] for r in rules], dtype=np.float64),
         consequents=stack(consequents, (n + 1, m)),
         covariances=None if glob else stack(covariances, (n + 1, n + 1)),
-        global_covariance=global_covariance,
+        global_covariance=global_covariance, scheduled=scheduled, n_antecedents=na,
     )
     try:
         model.restore_state(state)

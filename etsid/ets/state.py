@@ -56,6 +56,11 @@ class LearnedState:
         Local RLS covariances (None with global RLS).
     global_covariance : (R(n+1), R(n+1)) or None
         Global RLS covariance (None with local RLS).
+    scheduled
+        The antecedents are on a separate scheduling vector s (na inputs); then
+        z = [s; y; x], d = na + m + n, and radii / scatter have na columns.
+    n_antecedents
+        na (equals n when not scheduled; 0 means "same as n_inputs").
     """
 
     n_inputs: int
@@ -80,6 +85,8 @@ class LearnedState:
     consequents: np.ndarray
     covariances: np.ndarray | None
     global_covariance: np.ndarray | None
+    scheduled: bool = False
+    n_antecedents: int = 0
 
     @property
     def n_rules(self) -> int:

@@ -18,7 +18,8 @@ def format_rules(model: ETS, precision: int = 4) -> str:
     """Render every live rule of ``model``.
 
     Each antecedent reads ``name ≈ centre (±half-width)``: the half-width r·s/2 is where
-    the membership of that input alone falls to exp(-1). Consequents are rewritten from
+    the membership of that input alone falls to exp(-1). A scheduled model's antecedents
+    are on its scheduling inputs (:meth:`ETS.antecedents`). Consequents are rewritten from
     the normalised regressor to the original units: y = c_0 + sum_j c_j x_j.
     """
     if model.n_rules == 0:
@@ -26,7 +27,9 @@ def format_rules(model: ETS, precision: int = 4) -> str:
     state = model.export_state()
     n, R, k = state.n_inputs, state.n_rules, state.samples
     xin, yout = model.names()
-    s = model.scales()[:n]
+    ante_names = model.antecedents()
+    na = len(ante_names)
+    s = model.scales()[:na]  # antecedent inputs come first in z
     cons = model.consequents_raw()
     utility, age = state.utility(), state.age()
     lines = []
@@ -37,9 +40,9 @@ def format_rules(model: ETS, precision: int = 4) -> str:
             f"{state.potentials[i]:.3f})"
         )
         ante = " AND ".join(
-            f"{xin[j]} ≈ {_num(state.focal_points[i, j], precision)} "
+            f"{ante_names[j]} ≈ {_num(state.focal_points[i, j], precision)} "
             f"(±{_num(0.5 * state.radii[i, j] * s[j], precision)})"
-            for j in range(n)
+            for j in range(na)
         )
         lines.append(f"  IF {ante}")
         for o in range(state.n_outputs):

@@ -64,6 +64,9 @@ class IdentConfig:
     inputs
         Input family of the default rate model: ``auto``, ``sticks``, ``torque`` or
         ``setpoints`` (:mod:`etsid.ident.inputs`).
+    antecedent
+        Scheduling terms the rules fire on (same syntax as ``regressors``, e.g.
+        ``"alt[k-1],u_thrust[k-1]"``); None: the rules fire on the regressors.
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).
@@ -90,6 +93,7 @@ class IdentConfig:
     inputs: str = "auto"
     normalise: str = "learn"
     segments: str = "auto"
+    antecedent: str | None = None
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""

@@ -74,14 +74,16 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
     diverged: dict[str, list[float]] = {"ets": [], "arx": []}
     bounds = envelope(reg.Y)
     if frozen is not None and split < n:
-        cols["y_val"][split:] = np.asarray(frozen.predict(reg.X[split:])).reshape(n - split, m)
+        S = None if reg.S is None else reg.S[split:]
+        cols["y_val"][split:] = np.asarray(frozen.predict(reg.X[split:], S)).reshape(n - split,
+                                                                                     m)
         cols["y_sim"][split:] = free_run(frozen.predict_one, reg, spec, split, n_table,
                                          bounds, diverged["ets"])
     if split >= reg.X.shape[1] + 1 and split < n:
         arx = ARX.fit(reg.X[:split], reg.Y[:split])
         cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
-        cols["y_arx_sim"][split:] = free_run(arx.predict_one, reg, spec, split, n_table,
-                                             bounds, diverged["arx"])
+        cols["y_arx_sim"][split:] = free_run(lambda x, s=None: arx.predict_one(x), reg, spec,
+                                             split, n_table, bounds, diverged["arx"])
     return cols, diverged
 
 

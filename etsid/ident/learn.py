@@ -35,7 +35,8 @@ def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
     bounds = sorted({0, n, *range(0, n, CHUNK), *([stop_at] if 0 < stop_at <= n else [])})
     with progress(n, label, show) as bar:
         for a, b in itertools.pairwise(bounds):
-            yhat[a:b] = np.asarray(model.run(reg.X[a:b], reg.Y[a:b])).reshape(b - a, -1)
+            S = None if reg.S is None else reg.S[a:b]
+            yhat[a:b] = np.asarray(model.run(reg.X[a:b], reg.Y[a:b], S)).reshape(b - a, -1)
             if b == stop_at:
                 frozen = model.to_dict()
             bar.update(b - a)

@@ -46,13 +46,14 @@ def choose_model(table: pd.DataFrame, config: IdentConfig) -> ChosenModel:
         if not config.regressors:
             raise IdentError("--output needs --regressors, e.g. --regressors "
                              f"\"{config.outputs[0]}[k-1],u[k-1]\"")
-        spec = RegressorSpec.parse(config.regressors, config.outputs)
+        spec = RegressorSpec.parse(config.regressors, config.outputs, config.antecedent)
         return ChosenModel(spec, [], {"family": "user", "columns": [
             c for c in spec.columns if c not in spec.outputs]})
     chosen = default_model(table, config.output_lags, config.input_lags, config.inputs)
     spec = chosen.spec
-    if config.regressors:
-        spec = RegressorSpec.parse(config.regressors, spec.outputs)
+    if config.regressors or config.antecedent:
+        spec = RegressorSpec.parse(config.regressors or spec.text, spec.outputs,
+                                   config.antecedent)
     info: dict[str, Any] = {"family": chosen.family, "kind": chosen.kind,
                             "columns": chosen.inputs, "sources": chosen.sources,
                             "mode": config.inputs, "reason": chosen.reason}

@@ -102,7 +102,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     if learn:
         yhat, _ = learn_online(model, reg, -1, show_progress, "predict")
     else:
-        yhat = np.asarray(frozen.predict(reg.X)).reshape(n, -1)
+        yhat = np.asarray(frozen.predict(reg.X, reg.S)).reshape(n, -1)
     cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
     cols["y_val"][:split] = np.nan
     if not learn:

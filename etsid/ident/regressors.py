@@ -98,9 +98,11 @@ class RegressorSpec:
 
     outputs: tuple[str, ...]
     terms: tuple[Term, ...]
+    antecedent: tuple[Term, ...] = ()
 
     @classmethod
-    def parse(cls, text: str, outputs: list[str] | tuple[str, ...]) -> RegressorSpec:
+    def parse(cls, text: str, outputs: list[str] | tuple[str, ...],
+              antecedent: str | None = None) -> RegressorSpec:
         """Spec from a regressor string and the output names.
 
         Raises
@@ -117,12 +119,28 @@ class RegressorSpec:
         for term in terms:
             if term.name in outputs and term.lag == 0:
                 raise IdentError(f"regressor {term} is the output itself at k; use a lag ≥ 1")
-        return cls(outputs, terms)
+        ante = tuple(parse_terms(antecedent)) if antecedent else ()
+        for term in ante:
+            if term.name in outputs:
+                raise IdentError(f"antecedent {term} is an output; schedule on measured "
+                                 "inputs such as alt[k-1],u_thrust[k-1]")
+        return cls(outputs, terms, ante)
 
     @property
     def text(self) -> str:
         """Canonical spec string (one term per lag), parseable by :meth:`parse`."""
         return ",".join(str(t) for t in self.terms)
+
+    @property
+    def antecedent_text(self) -> str | None:
+        """Canonical antecedent (scheduling) spec, None when the rules fire on the
+        regressors."""
+        return ",".join(str(t) for t in self.antecedent) or None
+
+    @property
+    def antecedent_names(self) -> list[str] | None:
+        """Scheduling input names (None: not scheduled)."""
+        return [str(t) for t in self.antecedent] or None
 
     @property
     def input_names(self) -> list[str]:
@@ -134,23 +152,27 @@ class RegressorSpec:
         """Table columns the spec needs (outputs first, no repeats)."""
         seen: dict[str, None] = dict.fromkeys(self.outputs)
         seen.update(dict.fromkeys(t.name for t in self.terms))
+        seen.update(dict.fromkeys(t.name for t in self.antecedent))
         return list(seen)
 
     @property
     def max_lag(self) -> int:
         """Longest lag, samples."""
-        return max(t.lag for t in self.terms)
+        return max(t.lag for t in (*self.terms, *self.antecedent))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form stored in rules.json and config.json."""
-        return {"outputs": list(self.outputs), "regressors": self.text,
-                "lags": {str(t): t.lag for t in self.terms}}
+        out = {"outputs": list(self.outputs), "regressors": self.text,
+               "lags": {str(t): t.lag for t in self.terms}}
+        if self.antecedent:
+            out["antecedent"] = self.antecedent_text
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> RegressorSpec:
         """Inverse of :meth:`to_dict`."""
         try:
-            return cls.parse(data["regressors"], data["outputs"])
+            return cls.parse(data["regressors"], data["outputs"], data.get("antecedent"))
         except (KeyError, TypeError) as err:
             raise IdentError(f"regressor spec needs 'outputs' and 'regressors', got {data!r}"
                              ) from err
@@ -175,6 +197,8 @@ class Regression:
         ``missing`` = NaN in a needed sample).
     segment : ndarray of int, shape (N,), optional
         Segment of each usable row (None: one segment).
+    S : ndarray, shape (N, na), optional
+        Scheduling inputs of the antecedents (None: the rules fire on ``X``).
     """
 
     X: np.ndarray
@@ -183,6 +207,7 @@ class Regression:
     t: np.ndarray
     skipped: dict[str, int] = field(default_factory=dict)
     segment: np.ndarray | None = None
+    S: np.ndarray | None = None
 
     @property
     def n_skipped(self) -> int:
@@ -248,7 +273,11 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     X = np.column_stack([lagged(table[t.name].to_numpy(dtype=float), t.lag)
                          for t in spec.terms])
     Y = table[list(spec.outputs)].to_numpy(dtype=float)
+    S = (np.column_stack([lagged(table[t.name].to_numpy(dtype=float), t.lag)
+                          for t in spec.antecedent]) if spec.antecedent else None)
     finite = np.isfinite(X).all(axis=1) & np.isfinite(Y).all(axis=1)
+    if S is not None:
+        finite &= np.isfinite(S).all(axis=1)
     use = history_ok & finite
     skipped = {"history": int((~history_ok).sum()), "missing": int((history_ok & ~finite).sum())}
     if not use.any():
@@ -257,7 +286,8 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
                          f"{skipped['missing']} with NaN in a needed column")
     rows = idx[use]
     t = np.asarray(table.index, dtype=float)[rows]
-    return Regression(X[use], Y[use], rows, t, skipped, seg[use])
+    return Regression(X[use], Y[use], rows, t, skipped, seg[use],
+                      None if S is None else S[use])
 
 
 def feedback_map(spec: RegressorSpec) -> list[tuple[int, int, int]]:

@@ -73,7 +73,8 @@ def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | N
                y_range: np.ndarray | None = None) -> ETS:
     try:
         return ETS(**config.ets_params(), input_names=spec.input_names,
-                   output_names=list(spec.outputs), x_range=x_range, y_range=y_range)
+                   output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
+                   antecedent_names=spec.antecedent_names)
     except (ValueError, TypeError) as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
 

@@ -43,7 +43,7 @@ class Run:
     consequents : DataFrame
         Long format: step, t, rule_id, output, term, value.
     rules : dict
-        The rule base of rules.json (schema etsid.rules/1, with ``regressors``).
+        The rule base of rules.json (schema etsid.rules/2, with ``regressors``).
     rules_final : dict or None
         The rule base after the online pass over the whole log.
     """

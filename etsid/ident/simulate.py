@@ -45,7 +45,9 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
     Parameters
     ----------
     predict_one
-        Maps one regressor vector (n,) to the predicted outputs (m,), in output units.
+        Maps one regressor vector (n,) to the predicted outputs (m,), in output units;
+        called as ``predict_one(x, s)`` with the measured scheduling inputs when ``reg.S``
+        is set (they are exogenous: never outputs).
     reg
         Lag matrices of the table (:func:`etsid.ident.regressors.build`).
     spec
@@ -83,7 +85,8 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
             value = sim[row - lag, o]
             if np.isfinite(value):
                 x[j] = value
-        y = np.asarray(predict_one(x), dtype=float).reshape(m)
+        y = np.asarray(predict_one(x) if reg.S is None else predict_one(x, reg.S[i]),
+                       dtype=float).reshape(m)
         if bounds is not None and (not np.all(np.isfinite(y)) or np.any(y < bounds[0])
                                    or np.any(y > bounds[1])):
             if diverged is not None:

@@ -4,7 +4,7 @@ physical effects (vehicle ``[effects]``), a stepping API and replay of recorded 
 
 >>> from etsid.sim import SCENARIOS
 >>> sorted(SCENARIOS)
-['forward-flight', 'hover-ige', 'hover-oge', 'sine-altitude', 'steps']
+['forward-flight', 'hover-ige', 'hover-oge', 'ige-oge', 'sine-altitude', 'steps']
 """
 
 from __future__ import annotations

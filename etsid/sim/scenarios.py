@@ -54,6 +54,13 @@ SCENARIOS: dict[str, dict[str, Any]] = {
         "description": "pilot accelerates to a forward speed and holds it, with excitation",
         "params": {**_COMMON, "altitude": 5.0, "amplitude": 0.2, "speed": 6.0, "ramp": 8.0},
     },
+    "ige-oge": {
+        "description": "dwells in ground effect (CG 0.25 m) and out of it (1-2.5 m) joined by "
+                       "climbs and descents, with rich roll/pitch/yaw stick excitation "
+                       "throughout (the chapter's regime-change flight)",
+        "params": {**_COMMON, "duration": 150.0, "altitude": 0.25, "amplitude": 0.35,
+                   "high_altitudes": [1.0, 2.5, 1.75], "dwell": 12.0, "transition": 3.0},
+    },
     "steps": {
         "description": "held roll, pitch and yaw stick steps in turn (step responses)",
         "params": {**_COMMON, "duration": 16.0, "altitude": 2.0, "excitation": "steps",
@@ -61,7 +68,8 @@ SCENARIOS: dict[str, dict[str, Any]] = {
     },
 }
 
-_POSITIVE = {"duration", "altitude", "f_min", "f_max", "alt_period", "ramp"}
+_POSITIVE = {"duration", "altitude", "f_min", "f_max", "alt_period", "ramp", "dwell",
+             "transition"}
 _NONNEG = {"settle", "speed", "alt_amplitude", "alt_wander"}
 _UNIT = {"amplitude", "yaw_amplitude"}
 
@@ -123,6 +131,13 @@ def resolve_params(scenario: str, duration: float | None, settings: dict[str, An
     if not (isinstance(wind, list | tuple) and len(wind) == 3 and all(map(_is_number, wind))):
         raise SimError(f"{where} 'wind' must be three numbers (NED m/s), got {wind!r}")
     params["wind"] = [float(w) for w in wind]
+    if "high_altitudes" in params:
+        highs = params["high_altitudes"]
+        if not (isinstance(highs, list | tuple) and highs and all(map(_is_number, highs))
+                and min(highs) > 0):
+            raise SimError(f"{where} 'high_altitudes' must be a list of positive numbers "
+                           f"(m), got {highs!r}")
+        params["high_altitudes"] = [float(h) for h in highs]
     if params["f_max"] <= params["f_min"]:
         raise SimError(f"{where} 'f_max' must exceed 'f_min', got {params['f_max']!r}")
     return params
@@ -172,7 +187,39 @@ def build_references(scenario: str, params: dict[str, Any], t: np.ndarray,
         ramp = np.clip((t - params["settle"]) / params["alt_period"], 0.0, 1.0)
         alt_sp = params["altitude"] + params["alt_amplitude"] * ramp * np.sin(w * t)
         alt_rate = params["alt_amplitude"] * ramp * w * np.cos(w * t)
+    if scenario == "ige-oge":
+        alt_sp, alt_rate = regime_profile(t, params["altitude"], params["high_altitudes"],
+                                          params["settle"], params["dwell"],
+                                          params["transition"])
     if scenario == "forward-flight":
         vel_sp[:, 0] = params["speed"] * np.clip((t - params["settle"]) / params["ramp"], 0, 1)
     return References(exc=exc, alt_sp=alt_sp, alt_rate=alt_rate, vel_sp=vel_sp,
                       thr_manual=np.full(n, float(throttle)))
+
+
+def regime_profile(t: np.ndarray, low: float, highs: list[float], settle: float,
+                   dwell: float, transition: float) -> tuple[np.ndarray, np.ndarray]:
+    """Altitude setpoint (m) and its rate (m/s) of the ``ige-oge`` flight.
+
+    Dwell at ``low`` for ``settle + dwell`` s, then a smooth (raised-cosine) climb of
+    ``transition`` s to the next of ``highs`` (cycled), a dwell there, a descent back to
+    ``low``, a dwell, and so on until the end of ``t``.
+    """
+    levels = [low]
+    start = [0.0]
+    tk = settle + dwell
+    i = 0
+    while tk < t[-1]:
+        target = highs[i % len(highs)] if i % 2 == 0 else low
+        levels.append(target)
+        start.append(tk)
+        tk += transition + dwell
+        i += 1
+    alt = np.full(t.size, float(low))
+    rate = np.zeros(t.size)
+    for a, b, t0 in zip(levels[:-1], levels[1:], start[1:], strict=True):
+        u = np.clip((t - t0) / transition, 0.0, 1.0)
+        alt += (b - a) * 0.5 * (1.0 - np.cos(np.pi * u))
+        inside = (u > 0.0) & (u < 1.0)
+        rate[inside] += (b - a) * 0.5 * np.pi / transition * np.sin(np.pi * u[inside])
+    return alt, rate

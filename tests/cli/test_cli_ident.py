@@ -117,7 +117,7 @@ def test_rules_cli(run_dir: Path) -> None:
     text = invoke("rules", run_dir).output
     assert "IF" in text and "THEN" in text and "p[k-1]" in text
     raw = json.loads(invoke("rules", run_dir / "rules.json", "--json").output)
-    assert raw["schema"] == "etsid.rules/1" and "regressors" in raw
+    assert raw["schema"] == "etsid.rules/2" and "regressors" in raw
 
 
 def test_report_cli(run_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:

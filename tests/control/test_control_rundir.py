@@ -31,7 +31,7 @@ def test_rule_base_round_trips_through_json(ets_run) -> None:
                          rng.uniform(-0.9, 0.9, 500)])
     np.testing.assert_array_equal(loaded.predict(X), model.predict(X))  # bit for bit
     data = json.loads((ets_run.run_dir / "rules.json").read_text())
-    assert data["schema"] == "etsid.rules/1" and data["outputs"] == ["u_thrust"]
+    assert data["schema"] == "etsid.rules/2" and data["outputs"] == ["u_thrust"]
 
 
 def test_run_dir_files_agree(ets_run) -> None:

@@ -137,7 +137,7 @@ def _saved(tmp_path) -> tuple[dict, object]:
 
 
 BREAKAGES = {
-    "wrong schema": (lambda d: d.update(schema="etsid.rules/2"), "schema"),
+    "wrong schema": (lambda d: d.update(schema="etsid.rules/3"), "schema"),
     "missing rules": (lambda d: d.pop("rules"), "rules"),
     "string potential": (lambda d: d["rules"][0].update(potential="high"), "potential"),
     "ragged consequent": (lambda d: d["rules"][0]["consequent"].pop(), "consequent"),

@@ -76,7 +76,7 @@ def test_identify_quality_near_noise_floor(run_dir: Path) -> None:
 
 def test_rules_json_validates_and_rebuilds_regressors(run_dir: Path) -> None:
     data = json.loads((run_dir / "rules.json").read_text())
-    assert data["schema"] == "etsid.rules/1"
+    assert data["schema"] == "etsid.rules/2"
     model = ETS.from_dict(data)  # schema-checked
     spec = RegressorSpec.from_dict(data["regressors"])
     assert model.n_inputs_ == len(spec.terms) == 3 * 4 + 4 * 2
