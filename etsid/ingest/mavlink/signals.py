@@ -21,6 +21,9 @@ alt      DISTANCE_SENSOR cm, orientation 25 (downward) only (0), LOCAL_POSITION_
          GLOBAL_POSITION_INT relative_alt mm (8)
 vx vy vz LOCAL_POSITION_NED (0), GLOBAL_POSITION_INT cm/s (2)
 vbat     SYS_STATUS voltage_battery mV (0), BATTERY_STATUS sum of cell voltages mV (1)
+landed   EXTENDED_SYS_STATE.landed_state (0: ON_GROUND → 1, IN_AIR/TAKEOFF/LANDING → 0,
+         UNDEFINED → no value); HEARTBEAT.base_mode armed flag (1: disarmed → 1, armed → 0,
+         an *armed state*, see :mod:`etsid.ident.flight`)
 ======== ==================================================================================
 """
 
@@ -51,6 +54,8 @@ CLOCK_FIELDS: dict[str, tuple[str, str]] = {
     "LOCAL_POSITION_NED": ("time_boot_ms", "ms"),
     "GLOBAL_POSITION_INT": ("time_boot_ms", "ms"),
     "SYS_STATUS": ("", ""),
+    "HEARTBEAT": ("", ""),
+    "EXTENDED_SYS_STATE": ("", ""),
     "BATTERY_STATUS": ("", ""),
 }
 """Message → (clock field, kind): ms = uint32 ms boot, us = uint64 µs, us32 = uint32 µs."""
@@ -183,6 +188,29 @@ def battery_status(a: np.ndarray, t: np.ndarray, o: ReadOptions,
     return [_sig("vbat", t, total, "BATTERY_STATUS.voltages", 1)]
 
 
+MAV_MODE_FLAG_SAFETY_ARMED = 128
+"""HEARTBEAT.base_mode bit: motors armed."""
+
+MAV_LANDED_STATE_ON_GROUND = 1
+"""EXTENDED_SYS_STATE.landed_state: 0 UNDEFINED, 1 ON_GROUND, 2 IN_AIR, 3 TAKEOFF, 4 LANDING."""
+
+
+def heartbeat(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+              repaired: list[Issue]) -> list[Signal]:
+    """Armed state as ``landed``: 1 disarmed (on the ground), 0 armed."""
+    armed = (a["base_mode"] & MAV_MODE_FLAG_SAFETY_ARMED) != 0
+    return [_sig("landed", t, np.where(armed, 0.0, 1.0), "HEARTBEAT.base_mode", 1)]
+
+
+def extended_sys_state(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+                       repaired: list[Issue]) -> list[Signal]:
+    """The autopilot's land detector: 1 on the ground, 0 in the air, taking off or landing."""
+    state = a["landed_state"]
+    v = np.where(state == MAV_LANDED_STATE_ON_GROUND, 1.0, 0.0)
+    v[state == 0] = np.nan
+    return [_sig("landed", t, v, "EXTENDED_SYS_STATE.landed_state", 0)]
+
+
 DECODERS: dict[str, Decoder] = {
     "ATTITUDE": attitude,
     "HIGHRES_IMU": _imu("HIGHRES_IMU", 1.0, 1.0, 2, 0),
@@ -199,5 +227,7 @@ DECODERS: dict[str, Decoder] = {
     "GLOBAL_POSITION_INT": global_position_int,
     "SYS_STATUS": sys_status,
     "BATTERY_STATUS": battery_status,
+    "HEARTBEAT": heartbeat,
+    "EXTENDED_SYS_STATE": extended_sys_state,
 }
 """Message name → decoder (every message the tlog reader maps to columns)."""

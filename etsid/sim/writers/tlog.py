@@ -52,6 +52,9 @@ RATES: dict[str, float] = {
 BOOT_OFFSET_S = 30.0
 """Autopilot uptime at the table's t = 0 (the log starts mid-boot, as real ones do)."""
 DEFAULT_START = 1.7e9
+ARMED_BASE_MODE = 81 | 128
+"""HEARTBEAT base_mode: custom mode, stabilize, manual input and SAFETY_ARMED (the simulated
+vehicle flies, so it is armed throughout; readers take a disarmed vehicle as landed)."""
 
 
 class _StampedSink:
@@ -146,7 +149,7 @@ def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: d
 
     enc: dict[str, Callable[[int], Any]] = {}
     if "HEARTBEAT" in t:
-        enc["HEARTBEAT"] = lambda i: mav.heartbeat_encode(13, 3, 81, 0, 4)
+        enc["HEARTBEAT"] = lambda i: mav.heartbeat_encode(13, 3, ARMED_BASE_MODE, 0, 4)
     if "ATTITUDE" in t:
         a = [g("ATTITUDE", c) for c in ("roll", "pitch", "yaw", "p", "q", "r")]
         ms = boot_ms("ATTITUDE")
