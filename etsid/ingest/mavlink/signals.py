@@ -16,6 +16,8 @@ roll…    ATTITUDE (0)
 ax ay az HIGHRES_IMU (0), SCALED_IMU/2/3 mG (1/2/3), RAW_IMU (9, assumed mG)
 u_*      RC_CHANNELS (0), RC_CHANNELS_RAW (1) via ``rc_map``; ATTITUDE_TARGET.thrust (5)
 sp_*     ATTITUDE_TARGET body rates (0); samples whose ``type_mask`` ignores them are NaN
+sp_roll… ATTITUDE_TARGET q (w, x, y, z; NED from FRD) → ZYX Euler angles (0); NaN where
+         ``type_mask`` bit 128 ignores the attitude or the quaternion is not a rotation
 m1…m8    SERVO_OUTPUT_RAW servo1..8 (0), RC range (1000–2000 µs) → 0…1, port 0 only
 alt      DISTANCE_SENSOR cm, orientation 25 (downward) only (0), LOCAL_POSITION_NED −z (5),
          GLOBAL_POSITION_INT relative_alt mm (8)
@@ -33,6 +35,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from etsid.frames import quat_to_euler
 from etsid.ingest.base import Issue, ReadOptions, Signal
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 
@@ -137,6 +140,13 @@ def attitude_target(a: np.ndarray, t: np.ndarray, o: ReadOptions,
         v[(mask & bit) != 0] = np.nan
         if np.isfinite(v).any():
             out.append(_sig(column, t, v, f"ATTITUDE_TARGET.{field}", 5 if bit == 64 else 0))
+    q = a["q"].astype(np.float64)
+    norm = np.einsum("ij,ij->i", q, q)
+    keep = ((mask & 128) == 0) & (np.abs(norm - 1.0) < 0.1)
+    if keep.any():
+        euler = quat_to_euler(*(q / np.sqrt(np.where(norm > 0, norm, 1.0))[:, None]).T)
+        for column, values in zip(("sp_roll", "sp_pitch", "sp_yaw"), euler, strict=True):
+            out.append(_sig(column, t, np.where(keep, values, np.nan), "ATTITUDE_TARGET.q", 0))
     return out
 
 

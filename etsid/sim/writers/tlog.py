@@ -121,7 +121,8 @@ def _streams(table: pd.DataFrame, rates: dict[str, float]) -> dict[str, np.ndarr
                "HIGHRES_IMU": bool(have & {"ax", "ay", "az"}),
                "RC_CHANNELS": bool(have & {"u_roll", "u_pitch", "u_thrust", "u_yaw"}),
                "SERVO_OUTPUT_RAW": bool(have & {f"m{i}" for i in range(1, 9)}),
-               "ATTITUDE_TARGET": bool(have & {"sp_p", "sp_q", "sp_r"}),
+               "ATTITUDE_TARGET": bool(have & {"sp_p", "sp_q", "sp_r", "sp_roll", "sp_pitch",
+                                                "sp_yaw"}),
                "DISTANCE_SENSOR": "alt" in have,
                "LOCAL_POSITION_NED": bool(have & {"vx", "vy", "vz", "alt"}),
                "SYS_STATUS": "vbat" in have}
@@ -212,7 +213,7 @@ def _attitude_target(mav: Any, ts: np.ndarray, col: dict[str, np.ndarray | None]
     thrust = col.get("u_thrust")
     mask = sum(bit for bit, v in zip((1, 2, 4), rates, strict=True) if v is None)
     mask |= 64 if thrust is None else 0
-    att = [col.get(c) for c in ("roll", "pitch", "yaw")]
+    att = [col.get(c) for c in ("sp_roll", "sp_pitch", "sp_yaw")]  # a setpoint, not the attitude
     mask |= 128 if all(a is None for a in att) else 0
     quat = np.stack(euler_to_quat(*(zero if a is None else np.nan_to_num(a) for a in att)))
     rates = [zero if v is None else v for v in rates]
