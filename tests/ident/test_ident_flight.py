@@ -175,10 +175,9 @@ def test_coarse_log_is_refused_in_one_line() -> None:
         identify(table, IdentConfig())
 
 
-LOWRATE = Path("/work/shared/data/logs/px4_quad_mission_lowrate_real.ulg")
+LOWRATE = Path(__file__).parents[1] / "data" / "px4_quad_mission_lowrate_real.ulg"
 
 
-@pytest.mark.skipif(not LOWRATE.exists(), reason="real low-rate PX4 log not available")
 def test_real_low_rate_px4_log_is_refused() -> None:
     from etsid.ident.inputs import load_for_ident
 
