@@ -178,10 +178,13 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
 @click.option("--rate", "rate_hz", type=RateHz(), default=None,
               help="Grid rate of a log, Hz (the rules are applied at their own "
                    "identification rate, stored in rules.json).")
+@click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
+              help="Rows to predict and score: auto = airborne samples (the same rule as "
+                   "identify), all = every row, or time windows in s.")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: float | None,
-                rate_hz: float | None, as_json: bool, maps: tuple[str, ...],
+                rate_hz: float | None, segments: str, as_json: bool, maps: tuple[str, ...],
                 mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
     if sim_from is not None and not np.isfinite(sim_from):
@@ -194,7 +197,7 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
                                  param_hint="--sim-from")
     try:
         run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
-                      show_progress=wanted(quiet))
+                      show_progress=wanted(quiet), segments=segments)
     except IdentError as err:
         raise _naming(err, log, rules_path) from err
     echo_table_notes(table)

@@ -12,7 +12,7 @@ from etsid.ets import ETS
 from etsid.ident.arx import ARX, rls_online
 from etsid.ident.metrics import scores
 from etsid.ident.regressors import Regression, RegressorSpec
-from etsid.ident.simulate import envelope, free_run
+from etsid.ident.simulate import envelope, free_run, linear_stability
 from etsid.table import COLUMNS
 
 
@@ -62,7 +62,7 @@ def persistence(reg: Regression, spec: RegressorSpec, table: pd.DataFrame | None
 def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table: int,
                        yhat: np.ndarray, frozen: ETS | None,
                        table: pd.DataFrame | None = None
-                       ) -> tuple[dict[str, np.ndarray], dict[str, list[float]]]:
+                       ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """All prediction columns: online, frozen one-step and free-run, ARX online/val/sim,
     persistence; and the times at which each free run diverged
     (:mod:`etsid.ident.simulate`), keyed ``ets`` and ``arx``."""
@@ -71,7 +71,7 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
     cols["y_hat"] = yhat
     cols["y_arx"] = rls_online(reg.X, reg.Y)
     cols["y_persist"] = persistence(reg, spec, table)
-    diverged: dict[str, list[float]] = {"ets": [], "arx": []}
+    diverged: dict[str, Any] = {"ets": [], "arx": []}
     bounds = envelope(reg.Y)
     if frozen is not None and split < n:
         S = None if reg.S is None else reg.S[split:]
@@ -79,19 +79,48 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
                                                                                      m)
         cols["y_sim"][split:] = free_run(frozen.predict_one, reg, spec, split, n_table,
                                          bounds, diverged["ets"])
+    rate = _rate_hz(reg)
+    x0 = np.nanmean(reg.X[:max(split, 1)], axis=0) if n else np.zeros(reg.X.shape[1])
+    stability: dict[str, Any] = {}
+    if frozen is not None and split < n:
+        if reg.S is None:
+            stability["ets"] = linear_stability(frozen.predict_one, spec, x0, rate)
+        else:  # scheduled: linearised at the learning part's mean scheduling vector too
+            s0 = np.nanmean(reg.S[:max(split, 1)], axis=0)
+            stability["ets"] = linear_stability(lambda x: frozen.predict_one(x, s0), spec, x0,
+                                                rate)
     if split >= reg.X.shape[1] + 1 and split < n:
         arx = ARX.fit(reg.X[:split], reg.Y[:split])
         cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
         cols["y_arx_sim"][split:] = free_run(lambda x, s=None: arx.predict_one(x), reg, spec,
                                              split, n_table, bounds, diverged["arx"])
+        stability["arx"] = linear_stability(arx.predict_one, spec, x0, rate)
+    diverged["stability"] = stability
     return cols, diverged
 
 
+def _rate_hz(reg: Regression) -> float:
+    """Sample rate of the regression rows, Hz (median spacing inside segments)."""
+    if len(reg.t) < 2:
+        return 1.0
+    dt = np.diff(reg.t)
+    if reg.segment is not None:
+        dt = dt[np.diff(reg.segment) == 0]
+    dt = dt[dt > 0]
+    return float(1.0 / np.median(dt)) if dt.size else 1.0
+
+
 def _free_run_scores(meas: np.ndarray, sim: np.ndarray, reg: Regression, split: int,
-                     diverged: list[float]) -> dict[str, Any]:
+                     diverged: list[float], stability: dict[str, Any] | None = None
+                     ) -> dict[str, Any]:
     """Free-run scores on the rows simulated before any divergence, the divergence flag
-    and times, and the fit of every segment of the validation part."""
+    and times, the frozen model's stability and the fit of every segment of the
+    validation part."""
     block: dict[str, Any] = scores(meas, sim)
+    stability = stability or {}
+    block["unstable_model"] = bool(stability.get("unstable", False))
+    block["spectral_radius"] = stability.get("spectral_radius")
+    block["doubling_time_s"] = stability.get("doubling_time_s")
     block["diverged"] = bool(diverged)
     block["diverged_at"] = diverged[0] if diverged else None
     block["diverged_times"] = list(diverged)
@@ -112,11 +141,12 @@ def _free_run_scores(meas: np.ndarray, sim: np.ndarray, reg: Regression, split: 
 def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
                    cols: dict[str, np.ndarray], sigma: dict[str, float],
                    sigma_native: dict[str, float] | None = None,
-                   diverged: dict[str, list[float]] | None = None) -> dict[str, Any]:
+                   diverged: dict[str, Any] | None = None) -> dict[str, Any]:
     """metrics.json ``outputs``: online, validation, ARX and persistence scores per
     output; free-run blocks carry ``diverged``, ``diverged_at`` (s) and ``segments``."""
     n = len(reg.Y)
     diverged = diverged or {"ets": [], "arx": []}
+    stab: dict[str, Any] = diverged.get("stability") or {}
     out: dict[str, Any] = {}
     val = slice(split, n)
     for o, y in enumerate(spec.outputs):
@@ -128,7 +158,7 @@ def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
             entry["validation"] = {
                 "one_step": scores(meas[val], cols["y_val"][val, o]),
                 "free_run": _free_run_scores(meas[val], cols["y_sim"][val, o], reg, split,
-                                             diverged["ets"])}
+                                             diverged["ets"], stab.get("ets"))}
         else:
             entry["validation"] = None
         arx: dict[str, Any] = {"online": scores(meas, cols["y_arx"][:, o])}
@@ -136,7 +166,7 @@ def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
             arx["validation"] = {
                 "one_step": scores(meas[val], cols["y_arx_val"][val, o]),
                 "free_run": _free_run_scores(meas[val], cols["y_arx_sim"][val, o], reg, split,
-                                             diverged["arx"])}
+                                             diverged["arx"], stab.get("arx"))}
         else:
             arx["validation"] = None
         entry["arx"] = arx

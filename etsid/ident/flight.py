@@ -6,10 +6,15 @@ airborne rate dynamics must neither learn nor be judged there. ``--segments``:
 ``auto`` (default)
     Airborne samples only. The autopilot's own land detector where the table has it
     (column ``landed``: PX4 ``vehicle_land_detected.landed``, MAVLink
-    ``EXTENDED_SYS_STATE.landed_state``, MAVROS ``extended_state``; a disarmed vehicle is on
-    the ground): airborne where ``landed`` < 0.5; rows where the detector has no value yet
-    are not airborne. Without a detector, the rule of :func:`airborne_rule` on the thrust
-    command, the altitude and the vertical speed. Without any of them every row counts.
+    ``EXTENDED_SYS_STATE.landed_state``, MAVROS ``extended_state``, ArduPilot ``EV``
+    land-complete events): airborne where ``landed`` < 0.5; rows where the detector has no
+    value yet are not airborne. When ``landed`` is only an *armed state* (MAVLink
+    ``HEARTBEAT.base_mode``, MAVROS ``state.armed``, DataFlash ``ARM`` or ``EV``
+    armed/disarmed events: see :func:`is_armed_state`), a disarmed vehicle is on the ground
+    but an armed one may still sit on it, so airborne = armed **and** a rule
+    (:func:`armed_airborne`).
+    Without either, the rule of :func:`airborne_rule` on the thrust command, the altitude
+    and the vertical speed. Without any of them every row counts.
 ``all``
     Every row (the table's own segments).
 ``T0:T1[,T0:T1…]``
@@ -65,6 +70,10 @@ EXCITE_WINDOW_S = 1.0
 EXCITE_STD = 0.05
 """Least standard deviation of one body rate over the window for a sample to be excited,
 rad/s (≈ 3 °/s; gyro noise and vibration in still hover are 0.002–0.02 rad/s)."""
+
+ARMED_STATE_SOURCES = ("HEARTBEAT.base_mode", "ARM.ArmState", "EV.Id (armed)", ".armed")
+"""``attrs["mapping"]["landed"]`` ending in one of these: the column is an armed state
+(1 disarmed, 0 armed), not a land detector."""
 
 SEGMENT_MODES = ("auto", "all")
 
@@ -137,6 +146,48 @@ def _column(table: pd.DataFrame, name: str) -> np.ndarray | None:
     return None
 
 
+def is_armed_state(table: pd.DataFrame) -> bool:
+    """Whether the table's ``landed`` column comes from an armed state (see
+    :data:`ARMED_STATE_SOURCES`) rather than a land detector."""
+    source = str((table.attrs.get("mapping") or {}).get(LANDED, ""))
+    return source.endswith(ARMED_STATE_SOURCES)
+
+
+def armed_airborne(table: pd.DataFrame, armed: np.ndarray) -> tuple[np.ndarray, str]:
+    """Airborne rows when ``landed`` is only an armed state (``armed`` = its rows < 0.5).
+
+    In each armed stretch: where ``alt`` rises at least :data:`ALT_AIR_M` above its level
+    at the start of the stretch (median over its first second; a vehicle arms on the
+    ground), airborne = that height test or ``|vz|`` ≥ :data:`VZ_AIR` (an armed vehicle
+    may sit on the ground at mid-throttle: a plane's or an altitude-hold throttle stick).
+    A stretch without such a climb (no altitude, or a log that starts in a low hover) uses
+    :func:`airborne_rule` (thrust first). Disarmed rows are never airborne.
+    """
+    t = np.asarray(table.index, dtype=float)
+    rule, how = airborne_rule(table)
+    alt, vz = _column(table, "alt"), _column(table, "vz")
+    out = np.zeros(len(t), dtype=bool)
+    used = set()
+    for a, b in _runs(armed):
+        air = rule[a:b]
+        if alt is not None:
+            first = alt[a:b][t[a:b] <= t[a] + 1.0]
+            ref = np.nanmedian(first) if np.isfinite(first).any() else np.nan
+            with np.errstate(invalid="ignore"):
+                high = np.nan_to_num(alt[a:b] - ref, nan=0.0) >= ALT_AIR_M
+            if high.any():
+                air = high
+                if vz is not None:
+                    air = air | (np.abs(np.nan_to_num(vz[a:b], nan=0.0)) >= VZ_AIR)
+                used.add("altitude above arming level")
+            else:
+                used.add(how)
+        else:
+            used.add(how)
+        out[a:b] = air
+    return out, "armed state + " + (" / ".join(sorted(used)) or how)
+
+
 def airborne_rule(table: pd.DataFrame) -> tuple[np.ndarray, str]:
     """Airborne rows without a land detector.
 
@@ -201,6 +252,8 @@ def select_flight(table: pd.DataFrame, mode: str = "auto") -> FlightSelection:
         if landed is not None:
             with np.errstate(invalid="ignore"):
                 keep, method = (np.nan_to_num(landed, nan=1.0) < 0.5), "land detector"
+            if is_armed_state(table):
+                keep, method = armed_airborne(table, keep)
         else:
             keep, method = airborne_rule(table)
         raw_air = keep

@@ -20,6 +20,7 @@ from etsid.ident.evaluate import (
     rate_info,
     validation_info,
 )
+from etsid.ident.flight import apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
@@ -71,7 +72,7 @@ MAX_SAMPLE_RATE_HZ = 10_000.0
 
 def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
             sim_from: float | None = None, source: str | Path | None = None,
-            show_progress: bool = False) -> Run:
+            show_progress: bool = False, segments: str = "auto") -> Run:
     """Apply a saved rule base to ``table``: one-step and free-run, optionally learning on.
 
     Parameters
@@ -89,11 +90,16 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         ``validation.t_start`` to reproduce its validation predictions exactly.
     source, show_progress
         As for :func:`etsid.ident.identify`.
+    segments
+        ``auto`` (airborne rows, the same rule as identify), ``all`` or ``T0:T1[,…]`` (s):
+        the rows predicted and scored (:func:`etsid.ident.flight.select_flight`).
     """
     path = Path(rules)
     model, spec, data = load_rules(path)
     sigma_native = noise_std(table, spec.outputs)
     rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
+    selection = select_flight(table, segments)
+    table = apply_selection(table, selection)
     table = decimate(table, float(rate_hz) if rate_hz else None)
     reg = build(table, spec)
     n = len(reg.X)
@@ -118,6 +124,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "validation": validation_info(reg, split, (n - split) / n),
         "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged),
         "sample_rate": rate_info(table),
+        "flight": selection.to_dict(),
     }
     run_config = {
         **run_header("predict", table, source),
@@ -125,7 +132,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
                                                       else path / "rules.json")},
         "model": {**spec.to_dict(), "inputs": {"columns": [
             c for c in spec.columns if c not in spec.outputs]}, "notes": []},
-        "parameters": {"learn": learn, "sim_from": sim_from},
+        "parameters": {"learn": learn, "sim_from": sim_from, "segments": segments},
         "ets": {**{k: data["params"].get(k) for k in ("radius", "omega", "variant")},
                 "fixed_ranges": data["params"].get("x_range") is not None}
         if isinstance(data.get("params"), dict) else {},

@@ -13,6 +13,16 @@ is outside ``[lo − K·w, hi + K·w]`` with K = :data:`DIVERGE_FACTOR` (or is n
 That row and the rest of its segment are NaN; the next segment starts afresh from measured
 initial conditions. The times are returned so that metrics use only the rows before the
 divergence and the report can say "diverged at t = … s".
+
+**Unstable frozen model** (:func:`linear_stability`). A model can be unstable and still
+stay inside the envelope over a short validation window. The frozen model is linearised
+(central differences of its one-step prediction with respect to its lagged-output
+regressors) at the learning part's mean regressor vector; the lagged outputs then obey
+``s(k+1) = A s(k) + …`` with ``A`` the companion matrix of the output recursion (first
+block row: the Jacobian per lag; below: the shift). Its spectral radius ρ is the growth
+factor per sample of the free response: ρ > :data:`UNSTABLE_RADIUS` means the free run
+grows without bound, by ρ^f per second at the identification rate f (doubling time
+ln 2 / (f ln ρ)). For ARX (linear) this is exact; for eTS it holds near the operating point.
 """
 
 from __future__ import annotations
@@ -26,6 +36,51 @@ from etsid.ident.regressors import Regression, RegressorSpec, feedback_map
 DIVERGE_FACTOR = 2.0
 """A free-run value more than this many measured ranges outside the measured envelope of
 its output means the simulation diverged."""
+
+
+UNSTABLE_RADIUS = 1.0 + 1e-6
+"""Spectral radius of the linearised free-run recursion above which the frozen model is
+unstable (1, plus a margin for the finite-difference Jacobian)."""
+
+
+def linear_stability(predict_one: Callable[[np.ndarray], np.ndarray], spec: RegressorSpec,
+                     x0: np.ndarray, rate_hz: float) -> dict[str, float | bool | None]:
+    """Spectral radius of the model's output recursion linearised at ``x0`` (module doc).
+
+    Returns
+    -------
+    dict
+        ``spectral_radius``, ``growth_per_s`` (ρ^rate), ``doubling_time_s`` (s; None when
+        ρ ≤ 1) and ``unstable`` (ρ > :data:`UNSTABLE_RADIUS`); all None without lagged
+        outputs or with a non-finite operating point.
+    """
+    links = feedback_map(spec)
+    m = len(spec.outputs)
+    empty = {"spectral_radius": None, "growth_per_s": None, "doubling_time_s": None,
+             "unstable": False}
+    x0 = np.asarray(x0, dtype=float)
+    if not links or not np.all(np.isfinite(x0)):
+        return empty
+    depth = max(lag for _, _, lag in links)
+    a = np.zeros((m * depth, m * depth))
+    for j, o, lag in links:
+        h = 1e-4 * max(1.0, abs(x0[j]))
+        up, down = x0.copy(), x0.copy()
+        up[j] += h
+        down[j] -= h
+        deriv = (np.asarray(predict_one(up), float).reshape(m)
+                 - np.asarray(predict_one(down), float).reshape(m)) / (2 * h)
+        a[:m, (lag - 1) * m + o] += deriv
+    for k in range(1, depth):
+        a[k * m:(k + 1) * m, (k - 1) * m:k * m] = np.eye(m)
+    if not np.all(np.isfinite(a)):
+        return empty
+    rho = float(np.max(np.abs(np.linalg.eigvals(a))))
+    unstable = rho > UNSTABLE_RADIUS
+    growth = float(np.exp(min(rate_hz * np.log(rho), 700.0))) if rho > 0 else 0.0
+    doubling = float(np.log(2.0) / (rate_hz * np.log(rho))) if unstable else None
+    return {"spectral_radius": rho, "growth_per_s": growth, "doubling_time_s": doubling,
+            "unstable": bool(unstable)}
 
 
 def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:

@@ -23,6 +23,12 @@ m1…m8        RCOU C1…C8, RC range (1000–2000 µs) → 0…1 (0)
 alt          RFND Dist (m; old logs' Dist1 in cm, decided from FMTU units or the field's
              integer type), downward (Orient 25) when the field exists (0)
 vbat         BAT Volt (0)
+landed       EV Id (ArduPilot ``LogEvent``): with land-complete events in the log, a land
+             detector (0): LAND_COMPLETE 18, DISARMED 11, ARMED 10, AUTO_ARMED 15 → 1
+             (on the ground), NOT_LANDED 28 → 0; otherwise an armed state (1): DISARMED 11
+             → 1, ARMED 10 / AUTO_ARMED 15 → 0 (source ``EV.Id (armed)``). ARM ArmState
+             (2, armed state: 0 → 1, 1 → 0). Events are sparse: the state is sampled at
+             :data:`EVENT_STATE_HZ` from the first event to the end of the log (held).
 ============ ============================================================================
 
 Instanced messages (``I``, ``Instance``, ``Inst`` fields) keep instance 0. Time is
@@ -49,7 +55,13 @@ from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.progress import progress
 
 DEG = np.pi / 180.0
-NEEDED = ("ATT", "RATE", "IMU", "IMU2", "IMU3", "RCIN", "RCOU", "BAT", "RFND", "GPS")
+NEEDED = ("ATT", "RATE", "IMU", "IMU2", "IMU3", "RCIN", "RCOU", "BAT", "RFND", "GPS", "EV",
+          "ARM")
+EV_ARMED, EV_DISARMED, EV_AUTO_ARMED = 10, 11, 15
+EV_LAND_COMPLETE, EV_NOT_LANDED = 18, 28
+"""ArduPilot ``LogEvent`` ids (AP_Logger), the ones that say armed or landed."""
+EVENT_STATE_HZ = 10.0
+"""Rate at which a state known from events (EV, ARM) is sampled, Hz."""
 _NP = {"b": "i1", "B": "u1", "h": "<i2", "H": "<u2", "i": "<i4", "I": "<u4", "q": "<i8",
        "Q": "<u8", "f": "<f4", "d": "<f8", "s": "S"}
 GPS_EPOCH = 315964800.0
@@ -214,6 +226,36 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
         out.append(Signal("vbat", d.t, d.f("Volt"), "BAT.Volt", 0))
     if (d := msgs.get("RFND")) is not None:
         out += _rangefinder(d)
+    return out + _landed(msgs)
+
+
+def _held_state(t: np.ndarray, v: np.ndarray, t_end: float) -> tuple[np.ndarray, np.ndarray]:
+    """A state changed by events at ``t`` sampled regularly from the first event to
+    ``t_end``, each sample the value of the last event at or before it."""
+    grid = np.arange(t[0], max(t_end, t[-1]) + 0.5 / EVENT_STATE_HZ, 1.0 / EVENT_STATE_HZ)
+    grid = np.union1d(grid, t)
+    return grid, v[np.searchsorted(t, grid, side="right") - 1]
+
+
+def _landed(msgs: dict[str, _Decoded]) -> list[Signal]:
+    """``landed`` from EV events (land detector or armed state) and ARM (armed state)."""
+    out: list[Signal] = []
+    t_end = max((float(d.t[-1]) for d in msgs.values() if d.t.size), default=0.0)
+    if (d := msgs.get("EV")) is not None and d.has("Id"):
+        ids = d.rec["Id"].astype(np.int64)
+        if np.isin(ids, (EV_LAND_COMPLETE, EV_NOT_LANDED)).any():
+            ground, air, source, prio = ((EV_LAND_COMPLETE, EV_DISARMED, EV_ARMED, EV_AUTO_ARMED),
+                                         (EV_NOT_LANDED,), "EV.Id", 0)
+        else:
+            ground, air, source, prio = ((EV_DISARMED,), (EV_ARMED, EV_AUTO_ARMED),
+                                         "EV.Id (armed)", 1)
+        v = np.where(np.isin(ids, ground), 1.0, np.where(np.isin(ids, air), 0.0, np.nan))
+        ok = np.isfinite(v)
+        if ok.any():
+            out.append(Signal("landed", *_held_state(d.t[ok], v[ok], t_end), source, prio))
+    if (d := msgs.get("ARM")) is not None and d.has("ArmState") and d.t.size:
+        v = np.where(d.rec["ArmState"] > 0, 0.0, 1.0)
+        out.append(Signal("landed", *_held_state(d.t, v, t_end), "ARM.ArmState", 2))
     return out
 
 

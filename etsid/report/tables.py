@@ -37,6 +37,9 @@ def free_run_text(block: Any) -> str:
         before = block.get("fit")
         tail = f", fit {before:.3g} % before" if isinstance(before, float) else ""
         return f"diverged at t = {block['diverged_at']:.2f} s{tail}"
+    if block.get("unstable_model"):
+        return (f"{fmt(block.get('fit'), 3)} (unstable model: ρ = "
+                f"{block['spectral_radius']:.4g}, doubles in {block['doubling_time_s']:.3g} s)")
     return fmt(block.get("fit"), 3)
 
 

@@ -96,6 +96,34 @@ def test_identify_learns_and_validates_on_airborne_rows_only(flight) -> None:
     assert every.metrics["flight"]["airborne_s"] > 50.0
 
 
+def test_predict_uses_the_same_airborne_rows(flight, tmp_path: Path) -> None:
+    from etsid.ident import predict
+    from etsid.ident.rundir import write_run
+
+    table, air = flight
+    run = identify(table, IdentConfig())
+    write_run(run, tmp_path / "run")
+    t_start = run.metrics["validation"]["t_start"]
+    again = predict(table, tmp_path / "run", sim_from=t_start)
+    pred = again.predictions
+    inside = np.zeros(len(pred), dtype=bool)
+    for t0, t1 in air:
+        inside |= (pred["t"] >= t0) & (pred["t"] <= t1)
+    assert inside.all() and again.metrics["flight"]["method"] == "land detector"
+    np.testing.assert_array_equal(pred["t"], run.predictions["t"])
+    val = pred["part"] == "validation"
+    np.testing.assert_allclose(pred.loc[val, "p_val"], run.predictions.loc[val, "p_val"],
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(pred.loc[val, "q_sim"], run.predictions.loc[val, "q_sim"],
+                               rtol=1e-9, atol=1e-12)
+    every = predict(table, tmp_path / "run", segments="all")
+    assert (~np.isin(every.predictions["t"], pred["t"])).sum() > 500  # ground rows too
+    window = predict(table, tmp_path / "run", segments=f"{air[1][0]}:{air[1][1]}")
+    assert window.predictions["t"].min() >= air[1][0]
+    with pytest.raises(IdentError, match="no airborne"):
+        predict(table[table.index < air[0][0]], tmp_path / "run")
+
+
 def test_ground_only_log_is_refused_in_one_line(flight) -> None:
     table, air = flight
     ground = table[table.index < air[0][0]]
@@ -147,10 +175,9 @@ def test_coarse_log_is_refused_in_one_line() -> None:
         identify(table, IdentConfig())
 
 
-LOWRATE = Path("/work/shared/data/logs/px4_quad_mission_lowrate_real.ulg")
+LOWRATE = Path(__file__).parents[1] / "data" / "px4_quad_mission_lowrate_real.ulg"
 
 
-@pytest.mark.skipif(not LOWRATE.exists(), reason="real low-rate PX4 log not available")
 def test_real_low_rate_px4_log_is_refused() -> None:
     from etsid.ident.inputs import load_for_ident
 

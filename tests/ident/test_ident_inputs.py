@@ -16,7 +16,7 @@ from etsid.ident.defaults import default_model
 from etsid.ident.inputs import STICK_STD_MIN, choose_inputs, kind_of
 from etsid.ingest.base import Signal
 
-CUBE = Path("/work/shared/data/logs/px4_cubeorange_real.ulg")
+CUBE = Path(__file__).parents[1] / "data" / "px4_cubeorange_real.ulg"
 
 
 def _signals(stick_std: float, stick_hz: float = 50.0) -> list[Signal]:
@@ -78,7 +78,6 @@ def test_table_with_flat_sticks_uses_setpoints() -> None:
         default_model(frame, inputs="torque")
 
 
-@pytest.mark.skipif(not CUBE.exists(), reason="real PX4 log not available")
 def test_real_px4_log_auto_uses_torque_commands(tmp_path: Path) -> None:
     out = tmp_path / "RUN"
     # the land detector says airborne for 1.1 s only (a hop): auto refuses in one line

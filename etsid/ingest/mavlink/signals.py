@@ -16,11 +16,16 @@ roll…    ATTITUDE (0)
 ax ay az HIGHRES_IMU (0), SCALED_IMU/2/3 mG (1/2/3), RAW_IMU (9, assumed mG)
 u_*      RC_CHANNELS (0), RC_CHANNELS_RAW (1) via ``rc_map``; ATTITUDE_TARGET.thrust (5)
 sp_*     ATTITUDE_TARGET body rates (0); samples whose ``type_mask`` ignores them are NaN
+sp_roll… ATTITUDE_TARGET q (w, x, y, z; NED from FRD) → ZYX Euler angles (0); NaN where
+         ``type_mask`` bit 128 ignores the attitude or the quaternion is not a rotation
 m1…m8    SERVO_OUTPUT_RAW servo1..8 (0), RC range (1000–2000 µs) → 0…1, port 0 only
 alt      DISTANCE_SENSOR cm, orientation 25 (downward) only (0), LOCAL_POSITION_NED −z (5),
          GLOBAL_POSITION_INT relative_alt mm (8)
 vx vy vz LOCAL_POSITION_NED (0), GLOBAL_POSITION_INT cm/s (2)
 vbat     SYS_STATUS voltage_battery mV (0), BATTERY_STATUS sum of cell voltages mV (1)
+landed   EXTENDED_SYS_STATE.landed_state (0: ON_GROUND → 1, IN_AIR/TAKEOFF/LANDING → 0,
+         UNDEFINED → no value); HEARTBEAT.base_mode armed flag (1: disarmed → 1, armed → 0,
+         an *armed state*, see :mod:`etsid.ident.flight`)
 ======== ==================================================================================
 """
 
@@ -30,6 +35,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from etsid.frames import quat_to_euler
 from etsid.ingest.base import Issue, ReadOptions, Signal
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 
@@ -51,6 +57,8 @@ CLOCK_FIELDS: dict[str, tuple[str, str]] = {
     "LOCAL_POSITION_NED": ("time_boot_ms", "ms"),
     "GLOBAL_POSITION_INT": ("time_boot_ms", "ms"),
     "SYS_STATUS": ("", ""),
+    "HEARTBEAT": ("", ""),
+    "EXTENDED_SYS_STATE": ("", ""),
     "BATTERY_STATUS": ("", ""),
 }
 """Message → (clock field, kind): ms = uint32 ms boot, us = uint64 µs, us32 = uint32 µs."""
@@ -132,6 +140,13 @@ def attitude_target(a: np.ndarray, t: np.ndarray, o: ReadOptions,
         v[(mask & bit) != 0] = np.nan
         if np.isfinite(v).any():
             out.append(_sig(column, t, v, f"ATTITUDE_TARGET.{field}", 5 if bit == 64 else 0))
+    q = a["q"].astype(np.float64)
+    norm = np.einsum("ij,ij->i", q, q)
+    keep = ((mask & 128) == 0) & (np.abs(norm - 1.0) < 0.1)
+    if keep.any():
+        euler = quat_to_euler(*(q / np.sqrt(np.where(norm > 0, norm, 1.0))[:, None]).T)
+        for column, values in zip(("sp_roll", "sp_pitch", "sp_yaw"), euler, strict=True):
+            out.append(_sig(column, t, np.where(keep, values, np.nan), "ATTITUDE_TARGET.q", 0))
     return out
 
 
@@ -183,6 +198,29 @@ def battery_status(a: np.ndarray, t: np.ndarray, o: ReadOptions,
     return [_sig("vbat", t, total, "BATTERY_STATUS.voltages", 1)]
 
 
+MAV_MODE_FLAG_SAFETY_ARMED = 128
+"""HEARTBEAT.base_mode bit: motors armed."""
+
+MAV_LANDED_STATE_ON_GROUND = 1
+"""EXTENDED_SYS_STATE.landed_state: 0 UNDEFINED, 1 ON_GROUND, 2 IN_AIR, 3 TAKEOFF, 4 LANDING."""
+
+
+def heartbeat(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+              repaired: list[Issue]) -> list[Signal]:
+    """Armed state as ``landed``: 1 disarmed (on the ground), 0 armed."""
+    armed = (a["base_mode"] & MAV_MODE_FLAG_SAFETY_ARMED) != 0
+    return [_sig("landed", t, np.where(armed, 0.0, 1.0), "HEARTBEAT.base_mode", 1)]
+
+
+def extended_sys_state(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+                       repaired: list[Issue]) -> list[Signal]:
+    """The autopilot's land detector: 1 on the ground, 0 in the air, taking off or landing."""
+    state = a["landed_state"]
+    v = np.where(state == MAV_LANDED_STATE_ON_GROUND, 1.0, 0.0)
+    v[state == 0] = np.nan
+    return [_sig("landed", t, v, "EXTENDED_SYS_STATE.landed_state", 0)]
+
+
 DECODERS: dict[str, Decoder] = {
     "ATTITUDE": attitude,
     "HIGHRES_IMU": _imu("HIGHRES_IMU", 1.0, 1.0, 2, 0),
@@ -199,5 +237,7 @@ DECODERS: dict[str, Decoder] = {
     "GLOBAL_POSITION_INT": global_position_int,
     "SYS_STATUS": sys_status,
     "BATTERY_STATUS": battery_status,
+    "HEARTBEAT": heartbeat,
+    "EXTENDED_SYS_STATE": extended_sys_state,
 }
 """Message name → decoder (every message the tlog reader maps to columns)."""

@@ -33,6 +33,9 @@ alt                   px4 −z 3; Odometry / PoseStamped position z (ENU up) 4  
 vx vy vz              px4 VehicleLocalPosition 1; TwistStamped velocity_local 2    1/2
 vx vy vz              nav_msgs/Odometry twist.linear rotated to NED                 4
 vbat                  sensor_msgs/BatteryState, px4 BatteryStatus                   2
+landed                mavros ExtendedState landed_state (ON_GROUND 1 → 1, IN_AIR,   1
+                      TAKEOFF, LANDING → 0, UNDEFINED → none): land detector
+landed                mavros State armed (false → 1, true → 0): armed state         2
 ====================  ==========================================================  ====
 
 Covariance −1 in sensor_msgs/Imu marks a field the driver does not provide: it is skipped.
@@ -139,6 +142,12 @@ class Spec:
     clock: Callable[[Any], int] | None = _stamp_ns
     boot: bool = False
     """The clock is the autopilot boot clock (px4 ``timestamp``, MAVLink ``time_boot_ms``)."""
+
+
+def _landed_state_finish(b: Batch) -> list[Signal]:
+    state = b.col(0)
+    return [b.signal("landed", np.where(state == 1, 1.0, 0.0), "landed_state", 1, state != 0,
+                     "landed_state UNDEFINED")]
 
 
 def _is_raw(topic: str) -> bool:
@@ -410,6 +419,11 @@ SPECS: dict[str, Spec] = {
     "mavros_msgs/RCIn": Spec(_channels_row, _rcin_finish),
     "mavros_msgs/RCOut": Spec(_channels_row, _rcout_finish),
     "mavros_msgs/AttitudeTarget": Spec(_attitude_target_row, _attitude_target_finish),
+    "mavros_msgs/ExtendedState": Spec(lambda m: (float(m.landed_state),),
+                                      _landed_state_finish),
+    "mavros_msgs/State": Spec(
+        lambda m: (0.0 if m.armed else 1.0,),
+        lambda b: [b.signal("landed", b.col(0), "armed", 2)]),
     "px4_msgs/VehicleAngularVelocity": Spec(
         lambda m: tuple(m.xyz), lambda b: _xyz_signals(b, ("p", "q", "r"), "xyz", 0, 1),
         _px4_ns, True),

@@ -52,6 +52,9 @@ RATES: dict[str, float] = {
 BOOT_OFFSET_S = 30.0
 """Autopilot uptime at the table's t = 0 (the log starts mid-boot, as real ones do)."""
 DEFAULT_START = 1.7e9
+ARMED_BASE_MODE = 81 | 128
+"""HEARTBEAT base_mode: custom mode, stabilize, manual input and SAFETY_ARMED (the simulated
+vehicle flies, so it is armed throughout; readers take a disarmed vehicle as landed)."""
 
 
 class _StampedSink:
@@ -118,7 +121,8 @@ def _streams(table: pd.DataFrame, rates: dict[str, float]) -> dict[str, np.ndarr
                "HIGHRES_IMU": bool(have & {"ax", "ay", "az"}),
                "RC_CHANNELS": bool(have & {"u_roll", "u_pitch", "u_thrust", "u_yaw"}),
                "SERVO_OUTPUT_RAW": bool(have & {f"m{i}" for i in range(1, 9)}),
-               "ATTITUDE_TARGET": bool(have & {"sp_p", "sp_q", "sp_r"}),
+               "ATTITUDE_TARGET": bool(have & {"sp_p", "sp_q", "sp_r", "sp_roll", "sp_pitch",
+                                                "sp_yaw"}),
                "DISTANCE_SENSOR": "alt" in have,
                "LOCAL_POSITION_NED": bool(have & {"vx", "vy", "vz", "alt"}),
                "SYS_STATUS": "vbat" in have}
@@ -146,7 +150,7 @@ def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: d
 
     enc: dict[str, Callable[[int], Any]] = {}
     if "HEARTBEAT" in t:
-        enc["HEARTBEAT"] = lambda i: mav.heartbeat_encode(13, 3, 81, 0, 4)
+        enc["HEARTBEAT"] = lambda i: mav.heartbeat_encode(13, 3, ARMED_BASE_MODE, 0, 4)
     if "ATTITUDE" in t:
         a = [g("ATTITUDE", c) for c in ("roll", "pitch", "yaw", "p", "q", "r")]
         ms = boot_ms("ATTITUDE")
@@ -209,7 +213,7 @@ def _attitude_target(mav: Any, ts: np.ndarray, col: dict[str, np.ndarray | None]
     thrust = col.get("u_thrust")
     mask = sum(bit for bit, v in zip((1, 2, 4), rates, strict=True) if v is None)
     mask |= 64 if thrust is None else 0
-    att = [col.get(c) for c in ("roll", "pitch", "yaw")]
+    att = [col.get(c) for c in ("sp_roll", "sp_pitch", "sp_yaw")]  # a setpoint, not the attitude
     mask |= 128 if all(a is None for a in att) else 0
     quat = np.stack(euler_to_quat(*(zero if a is None else np.nan_to_num(a) for a in att)))
     rates = [zero if v is None else v for v in rates]
