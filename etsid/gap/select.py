@@ -1,0 +1,135 @@
+"""Choose the effect(s) that explain REAL: fit on the first part, score on the later part.
+
+Scores are held-out, noise-normalised: ``z_c = mean(residual_c²)/σ_c²`` on the held-out
+part of REAL (``σ_c`` = the nominal model's held-out error on SIM itself, so a model as
+good as on SIM scores 1). A set of effects is worth its *explained share*
+``(Σ_c z_c,before − Σ_c z_c,after) / Σ_c max(z_c,before − 1, 0)`` minus
+:data:`PARAM_PENALTY` per parameter. The best single effect is kept if its share reaches
+:data:`MIN_SHARE`; a second effect is added (refitted jointly) only if the pair raises the
+share by :data:`MIN_EXTRA_SHARE` and the second effect alone helps too. Structure left in
+a channel afterwards is offered to an eTS residual model (``unexplained``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from etsid.ets import ETS
+from etsid.gap.candidates import LIBRARY, Candidate
+from etsid.gap.fitting import Fit, Scorer, fit_candidates
+from etsid.gap.nominal import Mods
+
+PARAM_PENALTY = 0.02
+MIN_SHARE = 0.30
+MIN_EXTRA_SHARE = 0.10
+MIN_UNEXPLAINED_GAIN = 0.30
+"""Least relative drop of a channel's held-out z that the eTS residual model must give."""
+PAIR_POOL = 3
+
+
+@dataclass
+class Scored:
+    """A fitted candidate set with its held-out scores."""
+
+    fit: Fit
+    z_after: dict[str, float]
+    gain: float
+    share: float
+
+    @property
+    def score(self) -> float:
+        """Explained share minus the complexity penalty."""
+        return self.share - PARAM_PENALTY * self.fit.n_params
+
+
+@dataclass
+class Unexplained:
+    """An eTS residual model on one channel, scheduled on one or two variables."""
+
+    channel: str
+    variables: list[str]
+    model: ETS
+    z_before: float
+    z_after: float
+    correction: np.ndarray
+
+
+@dataclass
+class Selection:
+    """The outcome of the search."""
+
+    z_before: dict[str, float]
+    excess: float
+    ranked: list[Scored]
+    chosen: Scored | None
+    unexplained: Unexplained | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def excess(z: dict[str, float]) -> float:
+    """Σ_c max(z_c − 1, 0): how far the channels are above SIM's own error."""
+    return float(sum(max(v - 1.0, 0.0) for v in z.values()))
+
+
+def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, float],
+              e0: float) -> Scored:
+    """Held-out scores of a fitted set."""
+    z_after = scorer.zscores(fit.mods, hold, tuple(z_before))
+    gain = float(sum(z_before.values()) - sum(z_after.values()))
+    return Scored(fit, z_after, gain, gain / max(e0, 1e-9))
+
+
+def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
+           library: tuple[Candidate, ...] = LIBRARY) -> Selection:
+    """Fit every available candidate, keep the best one or two by held-out share."""
+    z0 = scorer.zscores(None, hold)
+    e0 = excess(z0)
+    ranked: list[Scored] = []
+    for cand in library:
+        if not cand.available(scorer.ctx):
+            continue
+        ranked.append(score_fit(fit_candidates((cand,), scorer, fit_mask), scorer, hold, z0, e0))
+    ranked.sort(key=lambda s: s.score, reverse=True)
+    sel = Selection(z0, e0, ranked, None)
+    if not ranked or ranked[0].share < MIN_SHARE:
+        return sel
+    best = ranked[0]
+    chosen = best
+    pool = [s for s in ranked[1:PAIR_POOL + 1] if s.gain > 0]
+    for other in pool:
+        pair = (best.fit.candidates[0], other.fit.candidates[0])
+        joint = score_fit(fit_candidates(pair, scorer, fit_mask), scorer, hold, z0, e0)
+        if (joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score):
+            chosen = joint
+    sel.chosen = chosen
+    return sel
+
+
+def fit_unexplained(scorer: Scorer, mods: Mods | None, channel: str,
+                    variables: dict[str, np.ndarray], fit_mask: np.ndarray,
+                    hold: np.ndarray) -> Unexplained | None:
+    """eTS model of the residual of ``channel`` on the scheduling variables; None if it
+    does not cut the held-out z of that channel by :data:`MIN_UNEXPLAINED_GAIN`."""
+    res = scorer.residuals(mods)[channel]
+    names = list(variables)
+    x = np.column_stack([variables[v] for v in names])
+    lo, hi = x[fit_mask].min(axis=0), x[fit_mask].max(axis=0)
+    hi = np.where(hi > lo, hi, lo + 1.0)
+    y = res[:, None]
+    ylo, yhi = float(np.min(y[fit_mask])), float(np.max(y[fit_mask]))
+    model = ETS(radius=0.3, x_range=np.column_stack([lo, hi]),
+                y_range=np.array([[ylo, max(yhi, ylo + 1e-9)]]), input_names=names,
+                output_names=[channel], max_rules=12, history_every=100000)
+    step = max(int(np.sum(fit_mask) / 4000), 1)
+    idx = np.flatnonzero(fit_mask)[::step]
+    model.run(x[idx], y[idx])
+    corr = np.zeros(res.size)
+    corr[:] = np.nan_to_num(model.predict(x)[:, 0])
+    sigma2 = scorer.sigma[channel] ** 2
+    z_b = float(np.mean(res[hold] ** 2) / sigma2)
+    z_a = float(np.mean((res - corr)[hold] ** 2) / sigma2)
+    if z_a > (1.0 - MIN_UNEXPLAINED_GAIN) * z_b:
+        return None
+    return Unexplained(channel, names, model, z_b, z_a, corr)
