@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from etsid.cli.settings import parse_assignments
 from etsid.errors import SimError
 from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
 
@@ -54,11 +55,23 @@ def _check_out(out: Path, fmt: str | None) -> None:
               show_default=True, help="Model ground effect.")
 @click.option("--rate", "rate_hz", type=click.FloatRange(min=1, max=10_000), default=250.0,
               show_default=True, help="Sensor/table rate, Hz.")
+@click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
+              help="Change a setting; repeatable. vehicle.EFFECT (time_delay, motor_lag, "
+                   "thrust_scale, torque_scale, cg_offset, torque_offset, inertia_scale, "
+                   "gyro_bias, accel_bias, estimator, ground_effect_torque, battery_sag), "
+                   "vehicle.mass, vehicle.SECTION.FIELD, or scenario.SETTING "
+                   "(duration, altitude, amplitude, ...). Values in TOML syntax, e.g. "
+                   "--set vehicle.cg_offset=[0.02,0,0].")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: Path | None,
              duration: float | None, seed: int, ground_effect: str, rate_hz: float,
-             list_only: bool) -> None:
-    """Fly SCENARIO with the hexacopter physics model and write it as a real flight log."""
+             assignments: tuple[str, ...], list_only: bool) -> None:
+    """Fly SCENARIO with the hexacopter physics model and write it as a real flight log.
+
+    Every physical effect of docs/physics.md is a vehicle setting, off by default:
+    e.g. --set vehicle.time_delay=0.02 --set vehicle.motor_lag=[0.04,0.08]
+    --set scenario.altitude=1.0.
+    """
     from etsid.sim import SCENARIOS
     from etsid.sim import simulate as run_simulation
 
@@ -75,9 +88,11 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
                                  f"{', '.join(_scenario_names())}", param_hint="SCENARIO")
     if out is None:
         raise click.UsageError("Missing option '-o' / '--out'.")
+    settings = parse_assignments(assignments)
     _check_out(out, fmt)
     flight = run_simulation(scenario, vehicle=vehicle, duration=duration, seed=seed,
-                            ground_effect=ground_effect == "on", rate_hz=rate_hz)
+                            ground_effect=ground_effect == "on", rate_hz=rate_hz,
+                            settings=settings)
     table = flight.table
     if format_for(out, fmt) in ("parquet", "csv"):
         # a saved table also carries the noise-free states (true_* columns) for tests

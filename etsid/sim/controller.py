@@ -28,6 +28,9 @@ from etsid.sim.params import (
     ANGLE_KP,
     DCUT,
     DT,
+    LOOP_INPUT,
+    LOOP_RATES,
+    LOOP_TORQUE,
     MAX_CLIMB,
     MAX_RATE,
     MAX_TILT,
@@ -89,7 +92,10 @@ def control_step(
     ms : ndarray
         Measurements: gyro (rad/s), Euler angles (rad), NED velocity (m/s), altitude (m).
     exc : ndarray
-        Excitation added to the roll, pitch, yaw sticks (−1..1).
+        Loop commands, read as ``P[LOOP_INPUT]`` says: excitation added to the roll, pitch,
+        yaw sticks (−1..1, default); body-rate setpoints (rad/s, pilot and angle loop
+        bypassed); or torque demands (−1..1, rate loop bypassed too). In the last two
+        modes ``u_out[:3]`` echoes them.
     alt_sp, alt_rate : float
         Altitude setpoint (m) and its rate (m/s, feed-forward).
     vel_sp : ndarray
@@ -101,13 +107,38 @@ def control_step(
     m_out, u_out, sp_out : ndarray
         Out: motor commands (N), sticks u_roll u_pitch u_yaw u_thrust, rate setpoints (rad/s).
     """
-    dt = P[DT]
     roll, pitch, yaw = ms[MS_ATT], ms[MS_ATT + 1], ms[MS_ATT + 2]
     if cs[CS_INIT] < 0.5:
         cs[CS_YAW0] = yaw
         for i in range(3):
             cs[CS_GF + i] = ms[MS_GYRO + i]
         cs[CS_INIT] = 1.0
+    mode = int(P[LOOP_INPUT])
+    cr = math.cos(roll)
+    cp = math.cos(pitch)
+    tau = cs[CS_TAU:CS_TAU + 3]
+    if mode in (LOOP_RATES, LOOP_TORQUE):
+        for i in range(3):
+            u_out[i] = exc[i]
+            sp_out[i] = exc[i] if mode == LOOP_RATES else 0.0
+        if mode == LOOP_RATES:
+            _rate_loop(P, cs, ms, sp_out, tau)
+        else:
+            for i in range(3):
+                tau[i] = exc[i]
+            _clip_torque(P, tau)
+    else:
+        _pilot_and_angle_loop(P, cs, ms, exc, vel_sp, u_out, sp_out)
+        _rate_loop(P, cs, ms, sp_out, tau)
+    _altitude_and_mixer(P, cs, ms, alt_sp, alt_rate, thr_manual, cr * cp, tau, mix, m_out,
+                        u_out)
+
+
+@njit(cache=True)
+def _pilot_and_angle_loop(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, exc: np.ndarray,
+                          vel_sp: np.ndarray, u_out: np.ndarray, sp_out: np.ndarray) -> None:
+    dt = P[DT]
+    roll, pitch, yaw = ms[MS_ATT], ms[MS_ATT + 1], ms[MS_ATT + 2]
     # --- pilot ---------------------------------------------------------------------------
     cy, sy = math.cos(yaw), math.sin(yaw)
     vf = cy * ms[MS_VEL] + sy * ms[MS_VEL + 1]
@@ -137,8 +168,12 @@ def control_step(
     sp_out[0] = _clip(droll - dyaw * sp_, -mr, mr)
     sp_out[1] = _clip(dpitch * cr + dyaw * cp * sr, -mr, mr)
     sp_out[2] = _clip(-dpitch * sr + dyaw * cp * cr, -P[MAX_YAW_RATE], P[MAX_YAW_RATE])
-    # --- rate loop -------------------------------------------------------------------------
-    tau = cs[CS_TAU:CS_TAU + 3]
+
+
+@njit(cache=True)
+def _rate_loop(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, sp_out: np.ndarray,
+               tau: np.ndarray) -> None:
+    dt = P[DT]
     ad = dt / (1.0 / (2.0 * math.pi * P[DCUT]) + dt)
     for i in range(3):
         g = ms[MS_GYRO + i]
@@ -148,16 +183,28 @@ def control_step(
         e = sp_out[i] - g
         cs[CS_IRATE + i] = _clip(cs[CS_IRATE + i] + P[RATE_KI + i] * e * dt, -INT_LIMIT, INT_LIMIT)
         tau[i] = P[RATE_KP + i] * e + cs[CS_IRATE + i] - P[RATE_KD + i] * (gf - gf_old) / dt
+    _clip_torque(P, tau)
+
+
+@njit(cache=True)
+def _clip_torque(P: np.ndarray, tau: np.ndarray) -> None:
     tau[0] = _clip(tau[0], -1.0, 1.0)
     tau[1] = _clip(tau[1], -1.0, 1.0)
     tau[2] = _clip(tau[2], -P[YAW_MIX], P[YAW_MIX])
+
+
+@njit(cache=True)
+def _altitude_and_mixer(P: np.ndarray, cs: np.ndarray, ms: np.ndarray, alt_sp: float,
+                        alt_rate: float, thr_manual: float, crcp: float, tau: np.ndarray,
+                        mix: np.ndarray, m_out: np.ndarray, u_out: np.ndarray) -> None:
+    dt = P[DT]
     # --- altitude hold ---------------------------------------------------------------------
     if P[ALT_HOLD] > 0.5:
         climb_sp = _clip(P[ALT_KP] * (alt_sp - ms[MS_ALT]) + alt_rate, -P[MAX_CLIMB],
                          P[MAX_CLIMB])
         ev = climb_sp + ms[MS_VEL + 2]  # climb rate = -vz
         cs[CS_IVZ] = _clip(cs[CS_IVZ] + P[VZ_KI] * ev * dt, -INT_LIMIT, INT_LIMIT)
-        tilt = max(cr * cp, 0.7)
+        tilt = max(crcp, 0.7)
         thr = _clip((P[THR_HOVER] + P[VZ_KP] * ev + cs[CS_IVZ]) / tilt, 0.05, 0.95)
     else:
         thr = _clip(thr_manual, 0.0, 1.0)

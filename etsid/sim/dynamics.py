@@ -19,6 +19,7 @@ from etsid.sim.params import (
     CAP_AH,
     CD0,
     CELLS,
+    CG,
     DRAG_L,
     DRAG_Q,
     EFF,
@@ -26,6 +27,7 @@ from etsid.sim.params import (
     GE_MINH,
     GE_MODEL,
     GE_ON,
+    GE_TORQUE,
     GEAR_H,
     GRAV,
     J_ROT,
@@ -33,6 +35,7 @@ from etsid.sim.params import (
     K_CONTACT,
     KAPPA,
     LIFT,
+    M_OFF,
     MASS,
     R_INT,
     RADIUS,
@@ -41,8 +44,11 @@ from etsid.sim.params import (
     SAG,
     SIGMA,
     SOC0,
+    TAU_DN,
     TAU_M,
     TH0,
+    THRUST_SCALE,
+    TORQUE_SCALE,
     TWIST,
     V_REF,
     W_IDLE,
@@ -55,7 +61,7 @@ from etsid.sim.params import (
     X_VEL,
     X_W,
 )
-from etsid.sim.rotor import rotor_forces
+from etsid.sim.rotor import ground_effect_torque, rotor_forces
 
 # aux outputs of one derivative evaluation
 AUX_F = 0     # specific force, body FRD, m/s^2 (3)
@@ -118,21 +124,29 @@ def derivative(
     h2 = 0.0
     power = 0.0
     rad = P[RADIUS]
+    cgx, cgy, cgz = P[CG], P[CG + 1], P[CG + 2]
     for k in range(n):
-        rx, ry, rz = rpos[k, 0], rpos[k, 1], rpos[k, 2]
+        rx, ry, rz = rpos[k, 0] - cgx, rpos[k, 1] - cgy, rpos[k, 2] - cgz  # hub from the CG
         vhx = vb0 + w[1] * rz - w[2] * ry
         vhy = vb1 + w[2] * rx - w[0] * rz
         vhz = vb2 + w[0] * ry - w[1] * rx
         om = x[X_OM + k]
-        t, qa, li = rotor_forces(om, -vhz, math.sqrt(vhx * vhx + vhy * vhy), P[RHO], rad,
-                                 P[SIGMA], P[LIFT], P[TH0], P[TWIST], P[CD0], P[KAPPA], lam[k])
+        v_inplane = math.sqrt(vhx * vhx + vhy * vhy)
+        t, qa, li = rotor_forces(om, -vhz, v_inplane, P[RHO], rad, P[SIGMA], P[LIFT], P[TH0],
+                                 P[TWIST], P[CD0], P[KAPPA], lam[k])
         lam[k] = li
         ratio = 1.0
         if P[GE_ON] > 0.5:
             z_hub = -(x[X_POS + 2] + R[2, 0] * rx + R[2, 1] * ry + R[2, 2] * rz)
             ratio = ground_ratio(z_hub, rad, int(P[GE_MODEL]), dists[k],
-                                 math.sqrt(rx * rx + ry * ry), P[K_BODY], P[GE_MINH], P[GE_MAXR])
+                                 math.sqrt(rpos[k, 0] ** 2 + rpos[k, 1] ** 2), P[K_BODY],
+                                 P[GE_MINH], P[GE_MAXR])
+            if P[GE_TORQUE] > 0.5:
+                qa = ground_effect_torque(t, li, ratio, om, -vhz, v_inplane, P[RHO], rad,
+                                          P[SIGMA], P[LIFT], P[CD0], P[KAPPA])
         t *= ratio
+        t *= P[THRUST_SCALE]
+        qa *= P[TORQUE_SCALE]
         thrust[k] = t
         torque[k] = qa
         ge[k] = ratio
@@ -161,13 +175,19 @@ def derivative(
         m = mcmd[k]
         m = 0.0 if m < 0.0 else (1.0 if m > 1.0 else m)
         wss = P[W_IDLE] + (wtop - P[W_IDLE]) * m
-        omd = (wss - x[X_OM + k]) / P[TAU_M]
+        omd = (wss - x[X_OM + k]) / (P[TAU_M] if wss > x[X_OM + k] else P[TAU_DN])
         dx[X_OM + k] = omd
         m2 += spin[k] * (torque[k] + P[J_ROT] * omd)
-    # body drag
-    fb0 -= P[DRAG_L] * vb0 + P[DRAG_Q] * abs(vb0) * vb0
-    fb1 -= P[DRAG_L + 1] * vb1 + P[DRAG_Q + 1] * abs(vb1) * vb1
-    fb2 -= P[DRAG_L + 2] * vb2 + P[DRAG_Q + 2] * abs(vb2) * vb2
+    # body drag, acting at the geometric centre (-cg from the CG), and a constant moment
+    fd0 = -(P[DRAG_L] * vb0 + P[DRAG_Q] * abs(vb0) * vb0)
+    fd1 = -(P[DRAG_L + 1] * vb1 + P[DRAG_Q + 1] * abs(vb1) * vb1)
+    fd2 = -(P[DRAG_L + 2] * vb2 + P[DRAG_Q + 2] * abs(vb2) * vb2)
+    fb0 += fd0
+    fb1 += fd1
+    fb2 += fd2
+    m0 += P[M_OFF] - (cgy * fd2 - cgz * fd1)
+    m1 += P[M_OFF + 1] - (cgz * fd0 - cgx * fd2)
+    m2 += P[M_OFF + 2] - (cgx * fd1 - cgy * fd0)
     # ground contact: spring-damper under the CG, viscous friction, rotational damping
     fc0 = fc1 = fc2 = 0.0
     pen = P[GEAR_H] + x[X_POS + 2]

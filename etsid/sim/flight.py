@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -11,29 +12,15 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import SimError
-from etsid.sim.controller import CS_IVZ, INT_LIMIT, N_CS
 from etsid.sim.engine import MEAS_COLUMNS, ROTOR_BLOCKS, TRUTH_COLUMNS, run_flight
-from etsid.sim.params import (
-    N_NOISE,
-    NZ_ACC,
-    NZ_ALT,
-    NZ_ATT,
-    NZ_GYRO,
-    NZ_VBAT,
-    NZ_VEL,
-    X_OM,
-    X_POS,
-    X_Q,
-    X_SOC,
-    geometry,
-    pack,
-)
+from etsid.sim.params import N_NOISE
+from etsid.sim.plant import initial_state, make_plant, noise_levels, noise_std
 from etsid.sim.scenarios import build_references, resolve_params
+from etsid.sim.settings import split_settings
 from etsid.sim.trim import hover_trim
 from etsid.sim.vehicle import Vehicle, load_vehicle
 
 MIN_PHYSICS_HZ = 1000.0
-NO_PILOT = {"pilot_kv": 0.0, "pilot_ki": 0.0, "pilot_kpsi": 0.0}
 
 
 @dataclass
@@ -58,12 +45,6 @@ class SimFlight:
     params: dict[str, Any]
 
 
-def _noise_levels(vehicle: Vehicle) -> dict[str, float]:
-    s = vehicle["sensors"]
-    return {k: float(s[k]) for k in ("gyro_std", "gyro_bias_std", "accel_std", "att_std",
-                                       "vel_std", "alt_std", "vbat_std", "rangefinder_hz")}
-
-
 def simulate(
     scenario: str,
     vehicle: str | Path | Vehicle | None = None,
@@ -71,6 +52,7 @@ def simulate(
     seed: int = 0,
     ground_effect: bool = True,
     rate_hz: float = 250.0,
+    settings: Mapping[str, Any] | None = None,
     **scenario_params: Any,
 ) -> SimFlight:
     """Fly ``scenario`` closed loop and log it like a flight controller would.
@@ -92,6 +74,11 @@ def simulate(
     rate_hz : float
         Logging rate of the table, Hz. Physics and control run at an integer multiple
         of it, at least 1000 Hz, with RK4.
+    settings : mapping, optional
+        Dotted settings, the mechanism of ``etsid simulate --set``: ``vehicle.KEY`` changes
+        the vehicle (an effect such as ``vehicle.thrust_scale``, ``vehicle.mass``,
+        ``vehicle.rotor.radius``; see :meth:`Vehicle.with_settings`), ``scenario.KEY`` a
+        scenario setting (``scenario.altitude``). Keyword overrides win over them.
     **scenario_params
         Overrides of the scenario's settings (see ``SCENARIOS[name]["params"]``).
 
@@ -105,8 +92,11 @@ def simulate(
     SimError
         Unknown scenario or setting, invalid vehicle file or rate.
     """
+    veh_settings, scen_settings = split_settings(settings)
     veh = load_vehicle(vehicle)
-    params = resolve_params(scenario, duration, scenario_params)
+    if veh_settings:
+        veh = veh.with_settings(veh_settings)
+    params = resolve_params(scenario, duration, {**scen_settings, **scenario_params})
     if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
         raise SimError(f"rate_hz must be a positive number, got {rate_hz!r}")
     if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
@@ -126,35 +116,20 @@ def simulate(
     rng = np.random.default_rng(seed)
     refs = build_references(scenario, params, t, rng, throttle, hold=k_out)
 
-    P = pack(veh, dt=dt, ground_effect=ground_effect, thr_hover=trim_oge.command,
-             alt_hold=params["alt_hold"], wind=tuple(params["wind"]),
-             **({} if params["pilot"] else NO_PILOT))
-    pos, spin, dists, mix = geometry(veh)
+    lv = noise_levels(veh)
+    noise = rng.standard_normal((n_steps, N_NOISE)) * noise_std(veh)
+    bias = rng.normal(0.0, lv["gyro_bias_std"], 3)  # drawn always: same stream either way
+    if veh.effects["gyro_bias"] is not None:
+        bias = np.asarray(veh.effects["gyro_bias"], dtype=float)
+    plant = make_plant(veh, dt=dt, ground_effect=ground_effect, alt_hold=params["alt_hold"],
+                       pilot=params["pilot"], wind=tuple(params["wind"]), gyro_bias=bias)
+    S0 = initial_state(plant, alt0, ground_effect=ground_effect,
+                       command=None if params["alt_hold"] else throttle)
     n_rot = veh.n_rotors
-    x0 = np.zeros(X_OM + n_rot)
-    x0[X_POS + 2] = -alt0
-    x0[X_Q] = 1.0
-    x0[X_SOC] = veh["battery"]["soc0"]
-    x0[X_OM:] = trim.omega
-    cs0 = np.zeros(N_CS)
-    cs0[CS_IVZ] = np.clip(trim.command - trim_oge.command, -INT_LIMIT, INT_LIMIT)
-    lam0 = np.full(n_rot, trim.lam_i)
-
-    lv = _noise_levels(veh)
-    std = np.zeros(N_NOISE)
-    std[NZ_GYRO:NZ_GYRO + 3] = lv["gyro_std"]
-    std[NZ_ATT:NZ_ATT + 3] = lv["att_std"]
-    std[NZ_VEL:NZ_VEL + 3] = lv["vel_std"]
-    std[NZ_ALT] = lv["alt_std"]
-    std[NZ_ACC:NZ_ACC + 3] = lv["accel_std"]
-    std[NZ_VBAT] = lv["vbat_std"]
-    noise = rng.standard_normal((n_steps, N_NOISE)) * std
-    bias = rng.normal(0.0, lv["gyro_bias_std"], 3)
-    rf_every = max(1, round(1.0 / (lv["rangefinder_hz"] * dt)))
-
-    meas, truth = run_flight(x0, P, veh.inertia, pos, spin, dists, mix, lam0, cs0, refs.exc,
-                             refs.alt_sp, refs.alt_rate, refs.vel_sp, refs.thr_manual, noise,
-                             bias, k_out, rf_every)
+    meas, truth = run_flight(S0, plant.P, plant.inertia, plant.rpos, plant.spin, plant.dists,
+                             plant.mix, refs.exc, refs.alt_sp, refs.alt_rate, refs.vel_sp,
+                             refs.thr_manual, np.zeros((0, n_rot)), noise, k_out,
+                             plant.rf_every)
     index = pd.Index(np.arange(n_out) / rate_hz, name="t")
     motors = [f"m{i + 1}" for i in range(n_rot)]
     table = pd.DataFrame(meas, index=index, columns=[*MEAS_COLUMNS, *motors])

@@ -78,7 +78,27 @@ PILOT_KV = 62
 PILOT_KI = 63
 PILOT_KPSI = 64
 PILOT_TAU = 65
-N_PARAMS = 66
+# --- optional effects (vehicle [effects]; neutral values reproduce the plain model) -------
+TAU_DN = 66        # s, spin-down time constant (TAU_M is spin-up)
+THRUST_SCALE = 67
+TORQUE_SCALE = 68
+CG = 69            # 3, m, CG position from the geometric centre, body FRD
+M_OFF = 72         # 3, N m, constant body moment
+GYRO_BIAS = 75     # 3, rad/s
+ACCEL_BIAS = 78    # 3, m/s^2
+EST_ON = 81        # 1: Mahony attitude estimator feeds the controller and the log
+EST_KP = 82
+EST_KI = 83
+GE_TORQUE = 84     # 1: reaction torque from the in-ground-effect inflow
+DELAY = 85         # command -> motor transport delay, in physics steps (fractional)
+LOOP_INPUT = 86    # what the per-step loop commands are (LOOP_* below)
+N_PARAMS = 87
+
+# LOOP_INPUT values: how the per-step command array ``exc`` is read
+LOOP_STICKS = 0    # added to the pilot's sticks (pilot off: the sticks), angle mode
+LOOP_RATES = 1     # body-rate setpoints, rad/s (pilot and angle loop bypassed)
+LOOP_TORQUE = 2    # normalised torque demands -1..1 (pilot, angle and rate loops bypassed)
+LOOP_MOTORS = 3    # motor outputs 0..1 from the per-step motor array (whole controller off)
 
 # --- noise columns (pre-scaled by their standard deviations) ----------------------------
 NZ_GYRO = 0
@@ -99,6 +119,8 @@ def pack(
     vehicle: Vehicle, *, dt: float, ground_effect: bool, thr_hover: float, alt_hold: bool,
     wind: tuple[float, float, float] = (0.0, 0.0, 0.0), pilot_kv: float = 0.08,
     pilot_ki: float = 0.02, pilot_kpsi: float = 0.3, pilot_tau: float = 0.3,
+    gyro_bias: tuple[float, float, float] | np.ndarray = (0.0, 0.0, 0.0),
+    loop_input: int = LOOP_STICKS,
 ) -> np.ndarray:
     """Build the parameter vector ``P`` for the kernels.
 
@@ -119,6 +141,11 @@ def pack(
     pilot_kv, pilot_ki, pilot_kpsi, pilot_tau : float
         Simulated pilot: stick per m/s of velocity error, stick per m of integrated error,
         yaw stick per rad of heading error, stick low-pass time constant (s).
+    gyro_bias : array-like
+        Gyro bias of this flight, rad/s (the vehicle's ``effects.gyro_bias`` if set, else
+        a draw from ``sensors.gyro_bias_std``: chosen by the caller).
+    loop_input : int
+        How the per-step loop commands are read (``LOOP_STICKS`` … ``LOOP_MOTORS``).
     """
     r = vehicle["rotor"]
     m = vehicle["motor"]
@@ -182,7 +209,39 @@ def pack(
     p[PILOT_KI] = pilot_ki
     p[PILOT_KPSI] = pilot_kpsi
     p[PILOT_TAU] = pilot_tau
+    fx = vehicle.effects
+    lag = fx["motor_lag"]
+    p[TAU_DN] = m["time_constant"] if lag is None else lag[1]
+    if lag is not None:
+        p[TAU_M] = lag[0]
+    p[THRUST_SCALE] = fx["thrust_scale"]
+    p[TORQUE_SCALE] = fx["torque_scale"]
+    p[CG:CG + 3] = fx["cg_offset"]
+    p[M_OFF:M_OFF + 3] = fx["torque_offset"]
+    p[GYRO_BIAS:GYRO_BIAS + 3] = gyro_bias
+    p[ACCEL_BIAS:ACCEL_BIAS + 3] = fx["accel_bias"]
+    p[EST_ON] = 1.0 if fx["estimator"] == "mahony" else 0.0
+    p[EST_KP] = fx["estimator_kp"]
+    p[EST_KI] = fx["estimator_ki"]
+    p[GE_TORQUE] = 1.0 if fx["ground_effect_torque"] else 0.0
+    steps = fx["time_delay"] / dt
+    p[DELAY] = round(steps) if abs(steps - round(steps)) < 1e-9 else steps
+    p[LOOP_INPUT] = loop_input
     return p
+
+
+def effective_inertia(vehicle: Vehicle) -> np.ndarray:
+    """Inertia tensor with ``effects.inertia_scale`` applied, kg m².
+
+    A scalar s gives s·J; three factors (sx, sy, sz) give S J S with S = diag(√s), so each
+    principal moment scales by its factor and the tensor stays positive definite.
+    """
+    scale = vehicle.effects["inertia_scale"]
+    inertia = vehicle.inertia
+    if isinstance(scale, list):
+        root = np.sqrt(np.asarray(scale))
+        return inertia * root[:, None] * root[None, :]
+    return inertia if scale == 1.0 else inertia * scale
 
 
 def geometry(vehicle: Vehicle) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

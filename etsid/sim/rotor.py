@@ -146,6 +146,40 @@ def rotor_forces(
     return ct * q_ref, cp * q_ref * radius, li
 
 
+@njit(cache=True)
+def ground_effect_torque(
+    thrust_oge: float, lam_i: float, ratio: float, omega: float, v_climb: float,
+    v_inplane: float, rho: float, radius: float, sigma: float, a: float, cd0: float,
+    kappa: float,
+) -> float:
+    """Shaft torque of a rotor whose thrust ground effect raises by ``ratio`` at fixed Ω, N m.
+
+    A fixed-pitch rotor gains thrust near the ground because its inflow falls: with
+    C_T = c_0 − k λ (blade element, k = σa/4), a thrust ratio ρ at the same Ω means
+    λ_i,IGE = λ_i − (ρ − 1) C_T / k, and the torque follows the reduced inflow,
+    C_Q = κ λ_i,IGE ρ C_T + λ_c ρ C_T + (σ C_d0 / 8)(1 + 4.65 μ²).
+
+    Parameters
+    ----------
+    thrust_oge, lam_i : float
+        Out-of-ground-effect thrust (N) and induced inflow ratio at this Ω
+        (:func:`rotor_forces`).
+    ratio : float
+        T_IGE / T_OGE.
+    omega, v_climb, v_inplane, rho, radius, sigma, a, cd0, kappa : float
+        As in :func:`rotor_forces`.
+    """
+    om = omega if omega > 1.0 else 1.0
+    tip = om * radius
+    mu = v_inplane / tip
+    lam_c = v_climb / tip
+    q_ref = rho * math.pi * radius * radius * tip * tip
+    ct = thrust_oge / q_ref
+    li = lam_i - (ratio - 1.0) * ct / (0.25 * sigma * a)
+    li = li if li > 0.0 else 0.0
+    return power_coefficient(ratio * ct, li, lam_c, mu, sigma, cd0, kappa) * q_ref * radius
+
+
 def glauert_inflow_reference(
     mu: float, lam_c: float, sigma: float, a: float, th0: float, tw: float
 ) -> tuple[float, float]:
@@ -186,6 +220,7 @@ def hover_omega(thrust: float, rho: float, radius: float, sigma: float, a: float
 __all__ = [
     "bemt_ct",
     "glauert_inflow_reference",
+    "ground_effect_torque",
     "hover_omega",
     "power_coefficient",
     "rotor_forces",

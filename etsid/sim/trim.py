@@ -10,7 +10,7 @@ import numpy as np
 from etsid.errors import SimError
 from etsid.sim.ground import CHEESEMAN_BENNETT, SANCHEZ_CUEVAS, ground_ratio
 from etsid.sim.params import open_circuit_voltage
-from etsid.sim.rotor import hover_omega, rotor_forces
+from etsid.sim.rotor import ground_effect_torque, hover_omega, rotor_forces
 from etsid.sim.vehicle import Vehicle
 
 
@@ -41,7 +41,8 @@ def hover_trim(vehicle: Vehicle, height: float | None = None) -> HoverTrim:
     Returns
     -------
     HoverTrim
-        Rotor speed where N·T = m g, with T = ratio · T_OGE(Ω).
+        Rotor speed where N·T = m g, with T = thrust_scale · ratio · T_OGE(Ω) (the
+        vehicle's effects included: thrust and torque scale, ground-effect torque).
     """
     r = vehicle["rotor"]
     env = vehicle["environment"]
@@ -58,12 +59,18 @@ def hover_trim(vehicle: Vehicle, height: float | None = None) -> HoverTrim:
                              g["min_height_ratio"], g["max_ratio"])
     args = (env["air_density"], r["radius"], vehicle.solidity, r["lift_slope"],
             vehicle.theta_0, r["twist"])
+    fx = vehicle.effects
     try:
-        omega = hover_omega(weight_share / ratio, *args)
+        omega = hover_omega(weight_share / (ratio * fx["thrust_scale"]), *args)
     except ValueError as err:  # brentq: no rotor speed up to its bracket gives the thrust
         raise SimError(f"vehicle {vehicle.name!r}: its rotors cannot lift {vehicle.mass:g} kg "
                        "(no hover rotor speed); check mass and rotor fields") from err
     t_oge, torque, lam = rotor_forces(omega, 0.0, 0.0, *args, r["cd0"], r["kappa"], 0.05)
+    if fx["ground_effect_torque"] and ratio != 1.0:
+        torque = ground_effect_torque(t_oge, lam, ratio, omega, 0.0, 0.0, env["air_density"],
+                                      r["radius"], vehicle.solidity, r["lift_slope"], r["cd0"],
+                                      r["kappa"])
+    torque *= fx["torque_scale"]
     m = vehicle["motor"]
     b = vehicle["battery"]
     voc = open_circuit_voltage(b["cells"], b["soc0"])
@@ -72,7 +79,7 @@ def hover_trim(vehicle: Vehicle, height: float | None = None) -> HoverTrim:
         vbat = voc - b["r_internal"] * n * torque * omega / (b["efficiency"] * voc)
     top = m["omega_max"] * vbat / m["v_ref"]
     command = (omega - m["omega_idle"]) / (top - m["omega_idle"])
-    return HoverTrim(omega=omega, thrust=t_oge * ratio, torque=torque,
+    return HoverTrim(omega=omega, thrust=t_oge * ratio * fx["thrust_scale"], torque=torque,
                      v_i=lam * omega * r["radius"], lam_i=lam, ge_ratio=ratio, vbat=vbat,
                      command=command)
 

@@ -8,6 +8,7 @@ docs/physics.md.
 
 from __future__ import annotations
 
+import copy
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -59,6 +60,29 @@ _SCHEMA: dict[str, dict[str, str]] = {
     "environment": {"air_density": "pos", "gravity": "pos"},
 }
 
+ESTIMATORS = ("none", "mahony")
+
+# [effects]: optional physical effects, every one off by default (a vehicle file without the
+# section flies exactly as before). kind as above plus "vec3" (three numbers of any sign),
+# "lag" (two positive time constants), "scale3" (one positive number or three), "estimator";
+# None as default means "not set" (motor_lag: motor.time_constant both ways; gyro_bias:
+# drawn per flight from sensors.gyro_bias_std). Units and equations: docs/physics.md.
+EFFECTS: dict[str, tuple[str, Any]] = {
+    "time_delay": ("nonneg", 0.0),             # s, command -> motor transport delay
+    "motor_lag": ("lag", None),                # [spin-up, spin-down] time constants, s
+    "thrust_scale": ("pos", 1.0),              # multiplier on every rotor's thrust
+    "torque_scale": ("pos", 1.0),              # multiplier on every rotor's reaction torque
+    "cg_offset": ("vec3", [0.0, 0.0, 0.0]),    # m, CG position from the geometric centre, FRD
+    "torque_offset": ("vec3", [0.0, 0.0, 0.0]),  # N m, constant body moment, FRD
+    "inertia_scale": ("scale3", 1.0),          # multiplier on the inertia tensor (or per axis)
+    "gyro_bias": ("vec3", None),               # rad/s, exact constant gyro bias
+    "accel_bias": ("vec3", [0.0, 0.0, 0.0]),   # m/s^2, constant accelerometer bias
+    "estimator": ("estimator", "none"),        # "none": truth + noise; "mahony": filter
+    "estimator_kp": ("pos", 0.2),              # rad/s per unit error (tilt and heading)
+    "estimator_ki": ("nonneg", 0.05),          # rad/s^2 per unit error (gyro-bias learning)
+    "ground_effect_torque": ("bool", False),   # reaction torque follows the IGE inflow
+}
+
 
 @dataclass(frozen=True)
 class Vehicle:
@@ -82,6 +106,50 @@ class Vehicle:
 
     def __getitem__(self, section: str) -> dict[str, Any]:
         return self.params[section]
+
+    @property
+    def effects(self) -> dict[str, Any]:
+        """The optional effects (``[effects]``), every key present, defaults filled in."""
+        return self.params["effects"]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The vehicle as a TOML-like dict (``vehicle_from_dict(v.to_dict())`` rebuilds it)."""
+        data: dict[str, Any] = copy.deepcopy(self.params[""])
+        data["description"] = self.description
+        for section, values in self.params.items():
+            if section and section != "effects":
+                data[section] = copy.deepcopy(values)
+        data["effects"] = {k: copy.deepcopy(v) for k, v in self.params["effects"].items()
+                           if v is not None}
+        return data
+
+    def with_settings(self, settings: dict[str, Any]) -> Vehicle:
+        """A copy with some fields changed, validated like a vehicle file.
+
+        Parameters
+        ----------
+        settings : dict
+            ``{key: value}`` with keys ``mass``, ``SECTION.FIELD`` (``rotor.radius``,
+            ``motor.time_constant`` …), an effect name (``thrust_scale``, ``time_delay``,
+            ``gyro_bias`` … or ``effects.NAME``) or ``battery_sag`` (= ``battery.sag``).
+
+        Raises
+        ------
+        SimError
+            Unknown key or invalid value (one line naming the key).
+
+        Examples
+        --------
+        >>> v = load_vehicle("tarot680").with_settings({"thrust_scale": 1.1, "mass": 4.5})
+        >>> v.effects["thrust_scale"], v.mass
+        (1.1, 4.5)
+        """
+        data = self.to_dict()
+        for key, value in settings.items():
+            section, name = resolve_vehicle_key(key)
+            table = data if section == "" else data.setdefault(section, {})
+            table[name] = value
+        return vehicle_from_dict(data, f"{self.source} with settings")
 
     @property
     def mass(self) -> float:
@@ -144,6 +212,29 @@ class Vehicle:
         return np.column_stack([np.ones(self.n_rotors), roll, pitch, self.spin])
 
 
+def resolve_vehicle_key(key: str) -> tuple[str, str]:
+    """``(section, field)`` of a vehicle setting key (see :meth:`Vehicle.with_settings`).
+
+    Raises
+    ------
+    SimError
+        The key names no vehicle field or effect.
+    """
+    if key in EFFECTS:
+        return "effects", key
+    if key == "battery_sag":
+        return "battery", "sag"
+    if key in _SCHEMA[""]:
+        return "", key
+    section, _, name = key.partition(".")
+    if section == "effects" and name in EFFECTS:
+        return section, name
+    if section in _SCHEMA and section and name in _SCHEMA[section]:
+        return section, name
+    raise SimError(f"unknown vehicle setting {key!r}: give an effect ({', '.join(EFFECTS)}), "
+                   "battery_sag, mass or SECTION.FIELD of the vehicle file (e.g. rotor.radius)")
+
+
 def _fail(path: str, name: str, what: str, value: Any) -> SimError:
     return SimError(f"{path}: field '{name}' {what}, got {value!r}")
 
@@ -169,6 +260,29 @@ def _check(path: str, name: str, kind: str, value: Any, n_rotors: int | None) ->
         if value not in GROUND_MODELS:
             raise _fail(path, name, f"must be one of {', '.join(GROUND_MODELS)}", value)
         return value
+    if kind == "estimator":
+        if value not in ESTIMATORS:
+            raise _fail(path, name, f"must be one of {', '.join(ESTIMATORS)}", value)
+        return value
+    if kind == "vec3":
+        if not (isinstance(value, list) and len(value) == 3 and all(_number(v) for v in value)):
+            raise _fail(path, name, "must be a list of three numbers", value)
+        return [float(v) for v in value]
+    if kind == "lag":
+        ok = isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value)
+        if not ok or min(value) <= 0:
+            raise _fail(path, name, "must be two positive time constants [spin_up, spin_down] "
+                        "in s", value)
+        return [float(v) for v in value]
+    if kind == "scale3":
+        if isinstance(value, list):
+            ok = len(value) == 3 and all(_number(v) for v in value)
+            if not ok or min(value) <= 0:
+                raise _fail(path, name, "must be a positive number or three", value)
+            return [float(v) for v in value]
+        if not _number(value) or value <= 0:
+            raise _fail(path, name, "must be a positive number or three", value)
+        return float(value)
     if kind.startswith("vec3"):
         ok = isinstance(value, list) and len(value) == 3 and all(_number(v) for v in value)
         if not ok or min(value) < 0:
@@ -225,9 +339,23 @@ def vehicle_from_dict(data: dict[str, Any], source: str = "<dict>") -> Vehicle:
             params[section][name] = _check(source, dotted, kind, table[name], n_rotors)
             if kind == "angles":
                 n_rotors = len(params[section][name])
+    effects = data.get("effects", {})
+    if not isinstance(effects, dict):
+        raise SimError(f"{source}: section [effects] is not a table")
+    unknown = sorted(set(effects) - set(EFFECTS))
+    if unknown:
+        raise SimError(f"{source}: unknown field(s) [effects] {', '.join(unknown)}; known: "
+                       f"{', '.join(sorted(EFFECTS))}")
+    params["effects"] = {}
+    for name, (kind, default) in EFFECTS.items():
+        value = copy.deepcopy(effects.get(name, default))
+        if name in effects:
+            value = _check(source, f"effects.{name}", kind, value, n_rotors)
+        params["effects"][name] = value
     for section, fields in _SCHEMA.items():  # a typo must not silently be ignored
         table = data if section == "" else data[section]
-        known = set(fields) | ({"description"} | set(_SCHEMA) if not section else set())
+        known = set(fields) | ({"description", "effects"} | set(_SCHEMA) if not section
+                               else set())
         unknown = sorted(set(table) - known)
         if unknown:
             where = f"[{section}] " if section else ""

@@ -1,0 +1,144 @@
+"""Optional vehicle effects and the one settings mechanism (TOML, --set, Python API)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from etsid.cli import cli
+from etsid.cli.settings import parse_value
+from etsid.errors import SimError
+from etsid.sim import load_vehicle, simulate
+from etsid.sim.settings import split_settings
+from etsid.sim.vehicle import EFFECTS, VEHICLE_DIR
+
+TAROT = (VEHICLE_DIR / "tarot680.toml").read_text()
+NEUTRAL = """
+[effects]
+time_delay = 0.0
+motor_lag = [0.05, 0.05]
+thrust_scale = 1.0
+torque_scale = 1.0
+cg_offset = [0.0, 0.0, 0.0]
+torque_offset = [0.0, 0.0, 0.0]
+inertia_scale = 1.0
+accel_bias = [0.0, 0.0, 0.0]
+estimator = "none"
+ground_effect_torque = false
+"""
+
+
+def test_vehicle_files_without_effects_get_neutral_defaults() -> None:
+    fx = load_vehicle("quad250").effects
+    assert set(fx) == set(EFFECTS)
+    assert fx["thrust_scale"] == 1.0 and fx["time_delay"] == 0.0 and fx["motor_lag"] is None
+    assert fx["gyro_bias"] is None and fx["estimator"] == "none"
+    # defaults are copies, not shared lists
+    fx["cg_offset"][0] = 9.0
+    assert load_vehicle("tarot680").effects["cg_offset"] == [0.0, 0.0, 0.0]
+
+
+def test_neutral_effects_fly_bit_identical(tmp_path: Path) -> None:
+    path = tmp_path / "neutral.toml"
+    path.write_text(TAROT + NEUTRAL)
+    a = simulate("hover-ige", duration=2.0, seed=4)
+    b = simulate("hover-ige", vehicle=path, duration=2.0, seed=4)
+    assert np.array_equal(a.table.to_numpy(), b.table.to_numpy())
+    assert np.array_equal(a.truth.to_numpy(), b.truth.to_numpy())
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("thrust_scale = 0.0", "field 'effects.thrust_scale' must be positive"),
+        ("motor_lag = [0.05]", "field 'effects.motor_lag' must be two positive"),
+        ("cg_offset = [0.01, 0.0]", "field 'effects.cg_offset' must be a list of three"),
+        ("estimator = \"kalman\"", "field 'effects.estimator' must be one of none, mahony"),
+        ("time_delay = -0.01", "field 'effects.time_delay' must not be negative"),
+        ("inertia_scale = [1.0, 0.0, 1.0]", "field 'effects.inertia_scale'"),
+        ("thrust_scal = 1.1", r"unknown field\(s\) \[effects\] thrust_scal"),
+    ],
+)
+def test_invalid_effects_name_file_and_field(tmp_path: Path, text: str, match: str) -> None:
+    path = tmp_path / "fx.toml"
+    path.write_text(TAROT + f"\n[effects]\n{text}\n")
+    with pytest.raises(SimError, match=f"fx.toml: {match}") as info:
+        load_vehicle(path)
+    assert "\n" not in str(info.value)
+
+
+def test_with_settings_reaches_effects_sections_and_aliases() -> None:
+    base = load_vehicle()
+    v = base.with_settings({"thrust_scale": 1.1, "effects.time_delay": 0.02, "mass": 4.5,
+                            "rotor.radius": 0.17, "battery_sag": False})
+    assert v.effects["thrust_scale"] == 1.1 and v.effects["time_delay"] == 0.02
+    assert v.mass == 4.5 and v["rotor"]["radius"] == 0.17 and v["battery"]["sag"] is False
+    assert base.effects["thrust_scale"] == 1.0 and base.mass == 4.2  # the original is intact
+    with pytest.raises(SimError, match="unknown vehicle setting 'rotor.radios'"):
+        base.with_settings({"rotor.radios": 0.2})
+    with pytest.raises(SimError, match="field 'mass' must be positive"):
+        base.with_settings({"mass": -1})
+
+
+def test_split_settings_and_simulate_settings() -> None:
+    assert split_settings({"vehicle.mass": 5, "scenario.altitude": 2.0}) == (
+        {"mass": 5}, {"altitude": 2.0})
+    for bad in ("altitude", "pilot.kv", "vehicle."):
+        with pytest.raises(SimError, match="starts with 'vehicle.' or 'scenario.'"):
+            split_settings({bad: 1})
+    with pytest.raises(SimError, match="unknown vehicle setting 'trust_scale'"):
+        simulate("hover-oge", duration=1.0, settings={"vehicle.trust_scale": 1.1})
+    flight = simulate("hover-oge", settings={"scenario.duration": 1.0, "vehicle.mass": 4.0,
+                                             "scenario.altitude": 2.0})
+    assert flight.vehicle.mass == 4.0 and flight.params["altitude"] == 2.0
+    assert flight.table.index[-1] == pytest.approx(1.0 - 1 / 250)
+
+
+def test_parse_value_uses_toml_and_bare_words() -> None:
+    assert parse_value("0.02") == 0.02 and parse_value("[0.02, 0, 0]") == [0.02, 0, 0]
+    assert parse_value("false") is False and parse_value("mahony") == "mahony"
+    assert parse_value('"a b"') == "a b"
+    with pytest.raises(ValueError, match="is not a number"):
+        parse_value("[1,")
+
+
+def test_cli_set_changes_vehicle_and_scenario(tmp_path: Path) -> None:
+    out = tmp_path / "f.parquet"
+    result = CliRunner().invoke(cli, ["simulate", "hover-oge", "-o", str(out),
+                                      "--set", "scenario.duration=1.0",
+                                      "--set", "scenario.altitude=2.5",
+                                      "--set", "vehicle.thrust_scale=1.2"])
+    assert result.exit_code == 0, result.output
+    table = pd.read_parquet(out)
+    assert len(table) == 250
+    assert table["true_alt"].iloc[0] == pytest.approx(2.5)
+    # 20 % more thrust per rotor speed: hovers at 1/sqrt(1.2) of the nominal rotor speed
+    nominal = simulate("hover-oge", duration=1.0, altitude=2.5).truth["true_w1"].iloc[0]
+    assert table["true_w1"].iloc[0] == pytest.approx(nominal / np.sqrt(1.2), rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("item", "code", "words"),
+    [
+        ("vehicle.thrust_scal=1.1", 1, ["unknown vehicle setting 'thrust_scal'"]),
+        ("vehicle.thrust_scale=-1", 1, ["effects.thrust_scale", "positive"]),
+        ("scenario.altitud=1", 1, ["unknown setting 'altitud'"]),
+        ("altitude=1", 1, ["'vehicle.' or 'scenario.'"]),
+        ("vehicle.cg_offset", 2, ["expected KEY=VALUE"]),
+        ("vehicle.cg_offset=[0.1,", 2, ["vehicle.cg_offset", "is not a number"]),
+    ],
+)
+def test_cli_set_errors_are_one_line(tmp_path: Path, item: str, code: int,
+                                     words: list[str]) -> None:
+    result = CliRunner().invoke(cli, ["simulate", "hover-oge", "--duration", "0.5",
+                                      "-o", str(tmp_path / "f.parquet"), "--set", item])
+    assert result.exit_code == code
+    err = result.stderr.strip()
+    assert "Traceback" not in err
+    for word in words:
+        assert word in err.splitlines()[-1]
+    assert not (tmp_path / "f.parquet").exists()
