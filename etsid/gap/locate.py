@@ -85,10 +85,13 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
     e = resid[air]
     unit = UNITS[channel]
     best: tuple[str, np.ndarray, np.ndarray, float] | None = None
+    rms_mode = False
     for name, x in scheduling_variables(flight).items():
-        edges, means, eta2 = _bins(x[air], e)
-        if means.size and (best is None or eta2 > best[3]):
-            best = (name, edges, means, eta2)
+        for sq in (False, True):  # the residual itself, or its power (zero-mean effects)
+            edges, means, eta2 = _bins(x[air], e**2 if sq else e)
+            if means.size and (best is None or eta2 > best[3]):
+                best = (name, edges, np.sqrt(np.maximum(means, 0)) if sq else means, eta2)
+                rms_mode = sq
     mean_all = float(e.mean())
     if best is None or best[3] < MIN_ETA2:
         text = (f"{LABELS[channel]} {mean_all:+.2f} {unit} on average throughout the flight "
@@ -96,13 +99,15 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
         return Regime(channel, "none", float("nan"), float("nan"),
                       0.0 if best is None else best[3], mean_all, text)
     name, edges, means, eta2 = best
-    active = np.abs(means) > max(2.0 * sigma / np.sqrt(max(e.size / N_BINS / 50.0, 1.0)),
-                                 0.5 * np.max(np.abs(means)))
+    floor = sigma if rms_mode else 2.0 * sigma / np.sqrt(max(e.size / N_BINS / 50.0, 1.0))
+    active = np.abs(means) > max(floor, 0.5 * np.max(np.abs(means)))
+    if not np.any(active):
+        active = np.abs(means) >= np.max(np.abs(means))
     js = np.flatnonzero(active)
     lo, hi = float(edges[js[0]]), float(edges[js[-1] + 1])
     x_air = scheduling_variables(flight)[name][air]
     inside = (x_air >= lo) & (x_air <= hi)
-    mean_in = float(e[inside].mean())
+    mean_in = float(np.sqrt(np.mean(e[inside] ** 2)) if rms_mode else e[inside].mean())
     vunit = VARIABLE_UNITS[name]
     full_lo, full_hi = float(edges[0]), float(edges[-1])
     if js[0] == 0 and js[-1] < edges.size - 2:
@@ -110,12 +115,15 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
     elif js[-1] == edges.size - 2 and js[0] > 0:
         where = f"above {lo:.3g} {vunit}"
     elif js[0] == 0 and js[-1] == edges.size - 2:
-        where = f"over the whole range {full_lo:.3g}–{full_hi:.3g} {vunit}, growing with it"
+        low_end = abs(means[0]) > abs(means[-1])
+        where = (f"over the whole range {full_lo:.3g}–{full_hi:.3g} {vunit}, strongest at "
+                 f"its {'low' if low_end else 'high'} end")
     else:
         where = f"between {lo:.3g} and {hi:.3g} {vunit}"
     if name == "alt" and radius:
         where += f" (z/R {lo / radius:.2g}–{hi / radius:.2g})"
-    text = (f"{LABELS[channel]} {mean_in:+.2f} {unit} with {VARIABLE_TEXT[name]} {where}; "
+    size = f"RMS {mean_in:.2f}" if rms_mode else f"{mean_in:+.2f}"
+    text = (f"{LABELS[channel]} {size} {unit} with {VARIABLE_TEXT[name]} {where}; "
             "elsewhere within noise" if not (js[0] == 0 and js[-1] == edges.size - 2) else
             f"{LABELS[channel]} residual follows {VARIABLE_TEXT[name]} {where}")
     return Regime(channel, name, lo, hi, eta2, mean_in, text)

@@ -268,10 +268,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     if not effects:
         data = {**base, "verdict": "consistent", "mismatch": None, "effects": [],
                 "rmse_after": rmse_before, "candidates": _ranking(sel),
-                "notes": notes + [f"{', '.join(mis)} exceed{'s' if len(mis) == 1 else ''} "
-                                  f"{sim_name}'s error, but no effect and no residual model "
-                                  "improves held-out data: unstructured (noise or manoeuvre), "
-                                  "not missing physics"],
+                "notes": [*notes, f"{', '.join(mis)} exceed{'s' if len(mis) == 1 else ''} "
+                          f"{sim_name}'s error, but no effect and no residual model "
+                          "improves held-out data: unstructured (noise or manoeuvre), "
+                          "not missing physics"],
                 "reason": "the differences are not structured: nothing fitted on the first "
                           f"part of {real_name} predicts its later part better"}
         data["summary"] = summary_sentence(data)

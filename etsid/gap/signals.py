@@ -126,7 +126,7 @@ def _airborne(table: pd.DataFrame, t: np.ndarray, thrust: np.ndarray, alt: np.nd
         ground = np.nanpercentile(alt[low], 50) if np.sum(low) > fs else np.nanmin(alt) - 1.0
         mask &= np.isfinite(alt) & (alt > ground + 0.03)
     # keep stretches longer than two edges, minus an edge at both ends
-    edge = int(round(EDGE_S * fs))
+    edge = round(EDGE_S * fs)
     out = np.zeros_like(mask)
     i = 0
     while i < mask.size:
@@ -193,10 +193,7 @@ def prepare(table: pd.DataFrame, name: str) -> Flight:
     if "roll" in have:
         att[:, 2] = np.unwrap(att[:, 2]) if np.all(np.isfinite(att[:, 2])) else 0.0
     m = np.column_stack([col(c) for c in motors])
-    if inputs == "commands":
-        thrust = m[:, 0]
-    else:
-        thrust = np.mean(m, axis=1)
+    thrust = m[:, 0] if inputs == "commands" else np.mean(m, axis=1)
     alt = col("alt")
     v_body = np.zeros((t.size, 3))
     if "vx" in have and "roll" in have:

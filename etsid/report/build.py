@@ -54,6 +54,10 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     """
     if fmt not in FORMATS:
         raise IdentError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+    if (Path(run_dir) / "gap.json").is_file():  # a directory written by `etsid gap`
+        from etsid.report.gap import make_gap_report
+
+        return make_gap_report(run_dir, fmt)
     run = read_run(run_dir)
     out = Path(run_dir) / "report"
     out.mkdir(exist_ok=True)
