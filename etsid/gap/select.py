@@ -74,23 +74,31 @@ def excess(z: dict[str, float]) -> float:
 
 
 def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, float],
-              e0: float) -> Scored:
-    """Held-out scores of a fitted set."""
+              e0: float, focus: tuple[str, ...] = ()) -> Scored:
+    """Held-out scores of a fitted set: gains on the ``focus`` (mismatched) channels,
+    losses anywhere."""
     z_after = scorer.zscores(fit.mods, hold, tuple(z_before))
-    gain = float(sum(z_before.values()) - sum(z_after.values()))
+    gain = float(sum(z_before[c] - z_after[c] if c in focus or not focus
+                     else min(z_before[c] - z_after[c], 0.0) for c in z_before))
     return Scored(fit, z_after, gain, gain / max(e0, 1e-9))
 
 
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
+           focus: tuple[str, ...] = (),
            library: tuple[Candidate, ...] = LIBRARY) -> Selection:
-    """Fit every available candidate, keep the best one or two by held-out share."""
+    """Fit every available candidate, keep the best one or two by held-out share.
+
+    ``focus`` are the mismatched channels: the excess to explain is theirs (a channel
+    that is merely noisier on REAL than on SIM is nothing a physical effect can explain).
+    """
     z0 = scorer.zscores(None, hold)
-    e0 = excess(z0)
+    e0 = excess({c: v for c, v in z0.items() if c in focus or not focus})
     ranked: list[Scored] = []
     for cand in library:
         if not cand.available(scorer.ctx):
             continue
-        ranked.append(score_fit(fit_candidates((cand,), scorer, fit_mask), scorer, hold, z0, e0))
+        ranked.append(score_fit(fit_candidates((cand,), scorer, fit_mask), scorer, hold, z0, e0,
+                                 focus))
     ranked.sort(key=lambda s: s.score, reverse=True)
     sel = Selection(z0, e0, ranked, None)
     if not ranked or ranked[0].share < MIN_SHARE:
@@ -100,7 +108,7 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     pool = [s for s in ranked[1:PAIR_POOL + 1] if s.gain > 0]
     for other in pool:
         pair = (best.fit.candidates[0], other.fit.candidates[0])
-        joint = score_fit(fit_candidates(pair, scorer, fit_mask), scorer, hold, z0, e0)
+        joint = score_fit(fit_candidates(pair, scorer, fit_mask), scorer, hold, z0, e0, focus)
         if (joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score):
             chosen = joint
     sel.chosen = chosen
