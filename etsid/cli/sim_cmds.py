@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from etsid.cli.settings import parse_assignments
 from etsid.errors import SimError
 from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def _scenario_names() -> list[str]:
@@ -62,10 +66,28 @@ def _check_out(out: Path, fmt: str | None) -> None:
                    "vehicle.mass, vehicle.SECTION.FIELD, or scenario.SETTING "
                    "(duration, altitude, amplitude, ...). Values in TOML syntax, e.g. "
                    "--set vehicle.cg_offset=[0.02,0,0].")
+@click.option("--replay", "replay_log", type=click.Path(exists=True, path_type=Path),
+              default=None, help="Instead of a scenario: drive the vehicle with the commands "
+                                 "of this recorded log (or saved table) and write its twin.")
+@click.option("--replay-mode", type=click.Choice(["loop", "motors"]), default="loop",
+              show_default=True, help="loop: recorded loop commands through the simulator's "
+              "own loops; motors: recorded m1..mN open loop over --horizon re-initialised "
+              "runs.")
+@click.option("--loop-input", type=click.Choice(["sticks", "rates", "torque"]),
+              default="sticks", show_default=True,
+              help="Replayed loop commands: u_roll/u_pitch/u_yaw as sticks or torque demands, "
+                   "or sp_p/sp_q/sp_r rate setpoints.")
+@click.option("--thrust", "thrust_mode", type=click.Choice(["command", "alt-hold"]),
+              default="command", show_default=True,
+              help="Replayed collective: recorded u_thrust, or the simulator's altitude hold "
+                   "tracking the recorded alt.")
+@click.option("--horizon", type=click.FloatRange(min=0, min_open=True), default=2.0,
+              show_default=True, help="Re-initialisation period of --replay-mode motors, s.")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: Path | None,
              duration: float | None, seed: int, ground_effect: str, rate_hz: float,
-             assignments: tuple[str, ...], list_only: bool) -> None:
+             assignments: tuple[str, ...], replay_log: Path | None, replay_mode: str,
+             loop_input: str, thrust_mode: str, horizon: float, list_only: bool) -> None:
     """Fly SCENARIO with the hexacopter physics model and write it as a real flight log.
 
     Every physical effect of docs/physics.md is a vehicle setting, off by default:
@@ -75,6 +97,15 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
     from etsid.sim import SCENARIOS
     from etsid.sim import simulate as run_simulation
 
+    if replay_log is not None:
+        if scenario is not None:
+            raise click.UsageError("give either SCENARIO or --replay LOG, not both.")
+        if out is None:
+            raise click.UsageError("Missing option '-o' / '--out'.")
+        _replay(replay_log, out, fmt, vehicle, seed, ground_effect == "on",
+                parse_assignments(assignments), replay_mode, loop_input,
+                thrust_mode.replace("-", "_"), horizon)
+        return
     if scenario is None and out is not None and not list_only:
         raise click.UsageError("Missing argument 'SCENARIO' (see etsid simulate --list).")
     if list_only or scenario is None:
@@ -94,17 +125,47 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
                             ground_effect=ground_effect == "on", rate_hz=rate_hz,
                             settings=settings)
     table = flight.table
-    if format_for(out, fmt) in ("parquet", "csv"):
-        # a saved table also carries the noise-free states (true_* columns) for tests
-        table = table.join(flight.truth)
-        table.attrs = dict(flight.table.attrs)
-    try:
-        written = write_log(table, out, fmt)
-    except OSError as err:
-        raise SimError(f"{out}: cannot write ({err.strerror or err})") from err
+    written = _write(table, flight.truth, out, fmt)
     click.echo(f"{written}: {scenario}, {table.index[-1]:.1f} s at {rate_hz:g} Hz, "
                f"vehicle {table.attrs.get('vehicle', '?')}, seed {seed}, "
                f"ground effect {ground_effect}")
+
+
+def _write(table: pd.DataFrame, truth: pd.DataFrame, out: Path, fmt: str | None) -> Path:
+    if format_for(out, fmt) in ("parquet", "csv"):
+        # a saved table also carries the noise-free states (true_* columns) for tests
+        attrs = dict(table.attrs)
+        table = table.join(truth)
+        table.attrs = attrs
+    try:
+        return write_log(table, out, fmt)
+    except OSError as err:
+        raise SimError(f"{out}: cannot write ({err.strerror or err})") from err
+
+
+def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: int,
+            ground_effect: bool, settings: dict, mode: str, loop_input: str, thrust: str,
+            horizon: float) -> None:
+    from etsid.ingest import load_any
+    from etsid.sim.replay import replay
+
+    scenario_keys = [k for k in settings if not k.startswith("vehicle.")]
+    if scenario_keys:
+        raise SimError(f"--replay takes vehicle settings only, got {scenario_keys[0]!r}")
+    _check_out(out, fmt)
+    table = load_any(log)
+    result = replay(table, vehicle, mode=mode, loop_input=loop_input, thrust=thrust,
+                    horizon=horizon, ground_effect=ground_effect, seed=seed,
+                    settings=settings)
+    written = _write(result.table, result.truth, out, fmt)
+    t = result.table.index
+    click.echo(f"{written}: twin of {log} ({mode} replay, {t[-1] - t[0]:.1f} s), vehicle "
+               f"{result.vehicle.name}")
+    for part, where in result.sources.items():
+        click.echo(f"  {part}: {where}")
+    errs = ", ".join(f"{k} {v['rmse']:.3g} ({100 * v['ratio']:.0f} % of std)"
+                     for k, v in result.errors.items() if k in ("p", "q", "r", "alt"))
+    click.echo(f"  twin - log RMSE: {errs}")
 
 
 COMMANDS = [simulate]

@@ -171,8 +171,8 @@ def advance(
             ms[MS_GYRO + j] = gyro[j]
             ms[MS_VEL + j] = x[X_VEL + j] + noise[i, NZ_VEL + j]
         if est_on:
-            mahony_step(est, gyro, wrap_pi(yaw + noise[i, NZ_ATT + 2]), P[EST_KP], P[EST_KI],
-                        dt, ework)
+            mahony_step(est, gyro, ms[MS_VEL:MS_VEL + 3], wrap_pi(yaw + noise[i, NZ_ATT + 2]),
+                        P[EST_KP], P[EST_KI], dt, ework)
             e_roll, e_pitch, e_yaw = quat_to_euler(est[EST_Q:EST_Q + 4])
             ms[MS_ATT] = e_roll
             ms[MS_ATT + 1] = e_pitch

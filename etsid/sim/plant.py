@@ -16,7 +16,7 @@ import numpy as np
 from etsid.sim.body import euler_to_quat
 from etsid.sim.controller import CS_IVZ, INT_LIMIT
 from etsid.sim.engine import state_offsets
-from etsid.sim.estimator import EST_F, EST_Q, N_EST
+from etsid.sim.estimator import EST_F, EST_FL, EST_Q, N_EST
 from etsid.sim.params import (
     DELAY,
     GRAV,
@@ -173,6 +173,7 @@ def initial_state(plant: Plant, altitude: float, *, ground_effect: bool = True,
     est = S[o_est:o_est + N_EST]
     est[EST_Q:EST_Q + 4] = S[X_Q:X_Q + 4]
     est[EST_F + 2] = -plant.P[GRAV]
+    est[EST_FL + 2] = -plant.P[GRAV]
     S[o_buf:] = trim.command if command is None else command
     return S
 
