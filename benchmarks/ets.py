@@ -2,8 +2,8 @@
 
 Run from the repository root::
 
-    /work/venv/bin/python benchmarks/ets.py            # everything, prints Markdown tables
-    /work/venv/bin/python benchmarks/ets.py --samples 200000 --skip-quality
+    python benchmarks/ets.py            # everything, prints Markdown tables
+    python benchmarks/ets.py --samples 200000 --skip-quality
 
 Speed is CPU time (``time.process_time``), best of ``--repeats`` runs over a warm model
 (compiled kernels loaded from the numba cache, first 1000 samples learned before timing).

@@ -1,6 +1,6 @@
 """Identification: throughput of a full identify run, and the quality table.
 
-Run:  /work/venv/bin/python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
+Run:  python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
 
 1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6, eTS+ radius 2, ranges
    from the learning part) on a

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.ingest import read_log
-from etsid.ingest.mavlink_signals import DECODERS
+from etsid.ingest.mavlink.signals import DECODERS
 from etsid.sim.writers.tlog import write_tlog
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,8 +64,8 @@ def measure(label: str, fn: Callable[[], object], nbytes: int, count: int) -> di
 
 
 def tlog_count(path: Path) -> int:
-    from etsid.ingest.mavlink_dtypes import crc_extra_table
-    from etsid.ingest.mavlink_scan import scan_frames
+    from etsid.ingest.mavlink.dtypes import crc_extra_table
+    from etsid.ingest.mavlink.scan import scan_frames
 
     buf = np.fromfile(path, np.uint8)
     return int(scan_frames(buf, crc_extra_table(), True).offset.size)

@@ -81,7 +81,7 @@ def measure(path: Path) -> dict[str, float]:
     seconds = time.perf_counter() - start
     peak = _peak_rss_mb()
     try:
-        from etsid.ingest.ros_fast import STATS
+        from etsid.ingest.ros.fast.decode import STATS
 
         fast = STATS["fast"]
     except ImportError:  # an etsid without the vectorised path

@@ -1,6 +1,6 @@
 """Speed of the physics simulator: simulated seconds per wall-clock second.
 
-Run:  /work/venv/bin/python benchmarks/sim.py [--duration 300] [--repeat 3]
+Run:  python benchmarks/sim.py [--duration 300] [--repeat 3]
 
 Prints one line per vehicle/scenario: physics rate, CPU time of ``simulate()`` (the whole
 call: references, noise, compiled flight loop, DataFrames) and of the compiled loop alone,

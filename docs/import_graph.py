@@ -2,6 +2,7 @@
 
     python docs/import_graph.py            # the graph, one line per package
     python docs/import_graph.py --private  # cross-package imports of underscore names
+    python docs/import_graph.py --update   # rewrite the graph block in docs/architecture.md
 
 A "package" is a top-level room of etsid: ``etsid/ingest/ros/fast/x.py`` belongs to
 ``ingest``, ``etsid/table.py`` to ``table``. Imports inside functions count (lazy
@@ -93,7 +94,19 @@ def render(edges: dict[str, set[str]]) -> str:
     return "\n".join(lines)
 
 
+def update_page(page: Path) -> None:
+    """Replace the first fenced block after the "import graph" heading with the graph."""
+    text = page.read_text(encoding="utf-8")
+    head = text.index("## The import graph")
+    start = text.index("```\n", head) + 4
+    end = text.index("```", start)
+    page.write_text(text[:start] + render(graph()) + "\n" + text[end:], encoding="utf-8")
+
+
 def main(argv: list[str]) -> int:
+    if "--update" in argv:
+        update_page(ROOT / "docs" / "architecture.md")
+        return 0
     if "--private" in argv:
         found = private_imports()
         print("\n".join(found) if found else "no cross-package private imports")

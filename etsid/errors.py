@@ -27,5 +27,18 @@ class IdentError(EtsidError):
     """An identification run cannot be set up (missing columns, bad regressor spec)."""
 
 
+class ReportError(EtsidError):
+    """A report cannot be written: not a run directory, or a bad figure format."""
+
+
 class GapError(EtsidError):
-    """Sim-vs-real gap analysis cannot be carried out."""
+    """Sim-vs-real gap analysis cannot be carried out.
+
+    Not raised yet: reserved for the gap-analysis room (``etsid/gap/``, the next issue),
+    so that its errors have their own class from the first line of code.
+    """
+
+
+class BatchError(EtsidError):
+    """A batch cannot be set up or one log cannot be run: no inputs, an unreadable list
+    file, a bad pairs CSV, a missing input, an unreachable scheduler."""

@@ -20,10 +20,10 @@ class Progress:
     def __init__(self, bar: object | None) -> None:
         self._bar = bar
 
-    def update(self, n: int) -> None:
-        """Advance the bar by ``n`` units."""
-        if self._bar is not None and n:
-            self._bar.update(n)  # type: ignore[attr-defined]
+    def update(self, n: int, status: str | None = None) -> None:
+        """Advance the bar by ``n`` units; ``status`` replaces the text after the bar."""
+        if self._bar is not None and (n or status is not None):
+            self._bar.update(n, current_item=status)  # type: ignore[attr-defined]
 
 
 @contextmanager
@@ -33,5 +33,6 @@ def progress(total: int, label: str, enabled: bool) -> Iterator[Progress]:
         yield Progress(None)
         return
     with click.progressbar(length=total, label=label, file=sys.stderr,
-                           show_eta=True, show_percent=True) as bar:
+                           show_eta=True, show_percent=True,
+                           item_show_func=lambda status: status) as bar:
         yield Progress(bar)

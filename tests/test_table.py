@@ -11,13 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from etsid.errors import IngestError, TableError
-from etsid.ingest.align import build_table, find_gaps, resample
-from etsid.ingest.base import Override, RawLog, Signal, get_field
-from etsid.ingest.frames import (
+from etsid.frames import (
     enu_flu_quat_to_ned_frd_euler,
     ned_frd_euler_to_enu_flu_quat,
     quat_to_euler,
 )
+from etsid.ingest.align import build_table, find_gaps, resample
+from etsid.ingest.base import Override, RawLog, Signal, get_field
 from etsid.ingest.mapping import choose_signals, load_mapping_file, parse_override
 from etsid.table import load_table, save_table, validate
 

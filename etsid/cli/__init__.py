@@ -26,6 +26,7 @@ COMMAND_MODULES: dict[str, str] = {
     "rules": "etsid.cli.ident_cmds",
     "report": "etsid.cli.report_cmds",
     "gap": "etsid.cli.gap_cmds",
+    "batch": "etsid.cli.batch_cmds",
 }
 """Command name → module holding it (in its ``COMMANDS`` list); imported on first use so
 that ``etsid inspect`` does not pay for matplotlib, scipy or numba."""

@@ -10,12 +10,13 @@ import numpy as np
 
 from etsid.cli.options import echo_table_notes, log_options, read_options
 from etsid.errors import IdentError
+from etsid.ets.params import RLS_KINDS, VARIANTS
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
+from etsid.ident.ranges import NORMALISE_MODES
 from etsid.ident.resample import DEFAULT_RATE_HZ
-from etsid.ident.run import NORMALISE_MODES
 from etsid.ident.rundir import Run, jsonable
-from etsid.ingest import load_any
+from etsid.ingest import read_log
 from etsid.progress import wanted
 from etsid.report.tables import rules_text, summary_table
 
@@ -63,11 +64,11 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
               show_default=True, help="eTS zone of influence, fraction of the data range.")
 @click.option("--omega", type=click.FloatRange(0, min_open=True), default=IdentConfig.omega,
               show_default=True, help="Initial RLS covariance of a new rule.")
-@click.option("--variant", type=click.Choice(["ets", "ets+"]), default=IdentConfig.variant,
+@click.option("--variant", type=click.Choice(list(VARIANTS)), default=IdentConfig.variant,
               show_default=True, help="eTS (2004) or eTS+ (2010, with pruning).")
 @click.option("--max-rules", type=click.IntRange(1, 1000), default=IdentConfig.max_rules,
               show_default=True, help="Cap on the number of rules.")
-@click.option("--rls", type=click.Choice(["local", "global"]), default=IdentConfig.rls,
+@click.option("--rls", type=click.Choice(list(RLS_KINDS)), default=IdentConfig.rls,
               show_default=True, help="Consequent learning: local or global RLS.")
 @click.option("--forgetting", type=click.FloatRange(0, 1, min_open=True),
               default=IdentConfig.forgetting, show_default=True,
@@ -115,7 +116,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     """
     options = read_options(maps, mapping_file, sysid, quiet)
     if outputs:
-        table = load_any(log, options, rate_hz=rate_hz)
+        table = read_log(log, options, rate_hz=rate_hz)
     else:
         table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
     config = IdentConfig(outputs=_outputs(outputs), regressors=regressors,
@@ -153,7 +154,7 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
     if sim_from is not None and not np.isfinite(sim_from):
         raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
-    table = load_any(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
     try:
         run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
                       show_progress=wanted(quiet))

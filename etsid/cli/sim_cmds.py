@@ -146,14 +146,14 @@ def _write(table: pd.DataFrame, truth: pd.DataFrame, out: Path, fmt: str | None)
 def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: int,
             ground_effect: bool, settings: dict, mode: str, loop_input: str, thrust: str,
             horizon: float) -> None:
-    from etsid.ingest import load_any
+    from etsid.ingest import read_log
     from etsid.sim.replay import replay
 
     scenario_keys = [k for k in settings if not k.startswith("vehicle.")]
     if scenario_keys:
         raise SimError(f"--replay takes vehicle settings only, got {scenario_keys[0]!r}")
     _check_out(out, fmt)
-    table = load_any(log)
+    table = read_log(log)
     result = replay(table, vehicle, mode=mode, loop_input=loop_input, thrust=thrust,
                     horizon=horizon, ground_effect=ground_effect, seed=seed,
                     settings=settings)

@@ -7,5 +7,7 @@ from __future__ import annotations
 
 from etsid.ets.history import History
 from etsid.ets.model import ETS
+from etsid.ets.params import ETSParams
+from etsid.ets.state import LearnedState
 
-__all__ = ["ETS", "History"]
+__all__ = ["ETS", "ETSParams", "History", "LearnedState"]

@@ -1,27 +1,8 @@
-"""Numba kernels of the eTS recursion: one call processes a whole array of samples.
+"""Numba kernels of the per-sample eTS / eTS+ recursion: learn (predict-then-learn) and
+predict, each over a whole array of samples, with the rule-base edits they share.
 
-Every formula here is stated, with its source, in ``docs/ets.md``; ``reference.py`` holds
-a plain-numpy transcription of the same recursion that the tests compare against (1e-9).
-
-State layout (all preallocated for ``max_rules`` rules, rules ``0 .. R-1`` are live and
-kept in birth order; removing a rule shifts the later ones down):
-
-``si``      int64[3]: samples learned ``k``, live rules ``R``, next rule id
-``lo, hi``  float64[d]: normalisation range of z = [x; y] (raw units), ``d = n + m``
-``fixed``   int8[d]: 1 where the range was given by the caller and is never widened
-``mean, m2`` float64[d]: Welford running mean and sum of squared deviations of z (raw units)
-``ids``     int64[Rmax]: stable rule ids (never reused)
-``cz``      float64[Rmax, d]: focal points z*_i in raw units
-``rad``     float64[Rmax, n]: per-rule, per-input radius in normalised units
-``scat``    float64[Rmax, n]: local scatter (variance, raw units squared) for exTS spreads
-``pot``     float64[Rmax]: focal potentials P_k(z*_i)
-``birth``   int64[Rmax]: step t*_i at which the rule was born
-``support`` int64[Rmax]: samples for which the rule fired strongest (including its birth)
-``lamsum``  float64[Rmax]: sum of normalised firing since birth (utility numerator)
-``tsum``    float64[Rmax]: sum of the time indices of the supporting samples (age)
-``Pi``      float64[Rmax, n+1, m]: consequents on x_e = [1, (x - lo) / s]
-``Cl``      float64[Rmax, n+1, n+1]: local RLS covariances (unused shape for global RLS)
-``Cg``      float64[Rmax(n+1), Rmax(n+1)]: global RLS covariance (unused shape for local)
+See ``layout.py`` for the state layout, ``docs/ets.md`` for every formula and choice, and
+``reference.py`` for the plain-numpy transcription the tests compare against (1e-9).
 """
 
 from __future__ import annotations
@@ -29,189 +10,100 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-# integer parameters ``ip``
-IP_VARIANT = 0  # 0: eTS (2004), 1: eTS+ (2010)
-IP_GLOBAL = 1  # 0: local RLS, 1: global RLS
-IP_MAX_RULES = 2
-IP_MIN_SUPPORT = 3
-IP_PRUNE_AFTER = 4
-IP_ADAPTIVE = 5
-IP_COVERAGE = 6  # eTS+: also grow wherever no rule covers the sample
-N_IP = 7
-# float parameters ``fp``
-FP_OMEGA = 0
-FP_FORGET = 1
-FP_UTILITY = 2
-FP_SPREAD_RHO = 3
-N_FP = 4
-# event kinds
-EV_BIRTH = 0
-EV_REPLACE = 1
-EV_REMOVAL = 2
-EVENT_KINDS = ("birth", "replace", "removal")
-#: history columns written per learned sample
-HIST_COLUMNS = ("n_rules", "potential", "focal_max", "focal_min")
-#: exTS Gaussian exp(-d^2 / (2 sigma^2)) equals exp(-4 d^2 / r^2) when r = sqrt(8) sigma
-SQRT8 = np.sqrt(8.0)
-#: relative margin for potential comparisons: equal potentials (e.g. the two samples at
-#: k = 2) must compare equal whatever the rounding
-TIE = 1e-10
-#: adaptive radii never shrink below this fraction of the initial radius
-RADIUS_FLOOR = 0.01
+from etsid.ets.layout import (
+    EV_BIRTH,
+    EV_REMOVAL,
+    EV_REPLACE,
+    FP_FORGET,
+    FP_OMEGA,
+    FP_SPREAD_RHO,
+    FP_UTILITY,
+    IP_ADAPTIVE,
+    IP_COVERAGE,
+    IP_GLOBAL,
+    IP_MAX_RULES,
+    IP_MIN_SUPPORT,
+    IP_PRUNE_AFTER,
+    IP_VARIANT,
+    RADIUS_FLOOR,
+    SQRT8,
+    TIE,
+)
+from etsid.ets.normalisation import reparametrise
 
 
 @njit(cache=True)
-def scales(lo: np.ndarray, hi: np.ndarray, s: np.ndarray) -> None:
-    """Write the normalisation widths ``hi - lo`` into ``s`` (1 where the range is zero)."""
-    for j in range(lo.shape[0]):
-        w = hi[j] - lo[j]
-        s[j] = w if w > 0.0 else 1.0
-
-
-@njit(cache=True)
-def firing(x, cz, rad, s, n_rules, lam) -> int:
-    """Normalised firing strengths lambda_i of rules ``0..n_rules-1``; returns the winner.
-
-    tau_i = exp(-4 sum_j ((x_j - x*_ij) / (s_j r_ij))^2); lambda_i = tau_i / sum_l tau_l,
-    evaluated with the largest exponent subtracted so a far point never gives 0/0.
-    """
-    n = x.shape[0]
-    emax = -np.inf
-    imax = 0
-    for i in range(n_rules):
-        e = 0.0
-        for j in range(n):
-            dj = (x[j] - cz[i, j]) / (s[j] * rad[i, j])
-            e += dj * dj
-        e *= -4.0
-        lam[i] = e
-        if e > emax:
-            emax = e
-            imax = i
-    tot = 0.0
-    for i in range(n_rules):
-        t = np.exp(lam[i] - emax)
-        lam[i] = t
-        tot += t
-    for i in range(n_rules):
-        lam[i] /= tot
-    return imax
-
-
-@njit(cache=True)
-def regressor(x, lo, s, xe) -> None:
-    """x_e = [1, (x - lo) / s]."""
-    xe[0] = 1.0
-    for j in range(x.shape[0]):
-        xe[j + 1] = (x[j] - lo[j]) / s[j]
-
-
-@njit(cache=True)
-def output(xe, lam, Pi, n_rules, out) -> None:
-    """y_hat = sum_i lambda_i x_e^T Pi_i."""
-    n1 = xe.shape[0]
-    m = out.shape[0]
-    for o in range(m):
-        out[o] = 0.0
-    for i in range(n_rules):
-        li = lam[i]
-        for o in range(m):
-            acc = 0.0
-            for a in range(n1):
-                acc += xe[a] * Pi[i, a, o]
-            out[o] += li * acc
-
-
-@njit(cache=True)
-def potential(z, mean, m2, s, k) -> float:
-    """P_k(z) = 1 / (1 + (1/(k-1)) sum_{l<=k} ||z - z_l||^2) in normalised units.
-
-    The sum is expanded with the running mean and variance of z_1..z_k:
-    sum_l ||z - z_l||^2 = k sum_j ((z_j - mean_j)^2 + var_j) / s_j^2.
-    """
-    if k < 2:
-        return 1.0
-    acc = 0.0
-    for j in range(z.shape[0]):
-        dj = z[j] - mean[j]
-        acc += (dj * dj + m2[j] / k) / (s[j] * s[j])
-    return 1.0 / (1.0 + acc * k / (k - 1.0))
-
-
-@njit(cache=True)
-def _congruence(C, T, tmp, symmetrise) -> None:
-    """C <- T^T C T in place (symmetrised if ``symmetrise``, i.e. for a diagonal block)."""
-    n1 = T.shape[0]
-    for p in range(n1):
-        for q in range(n1):
-            acc = 0.0
-            for r in range(n1):
-                acc += C[p, r] * T[r, q]
-            tmp[p, q] = acc
-    for p in range(n1):
-        for q in range(n1):
-            acc = 0.0
-            for r in range(n1):
-                acc += T[r, p] * tmp[r, q]
-            C[p, q] = acc
-    if not symmetrise:
-        return
-    for p in range(n1):
-        for q in range(p + 1, n1):
-            v = 0.5 * (C[p, q] + C[q, p])
-            C[p, q] = v
-            C[q, p] = v
-
-
-@njit(cache=True)
-def reparametrise(lo_old, hi_old, lo, s, n_rules, Pi, Cl, Cg, is_global) -> None:
-    """Rewrite consequents and covariances after the input range changed.
-
-    Old coordinates x~ = (x - lo) / s_old equal b + a * x~' in the new ones, with
-    a = s_new / s_old and b = (lo_new - lo_old) / s_old, i.e. x_e = T x_e'. Then
-    Pi' = T^T Pi and C' = T^T C T give identical predictions and identical future RLS
-    steps. A dimension whose old range was zero only ever saw x~ = 0, so s_old := s_new.
-    """
-    n = lo_old.shape[0]
+def _add_rule(
+    z,
+    P,
+    k,
+    pnew,
+    si,
+    r0,
+    s,
+    omega,
+    scat0,
+    ids,
+    cz,
+    rad,
+    scat,
+    pot,
+    birth,
+    support,
+    lamsum,
+    tsum,
+    Pi,
+    Cl,
+    Cg,
+    is_global,
+) -> int:
+    """Append a rule centred on z (raw units); returns its id."""
+    R = si[1]
+    n = r0.shape[0]
     n1 = n + 1
-    T = np.zeros((n1, n1))
-    tmp = np.empty((n1, n1))
-    T[0, 0] = 1.0
-    for j in range(n):
-        w_old = hi_old[j] - lo_old[j]
-        so = w_old if w_old > 0.0 else s[j]
-        T[j + 1, 0] = (lo[j] - lo_old[j]) / so
-        T[j + 1, j + 1] = s[j] / so
     m = Pi.shape[2]
-    for i in range(n_rules):
+    rid = si[2]
+    si[2] = rid + 1
+    ids[R] = rid
+    for j in range(z.shape[0]):
+        cz[R, j] = z[j]
+    for j in range(n):
+        rad[R, j] = r0[j]
+        scat[R, j] = scat0[j]
+    pot[R] = P
+    birth[R] = k
+    support[R] = 1
+    lamsum[R] = 0.0
+    tsum[R] = float(k)
+    for a in range(n1):
         for o in range(m):
-            acc = Pi[i, 0, o]
-            for j in range(n):
-                acc += T[j + 1, 0] * Pi[i, j + 1, o]
-            Pi[i, 0, o] = acc
-            for j in range(n):
-                Pi[i, j + 1, o] *= T[j + 1, j + 1]
+            Pi[R, a, o] = pnew[a, o]
     if is_global:
-        blk = np.empty((n1, n1))
-        for bi in range(n_rules):
-            for bj in range(n_rules):
-                for p in range(n1):
-                    for q in range(n1):
-                        blk[p, q] = Cg[bi * n1 + p, bj * n1 + q]
-                _congruence(blk, T, tmp, False)
-                for p in range(n1):
-                    for q in range(n1):
-                        Cg[bi * n1 + p, bj * n1 + q] = blk[p, q]
-        # exact symmetry across off-diagonal blocks
-        p_all = n_rules * n1
-        for p in range(p_all):
-            for q in range(p + 1, p_all):
-                v = 0.5 * (Cg[p, q] + Cg[q, p])
-                Cg[p, q] = v
-                Cg[q, p] = v
+        p_old = R * n1
+        if R > 0:
+            rho = (R * R + 1.0) / (R * R)
+            for a in range(p_old):
+                for b in range(p_old):
+                    Cg[a, b] *= rho
+        p_new = p_old + n1
+        for a in range(p_new):
+            for b in range(p_old, p_new):
+                Cg[a, b] = 0.0
+                Cg[b, a] = 0.0
+        for a in range(p_old, p_new):
+            Cg[a, a] = omega
     else:
-        for i in range(n_rules):
-            _congruence(Cl[i], T, tmp, True)
+        for a in range(n1):
+            for b in range(n1):
+                Cl[R, a, b] = 0.0
+            Cl[R, a, a] = omega
+    si[1] = R + 1
+    return rid
+
+
+#: the rule loops of the learning kernel run over a multiple of this many lanes, so the
+#: vectorised loop bodies need no scalar remainder
+LANES = 4
 
 
 @njit(cache=True)
@@ -241,3 +133,628 @@ def remove_rule(
             for b in range(p_new):
                 bo = b if b < cut else b + n1
                 Cg[a, b] = Cg[ao, bo]
+
+
+@njit(cache=True, boundscheck=False)
+def _refresh_scales(lo, hi, s, w2, isx, n) -> None:
+    """s = hi - lo (1 where zero), w2 = 1 / s^2 over z, isx = 1 / s over the inputs."""
+    for j in range(lo.shape[0]):
+        w = hi[j] - lo[j]
+        sj = w if w > 0.0 else 1.0
+        s[j] = sj
+        w2[j] = 1.0 / (sj * sj)
+        if j < n:
+            isx[j] = 1.0 / sj
+
+
+@njit(cache=True, boundscheck=False)
+def _sync_rule(i, cz, rad, s, czT, aT) -> None:
+    """Copy rule i's focal point into the transposed work array and refresh its firing
+    coefficients aT[j, i] = 4 / (s_j r_ij)^2 (hoisted inverse radii squared)."""
+    for j in range(cz.shape[1]):
+        czT[j, i] = cz[i, j]
+    for j in range(aT.shape[0]):
+        q = s[j] * rad[i, j]
+        aT[j, i] = 4.0 / (q * q)
+
+
+@njit(cache=True, boundscheck=False)
+def _fire(X, t, czT, aT, R, ex, lam) -> None:
+    """Normalised firing lambda_i of rules 0..R-1 for input row X[t] (rules in the inner loop).
+
+    Same value as the reference's firing: tau_i = exp(-sum_j aT[j, i] (x_j - x*_ij)^2), normalised
+    with the smallest exponent subtracted first.
+    """
+    n = aT.shape[0]
+    for i in range(R):
+        ex[i] = 0.0
+    for j in range(n):
+        xj = X[t, j]
+        for i in range(R):
+            dj = xj - czT[j, i]
+            ex[i] += dj * dj * aT[j, i]
+    emin = np.inf
+    for i in range(R):
+        emin = min(emin, ex[i])
+    tot = 0.0
+    for i in range(R):
+        v = np.exp(emin - ex[i])
+        lam[i] = v
+        tot += v
+    itot = 1.0 / tot
+    for i in range(R):
+        lam[i] *= itot
+
+
+@njit(cache=True, boundscheck=False)
+def _to_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
+    """Copy consequents (and local covariances) of rules 0..R-1 into the rule-minor work
+    arrays PiT[a, o, i], CT[a, b, i] so the per-rule updates vectorise over rules."""
+    n1 = Pi.shape[1]
+    m = Pi.shape[2]
+    for a in range(n1):
+        for o in range(m):
+            for i in range(R):
+                PiT[a, o, i] = Pi[i, a, o]
+        if not is_global:
+            for b in range(n1):
+                for i in range(R):
+                    CT[a, b, i] = Cl[i, a, b]
+
+
+@njit(cache=True, boundscheck=False)
+def _from_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
+    """Write the work arrays of rules 0..R-1 back into the state layout."""
+    n1 = Pi.shape[1]
+    m = Pi.shape[2]
+    for i in range(R):
+        for a in range(n1):
+            for o in range(m):
+                Pi[i, a, o] = PiT[a, o, i]
+            if not is_global:
+                for b in range(n1):
+                    Cl[i, a, b] = CT[a, b, i]
+
+
+@njit(cache=True, boundscheck=False)
+def _rule_outputs(xe, PiT, R, yrT) -> None:
+    """yrT[o, i] = x_e^T Pi_i[:, o] for every live rule (rules in the inner loop)."""
+    n1 = xe.shape[0]
+    m = yrT.shape[0]
+    for o in range(m):
+        for i in range(R):
+            yrT[o, i] = 0.0
+    for a in range(n1):
+        xa = xe[a]
+        for o in range(m):
+            for i in range(R):
+                yrT[o, i] += xa * PiT[a, o, i]
+
+
+@njit(cache=True, boundscheck=False)
+def predict_kernel(X, Yhat, n_rules, lo, hi, cz, rad, Pi) -> None:
+    """Batch prediction with frozen rules; NaN rows when the model has no rule.
+
+    Same arithmetic, in the same order, as step 1 of ``learn_kernel``, so a prediction
+    equals the one ``run`` would have made bit for bit.
+    """
+    N, n = X.shape
+    m = Yhat.shape[1]
+    d = lo.shape[0]
+    n1 = n + 1
+    R = n_rules
+    if R == 0:
+        for t in range(N):
+            for o in range(m):
+                Yhat[t, o] = np.nan
+        return
+    s = np.empty(d)
+    w2 = np.empty(d)
+    isx = np.empty(n)
+    _refresh_scales(lo, hi, s, w2, isx, n)
+    czT = np.empty((d, R))
+    aT = np.empty((n, R))
+    for i in range(R):
+        _sync_rule(i, cz, rad, s, czT, aT)
+    PiT = np.empty((n1, m, R))
+    CT = np.empty((1, 1, 1))
+    _to_soa(R, Pi, CT, PiT, CT, True)
+    ex = np.empty(R)
+    lam = np.empty(R)
+    xe = np.empty(n1)
+    yrT = np.empty((m, R))
+    for t in range(N):
+        _fire(X, t, czT, aT, R, ex, lam)
+        xe[0] = 1.0
+        for j in range(n):
+            xe[j + 1] = (X[t, j] - lo[j]) * isx[j]
+        _rule_outputs(xe, PiT, R, yrT)
+        for o in range(m):
+            acc = 0.0
+            for i in range(R):
+                acc += lam[i] * yrT[o, i]
+            Yhat[t, o] = acc
+
+
+@njit(cache=True, boundscheck=False)
+def learn_kernel(
+    X,
+    Y,
+    Yhat,
+    hist,
+    ev,
+    nev,
+    si,
+    lo,
+    hi,
+    fixed,
+    mean,
+    m2,
+    ids,
+    cz,
+    rad,
+    scat,
+    pot,
+    birth,
+    support,
+    lamsum,
+    tsum,
+    Pi,
+    Cl,
+    Cg,
+    r0,
+    fp,
+    ip,
+) -> None:
+    """Online predict-then-learn over all rows of X (N, n), Y (N, m); mutates the state.
+
+    Writes the one-step predictions made *before* each update into ``Yhat`` and the
+    per-sample history (rules, potential, focal max, focal min) into ``hist``. Events
+    (step, kind, rule id) are appended to ``ev`` from row ``nev[0]``; the caller sizes ``ev``
+    for the worst case (4 N + max_rules rows).
+
+    Speed (docs/performance.md): all work arrays are allocated once per call; 1/s, 1/s^2 and
+    the firing coefficients 4/(s r)^2 are recomputed only when a range widens, a rule is
+    born, moved or removed, or a spread adapts; focal points are mirrored into a transposed
+    array so the per-rule loops (firing, potentials) run over rules in the inner loop; the
+    firing strengths and per-rule outputs of the prediction are reused by the update when
+    the rule base and the ranges did not change; covariance updates are written on whole
+    rows as C_ab - c (g_a g_b), which is exactly symmetric without mirroring.
+    """
+    N, n = X.shape
+    m = Y.shape[1]
+    d = n + m
+    n1 = n + 1
+    variant = ip[IP_VARIANT]
+    is_global = ip[IP_GLOBAL] == 1
+    rmax = ip[IP_MAX_RULES]
+    min_support = ip[IP_MIN_SUPPORT]
+    prune_after = ip[IP_PRUNE_AFTER]
+    adaptive = ip[IP_ADAPTIVE] == 1
+    omega = fp[FP_OMEGA]
+    forget = fp[FP_FORGET]
+    omf = 1.0 - forget
+    umin = fp[FP_UTILITY]
+    rho_s = fp[FP_SPREAD_RHO]
+    coverage = ip[IP_COVERAGE] == 1
+
+    s = np.empty(d)
+    w2 = np.empty(d)
+    isx = np.empty(n)
+    lo_old = np.empty(n)
+    hi_old = np.empty(n)
+    # rule-minor work arrays, lanes padded to a multiple of LANES; the padding lanes are
+    # zero or hold a removed rule, have lambda = 0 and are never read into a result
+    rpad = (rmax + LANES - 1) // LANES * LANES
+    czT = np.zeros((d, rpad))
+    aT = np.zeros((n, rpad))
+    ex = np.zeros(rpad)
+    lam = np.zeros(rpad)
+    yrT = np.zeros((m, rpad))
+    PiT = np.zeros((n1, m, rpad))
+    CT = np.zeros((1, 1, 1) if is_global else (n1, n1, rpad))
+    gT = np.zeros((n1, rpad))
+    cw = np.zeros(rpad)
+    fiv = np.zeros(rpad)
+    xe = np.empty(n1)
+    z = np.empty(d)
+    yh = np.empty(m)
+    err = np.empty(m)
+    pnew = np.zeros((n1, m))
+    scat0 = np.empty(n)
+    g = np.empty(rmax * n1 if is_global else n1)
+    phi = np.empty(rmax * n1 if is_global else 1)
+
+    _refresh_scales(lo, hi, s, w2, isx, n)
+    for i in range(si[1]):
+        _sync_rule(i, cz, rad, s, czT, aT)
+    _to_soa(si[1], Pi, Cl, PiT, CT, is_global)
+
+    for t in range(N):
+        k = si[0]
+        R = si[1]
+        for j in range(n):
+            z[j] = X[t, j]
+        for o in range(m):
+            z[n + o] = Y[t, o]
+        # lanes processed by the vectorised rule loops: R rounded up to a multiple of LANES
+        RL = (R + LANES - 1) // LANES * LANES
+        # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
+        # _fire and _rule_outputs written out: a call costs an atomic reference-count
+        # increment and decrement per array argument, more than the arithmetic here
+        if R > 0:
+            for i in range(RL):
+                ex[i] = 0.0
+            for j in range(n):
+                xj = z[j]
+                for i in range(RL):
+                    dj = xj - czT[j, i]
+                    ex[i] += dj * dj * aT[j, i]
+            emin = np.inf
+            for i in range(R):
+                emin = min(emin, ex[i])
+            tot = 0.0
+            for i in range(R):
+                v = np.exp(emin - ex[i])
+                lam[i] = v
+                tot += v
+            itot = 1.0 / tot
+            for i in range(R):
+                lam[i] *= itot
+            xe[0] = 1.0
+            for j in range(n):
+                xe[j + 1] = (z[j] - lo[j]) * isx[j]
+            for o in range(m):
+                for i in range(RL):
+                    yrT[o, i] = 0.0
+            for a in range(n1):
+                xa = xe[a]
+                for o in range(m):
+                    for i in range(RL):
+                        yrT[o, i] += xa * PiT[a, o, i]
+            for o in range(m):
+                acc = 0.0
+                for i in range(R):
+                    acc += lam[i] * yrT[o, i]
+                Yhat[t, o] = acc
+                yh[o] = acc
+        else:
+            for o in range(m):
+                Yhat[t, o] = np.nan
+        # 2. widen running ranges; rewrite consequents if an input range moved
+        changed_x = False
+        changed_y = False
+        for j in range(d):
+            if fixed[j] == 1:
+                continue
+            v = z[j]
+            if k == 0 or v < lo[j] or v > hi[j]:
+                if not changed_x and not changed_y:
+                    for q in range(n):
+                        lo_old[q] = lo[q]
+                        hi_old[q] = hi[q]
+                if k == 0:
+                    lo[j] = v
+                    hi[j] = v
+                elif v < lo[j]:
+                    lo[j] = v
+                else:
+                    hi[j] = v
+                if j < n:
+                    changed_x = k > 0 or changed_x
+                changed_y = True
+        if changed_y:
+            _refresh_scales(lo, hi, s, w2, isx, n)
+        if changed_x:
+            for i in range(R):
+                _sync_rule(i, cz, rad, s, czT, aT)
+            if R > 0:
+                _from_soa(R, Pi, Cl, PiT, CT, is_global)
+                reparametrise(lo_old, hi_old, lo, s, R, Pi, Cl, Cg, is_global)
+                _to_soa(R, Pi, Cl, PiT, CT, is_global)
+        # 3. running mean / variance of z (Welford)
+        k += 1
+        si[0] = k
+        ik = 1.0 / k
+        for j in range(d):
+            dj = z[j] - mean[j]
+            mean[j] += dj * ik
+            m2[j] += dj * (z[j] - mean[j])
+        # 4. potentials of the sample and of every focal point (rules in the inner loop)
+        pmax = -np.inf
+        pmin = np.inf
+        if k >= 2:
+            vterm = 0.0
+            acc = 0.0
+            for j in range(d):
+                vterm += m2[j] * w2[j]
+                dj = z[j] - mean[j]
+                acc += dj * dj * w2[j]
+            vterm *= ik
+            kk = k / (k - 1.0)
+            P = 1.0 / (1.0 + (acc + vterm) * kk)
+            for i in range(RL):
+                ex[i] = vterm
+            for j in range(d):
+                mj = mean[j]
+                wj = w2[j]
+                for i in range(RL):
+                    dj = czT[j, i] - mj
+                    ex[i] += dj * dj * wj
+            for i in range(R):
+                pi_ = 1.0 / (1.0 + ex[i] * kk)
+                pot[i] = pi_
+                pmax = max(pmax, pi_)
+                pmin = min(pmin, pi_)
+        else:
+            P = 1.0
+            for i in range(R):
+                pot[i] = 1.0
+            pmax = pmin = 1.0 if R > 0 else 0.0
+        # 5. structure
+        changed = changed_x
+        born = False
+        grow = False
+        target = -1
+        if R == 0:
+            pnew[:, :] = 0.0
+            grow = True
+        else:
+            high = pmax * (1.0 + TIE) < P
+            low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
+            if high or low:
+                dmin = np.inf
+                inear = 0
+                dcov = np.inf
+                icov = -1
+                for i in range(R):
+                    d2 = 0.0
+                    dinf = 0.0
+                    for j in range(n):
+                        q = abs(z[j] - cz[i, j]) / (s[j] * rad[i, j])
+                        d2 += q * q
+                        dinf = max(dinf, q)
+                    if d2 < dmin:
+                        dmin = d2
+                        inear = i
+                    if dinf < 0.5 and d2 < dcov:
+                        dcov = d2
+                        icov = i
+                if variant == 0:
+                    replace = P / pmax - np.sqrt(dmin) >= 1.0
+                    target = inear
+                    grow = not replace
+                else:
+                    replace = high and icov >= 0
+                    target = icov
+                    grow = icov < 0
+                if grow and rmax <= R:
+                    # at the cap a birth becomes a move of the nearest rule (keeps its consequent)
+                    replace = True
+                    target = inear
+                    grow = False
+                if replace:
+                    for j in range(d):
+                        cz[target, j] = z[j]
+                    pot[target] = P
+                    _sync_rule(target, cz, rad, s, czT, aT)
+                    ev[nev[0], 0] = k
+                    ev[nev[0], 1] = EV_REPLACE
+                    ev[nev[0], 2] = ids[target]
+                    nev[0] += 1
+                    changed = True
+                elif grow:
+                    if changed_x:
+                        _fire(X, t, czT, aT, R, ex, lam)
+                    for a in range(n1):
+                        for o in range(m):
+                            acc = 0.0
+                            for i in range(R):
+                                acc += lam[i] * PiT[a, o, i]
+                            pnew[a, o] = acc
+        if grow:
+            for j in range(n):
+                scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
+            rid = _add_rule(
+                z,
+                P,
+                k,
+                pnew,
+                si,
+                r0,
+                s,
+                omega,
+                scat0,
+                ids,
+                cz,
+                rad,
+                scat,
+                pot,
+                birth,
+                support,
+                lamsum,
+                tsum,
+                Pi,
+                Cl,
+                Cg,
+                is_global,
+            )
+            _sync_rule(R, cz, rad, s, czT, aT)
+            for a in range(n1):
+                for o in range(m):
+                    PiT[a, o, R] = Pi[R, a, o]
+                if not is_global:
+                    for b in range(n1):
+                        CT[a, b, R] = Cl[R, a, b]
+            ev[nev[0], 0] = k
+            ev[nev[0], 1] = EV_BIRTH
+            ev[nev[0], 2] = rid
+            nev[0] += 1
+            changed = True
+            born = True
+        R = si[1]
+        RL = (R + LANES - 1) // LANES * LANES
+        # 6. firing with the updated rule base; support, age, spreads, utility
+        if changed:
+            _fire(X, t, czT, aT, R, ex, lam)
+            xe[0] = 1.0
+            for j in range(n):
+                xe[j + 1] = (z[j] - lo[j]) * isx[j]
+            _rule_outputs(xe, PiT, R, yrT)
+            for o in range(m):
+                acc = 0.0
+                for i in range(R):
+                    acc += lam[i] * yrT[o, i]
+                yh[o] = acc
+        if not born:
+            w = 0
+            for i in range(1, R):
+                if lam[i] > lam[w]:
+                    w = i
+            support[w] += 1
+            tsum[w] += k
+            if adaptive:
+                for j in range(n):
+                    dx = z[j] - cz[w, j]
+                    scat[w, j] += (dx * dx - scat[w, j]) / support[w]
+                    rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
+                    rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
+                    q = s[j] * rad[w, j]
+                    aT[j, w] = 4.0 / (q * q)  # as _sync_rule
+        for i in range(R, RL):
+            lam[i] = 0.0  # padding lanes: no update
+        for i in range(R):
+            lamsum[i] += lam[i]
+        # 7. consequents: fuzzily weighted RLS
+        if is_global:
+            p = R * n1
+            for i in range(R):
+                for a in range(n1):
+                    phi[i * n1 + a] = lam[i] * xe[a]
+            for o in range(m):
+                err[o] = z[n + o] - yh[o]
+            # g = Cg phi as a sum of columns; Cg is exactly symmetric, so column b equals
+            # row b and every g[a] is summed in the same order as the row dot product
+            for a in range(p):
+                g[a] = 0.0
+            for b in range(p):
+                pb = phi[b]
+                for a in range(p):
+                    g[a] += Cg[b, a] * pb
+            den = forget
+            for a in range(p):
+                den += phi[a] * g[a]
+            iden = 1.0 / den
+            # C_ab - (g_a g_b) / den is exactly symmetric: no mirroring needed
+            if forget == 1.0:
+                for a in range(p):
+                    ga = g[a]
+                    for b in range(p):
+                        Cg[a, b] -= (ga * g[b]) * iden
+            else:
+                ifg = 1.0 / forget
+                for a in range(p):
+                    ga = g[a]
+                    for b in range(p):
+                        Cg[a, b] = (Cg[a, b] - (ga * g[b]) * iden) * ifg
+            for a in range(n1):
+                for i in range(R):
+                    gT[a, i] = g[i * n1 + a] * iden
+            for a in range(n1):
+                for o in range(m):
+                    eo = err[o]
+                    for i in range(R):
+                        PiT[a, o, i] += gT[a, i] * eo
+        else:
+            # every rule at once, rules in the inner (contiguous) loop; a rule with
+            # lambda = 0 gets f_i = 1 and gain 0, i.e. exactly no change
+            for i in range(RL):
+                fiv[i] = 1.0 - lam[i] * omf
+                cw[i] = 0.0
+            for a in range(n1):
+                for i in range(RL):
+                    gT[a, i] = 0.0
+                for b in range(n1):
+                    xb = xe[b]
+                    for i in range(RL):
+                        gT[a, i] += CT[a, b, i] * xb
+            for a in range(n1):
+                xa = xe[a]
+                for i in range(RL):
+                    cw[i] += xa * gT[a, i]
+            for i in range(RL):
+                wi = lam[i]
+                cw[i] = wi / (fiv[i] + wi * cw[i])
+            # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
+            for a in range(n1):
+                for b in range(n1):
+                    for i in range(RL):
+                        CT[a, b, i] -= cw[i] * (gT[a, i] * gT[b, i])
+            if forget != 1.0:
+                for i in range(RL):
+                    fiv[i] = 1.0 / fiv[i]
+                for a in range(n1):
+                    for b in range(n1):
+                        for i in range(RL):
+                            CT[a, b, i] *= fiv[i]
+            for o in range(m):
+                yo = z[n + o]
+                for i in range(RL):
+                    yrT[o, i] = yo - yrT[o, i]
+            for a in range(n1):
+                for i in range(RL):
+                    gT[a, i] *= cw[i]
+                for o in range(m):
+                    for i in range(RL):
+                        PiT[a, o, i] += gT[a, i] * yrT[o, i]
+        # 8. eTS+ quality: remove rules of low utility or tiny support
+        if variant == 1:
+            i = R - 1
+            removed = False
+            while i >= 0 and R > 1:
+                life = k - birth[i]
+                if life >= prune_after:
+                    u = lamsum[i] / (life + 1.0)
+                    if u < umin or support[i] < min_support:
+                        ev[nev[0], 0] = k
+                        ev[nev[0], 1] = EV_REMOVAL
+                        ev[nev[0], 2] = ids[i]
+                        nev[0] += 1
+                        if not removed:
+                            _from_soa(R, Pi, Cl, PiT, CT, is_global)
+                        remove_rule(
+                            i,
+                            R,
+                            ids,
+                            cz,
+                            rad,
+                            scat,
+                            pot,
+                            birth,
+                            support,
+                            lamsum,
+                            tsum,
+                            Pi,
+                            Cl,
+                            Cg,
+                            is_global,
+                        )
+                        R -= 1
+                        si[1] = R
+                        removed = True
+                i -= 1
+            if removed:
+                for i in range(R):
+                    _sync_rule(i, cz, rad, s, czT, aT)
+                _to_soa(R, Pi, Cl, PiT, CT, is_global)
+        # 9. history
+        fmax = -np.inf
+        fmin = np.inf
+        for i in range(R):
+            fmax = max(fmax, pot[i])
+            fmin = min(fmin, pot[i])
+        hist[t, 0] = R
+        hist[t, 1] = P
+        hist[t, 2] = fmax
+        hist[t, 3] = fmin
+    _from_soa(si[1], Pi, Cl, PiT, CT, is_global)

@@ -9,20 +9,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from etsid.ets import kernels as K
+from etsid.ets import layout as L
 from etsid.ets.history import History, HistoryRecorder
-from etsid.ets.recursion import learn_kernel, predict_kernel
+from etsid.ets.kernels import learn_kernel, predict_kernel
+from etsid.ets.normalisation import scales
+from etsid.ets.params import DEFAULTS, RLS_KINDS, VARIANTS
+from etsid.ets.state import LearnedState
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-VARIANTS = ("ets", "ets+")
-RLS_KINDS = ("local", "global")
-#: names of the state arrays, in the order the learning kernel takes them
-STATE_ARRAYS = (
-    "si", "lo", "hi", "fixed", "mean", "m2", "ids", "cz", "rad", "scat", "pot",
-    "birth", "support", "lamsum", "tsum", "Pi", "Cl", "Cg",
-)  # fmt: skip
 
 
 def _finite_2d(a: Any, name: str, width: int | None = None) -> np.ndarray:
@@ -109,20 +105,20 @@ class ETS:
 
     def __init__(
         self,
-        radius: float | Sequence[float] = 0.4,
-        omega: float = 1000.0,
-        variant: str = "ets+",
-        max_rules: int = 50,
-        rls: str = "local",
-        forgetting: float = 1.0,
-        utility_threshold: float = 0.05,
-        min_support: int = 3,
-        prune_after: int = 50,
-        adaptive_spread: bool = False,
-        coverage: bool = False,
+        radius: float | Sequence[float] = DEFAULTS.radius,
+        omega: float = DEFAULTS.omega,
+        variant: str = DEFAULTS.variant,
+        max_rules: int = DEFAULTS.max_rules,
+        rls: str = DEFAULTS.rls,
+        forgetting: float = DEFAULTS.forgetting,
+        utility_threshold: float = DEFAULTS.utility_threshold,
+        min_support: int = DEFAULTS.min_support,
+        prune_after: int = DEFAULTS.prune_after,
+        adaptive_spread: bool = DEFAULTS.adaptive_spread,
+        coverage: bool = DEFAULTS.coverage,
         x_range: Any = None,
         y_range: Any = None,
-        history_every: int = 1000,
+        history_every: int = DEFAULTS.history_every,
         input_names: Sequence[str] | None = None,
         output_names: Sequence[str] | None = None,
     ) -> None:
@@ -219,19 +215,19 @@ class ETS:
         self.recorder_ = HistoryRecorder()
 
     def _kernel_params(self) -> tuple[np.ndarray, np.ndarray]:
-        ip = np.zeros(K.N_IP, dtype=np.int64)
-        ip[K.IP_VARIANT] = VARIANTS.index(self.variant)
-        ip[K.IP_GLOBAL] = RLS_KINDS.index(self.rls)
-        ip[K.IP_MAX_RULES] = int(self.max_rules)
-        ip[K.IP_MIN_SUPPORT] = int(self.min_support)
-        ip[K.IP_PRUNE_AFTER] = int(self.prune_after)
-        ip[K.IP_ADAPTIVE] = int(bool(self.adaptive_spread))
-        ip[K.IP_COVERAGE] = int(bool(self.coverage))
-        fp = np.zeros(K.N_FP)
-        fp[K.FP_OMEGA] = float(self.omega)
-        fp[K.FP_FORGET] = float(self.forgetting)
-        fp[K.FP_UTILITY] = float(self.utility_threshold)
-        fp[K.FP_SPREAD_RHO] = 0.5
+        ip = np.zeros(L.N_IP, dtype=np.int64)
+        ip[L.IP_VARIANT] = VARIANTS.index(self.variant)
+        ip[L.IP_GLOBAL] = RLS_KINDS.index(self.rls)
+        ip[L.IP_MAX_RULES] = int(self.max_rules)
+        ip[L.IP_MIN_SUPPORT] = int(self.min_support)
+        ip[L.IP_PRUNE_AFTER] = int(self.prune_after)
+        ip[L.IP_ADAPTIVE] = int(bool(self.adaptive_spread))
+        ip[L.IP_COVERAGE] = int(bool(self.coverage))
+        fp = np.zeros(L.N_FP)
+        fp[L.FP_OMEGA] = float(self.omega)
+        fp[L.FP_FORGET] = float(self.forgetting)
+        fp[L.FP_UTILITY] = float(self.utility_threshold)
+        fp[L.FP_SPREAD_RHO] = 0.5
         return ip, fp
 
     @property
@@ -288,12 +284,12 @@ class ETS:
             nev = np.zeros(1, dtype=np.int64)
             learn_kernel(
                 Xa[start:stop], Ya[start:stop], Yhat[start:stop], hist, ev, nev,
-                *(st[name] for name in STATE_ARRAYS), self.radius_, fp, ip,
+                *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
             )  # fmt: skip
             rec = self.recorder_
             rec.add(k0 + 1, hist)
             for step, kind, rid in ev[: nev[0]].tolist():
-                rec.add_event(step, K.EVENT_KINDS[kind], rid)
+                rec.add_event(step, L.EVENT_KINDS[kind], rid)
             k1 = int(st["si"][0])
             if k1 % every == 0:
                 R = int(st["si"][1])
@@ -347,11 +343,12 @@ class ETS:
         """History as a DataFrame: step, n_rules, potential, focal_max, focal_min."""
         return self.history.to_frame()
 
-    def scales_(self) -> np.ndarray:
-        """Normalisation widths s = hi - lo of z = [x; y] (1 where the range is zero)."""
+    def scales(self) -> np.ndarray:
+        """Normalisation widths s = hi - lo of z = [x; y], raw units (1 where the range is
+        zero), shape (n + m,)."""
         st = self.state_
         s = np.empty_like(st["lo"])
-        K.scales(st["lo"], st["hi"], s)
+        scales(st["lo"], st["hi"], s)
         return s
 
     def consequents_raw(self) -> np.ndarray:
@@ -361,7 +358,7 @@ class ETS:
         """
         st = self.state_
         n, R = self.n_inputs_, self.n_rules
-        s = self.scales_()[:n]
+        s = self.scales()[:n]
         lo = st["lo"][:n]
         Pi = st["Pi"][:R]
         out = np.empty_like(Pi)
@@ -369,7 +366,7 @@ class ETS:
         out[:, 0, :] = Pi[:, 0, :] - np.einsum("rjo,j->ro", out[:, 1:, :], lo)
         return out
 
-    def names_(self) -> tuple[list[str], list[str]]:
+    def names(self) -> tuple[list[str], list[str]]:
         """Input and output names (defaults x1.., y1..)."""
         n, m = self.n_inputs_, self.n_outputs_
         xin = list(self.input_names) if self.input_names is not None else []
@@ -379,6 +376,86 @@ class ETS:
         if len(yout) != m:
             yout = [f"y{o + 1}" for o in range(m)]
         return xin, yout
+
+    def export_state(self) -> LearnedState:
+        """The learned state as read-only views trimmed to the live rules (see
+        :class:`~etsid.ets.state.LearnedState`); :meth:`restore_state` is the inverse.
+
+        Raises
+        ------
+        ValueError
+            The model has not learned anything yet.
+        """
+        if not self._fitted:
+            raise ValueError("the model has not learned anything yet; call run() or learn_one()")
+        st, R, n = self.state_, self.n_rules, self.n_inputs_
+        p = R * (n + 1)
+        glob = self.rls == "global"
+
+        def view(a: np.ndarray) -> np.ndarray:
+            v = a.view()
+            v.flags.writeable = False
+            return v
+
+        return LearnedState(
+            n_inputs=n, n_outputs=self.n_outputs_, y_1d=bool(self.y_1d_),
+            samples=int(st["si"][0]), next_rule_id=int(st["si"][2]),
+            low=view(st["lo"]), high=view(st["hi"]), fixed=view(st["fixed"]),
+            mean=view(st["mean"]), m2=view(st["m2"]), rule_ids=view(st["ids"][:R]),
+            focal_points=view(st["cz"][:R]), radii=view(st["rad"][:R]),
+            scatter=view(st["scat"][:R]), potentials=view(st["pot"][:R]),
+            births=view(st["birth"][:R]), support=view(st["support"][:R]),
+            firing_sums=view(st["lamsum"][:R]), time_sums=view(st["tsum"][:R]),
+            consequents=view(st["Pi"][:R]),
+            covariances=None if glob else view(st["Cl"][:R]),
+            global_covariance=view(st["Cg"][:p, :p]) if glob else None,
+        )
+
+    def restore_state(self, state: LearnedState) -> ETS:
+        """Replace the learned state by ``state`` (e.g. read from a rule-base file); the
+        model then predicts and learns on exactly as the one it was exported from.
+
+        Raises
+        ------
+        ValueError
+            Invalid parameters, or arrays whose shapes do not fit the parameters.
+        """
+        n, m, R = state.n_inputs, state.n_outputs, state.n_rules
+        self._init_state(n, m)
+        if int(self.max_rules) < R:
+            raise ValueError(f"{R} rules exceed max_rules = {self.max_rules}")
+        glob = self.rls == "global"
+        p = R * (n + 1)
+        st = self.state_
+        pairs = [("lo", state.low, None), ("hi", state.high, None),
+                 ("fixed", state.fixed, None), ("mean", state.mean, None),
+                 ("m2", state.m2, None), ("ids", state.rule_ids, R),
+                 ("cz", state.focal_points, R), ("rad", state.radii, R),
+                 ("scat", state.scatter, R), ("pot", state.potentials, R),
+                 ("birth", state.births, R), ("support", state.support, R),
+                 ("lamsum", state.firing_sums, R), ("tsum", state.time_sums, R),
+                 ("Pi", state.consequents, R)]
+        if glob:
+            if state.global_covariance is None:
+                raise ValueError("global RLS needs global_covariance")
+        elif state.covariances is None:
+            raise ValueError("local RLS needs covariances")
+        else:
+            pairs.append(("Cl", state.covariances, R))
+        for name, value, rows in pairs:
+            target = st[name] if rows is None else st[name][:rows]
+            arr = np.asarray(value)
+            if arr.shape != target.shape:
+                raise ValueError(f"{name} has shape {arr.shape}, expected {target.shape}")
+            target[...] = arr
+        if glob:
+            arr = np.asarray(state.global_covariance)
+            if arr.shape != (p, p):
+                raise ValueError(f"global_covariance has shape {arr.shape}, expected {(p, p)}")
+            st["Cg"][:p, :p] = arr
+        st["si"][:] = (state.samples, R, state.next_rule_id)
+        self.y_1d_ = bool(state.y_1d)
+        return self
 
     def rules(self, precision: int = 4) -> str:
         """Readable IF … THEN … rules in the original units of the data."""

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from etsid.ets.params import DEFAULTS
+
 
 def brute_force_potential(Z: np.ndarray) -> np.ndarray:
     """P_k(z_k) = 1 / (1 + mean_{l<k} ||z_k - z_l||^2) for every k (P_1 = 1).
@@ -81,16 +83,16 @@ class ReferenceETS:
     n: int
     m: int
     radius: np.ndarray
-    omega: float = 1000.0
-    variant: str = "ets+"
-    max_rules: int = 50
-    rls: str = "local"
-    forgetting: float = 1.0
-    utility_threshold: float = 0.05
-    min_support: int = 3
-    prune_after: int = 50
-    adaptive_spread: bool = False
-    coverage: bool = False
+    omega: float = DEFAULTS.omega
+    variant: str = DEFAULTS.variant
+    max_rules: int = DEFAULTS.max_rules
+    rls: str = DEFAULTS.rls
+    forgetting: float = DEFAULTS.forgetting
+    utility_threshold: float = DEFAULTS.utility_threshold
+    min_support: int = DEFAULTS.min_support
+    prune_after: int = DEFAULTS.prune_after
+    adaptive_spread: bool = DEFAULTS.adaptive_spread
+    coverage: bool = DEFAULTS.coverage
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
     fixed: np.ndarray | None = None

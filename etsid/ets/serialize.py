@@ -16,6 +16,7 @@ import jsonschema
 import numpy as np
 
 from etsid.errors import ModelError
+from etsid.ets.state import LearnedState
 
 SCHEMA_NAME = "etsid.rules/1"
 SCHEMA_PATH = Path(__file__).with_name("rules.schema.json")
@@ -37,11 +38,11 @@ def _listify(a: Any) -> Any:
 
 def model_to_dict(model: Any) -> dict[str, Any]:
     """Serialise a fitted :class:`~etsid.ets.ETS` (see ``rules.schema.json``)."""
-    if not model._fitted:
-        raise ModelError("cannot export a model that has not learned anything yet")
-    st = model.state_
-    n, R = model.n_inputs_, model.n_rules
-    k = int(st["si"][0])
+    try:
+        state = model.export_state()
+    except ValueError as err:
+        raise ModelError("cannot export a model that has not learned anything yet") from err
+    R, k = state.n_rules, state.samples
     params = model.get_params()
     params.pop("input_names")
     params.pop("output_names")
@@ -50,47 +51,47 @@ def model_to_dict(model: Any) -> dict[str, Any]:
         params[key] = None if v is None else _listify(np.asarray(v, dtype=float))
     params["radius"] = _listify(params["radius"])
     raw = model.consequents_raw()
-    glob = model.rls == "global"
+    age, utility = state.age(), state.utility()
     rules = []
     for i in range(R):
-        life = k - int(st["birth"][i])
         rules.append(
             {
-                "id": int(st["ids"][i]),
-                "focal_point": st["cz"][i].tolist(),
-                "radius": st["rad"][i].tolist(),
-                "scatter": st["scat"][i].tolist(),
-                "potential": float(st["pot"][i]),
-                "birth": int(st["birth"][i]),
-                "support": int(st["support"][i]),
-                "age": float(k - st["tsum"][i] / st["support"][i]),
-                "utility": float(st["lamsum"][i] / (life + 1.0)),
-                "firing_sum": float(st["lamsum"][i]),
-                "time_sum": float(st["tsum"][i]),
-                "consequent": st["Pi"][i].tolist(),
+                "id": int(state.rule_ids[i]),
+                "focal_point": state.focal_points[i].tolist(),
+                "radius": state.radii[i].tolist(),
+                "scatter": state.scatter[i].tolist(),
+                "potential": float(state.potentials[i]),
+                "birth": int(state.births[i]),
+                "support": int(state.support[i]),
+                "age": float(age[i]),
+                "utility": float(utility[i]),
+                "firing_sum": float(state.firing_sums[i]),
+                "time_sum": float(state.time_sums[i]),
+                "consequent": state.consequents[i].tolist(),
                 "consequent_original_units": raw[i].tolist(),
-                "covariance": None if glob else st["Cl"][i].tolist(),
+                "covariance": None if state.covariances is None
+                else state.covariances[i].tolist(),
             }
         )
-    p = R * (n + 1)
-    xin, yout = model.names_()
+    xin, yout = model.names()
     return {
         "schema": SCHEMA_NAME,
         "params": params,
         "inputs": xin,
         "outputs": yout,
-        "y_1d": bool(model.y_1d_),
+        "y_1d": state.y_1d,
         "normalisation": {
-            "low": st["lo"].tolist(),
-            "high": st["hi"].tolist(),
-            "fixed": [bool(f) for f in st["fixed"]],
+            "low": state.low.tolist(),
+            "high": state.high.tolist(),
+            "fixed": [bool(f) for f in state.fixed],
         },
         "learner": {
             "samples": k,
-            "next_rule_id": int(st["si"][2]),
-            "mean": st["mean"].tolist(),
-            "m2": st["m2"].tolist(),
-            "global_covariance": st["Cg"][:p, :p].tolist() if glob else None,
+            "next_rule_id": state.next_rule_id,
+            "mean": state.mean.tolist(),
+            "m2": state.m2.tolist(),
+            "global_covariance": None if state.global_covariance is None
+            else state.global_covariance.tolist(),
         },
         "rules": rules,
     }
@@ -123,24 +124,18 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
         ) from err
     params = dict(data["params"])
     n, m = len(data["inputs"]), len(data["outputs"])
-    try:
-        model = cls(**params, input_names=data["inputs"], output_names=data["outputs"])
-        model._init_state(n, m)
-    except ValueError as err:
-        raise _fail(f"invalid parameters: {err}", source) from err
-    st = model.state_
+    model = cls(**params, input_names=data["inputs"], output_names=data["outputs"])
     d = n + m
     norm, lrn, rules = data["normalisation"], data["learner"], data["rules"]
-    st["lo"][:] = _matrix(norm["low"], (d,), "normalisation/low", source)
-    st["hi"][:] = _matrix(norm["high"], (d,), "normalisation/high", source)
+    low = _matrix(norm["low"], (d,), "normalisation/low", source)
+    high = _matrix(norm["high"], (d,), "normalisation/high", source)
     fixed = norm["fixed"]
     if len(fixed) != d:
         raise _fail(f"normalisation/fixed has {len(fixed)} entries, expected {d}", source)
-    st["fixed"][:] = np.array(fixed, dtype=np.int8)
-    if np.any(st["hi"] < st["lo"]):
+    if np.any(high < low):
         raise _fail("normalisation/high is below normalisation/low", source)
-    st["mean"][:] = _matrix(lrn["mean"], (d,), "learner/mean", source)
-    st["m2"][:] = _matrix(lrn["m2"], (d,), "learner/m2", source)
+    mean = _matrix(lrn["mean"], (d,), "learner/mean", source)
+    m2 = _matrix(lrn["m2"], (d,), "learner/m2", source)
     R = len(rules)
     if model.max_rules < R:
         raise _fail(f"{R} rules exceed params/max_rules = {model.max_rules}", source)
@@ -150,34 +145,52 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
     if len(set(ids)) != R or (R and max(ids) >= lrn["next_rule_id"]):
         raise _fail("rule ids must be unique and below learner/next_rule_id", source)
     glob = model.rls == "global"
+    focal, radii, scatter, consequents, covariances = [], [], [], [], []
     for i, r in enumerate(rules):
         w = f"rules/{i}"
-        st["ids"][i] = r["id"]
-        st["cz"][i] = _matrix(r["focal_point"], (d,), f"{w}/focal_point", source)
-        st["rad"][i] = _matrix(r["radius"], (n,), f"{w}/radius", source)
-        if np.any(st["rad"][i] <= 0):
+        focal.append(_matrix(r["focal_point"], (d,), f"{w}/focal_point", source))
+        radii.append(_matrix(r["radius"], (n,), f"{w}/radius", source))
+        if np.any(radii[-1] <= 0):
             raise _fail(f"{w}/radius must be positive", source)
-        st["scat"][i] = _matrix(r["scatter"], (n,), f"{w}/scatter", source)
-        st["pot"][i] = r["potential"]
-        st["birth"][i] = r["birth"]
-        st["support"][i] = r["support"]
-        st["lamsum"][i] = r["firing_sum"]
-        st["tsum"][i] = r["time_sum"]
-        st["Pi"][i] = _matrix(r["consequent"], (n + 1, m), f"{w}/consequent", source)
+        scatter.append(_matrix(r["scatter"], (n,), f"{w}/scatter", source))
+        consequents.append(_matrix(r["consequent"], (n + 1, m), f"{w}/consequent", source))
         if not glob:
             if r["covariance"] is None:
                 raise _fail(f"{w}/covariance is required with local RLS", source)
-            st["Cl"][i] = _matrix(r["covariance"], (n + 1, n + 1), f"{w}/covariance", source)
+            covariances.append(_matrix(r["covariance"], (n + 1, n + 1), f"{w}/covariance",
+                                       source))
+    global_covariance = None
     if glob:
         p = R * (n + 1)
         if lrn["global_covariance"] is None:
             raise _fail("learner/global_covariance is required with global RLS", source)
-        st["Cg"][:p, :p] = _matrix(lrn["global_covariance"], (p, p), "learner/global_covariance",
-                                   source)  # fmt: skip
-    st["si"][:] = (lrn["samples"], R, lrn["next_rule_id"])
-    model.y_1d_ = bool(data["y_1d"])
+        global_covariance = _matrix(lrn["global_covariance"], (p, p),
+                                    "learner/global_covariance", source)
     if data["y_1d"] and m != 1:
         raise _fail("y_1d is true but the model has several outputs", source)
+
+    def stack(rows: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+        return np.array(rows) if rows else np.zeros((0, *shape))
+
+    state = LearnedState(
+        n_inputs=n, n_outputs=m, y_1d=bool(data["y_1d"]), samples=lrn["samples"],
+        next_rule_id=lrn["next_rule_id"], low=low, high=high,
+        fixed=np.array(fixed, dtype=np.int8), mean=mean, m2=m2,
+        rule_ids=np.array(ids, dtype=np.int64), focal_points=stack(focal, (d,)),
+        radii=stack(radii, (n,)), scatter=stack(scatter, (n,)),
+        potentials=np.array([r["potential"] for r in rules], dtype=np.float64),
+        births=np.array([r["birth"] for r in rules], dtype=np.int64),
+        support=np.array([r["support"] for r in rules], dtype=np.int64),
+        firing_sums=np.array([r["firing_sum"] for r in rules], dtype=np.float64),
+        time_sums=np.array([r["time_sum"] for r in rules], dtype=np.float64),
+        consequents=stack(consequents, (n + 1, m)),
+        covariances=None if glob else stack(covariances, (n + 1, n + 1)),
+        global_covariance=global_covariance,
+    )
+    try:
+        model.restore_state(state)
+    except ValueError as err:
+        raise _fail(f"invalid parameters: {err}", source) from err
     model.extra_ = {key: data[key] for key in FREE_FIELDS if key in data}
     return model
 

@@ -23,29 +23,26 @@ def format_rules(model: ETS, precision: int = 4) -> str:
     """
     if model.n_rules == 0:
         return "(no rules)"
-    st = model.state_
-    n, R = model.n_inputs_, model.n_rules
-    xin, yout = model.names_()
-    s = model.scales_()[:n]
+    state = model.export_state()
+    n, R, k = state.n_inputs, state.n_rules, state.samples
+    xin, yout = model.names()
+    s = model.scales()[:n]
     cons = model.consequents_raw()
-    k = int(st["si"][0])
+    utility, age = state.utility(), state.age()
     lines = []
     for i in range(R):
-        support = int(st["support"][i])
-        life = k - int(st["birth"][i])
-        utility = st["lamsum"][i] / (life + 1.0)
-        age = k - st["tsum"][i] / support
         lines.append(
-            f"Rule {i + 1} (id {int(st['ids'][i])}; support {support}, utility "
-            f"{utility:.3f}, age {age:.1f}, potential {st['pot'][i]:.3f})"
+            f"Rule {i + 1} (id {int(state.rule_ids[i])}; support {int(state.support[i])}, "
+            f"utility {utility[i]:.3f}, age {age[i]:.1f}, potential "
+            f"{state.potentials[i]:.3f})"
         )
         ante = " AND ".join(
-            f"{xin[j]} ≈ {_num(st['cz'][i, j], precision)} "
-            f"(±{_num(0.5 * st['rad'][i, j] * s[j], precision)})"
+            f"{xin[j]} ≈ {_num(state.focal_points[i, j], precision)} "
+            f"(±{_num(0.5 * state.radii[i, j] * s[j], precision)})"
             for j in range(n)
         )
         lines.append(f"  IF {ante}")
-        for o in range(model.n_outputs_):
+        for o in range(state.n_outputs):
             terms = [_num(cons[i, 0, o], precision)]
             for j in range(n):
                 c = cons[i, j + 1, o]
@@ -56,5 +53,5 @@ def format_rules(model: ETS, precision: int = 4) -> str:
     return (
         "\n".join(lines)
         + "\n"
-        + f"({R} rules after {k} samples; {np.sum(st['fixed'])} fixed ranges)"
+        + f"({R} rules after {k} samples; {np.sum(state.fixed)} fixed ranges)"
     )

@@ -320,16 +320,18 @@ def series_frame(result: GapResult) -> pd.DataFrame:
 
 
 def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | None = None,
-            vehicle: str | Path | None = None) -> GapResult:
+            vehicle: str | Path | None = None, options: Any = None) -> GapResult:
     """Read two logs (or saved tables), analyse them, write ``out_dir/gap.json``.
+
+    ``options`` is an :class:`etsid.ingest.ReadOptions` for both logs (default: none).
 
     ``gap.json`` is validated against ``gap.schema.json`` before it is written; the series
     behind the figures go to ``out_dir/gap_series.parquet`` (``etsid report`` draws them).
     """
-    from etsid.ingest import load_any
+    from etsid.ingest import read_log
 
-    sim_table = load_any(sim_path)
-    real_table = load_any(real_path)
+    sim_table = read_log(sim_path, options)
+    real_table = read_log(real_path, options)
     result = analyse(sim_table, real_table, Path(sim_path).name, Path(real_path).name, vehicle)
     if out_dir is not None:
         write_gap_json(result.data, out_dir)

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 from etsid.ident.defaults import default_model
@@ -14,15 +15,15 @@ from etsid.ident.metrics import fit_percent, ndei, rmse, scores, vaf
 from etsid.ident.regressors import Regression, RegressorSpec, Term, build
 from etsid.ident.rundir import Run, read_run, write_run
 
-_LAZY = ("IdentConfig", "identify", "load_rules", "predict")
+_LAZY = {"IdentConfig": "etsid.ident.config", "identify": "etsid.ident.run",
+         "load_rules": "etsid.ident.prediction", "predict": "etsid.ident.prediction"}
+"""Public names whose modules import the eTS core (numba): loaded when first used."""
 
 
 def __getattr__(name: str) -> Any:
-    # the run layer imports the eTS core (numba); load it only when it is used
-    if name in _LAZY:
-        from etsid.ident import run
-
-        return getattr(run, name)
+    module = _LAZY.get(name)
+    if module is not None:
+        return getattr(importlib.import_module(module), name)
     raise AttributeError(f"module 'etsid.ident' has no attribute {name!r}")
 
 __all__ = [

@@ -19,14 +19,16 @@
     native rate of at least :data:`STICK_RATE_MIN` Hz — else torque commands, else rate
     setpoints, else sticks anyway (with a note).
 
-The choice is made on the reader's candidate signals (:class:`etsid.ingest.base.Signal`)
-and turned into topic/field ``Override`` s, so ingest's own rule
-(:func:`etsid.ingest.mapping.choose_signals`) builds the table; user ``--map`` options win.
+The choice is made on the reader's candidate signals (:class:`etsid.ingest.base.Signal`),
+ranked within each family by ingest's own order (:func:`etsid.ingest.mapping.signal_rank`),
+and the chosen signals are handed to ingest's single mapping pass as ``preset`` columns
+(:func:`etsid.ingest.table_from_raw`); user ``--map`` options win.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import copy
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -37,7 +39,7 @@ from etsid.errors import IdentError
 from etsid.table import is_table_path
 
 if TYPE_CHECKING:  # ingest is imported only when a log is read (ident → ingest stays thin)
-    from etsid.ingest import Override, ReadOptions
+    from etsid.ingest import ReadOptions
     from etsid.ingest.base import Signal
 
 MODES = ("auto", "sticks", "torque", "setpoints")
@@ -118,6 +120,9 @@ class InputChoice:
         One line: why this family.
     sticks
         The stick excitation test's numbers per axis (std, rate_hz).
+    signals
+        Column → the chosen :class:`~etsid.ingest.base.Signal` (handed to ingest as
+        ``preset``; not part of :meth:`to_dict`).
     """
 
     mode: str
@@ -126,33 +131,24 @@ class InputChoice:
     sources: dict[str, str] = field(default_factory=dict)
     reason: str = ""
     sticks: dict[str, dict[str, float]] = field(default_factory=dict)
+    signals: dict[str, Signal] = field(default_factory=dict, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (stored in ``table.attrs["input_selection"]`` and config.json)."""
-        return asdict(self)
-
-    @property
-    def overrides(self) -> list[Override]:
-        """Topic/field overrides that make ingest pick exactly these signals."""
-        from etsid.ingest import Override
-        from etsid.ingest.base import split_source
-
-        out = []
-        for column, source in self.sources.items():
-            topic, fld = split_source(source)
-            out.append(Override(column, topic, fld or None))
-        return out
+        return {f.name: copy.deepcopy(getattr(self, f.name)) for f in fields(self)
+                if f.name != "signals"}
 
 
-def _best(signals: list[Signal], columns: tuple[str, ...], path: Path) -> dict[str, Signal]:
-    """Ingest's own choice among ``signals`` for ``columns``."""
-    from etsid.ingest.mapping import choose_signals
+def _best(signals: list[Signal], columns: tuple[str, ...]) -> dict[str, Signal]:
+    """The best signal per column of ``columns`` by ingest's own order."""
+    from etsid.ingest.mapping import signal_rank
 
-    cands = [s for s in signals if s.column in columns and s.t.size]
-    if not cands:
-        return {}
-    chosen, _ = choose_signals(cands, [], path)
-    return chosen
+    best: dict[str, Signal] = {}
+    for sig in signals:
+        if sig.column in columns and sig.t.size and (
+                sig.column not in best or signal_rank(sig) < signal_rank(best[sig.column])):
+            best[sig.column] = sig
+    return best
 
 
 def _describe(stats: dict[str, dict[str, float]]) -> str:
@@ -182,9 +178,9 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
         raise IdentError(f"--inputs {mode!r}: choose one of {', '.join(MODES)}")
     path = Path(path)
     loop = [s for s in signals if s.column in LOOP]
-    sticks = _best([s for s in loop if kind_of(s.source) == "sticks"], LOOP, path)
-    torque = _best([s for s in loop if kind_of(s.source) == "torque"], LOOP, path)
-    setpoints = _best(signals, SETPOINTS, path)
+    sticks = _best([s for s in loop if kind_of(s.source) == "sticks"], LOOP)
+    torque = _best([s for s in loop if kind_of(s.source) == "torque"], LOOP)
+    setpoints = _best(signals, SETPOINTS)
     stats = excitation(sticks)
     has = {"sticks": all(c in sticks for c in AXES), "torque": all(c in torque for c in AXES),
            "setpoints": all(c in setpoints for c in SETPOINTS)}
@@ -194,7 +190,7 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
         chosen = picked[kind]
         columns = [c for c in (SETPOINTS if kind == "setpoints" else LOOP) if c in chosen]
         return InputChoice(mode, kind, columns, {c: chosen[c].source for c in columns},
-                           reason, stats)
+                           reason, stats, {c: chosen[c] for c in columns})
 
     if mode != "auto":
         if not has[mode]:
@@ -220,10 +216,10 @@ def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs:
                    rate_hz: float | None = None) -> pd.DataFrame:
     """A log or saved table as a FlightTable whose ``u_*`` columns are the chosen inputs.
 
-    For a log, :func:`choose_inputs` runs on the reader's signals; its overrides (after the
-    user's own ``--map``, which win) go through ingest's choice rule and alignment. The
-    choice is stored in ``attrs["input_selection"]``. A saved table is returned as is
-    (:func:`etsid.ident.defaults.default_model` applies ``inputs`` to its columns).
+    For a log, :func:`choose_inputs` runs on the reader's signals; the chosen signals go to
+    ingest's one mapping pass and alignment as preset columns (the user's own ``--map``
+    wins). The choice is stored in ``attrs["input_selection"]``. A saved table is returned
+    as is (:func:`etsid.ident.defaults.default_model` applies ``inputs`` to its columns).
 
     Raises
     ------
@@ -232,11 +228,11 @@ def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs:
     IngestError
         The log cannot be read.
     """
-    from etsid.ingest import ReadOptions, load_any, read_raw, table_from_raw
+    from etsid.ingest import ReadOptions, read_log, read_raw, table_from_raw
 
     options = options or ReadOptions()
     if is_table_path(path):
-        return load_any(path, options, rate_hz=rate_hz)
+        return read_log(path, options, rate_hz=rate_hz)
     if inputs not in MODES:
         raise IdentError(f"--inputs {inputs!r}: choose one of {', '.join(MODES)}")
     raw = read_raw(path, options)
@@ -248,8 +244,9 @@ def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs:
             choice = None  # the user mapped the inputs, or ingest reports the problem
         else:
             raise
-    extra = [o for o in (choice.overrides if choice else []) if o.column not in user]
-    table = table_from_raw(raw, [*options.overrides, *extra], rate_hz=rate_hz)
+    preset = {c: sig for c, sig in (choice.signals if choice else {}).items()
+              if c not in user}
+    table = table_from_raw(raw, options.overrides, rate_hz=rate_hz, preset=preset)
     if choice is not None:
         mapping = table.attrs.get("mapping") or {}
         for column in choice.columns:

@@ -7,17 +7,22 @@ docs/identify.md for the contract.
 
 from __future__ import annotations
 
+import datetime as dt
 import hashlib
 import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
+from etsid import __version__
 from etsid.errors import IdentError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from etsid.ident.regressors import RegressorSpec
 
 FILES = ("predictions.parquet", "history.parquet", "metrics.json", "config.json", "rules.json")
 
@@ -81,6 +86,46 @@ def jsonable(obj: Any) -> Any:
     if isinstance(obj, Path):
         return str(obj)
     return obj
+
+
+def run_header(command: str, table: pd.DataFrame, source: str | Path | None
+               ) -> dict[str, Any]:
+    """The first keys of config.json: schema, command, version, time and input file."""
+    return {
+        "schema": "etsid.run/1",
+        "command": command,
+        "etsid_version": __version__,
+        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "input": _input_info(table, source),
+    }
+
+
+def _input_info(table: pd.DataFrame, source: str | Path | None) -> dict[str, Any]:
+    t = np.asarray(table.index, dtype=float)
+    info: dict[str, Any] = {
+        "path": str(source) if source is not None else table.attrs.get("source"),
+        "sha256": sha256(source) if source is not None and Path(source).exists() else None,
+        "format": table.attrs.get("format"),
+        "rows": len(table),
+        "t_start": float(t[0]) if t.size else None,
+        "t_end": float(t[-1]) if t.size else None,
+        "rate_hz": table.attrs.get("rate_hz"),
+        "mapping": table.attrs.get("mapping"),
+    }
+    return info
+
+
+def rules_json(data: dict[str, Any] | None, spec: RegressorSpec,
+               rate: dict[str, Any] | None = None) -> dict[str, Any]:
+    """rules.json: the rule base ``data`` (``ETS.to_dict``) with the regressor spec and
+    the identification rate that :func:`etsid.ident.predict` needs to apply it."""
+    out = dict(data or {})
+    out["regressors"] = spec.to_dict()
+    if rate and rate.get("rate_hz"):
+        # predict decimates another table to the same rate before applying the rules
+        out["regressors"]["sample_rate_hz"] = rate["rate_hz"]
+        out["regressors"]["decimation"] = rate
+    return out
 
 
 def _dump(data: dict[str, Any], path: Path) -> None:

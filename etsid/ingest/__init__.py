@@ -15,7 +15,7 @@ import pandas as pd
 
 from etsid.errors import IngestError, TableError
 from etsid.ingest.align import build_table
-from etsid.ingest.base import Override, RawLog, ReadOptions
+from etsid.ingest.base import Override, RawLog, ReadOptions, Signal
 from etsid.ingest.detect import FORMATS, detect_format, open_reader
 from etsid.ingest.mapping import choose_signals
 from etsid.table import COLUMNS, is_table_path, load_table
@@ -26,7 +26,6 @@ __all__ = [
     "ReadOptions",
     "detect_format",
     "inspect_log",
-    "load_any",
     "read_log",
     "read_raw",
     "read_table",
@@ -48,7 +47,12 @@ def read_log(
     start: float | None = None,
     end: float | None = None,
 ) -> pd.DataFrame:
-    """Read a log into a FlightTable (see etsid/table.py for the contract).
+    """Read a flight log, or a saved table (``.parquet``/``.csv``), into a FlightTable.
+
+    The one entry point for every command that takes a log (see etsid/table.py for the
+    contract). A saved table is already on its grid: ``--map``/``--mapping``/``--sysid``
+    and ``rate_hz`` do not apply to it and are refused rather than ignored;
+    ``start``/``end`` cut it (:func:`read_table`).
 
     Raises
     ------
@@ -68,37 +72,28 @@ def table_from_raw(
     rate_hz: float | None = None,
     start: float | None = None,
     end: float | None = None,
+    preset: dict[str, Signal] | None = None,
 ) -> pd.DataFrame:
     """Choose one signal per column of ``raw`` (honouring ``overrides``) and align them.
 
-    The second half of :func:`read_log`, for callers that look at the reader's candidate
-    signals before deciding on overrides (e.g. ``etsid identify --inputs``).
+    The second half of :func:`read_log`, for callers that choose some columns' signals
+    themselves from the reader's candidates and pass them as ``preset`` (``etsid identify
+    --inputs``; see :func:`etsid.ingest.mapping.choose_signals`).
     """
     if not raw.signals:
         kinds = ", ".join(sorted({f"{c.name} ({c.type})" for c in raw.channels})[:12])
         raise IngestError(
             f"{raw.path}: no usable flight data; found {kinds or 'no messages'}"
         )
-    chosen, notes = choose_signals(raw.signals, overrides, raw.path)
+    chosen, notes = choose_signals(raw.signals, overrides, raw.path, preset)
     raw.warnings.extend(notes)
     return build_table(raw, chosen, rate_hz=rate_hz, start=start, end=end)
-
-
-def load_any(path: str | Path, options: ReadOptions | None = None, **kwargs: Any) -> pd.DataFrame:
-    """A saved table (``.parquet``/``.csv``) or any log, as a FlightTable.
-
-    A saved table is already on its grid: ``--map``/``--mapping``/``--sysid`` and ``rate_hz``
-    do not apply to it and are refused rather than ignored; ``start``/``end`` cut it.
-    """
-    if is_table_path(path):
-        return read_table(path, options, **kwargs)
-    return read_log(path, options, **kwargs)
 
 
 def read_table(path: str | Path, options: ReadOptions | None = None,
                rate_hz: float | None = None, start: float | None = None,
                end: float | None = None) -> pd.DataFrame:
-    """A saved table as a FlightTable, cut to ``start``..``end`` (s); see :func:`load_any`."""
+    """A saved table as a FlightTable, cut to ``start``..``end`` (s); see :func:`read_log`."""
     options = options or ReadOptions()
     unused = [name for name, given in (
         ("--map/--mapping", bool(options.overrides) or options.rc_map != ReadOptions().rc_map),

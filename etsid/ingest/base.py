@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from etsid.pwm import DEFAULT_RC_MAP, DEFAULT_RC_RANGE_US
+
 
 @dataclass
 class Signal:
@@ -120,8 +122,9 @@ class ReadOptions:
     overrides: list[Override] = field(default_factory=list)
     rc_map: dict[str, int] = field(default_factory=lambda: dict(DEFAULT_RC_MAP))
     """Stick → RC channel number (1-based), ArduPilot AETR default."""
-    rc_range_us: tuple[float, float, float] = (1000.0, 1500.0, 2000.0)
-    """PWM min, centre, max in µs for mapping RC channels to −1…1 (throttle 0…1)."""
+    rc_range_us: tuple[float, float, float] = DEFAULT_RC_RANGE_US
+    """PWM min, centre, max in µs for RC channels (−1…1, throttle 0…1) and motors (0…1),
+    converted by :mod:`etsid.pwm`."""
     sysid: int | None = None
     progress: bool = False
     """Show a progress bar on stderr (the CLI sets it when stderr is a TTY)."""
@@ -129,9 +132,6 @@ class ReadOptions:
     def field_requests(self) -> list[Override]:
         """Overrides that ask for an explicit field the reader must extract itself."""
         return [o for o in self.overrides if o.field]
-
-
-DEFAULT_RC_MAP: dict[str, int] = {"u_roll": 1, "u_pitch": 2, "u_thrust": 3, "u_yaw": 4}
 
 
 def split_source(source: str) -> tuple[str, str]:

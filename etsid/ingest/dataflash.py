@@ -16,7 +16,7 @@ roll…        ATT Roll/Pitch/Yaw deg (0; Yaw 0…360 wrapped to ±180)
 ax ay az     IMU AccX… m/s² (0), IMU2 (1), IMU3 (2)
 u_*          RCIN C1… via ``rc_map`` (0); RATE ROut/POut/YOut, AOut (5: controller outputs)
 sp_*         RATE RDes/PDes/YDes deg/s (0)
-m1…m8        RCOU C1…C8, 1000–2000 µs → 0…1 (0)
+m1…m8        RCOU C1…C8, RC range (1000–2000 µs) → 0…1 (0)
 alt          RFND Dist (m; old logs' Dist1 in cm, decided from FMTU units or the field's
              integer type), downward (Orient 25) when the field exists (0)
 vbat         BAT Volt (0)
@@ -42,7 +42,7 @@ import numpy as np
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
-from etsid.ingest.mavlink_signals import stick
+from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.progress import progress
 
 DEG = np.pi / 180.0
@@ -167,7 +167,8 @@ def _xyz(d: _Decoded, fields: tuple[str, ...], columns: tuple[str, ...], scale: 
             for f, c in zip(fields, columns, strict=True) if d.has(f)]
 
 
-def _signals(msgs: dict[str, _Decoded], options: ReadOptions) -> list[Signal]:
+def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Issue]
+             ) -> list[Signal]:
     out: list[Signal] = []
     if (d := msgs.get("ATT")) is not None:
         out += _xyz(d, ("Roll", "Pitch"), ("roll", "pitch"), DEG, 0)
@@ -186,13 +187,12 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions) -> list[Signal]:
     if (d := msgs.get("RCIN")) is not None:
         for column, ch in options.rc_map.items():
             if d.has(f"C{ch}"):
-                v = stick(d.rec[f"C{ch}"], column, options)
+                v = stick_from_pwm(d.rec[f"C{ch}"], column, f"RCIN.C{ch}", options, repaired)
                 out.append(Signal(column, d.t, v, f"RCIN.C{ch}", 0))
     if (d := msgs.get("RCOU")) is not None:
         for i in range(1, 9):
             if d.has(f"C{i}") and (d.rec[f"C{i}"] != 0).any():
-                v = np.clip((d.f(f"C{i}") - 1000.0) / 1000.0, 0.0, 1.0)
-                v[d.rec[f"C{i}"] == 0] = np.nan
+                v = motor_from_pwm(d.rec[f"C{i}"], f"RCOU.C{i}", options, repaired)
                 out.append(Signal(f"m{i}", d.t, v, f"RCOU.C{i}", 0))
     if (d := msgs.get("BAT")) is not None and d.has("Volt"):
         out.append(Signal("vbat", d.t, d.f("Volt"), "BAT.Volt", 0))
@@ -257,7 +257,7 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
         d = _decode(reader, data, name, raw)
         if d is not None:
             msgs[name] = d
-    raw.signals = _signals(msgs, options)
+    raw.signals = _signals(msgs, options, raw.repaired)
     for o in options.field_requests():
         d = msgs.get(o.topic)
         if d is None or not d.has(o.field or ""):

@@ -10,12 +10,12 @@ from etsid.errors import IngestError
 from etsid.ingest.base import RawLog, ReadOptions
 
 FORMATS: dict[str, str] = {
-    "tlog": "etsid.ingest.tlog",
+    "tlog": "etsid.ingest.mavlink.tlog",
     "bin": "etsid.ingest.dataflash",
     "ulog": "etsid.ingest.ulog",
-    "ros1": "etsid.ingest.rosbag",
-    "ros2": "etsid.ingest.rosbag",
-    "mcap": "etsid.ingest.mcapfile",
+    "ros1": "etsid.ingest.ros.bag",
+    "ros2": "etsid.ingest.ros.bag",
+    "mcap": "etsid.ingest.ros.mcap",
 }
 """Format name → module with ``read(path, options) -> RawLog``."""
 

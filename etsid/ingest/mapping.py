@@ -6,9 +6,13 @@ Rule when several signals can fill one column (documented in docs/ingest.md):
    the candidates to that topic;
 2. otherwise the lowest reader priority (e.g. ATTITUDE rates before raw gyro; a fused
    ``/mavros/imu/data`` before ``data_raw``);
-3. then the highest native rate, then the most samples, then the topic name (A→Z).
+3. then the highest native rate, then the most samples, then the topic name (A→Z)
+   (:func:`signal_rank`).
 
-Every column that had more than one candidate is reported in ``attrs["warnings"]``.
+A caller that has already chosen the signal of some columns by its own rule (identify's
+input family, :mod:`etsid.ident.inputs`) passes them as ``preset``; they are used as given
+unless a user override names the same column. Every column that had more than one
+candidate is reported in ``attrs["warnings"]``.
 """
 
 from __future__ import annotations
@@ -78,10 +82,28 @@ def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]
     return overrides, rc
 
 
+def signal_rank(sig: Signal) -> tuple[int, float, int, str]:
+    """Sort key of rules 2–3 of the module docstring: the best candidate sorts first."""
+    return (sig.priority, -sig.rate_hz, -sig.t.size, sig.source)
+
+
 def choose_signals(
-    signals: list[Signal], overrides: list[Override], path: Path
+    signals: list[Signal], overrides: list[Override], path: Path,
+    preset: dict[str, Signal] | None = None,
 ) -> tuple[dict[str, Signal], list[str]]:
     """Pick one signal per column by the rule in the module docstring.
+
+    Parameters
+    ----------
+    signals
+        The reader's candidate signals.
+    overrides
+        The user's ``--map`` overrides (they win).
+    path
+        The log, for messages.
+    preset
+        Column → signal (one of ``signals``) already chosen by the caller; used as given
+        unless an override names the column.
 
     Returns
     -------
@@ -97,8 +119,12 @@ def choose_signals(
     notes: list[str] = []
     chosen: dict[str, Signal] = {}
     wanted = {o.column: o for o in overrides}
+    preset = preset or {}
     for column, cands in by_column.items():
         override = wanted.get(column)
+        if override is None and column in preset:
+            chosen[column] = preset[column]
+            continue
         if override is not None:
             picked = [
                 s for s in cands
@@ -111,7 +137,7 @@ def choose_signals(
                     f"{path}: --map {override.text} matches no signal; candidates: {found}"
                 )
             cands = picked
-        cands = sorted(cands, key=lambda s: (s.priority, -s.rate_hz, -s.t.size, s.source))
+        cands = sorted(cands, key=signal_rank)
         chosen[column] = cands[0]
         if len({s.source for s in cands}) > 1 and override is None:
             others = ", ".join(s.source for s in cands[1:])

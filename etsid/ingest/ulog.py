@@ -18,8 +18,8 @@ u_*          manual_control_setpoint (0; old fields x pitch, y roll, z throttle 
              control[0..3] (5), vehicle_torque_setpoint xyz and −vehicle_thrust_setpoint
              xyz[2] (4)
 sp_*         vehicle_rates_setpoint roll/pitch/yaw (0)
-m1…m8        actuator_motors control[0..7] (0), actuator_outputs output[0..7] PWM
-             1000–2000 → 0…1 (1)
+m1…m8        actuator_motors control[0..7] (0), actuator_outputs output[0..7] PWM,
+             RC range (1000–2000 µs) → 0…1 (1)
 alt          distance_sensor current_distance, downward (orientation 25) (0),
              vehicle_local_position dist_bottom where dist_bottom_valid (1), −z (5)
 vx vy vz     vehicle_local_position (0)
@@ -39,9 +39,9 @@ import numba
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.frames import quat_to_euler
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
-from etsid.ingest.frames import quat_to_euler
-from etsid.ingest.mavlink_signals import stick
+from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.progress import progress
 
 TOPICS = (
@@ -55,7 +55,7 @@ SAMPLE_TIME = ("vehicle_angular_velocity", "vehicle_attitude", "vehicle_local_po
 COMMAND_NOTE = "controller torque/thrust commands, not pilot sticks"
 
 
-class _Topic:
+class Topic:
     """Fields (name → array) and times (s) of one topic instance."""
 
     def __init__(self, name: str, data: dict[str, np.ndarray]) -> None:
@@ -74,12 +74,13 @@ class _Topic:
         return Signal(column, self.t, self.f(field, scale), f"{self.name}.{field}", prio)
 
 
-def _sticks(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
+def _sticks(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue]
+            ) -> list[Signal]:
     out: list[Signal] = []
     if (d := topics.get("manual_control_setpoint")) is not None:
         if d.has("valid"):
             keep = d.data["valid"] != 0
-            d = _Topic(d.name, {k: v[keep] for k, v in d.data.items()})
+            d = Topic(d.name, {k: v[keep] for k, v in d.data.items()})
         if d.has("roll"):  # PX4 ≥ 1.14
             out += [d.sig("u_roll", "roll", 0), d.sig("u_pitch", "pitch", 0),
                     d.sig("u_yaw", "yaw", 0)]
@@ -93,7 +94,7 @@ def _sticks(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
         for column, ch in options.rc_map.items():
             name = f"values[{ch - 1}]"
             if d.has(name):
-                v = stick(d.data[name], column, options)
+                v = stick_from_pwm(d.data[name], column, f"{d.name}.{name}", options, repaired)
                 out.append(Signal(column, d.t, v, f"{d.name}.{name}", 1))
     if (d := topics.get("actuator_controls_0")) is not None:
         for i, column in enumerate(("u_roll", "u_pitch", "u_yaw", "u_thrust")):
@@ -108,7 +109,8 @@ def _sticks(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
     return out
 
 
-def _motors(topics: dict[str, _Topic]) -> list[Signal]:
+def _motors(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue]
+            ) -> list[Signal]:
     out: list[Signal] = []
     if (d := topics.get("actuator_motors")) is not None:
         out += [d.sig(f"m{i + 1}", f"control[{i}]", 0) for i in range(8)
@@ -117,12 +119,13 @@ def _motors(topics: dict[str, _Topic]) -> list[Signal]:
         n = int(d.data["noutputs"].max()) if d.has("noutputs") and d.t.size else 8
         for i in range(min(n, 8)):
             if d.has(f"output[{i}]"):
-                v = np.clip((d.f(f"output[{i}]") - 1000.0) / 1000.0, 0.0, 1.0)
+                v = motor_from_pwm(d.data[f"output[{i}]"], f"{d.name}.output[{i}]", options,
+                                   repaired)
                 out.append(Signal(f"m{i + 1}", d.t, v, f"{d.name}.output[{i}]", 1))
     return out
 
 
-def _position(topics: dict[str, _Topic]) -> list[Signal]:
+def _position(topics: dict[str, Topic]) -> list[Signal]:
     out: list[Signal] = []
     if (d := topics.get("vehicle_local_position")) is not None:
         out += [d.sig(c, c, 0) for c in ("vx", "vy", "vz") if d.has(c)]
@@ -143,7 +146,10 @@ def _position(topics: dict[str, _Topic]) -> list[Signal]:
     return out
 
 
-def _signals(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
+def signals(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue]
+            ) -> list[Signal]:
+    """Candidate signals of the decoded ``topics``; PWM samples clipped are noted in
+    ``repaired``."""
     out: list[Signal] = []
     if (d := topics.get("vehicle_angular_velocity")) is not None:
         out += [d.sig(c, f"xyz[{i}]", 0) for i, c in enumerate("pqr")]
@@ -161,10 +167,11 @@ def _signals(topics: dict[str, _Topic], options: ReadOptions) -> list[Signal]:
     if (d := topics.get("battery_status")) is not None:
         out += [d.sig("vbat", f, k) for k, f in enumerate(("voltage_filtered_v", "voltage_v"))
                 if d.has(f)]
-    return out + _sticks(topics, options) + _motors(topics) + _position(topics)
+    return (out + _sticks(topics, options, repaired) + _motors(topics, options, repaired)
+            + _position(topics))
 
 
-def _start_time(topics: dict[str, _Topic]) -> float | None:
+def _start_time(topics: dict[str, Topic]) -> float | None:
     for name in ("sensor_gps", "vehicle_gps_position"):
         d = topics.get(name)
         if d is not None and d.has("time_utc_usec"):
@@ -221,11 +228,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         ulog = _parse(path, list(TOPICS) + extra_topics)
         bar.update(path.stat().st_size)
     raw = RawLog(path=path, format="ulog")
-    topics: dict[str, _Topic] = {}
+    topics: dict[str, Topic] = {}
     for d in sorted(ulog.data_list, key=lambda d: (d.name, d.multi_id)):  # type: ignore[attr-defined]
         if d.multi_id == 0 and "timestamp" in d.data and d.data["timestamp"].size:
-            topics[d.name] = _Topic(d.name, d.data)
-    raw.signals = _signals(topics, options)
+            topics[d.name] = Topic(d.name, d.data)
+    raw.signals = signals(topics, options, raw.repaired)
     for o in options.field_requests():
         d = topics.get(o.topic)
         if d is None or not d.has(o.field or ""):
@@ -241,7 +248,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         if sig.column not in cols:
             cols.append(sig.column)
     for d in sorted(ulog.data_list, key=lambda d: (d.name, d.multi_id)):  # type: ignore[attr-defined]
-        t = _Topic(d.name, d.data).t if "timestamp" in d.data else np.empty(0)
+        t = Topic(d.name, d.data).t if "timestamp" in d.data else np.empty(0)
         name = d.name if d.multi_id == 0 else f"{d.name}.{d.multi_id}"
         note = COMMAND_NOTE if d.name in ("actuator_controls_0", "vehicle_torque_setpoint",
                                           "vehicle_thrust_setpoint") else ""

@@ -11,7 +11,7 @@ from typing import Any
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-from etsid.errors import IdentError
+from etsid.errors import IdentError, ReportError
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.tables import metrics_rows, rules_text
@@ -42,23 +42,32 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     Parameters
     ----------
     run_dir
-        A directory written by ``etsid identify`` or ``etsid predict``.
+        A directory written by ``etsid identify`` or ``etsid predict``, or a batch
+        directory of ``etsid batch`` (then: :func:`etsid.report.fleet.make_fleet_report`).
     fmt
         Figure format: png, svg or pdf. The HTML embeds PNG or SVG; for PDF it also
         writes PNG copies to embed.
 
     Raises
     ------
-    IdentError
-        Not a run directory, or an unknown format.
+    ReportError
+        Not a run directory (the cause, an :class:`~etsid.errors.IdentError` of
+        :func:`~etsid.ident.rundir.read_run`, is chained), or an unknown format.
     """
     if fmt not in FORMATS:
-        raise IdentError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+        raise ReportError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
     if (Path(run_dir) / "gap.json").is_file():  # a directory written by `etsid gap`
         from etsid.report.gap import make_gap_report
 
         return make_gap_report(run_dir, fmt)
-    run = read_run(run_dir)
+    from etsid.report.fleet import is_batch_dir, make_fleet_report
+
+    if is_batch_dir(run_dir):  # a directory written by etsid batch: the fleet report
+        return make_fleet_report(run_dir, fmt)
+    try:
+        run = read_run(run_dir)
+    except IdentError as err:
+        raise ReportError(str(err)) from err
     out = Path(run_dir) / "report"
     out.mkdir(exist_ok=True)
     report = Report(out)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import html
+import json
 from pathlib import Path
 from typing import Any
 
@@ -16,14 +17,32 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from etsid.errors import GapError
-from etsid.gap.result import load_gap_json
+from etsid.errors import ReportError
 from etsid.report.build import Report, save_figure
 
 SERIES_FILE = "gap_series.parquet"
 VAR_TEXT = {"alt": "height above ground (m)", "speed": "horizontal speed (m/s)",
             "thrust": "mean motor output", "command_rate": "motor command rate (1/s)",
             "vbat": "battery voltage (V)", "time": "time (s)"}
+
+
+GAP_SCHEMA = "etsid.gap/1"
+NEEDED = ("verdict", "summary", "effects", "rmse_before", "rmse_after", "noise", "units")
+
+
+def read_gap_json(path: Path) -> dict[str, Any]:
+    """A gap.json written by ``etsid gap`` (validated against its schema when written);
+    checked here for the schema name and the keys the report uses."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as err:
+        raise ReportError(f"{path}: cannot read gap.json ({err})") from err
+    if not isinstance(data, dict) or data.get("schema") != GAP_SCHEMA:
+        raise ReportError(f"{path}: not a gap.json of schema {GAP_SCHEMA}")
+    missing = [k for k in NEEDED if k not in data]
+    if missing:
+        raise ReportError(f"{path}: gap.json lacks {', '.join(missing)}")
+    return data
 
 
 def is_gap_dir(path: str | Path) -> bool:
@@ -116,11 +135,11 @@ def make_gap_report(out_dir: str | Path, fmt: str = "png") -> Report:
 
     Raises
     ------
-    GapError
-        The directory has no valid gap.json.
+    ReportError
+        The directory has no readable gap.json of schema ``etsid.gap/1``.
     """
     out = Path(out_dir)
-    data = load_gap_json(out / "gap.json")
+    data = read_gap_json(out / "gap.json")
     report = Report(out)
     series_path = out / SERIES_FILE
     ch = _main_channel(data)
@@ -128,7 +147,7 @@ def make_gap_report(out_dir: str | Path, fmt: str = "png") -> Report:
         try:
             series = pd.read_parquet(series_path)
         except (OSError, ValueError) as err:
-            raise GapError(f"{series_path}: cannot read ({err})") from err
+            raise ReportError(f"{series_path}: cannot read ({err})") from err
         if ch in series:
             report.figures["gap_residual"] = save_figure(
                 _residual_figure(series, data, ch), out / f"gap_residual.{fmt}")

@@ -6,12 +6,13 @@ import importlib.util
 import json
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from etsid.cli import cli
+from etsid.cli import COMMAND_MODULES, cli
 from etsid.ident import IdentConfig, identify, read_run
 from etsid.ident.synthetic import rate_table
 from etsid.table import save_table
@@ -156,12 +157,19 @@ def test_usage_errors_exit_2(tmp_path: Path) -> None:
 
 
 def test_every_command_has_help() -> None:
-    for name, command in cli.commands.items():
-        result = CliRunner().invoke(cli, [name, "--help"])
-        assert result.exit_code == 0
+    # list through the group: commands load lazily, so cli.commands is empty after import
+    ctx = click.Context(cli, info_name="etsid")
+    names = cli.list_commands(ctx)
+    assert set(names) == set(COMMAND_MODULES) and len(names) >= 7, names
+    for name in names:
+        command = cli.get_command(ctx, name)
+        assert command is not None and command.name == name, name
+        result = CliRunner().invoke(cli, [name, "--help"], prog_name="etsid")
+        assert result.exit_code == 0, (name, result.output)
+        assert result.output.startswith(f"Usage: etsid {name} "), result.output
         assert command.help and len(command.help.strip()) > 20, name
         for param in command.params:
-            if isinstance(param, __import__("click").Option):
+            if isinstance(param, click.Option):
                 assert param.help, f"{name} {param.opts} has no help"
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 
@@ -9,6 +10,8 @@ import numpy as np
 import pytest
 
 from etsid.ets import ETS
+from etsid.ets.params import DEFAULTS, PARAM_NAMES
+from etsid.ets.reference import ReferenceETS
 
 
 def _data(N: int = 400) -> tuple[np.ndarray, np.ndarray]:
@@ -23,6 +26,16 @@ def test_init_stores_parameters_only() -> None:
     params = model.get_params()
     assert params["radius"] == 0.2 and params["rls"] == "global" and params["max_rules"] == 7
     assert model.n_rules == 0 and len(model) == 0
+
+
+def test_defaults_come_from_params_and_the_reference_shares_them() -> None:
+    params = ETS().get_params()
+    assert set(params) == {*PARAM_NAMES, "x_range", "y_range", "input_names", "output_names"}
+    assert {k: params[k] for k in PARAM_NAMES} == DEFAULTS.to_dict()
+    X, Y = _data(300)
+    yhat = ETS().run(X, Y)
+    yref = ReferenceETS(2, 2, np.full(2, DEFAULTS.radius)).run(X, Y)
+    np.testing.assert_allclose(yhat[1:], yref[1:], rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -118,6 +131,29 @@ def test_rules_are_printed_in_original_units() -> None:
     np.testing.assert_allclose(model.consequents_raw()[0, :, 0], [1.0, 2.0], atol=1e-3)
     text = model.rules()
     assert "IF thrust ≈" in text and "THEN az = 1 + 2·thrust" in text
+
+
+@pytest.mark.parametrize("rls", ["local", "global"])
+def test_exported_state_is_read_only_and_restores_the_same_model(rls: str) -> None:
+    X, Y = _data()
+    model = ETS(radius=0.3, rls=rls, input_names=["a", "b"])
+    model.run(X[:200], Y[:200])
+    state = model.export_state()
+    assert state.n_rules == model.n_rules >= 2 and state.samples == 200
+    assert state.focal_points.shape == (model.n_rules, 4)
+    with pytest.raises(ValueError, match="read-only"):
+        state.focal_points[0, 0] = 1.0
+    copy = ETS(**model.get_params()).restore_state(state)
+    for f in dataclasses.fields(state):  # slots beyond the live rules are not state
+        np.testing.assert_array_equal(getattr(copy.export_state(), f.name),
+                                      getattr(state, f.name), err_msg=f.name)
+    np.testing.assert_array_equal(copy.run(X[200:], Y[200:]), model.run(X[200:], Y[200:]))
+    assert copy.names() == (["a", "b"], ["y1", "y2"])
+    np.testing.assert_array_equal(copy.scales(), model.scales())
+    with pytest.raises(ValueError, match="max_rules"):
+        ETS(max_rules=1).restore_state(state)
+    with pytest.raises(ValueError, match="not learned"):
+        ETS().export_state()
 
 
 def test_core_imports_nothing_else_of_etsid() -> None:

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from etsid.ets import ETS
-from etsid.ets import kernels as K
+from etsid.ets.normalisation import reparametrise
 
 
 def _rmse(a: np.ndarray, b: np.ndarray) -> float:
@@ -137,8 +137,8 @@ def test_range_widening_rewrites_consequents_exactly() -> None:
     lo_old, hi_old = st_["lo"][:2].copy(), st_["hi"][:2].copy()
     st_["lo"][:2] -= [3.0, 0.5]
     st_["hi"][:2] += [1.0, 7.0]
-    s = model.scales_()
-    K.reparametrise(lo_old, hi_old, st_["lo"], s, model.n_rules, st_["Pi"], st_["Cl"], st_["Cg"],
+    s = model.scales()
+    reparametrise(lo_old, hi_old, st_["lo"], s, model.n_rules, st_["Pi"], st_["Cl"], st_["Cg"],
                     False)  # fmt: skip
     np.testing.assert_allclose(model.consequents_raw(), before, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(st_["cz"], cz)  # focal points live in raw units

@@ -43,7 +43,8 @@ def test_flat_sticks_fall_back_to_torque_commands() -> None:
     assert choice.sources["u_roll"] == "actuator_controls_0.control[0]"
     assert "without excitation" in choice.reason
     assert choice.sticks["u_roll"]["std"] < STICK_STD_MIN
-    assert choice.overrides[0].text == "u_roll=actuator_controls_0.control[0]"
+    assert choice.signals["u_roll"].source == "actuator_controls_0.control[0]"
+    assert "signals" not in choice.to_dict()
 
 
 def test_excited_sticks_win_and_slow_sticks_do_not() -> None:

@@ -149,7 +149,7 @@ def test_refusals(table: pd.DataFrame) -> None:
 
 
 def test_learn_ranges_are_the_learning_part_widened(table: pd.DataFrame) -> None:
-    from etsid.ident.run import RANGE_MARGIN
+    from etsid.ident.ranges import RANGE_MARGIN
 
     config = IdentConfig(validate=0.3, ident_rate=0, input_lags=2)
     run = identify(table, config)
@@ -184,11 +184,11 @@ def test_apriori_ranges_for_loop_commands(table: pd.DataFrame) -> None:
 
 
 def test_constant_column_gets_a_unit_range() -> None:
-    from etsid.ident.run import _learn_range
+    from etsid.ident.ranges import learn_range
 
-    assert _learn_range(np.full(10, 0.5)) == (0.0, 1.0)
-    assert _learn_range(np.array([np.nan, 2.0, 2.0])) == (1.5, 2.5)
-    assert _learn_range(np.array([0.0, 1.0])) == pytest.approx((-0.05, 1.05))
+    assert learn_range(np.full(10, 0.5)) == (0.0, 1.0)
+    assert learn_range(np.array([np.nan, 2.0, 2.0])) == (1.5, 2.5)
+    assert learn_range(np.array([0.0, 1.0])) == pytest.approx((-0.05, 1.05))
 
 
 @pytest.mark.parametrize("mode", ["running", "apriori"])

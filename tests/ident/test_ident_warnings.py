@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from etsid.ident.run import data_warnings
+from etsid.ident.checks import data_warnings
 
 
 def table(rate_hz: float, seconds: float) -> pd.DataFrame:

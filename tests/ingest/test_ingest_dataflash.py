@@ -147,3 +147,46 @@ def test_bad_files(tmp_path: Path, content: bytes, match: str) -> None:
     assert "Traceback" not in result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and match in lines[0] and str(path) in lines[0]
+
+
+PWM_IN = (1000, 1750, 1250, 2100)
+"""RCIN C1…C4 (AETR: u_roll, u_pitch, u_thrust, u_yaw), µs."""
+PWM_OUT = (1000, 1500, 2050, 1900, 0)
+"""RCOU C1…C5, µs (C5 0: output not used)."""
+
+
+def write_pwm_bin(path: Path) -> Path:
+    """RATE (so the log has flight data) and RCIN/RCOU at constant known PWM, 50 Hz."""
+    out = bytearray()
+    out += _fmt_msg(130, "RATE", "Qfff", "TimeUS,R,P,Y")
+    out += _fmt_msg(131, "RCIN", "QHHHH", "TimeUS,C1,C2,C3,C4")
+    out += _fmt_msg(134, "RCOU", "QHHHHH", "TimeUS,C1,C2,C3,C4,C5")
+    for k in range(100):
+        us = int(1e6 * (10.0 + k / 50.0))
+        out += _msg(130, "Qfff", us, 0.0, 0.0, 0.0)
+        out += _msg(131, "QHHHH", us, *PWM_IN)
+        out += _msg(134, "QHHHHH", us, *PWM_OUT)
+    path.write_bytes(bytes(out))
+    return path
+
+
+@pytest.mark.parametrize(("rc_range", "sticks", "motors", "clipped"), [
+    ((1000.0, 1500.0, 2000.0), (-1.0, 0.5, 0.25, 1.0), (0.0, 0.5, 1.0, 0.9),
+     {"RCIN.C4", "RCOU.C3"}),
+    ((1100.0, 1500.0, 1900.0), (-1.0, 0.625, 0.1875, 1.0), (0.0, 0.5, 1.0, 1.0),
+     {"RCIN.C1", "RCIN.C4", "RCOU.C1", "RCOU.C3"}),
+])
+def test_rc_and_motor_pwm_use_the_configured_range(
+        tmp_path: Path, rc_range: tuple[float, float, float], sticks: tuple[float, ...],
+        motors: tuple[float, ...], clipped: set[str]) -> None:
+    raw = read_raw(write_pwm_bin(tmp_path / "pwm.bin"), ReadOptions(rc_range_us=rc_range))
+    sig = {s.source: s for s in raw.signals}
+    for ch, (column, want) in enumerate(zip(("u_roll", "u_pitch", "u_thrust", "u_yaw"), sticks,
+                                            strict=True), start=1):
+        assert sig[f"RCIN.C{ch}"].column == column
+        np.testing.assert_allclose(sig[f"RCIN.C{ch}"].values, want, atol=1e-12)
+    for ch, want in enumerate(motors, start=1):
+        np.testing.assert_allclose(sig[f"RCOU.C{ch}"].values, want, atol=1e-12)
+    assert "RCOU.C5" not in sig  # all 0: not an output
+    counts = {i.signal: i.count for i in raw.repaired if "PWM outside" in i.reason}
+    assert counts == dict.fromkeys(clipped, 100)

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from etsid.cli import cli
 from etsid.errors import IngestError
 from etsid.ingest import read_log, read_raw
-from etsid.ingest.ros_messages import typestore
+from etsid.rosmsgs import typestore
 
 T0 = 1_700_000_000 * 10**9
 IMU = "sensor_msgs/msg/Imu"

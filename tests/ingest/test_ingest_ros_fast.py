@@ -1,6 +1,6 @@
 """The vectorised ROS/MCAP path gives bit-identical signals to the per-message path.
 
-Every file is read twice, with :data:`etsid.ingest.ros_fast.ENABLED` on and off, and the
+Every file is read twice, with :data:`etsid.ingest.ros.fast.decode.ENABLED` on and off, and the
 raw logs (signals, times, counts, notes, warnings) must be equal exactly.
 """
 
@@ -11,13 +11,14 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_ingest_ros_px4 import _px4_messages
-from test_ingest_ros_px4 import _write as _write_px4
+from test_ingest_ros_px4 import px4_messages, write_px4_bag
 from test_ingest_ros_roundtrip import synthetic_table
 
-from etsid.ingest import ReadOptions, read_raw, ros_fast
+from etsid.ingest import ReadOptions, read_raw
 from etsid.ingest.base import RawLog
-from etsid.ingest.ros_messages import typestore
+from etsid.ingest.ros.fast import decode as fast_decode
+from etsid.ingest.ros.fast import mcap as fast_mcap
+from etsid.rosmsgs import typestore
 from etsid.sim.writers.mcapfile import write_mcap
 from etsid.sim.writers.rosbag import instantiate, write_ros1_bag, write_ros2_bag
 
@@ -34,11 +35,11 @@ Message = tuple[str, str, int, dict[str, Any]]
 def _read_both(path: Path, monkeypatch: pytest.MonkeyPatch,
                options: ReadOptions | None = None) -> tuple[RawLog, RawLog, int]:
     """(fast, slow, messages converted by the vectorised path)."""
-    before = ros_fast.STATS["fast"]
+    before = fast_decode.STATS["fast"]
     fast = read_raw(path, options) if options else read_raw(path)
-    used = ros_fast.STATS["fast"] - before
+    used = fast_decode.STATS["fast"] - before
     with monkeypatch.context() as m:
-        m.setattr(ros_fast, "ENABLED", False)
+        m.setattr(fast_decode, "ENABLED", False)
         slow = read_raw(path, options) if options else read_raw(path)
     return fast, slow, used
 
@@ -72,15 +73,15 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             "ros2-mcap": write_ros2_bag(table, tmp / "g_mcap", storage="mcap"),
             "mcap-ros2": write_mcap(table, tmp / "g2.mcap", encoding="ros2"),
             "mcap-ros1": write_mcap(table, tmp / "g1.mcap", encoding="ros1"),
-            "px4": _write_px4(tmp / "px4_bag", _px4_messages(120))}
+            "px4": write_px4_bag(tmp / "px4_bag", px4_messages(120))}
 
 
 @pytest.mark.parametrize("name", ["ros1", "ros2-db3", "ros2-mcap", "mcap-ros2", "mcap-ros1",
                                   "px4"])
-@pytest.mark.parametrize("batch", [ros_fast.BATCH, 7])
+@pytest.mark.parametrize("batch", [fast_decode.BATCH, 7])
 def test_generated_files_fast_equals_slow(generated: dict[str, Path], name: str, batch: int,
                                           monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(ros_fast, "BATCH", batch)
+    monkeypatch.setattr(fast_decode, "BATCH", batch)
     fast, slow, used = _read_both(generated[name], monkeypatch)
     _same(fast, slow)
     total = sum(c.count for c in fast.channels)
@@ -229,10 +230,10 @@ def odd(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
                                   "ros2-db3", "ros2-mcap",
                                   "ros2-db3-dup", "ros2-mcap-dup",
                                   "mcap-ros2", "mcap-ros1", "mcap-unchunked"])
-@pytest.mark.parametrize("batch", [ros_fast.BATCH, 7, 1])
+@pytest.mark.parametrize("batch", [fast_decode.BATCH, 7, 1])
 def test_odd_inputs_fast_equals_slow(odd: dict[str, Path], name: str, batch: int,
                                      monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(ros_fast, "BATCH", batch)
+    monkeypatch.setattr(fast_decode, "BATCH", batch)
     fast, slow, used = _read_both(odd[name], monkeypatch)
     _same(fast, slow)
     assert used > 0
@@ -243,9 +244,8 @@ def test_odd_inputs_fast_equals_slow(odd: dict[str, Path], name: str, batch: int
 
 def test_mcap_runs_span_unchunked_records(odd: dict[str, Path], monkeypatch: pytest.MonkeyPatch
                                           ) -> None:
-    from etsid.ingest import ros_fast_mcap
 
-    monkeypatch.setattr(ros_fast_mcap, "_RUN_BYTES", 500)  # many small runs
+    monkeypatch.setattr(fast_mcap, "RUN_BYTES", 500)  # many small runs
     fast, slow, used = _read_both(odd["mcap-unchunked"], monkeypatch)
     _same(fast, slow)
     assert used > 0
@@ -255,10 +255,10 @@ def test_layout_refuses_big_endian_cdr_and_short_messages() -> None:
     store = typestore()
     msg = instantiate(store, "sensor_msgs/msg/Range", {"range": 1.5})
     data = bytes(store.serialize_cdr(msg, "sensor_msgs/msg/Range"))
-    layout = ros_fast.layout_of(store.fielddefs, "sensor_msgs/msg/Range", data, cdr=True)
+    layout = fast_decode.layout_of(store.fielddefs, "sensor_msgs/msg/Range", data, cdr=True)
     assert layout.size == len(data) and "range" in layout.fields
-    with pytest.raises(ros_fast.Unsupported):
-        ros_fast.layout_of(store.fielddefs, "sensor_msgs/msg/Range",
+    with pytest.raises(fast_decode.Unsupported):
+        fast_decode.layout_of(store.fielddefs, "sensor_msgs/msg/Range",
                            data[:1] + b"\0" + data[2:], cdr=True)  # big-endian flag
-    with pytest.raises(ros_fast.Unsupported):
-        ros_fast.layout_of(store.fielddefs, "sensor_msgs/msg/Range", data[:-6], cdr=True)
+    with pytest.raises(fast_decode.Unsupported):
+        fast_decode.layout_of(store.fielddefs, "sensor_msgs/msg/Range", data[:-6], cdr=True)

@@ -8,16 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from etsid.frames import euler_to_quat
 from etsid.ingest import read_log, read_raw
-from etsid.ingest.frames import euler_to_quat
-from etsid.ingest.ros_messages import typestore
+from etsid.rosmsgs import typestore
 from etsid.sim.writers.rosbag import instantiate
 
 T0 = 1_700_000_000 * 10**9
 BOOT_US = 50_000_000  # the autopilot booted 50 s before the recording started
 
 
-def _px4_messages(n: int = 400) -> list[tuple[str, str, int, dict]]:
+def px4_messages(n: int = 400) -> list[tuple[str, str, int, dict]]:
     """(topic, type, record ns, fields) at 200 Hz, all axes with known non-zero values."""
     out = []
     for i in range(n):
@@ -56,7 +56,7 @@ def _px4_messages(n: int = 400) -> list[tuple[str, str, int, dict]]:
     return out
 
 
-def _write(path: Path, messages: list[tuple[str, str, int, dict]]) -> Path:
+def write_px4_bag(path: Path, messages: list[tuple[str, str, int, dict]]) -> Path:
     from rosbags.rosbag2 import Writer
 
     store = typestore()
@@ -72,7 +72,7 @@ def _write(path: Path, messages: list[tuple[str, str, int, dict]]) -> Path:
 
 @pytest.fixture(scope="module")
 def px4_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _write(tmp_path_factory.mktemp("px4") / "px4_bag", _px4_messages())
+    return write_px4_bag(tmp_path_factory.mktemp("px4") / "px4_bag", px4_messages())
 
 
 def test_px4_topics_frd_ned_values(px4_bag: Path) -> None:
@@ -116,10 +116,10 @@ def test_bag_without_definitions_uses_shipped_msg_files(px4_bag: Path, tmp_path:
 
 
 def test_zero_px4_timestamps_are_dropped_and_counted(tmp_path: Path) -> None:
-    messages = [m for m in _px4_messages(100) if "angular_velocity" in m[0]]
+    messages = [m for m in px4_messages(100) if "angular_velocity" in m[0]]
     for topic, _, _, fields in messages[:5]:
         assert topic.endswith("angular_velocity")
         fields["timestamp"] = 0
-    raw = read_raw(_write(tmp_path / "zero", messages))
+    raw = read_raw(write_px4_bag(tmp_path / "zero", messages))
     assert any(i.reason == "timestamp 0 (not set)" and i.count == 5 for i in raw.dropped)
     assert raw.signals[0].t.size == 95

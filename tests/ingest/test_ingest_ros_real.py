@@ -12,6 +12,8 @@ from click.testing import CliRunner
 from etsid.cli import cli
 from etsid.errors import IngestError
 from etsid.ingest import inspect_log, read_log, read_raw
+from etsid.ingest.detect import open_reader
+from etsid.ingest.mavlink import tlog as tlog_reader
 
 DATA = Path(__file__).parents[1] / "data" / "ros"
 SITL = DATA / "mavros_from_sitl"
@@ -63,9 +65,7 @@ def test_json_mcap_mavlink_messages_agree(sitl_tables: dict[str, pd.DataFrame]) 
 
 
 def test_frd_ned_values_match_the_tlog(sitl_tables: dict[str, pd.DataFrame]) -> None:
-    pytest.importorskip("etsid.ingest.tlog")
-    if not TLOG.exists():
-        pytest.skip("tlog test data not present")
+    assert open_reader("tlog") is tlog_reader.read
     tlog = read_log(TLOG)
     bag = sitl_tables["ros1"]
     t_abs = bag.index.to_numpy() + bag.attrs["start_time"]

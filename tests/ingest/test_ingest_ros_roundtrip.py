@@ -169,7 +169,7 @@ def _imu_bag(path: Path, stamps_ns: list[int], record_ns: list[int]) -> Path:
     """A ROS 1 bag with one Imu topic and the given header stamps, written by rosbags."""
     from rosbags.rosbag1 import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
     from etsid.sim.writers.rosbag import instantiate
 
     store = typestore(ros1=True)

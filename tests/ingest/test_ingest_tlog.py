@@ -17,9 +17,9 @@ from etsid.cli import cli
 from etsid.errors import IngestError
 from etsid.ingest import read_log, read_raw
 from etsid.ingest.base import Override, ReadOptions
-from etsid.ingest.mavlink_clock import BOOT, NONE, WRAP32_US, autopilot_clock
-from etsid.ingest.mavlink_dtypes import crc_extra_table
-from etsid.ingest.mavlink_scan import (
+from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, autopilot_clock
+from etsid.ingest.mavlink.dtypes import crc_extra_table
+from etsid.ingest.mavlink.scan import (
     gather_payloads,
     gather_payloads_reference,
     scan_frames,
@@ -123,7 +123,7 @@ def test_scan_kernel_matches_reference(tlog: Path) -> None:
 
 
 def test_small_chunks_give_the_same_table(tlog: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import etsid.ingest.tlog as reader
+    import etsid.ingest.mavlink.tlog as reader
 
     whole = read_log(tlog)
     monkeypatch.setattr(reader, "CHUNK", 997)

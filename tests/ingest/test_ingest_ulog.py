@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from etsid.cli import cli
 from etsid.errors import IngestError
 from etsid.ingest import read_log, read_raw
 from etsid.ingest.base import Override, ReadOptions
-from etsid.ingest.ulog import _signals, _Topic
+from etsid.ingest.ulog import Topic, signals
 
 DATA = Path(__file__).parents[1] / "data"
 CUBE = DATA / "px4_cubeorange_real.ulg"
@@ -75,18 +76,18 @@ def test_sitl_log_falls_back_to_controller_commands() -> None:
 def test_new_topic_names_decode() -> None:
     t = np.arange(5) * 1000.0 + 1e6
     topics = {
-        "actuator_motors": _Topic("actuator_motors", {
+        "actuator_motors": Topic("actuator_motors", {
             "timestamp": t, **{f"control[{i}]": np.full(5, 0.1 * i) for i in range(8)}}),
-        "vehicle_thrust_setpoint": _Topic("vehicle_thrust_setpoint", {
+        "vehicle_thrust_setpoint": Topic("vehicle_thrust_setpoint", {
             "timestamp": t, "xyz[0]": np.zeros(5), "xyz[1]": np.zeros(5),
             "xyz[2]": np.full(5, -0.6)}),
-        "vehicle_torque_setpoint": _Topic("vehicle_torque_setpoint", {
+        "vehicle_torque_setpoint": Topic("vehicle_torque_setpoint", {
             "timestamp": t, **{f"xyz[{i}]": np.full(5, 0.01 * (i + 1)) for i in range(3)}}),
-        "manual_control_setpoint": _Topic("manual_control_setpoint", {
+        "manual_control_setpoint": Topic("manual_control_setpoint", {
             "timestamp": t, "roll": np.full(5, 0.2), "pitch": np.full(5, -0.1),
             "yaw": np.zeros(5), "throttle": np.full(5, 0.0), "valid": np.ones(5, bool)}),
     }
-    sig = {s.source: s for s in _signals(topics, ReadOptions())}
+    sig = {s.source: s for s in signals(topics, ReadOptions(), [])}
     assert sig["actuator_motors.control[3]"].column == "m4"
     np.testing.assert_allclose(sig["actuator_motors.control[3]"].values, 0.3)
     assert sig["vehicle_thrust_setpoint.xyz[2]"].column == "u_thrust"
@@ -129,3 +130,58 @@ def test_bad_files(tmp_path: Path, content: bytes, match: str) -> None:
     assert "Traceback" not in result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and match in lines[0] and str(path) in lines[0]
+
+
+def _ulog_message(kind: bytes, payload: bytes) -> bytes:
+    return struct.pack("<HB", len(payload), kind[0]) + payload
+
+
+def write_pwm_ulog(path: Path, rc: tuple[int, ...], outputs: tuple[float, ...]) -> Path:
+    """A ULog (written byte by byte, read by pyulog) with input_rc and actuator_outputs at
+    constant known PWM, 50 Hz, plus vehicle_angular_velocity."""
+    topics = [
+        ("vehicle_angular_velocity", "uint64_t timestamp;uint64_t timestamp_sample;float[3] xyz;"),
+        ("input_rc", "uint64_t timestamp;uint16_t[18] values;"),
+        ("actuator_outputs", "uint64_t timestamp;uint32_t noutputs;float[16] output;"),
+    ]
+    out = bytearray(b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 0))
+    out += _ulog_message(b"B", bytes(16) + bytes(24))
+    for name, fields in topics:
+        out += _ulog_message(b"F", f"{name}:{fields}".encode())
+    for msg_id, (name, _) in enumerate(topics):
+        out += _ulog_message(b"A", struct.pack("<BH", 0, msg_id) + name.encode())
+    pwm_in = (*rc, *([0] * (18 - len(rc))))
+    pwm_out = (*outputs, *([0.0] * (16 - len(outputs))))
+    for k in range(100):
+        us = 1_000_000 + 20_000 * k
+        out += _ulog_message(b"D", struct.pack("<HQQ3f", 0, us, us, 0.0, 0.0, 0.0))
+        out += _ulog_message(b"D", struct.pack("<HQ18H", 1, us, *pwm_in))
+        out += _ulog_message(b"D", struct.pack("<HQI16f", 2, us, len(outputs), *pwm_out))
+    path.write_bytes(bytes(out))
+    return path
+
+
+@pytest.mark.parametrize(("rc_range", "sticks", "motors", "clipped"), [
+    ((1000.0, 1500.0, 2000.0), (-1.0, 0.5, 0.25, 1.0), (0.0, 0.5, 1.0, 0.9),
+     {"input_rc.values[3]", "actuator_outputs.output[2]"}),
+    ((1100.0, 1500.0, 1900.0), (-1.0, 0.625, 0.1875, 1.0), (0.0, 0.5, 1.0, 1.0),
+     {"input_rc.values[0]", "input_rc.values[3]", "actuator_outputs.output[0]",
+      "actuator_outputs.output[2]"}),
+])
+def test_rc_and_motor_pwm_use_the_configured_range(
+        tmp_path: Path, rc_range: tuple[float, float, float], sticks: tuple[float, ...],
+        motors: tuple[float, ...], clipped: set[str]) -> None:
+    path = write_pwm_ulog(tmp_path / "pwm.ulg", (1000, 1750, 1250, 2100),
+                          (1000.0, 1500.0, 2050.0, 1900.0))
+    raw = read_raw(path, ReadOptions(rc_range_us=rc_range))
+    sig = {s.source: s for s in raw.signals}
+    for i, (column, want) in enumerate(zip(("u_roll", "u_pitch", "u_thrust", "u_yaw"), sticks,
+                                           strict=True)):
+        assert sig[f"input_rc.values[{i}]"].column == column
+        np.testing.assert_allclose(sig[f"input_rc.values[{i}]"].values, want, atol=1e-12)
+    for i, want in enumerate(motors):
+        assert sig[f"actuator_outputs.output[{i}]"].column == f"m{i + 1}"
+        np.testing.assert_allclose(sig[f"actuator_outputs.output[{i}]"].values, want,
+                                   atol=1e-12)
+    counts = {i.signal: i.count for i in raw.repaired if "PWM outside" in i.reason}
+    assert counts == dict.fromkeys(clipped, 100)

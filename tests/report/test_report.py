@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from etsid.errors import IdentError
+from etsid.errors import IdentError, ReportError
 from etsid.ident.metrics import scores
 from etsid.ident.rundir import Run, read_run, write_run
 from etsid.report import make_report
@@ -172,10 +172,11 @@ def test_svg_report_and_bad_inputs(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     report = make_report(run_dir, "svg")
     assert report.figures["rates"].suffix == ".svg"
     assert "data:image/svg+xml;base64," in report.html.read_text()
-    with pytest.raises(IdentError, match="unknown figure format"):
+    with pytest.raises(ReportError, match="unknown figure format"):
         make_report(run_dir, "gif")
-    with pytest.raises(IdentError, match="not a run directory"):
+    with pytest.raises(ReportError, match="not a run directory") as caught:
         make_report(tmp_path / "nope")
+    assert isinstance(caught.value.__cause__, IdentError)  # read_run's error, chained
     (run_dir / "metrics.json").unlink()
-    with pytest.raises(IdentError, match="missing metrics.json"):
+    with pytest.raises(ReportError, match="missing metrics.json"):
         make_report(run_dir)

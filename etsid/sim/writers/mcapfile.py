@@ -16,6 +16,7 @@ from typing import Any
 
 import pandas as pd
 
+from etsid.pwm import DEFAULT_RC_RANGE_US, RcRange
 from etsid.sim.writers.rosbag import instantiate, mavros_messages
 
 LIBRARY = "etsid"
@@ -23,24 +24,28 @@ CHUNK_SIZE = 256 * 1024
 """Uncompressed bytes per chunk (small chunks keep a cut file mostly readable)."""
 
 
-def write_mcap(table: pd.DataFrame, path: Path, encoding: str = "ros2") -> Path:
-    """Write ``table`` to the MCAP file ``path`` (``encoding`` ros2, ros1 or json)."""
+def write_mcap(table: pd.DataFrame, path: Path, encoding: str = "ros2",
+               rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
+    """Write ``table`` to the MCAP file ``path`` (``encoding`` ros2, ros1 or json).
+
+    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels.
+    """
     writers = {"ros2": _write_ros2, "ros1": _write_ros1, "json": _write_json}
     if encoding not in writers:
         raise ValueError(f"unknown MCAP encoding {encoding!r}; use ros2, ros1 or json")
     path = Path(path)
     with path.open("wb") as handle:
-        writers[encoding](table, handle)
+        writers[encoding](table, handle, rc_range_us)
     return path
 
 
-def _write_ros2(table: pd.DataFrame, handle: Any) -> None:
+def _write_ros2(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
     from mcap_ros2.writer import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     store = typestore(ros1=False)
-    topics, messages = mavros_messages(table)
+    topics, messages = mavros_messages(table, rc_range_us)
     writer = Writer(handle, chunk_size=CHUNK_SIZE)
     schemas = {msgtype: writer.register_msgdef(msgtype, store.generate_msgdef(msgtype, 2)[0])
                for _, msgtype in topics}
@@ -50,14 +55,14 @@ def _write_ros2(table: pd.DataFrame, handle: Any) -> None:
     writer.finish()
 
 
-def _write_ros1(table: pd.DataFrame, handle: Any) -> None:
+def _write_ros1(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
     from mcap_ros1._vendor.genpy.dynamic import generate_dynamic
     from mcap_ros1.writer import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     store = typestore(ros1=True)
-    topics, messages = mavros_messages(table)
+    topics, messages = mavros_messages(table, rc_range_us)
     classes = {}
     for _, msgtype in topics:
         name = msgtype.replace("/msg/", "/")
@@ -93,10 +98,10 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _write_json(table: pd.DataFrame, handle: Any) -> None:
+def _write_json(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
     from mcap.writer import Writer
 
-    _, messages = mavros_messages(table)
+    _, messages = mavros_messages(table, rc_range_us)
     writer = Writer(handle, chunk_size=CHUNK_SIZE)
     writer.start(profile="", library=LIBRARY)
     channels: dict[str, int] = {}

@@ -18,7 +18,8 @@ topic                                       type                            rate
 A topic is written only when the table has its columns; each is sampled from the table at
 its own clock (linear, angles unwrapped, commands held). ``header.stamp`` is
 ``attrs["start_time"]`` (default 1.7e9 s) + ``t``; the record time is 1 ms later.
-RC channels follow ArduPilot's AETR order (1000/1500/2000 µs), motors 1000–2000 µs.
+RC channels follow ArduPilot's AETR order; sticks and motors become PWM through
+:mod:`etsid.pwm` (default range 1000/1500/2000 µs; channels 5–8 at min, min, centre, centre).
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from etsid.ingest.frames import ned_frd_euler_to_enu_flu_quat
+from etsid.frames import ned_frd_euler_to_enu_flu_quat
+from etsid.pwm import DEFAULT_RC_RANGE_US, UNUSED, RcRange, motor_to_pwm, stick_to_pwm
 
 NS = 1_000_000_000
 RECORD_DELAY_NS = 1_000_000
@@ -83,8 +85,9 @@ def _col(table: pd.DataFrame, name: str, default: float = math.nan) -> np.ndarra
     return np.full(len(table), default)
 
 
-def _pwm(value: float) -> int:
-    return round(1000.0 + 1000.0 * value) if np.isfinite(value) else 0
+def _pwm(us: float) -> int:
+    """A uint16 channel value: PWM rounded, 0 for no value."""
+    return int(np.clip(np.rint(us), 0, UNUSED)) if np.isfinite(us) else 0
 
 
 def _imu(table: pd.DataFrame) -> Callable[[int, int], dict[str, Any]] | None:
@@ -112,26 +115,28 @@ def _imu(table: pd.DataFrame) -> Callable[[int, int], dict[str, Any]] | None:
     return make
 
 
-def _rc_in(table: pd.DataFrame) -> Callable[[int, int], dict[str, Any]] | None:
-    sticks = ("u_roll", "u_pitch", "u_thrust", "u_yaw")
+def _rc_in(table: pd.DataFrame, rc_range_us: RcRange
+           ) -> Callable[[int, int], dict[str, Any]] | None:
+    sticks = ("u_roll", "u_pitch", "u_thrust", "u_yaw")  # AETR: channels 1..4
     if not set(sticks) & set(table.columns):
         return None
-    roll, pitch = _col(table, "u_roll", 0.0), _col(table, "u_pitch", 0.0)
-    thrust, yaw = _col(table, "u_thrust", 0.0), _col(table, "u_yaw", 0.0)
+    pwm = [stick_to_pwm(_col(table, s, 0.0), s, rc_range_us) for s in sticks]
+    lo, centre, _ = rc_range_us
+    rest = [_pwm(lo), _pwm(lo), _pwm(centre), _pwm(centre)]
 
     def make(i: int, stamp: int) -> dict[str, Any]:
-        chans = [_pwm(0.5 + 0.5 * roll[i]), _pwm(0.5 + 0.5 * pitch[i]), _pwm(thrust[i]),
-                 _pwm(0.5 + 0.5 * yaw[i]), 1000, 1000, 1500, 1500]
+        chans = [_pwm(c[i]) for c in pwm] + rest
         return {"header": _header(stamp, ""), "rssi": 255, "channels": chans}
     return make
 
 
-def _rc_out(table: pd.DataFrame) -> Callable[[int, int], dict[str, Any]] | None:
+def _rc_out(table: pd.DataFrame, rc_range_us: RcRange
+            ) -> Callable[[int, int], dict[str, Any]] | None:
     motors = [c for c in (f"m{i}" for i in range(1, 9)) if c in table.columns]
     if not motors:
         return None
     n = int(motors[-1][1:])
-    cols = [_col(table, f"m{i}") for i in range(1, n + 1)]
+    cols = [motor_to_pwm(_col(table, f"m{i}"), rc_range_us) for i in range(1, n + 1)]
 
     def make(i: int, stamp: int) -> dict[str, Any]:
         return {"header": _header(stamp, ""), "channels": [_pwm(c[i]) for c in cols]}
@@ -191,7 +196,7 @@ def _battery(table: pd.DataFrame) -> Callable[[int, int], dict[str, Any]] | None
     return make
 
 
-TOPICS: list[tuple[str, str, str, Callable[[pd.DataFrame], Any]]] = [
+TOPICS: list[tuple[str, str, str, Callable[..., Any]]] = [
     ("/mavros/imu/data", "sensor_msgs/msg/Imu", "imu", _imu),
     ("/mavros/rc/in", "mavros_msgs/msg/RCIn", "rc_in", _rc_in),
     ("/mavros/rc/out", "mavros_msgs/msg/RCOut", "rc_out", _rc_out),
@@ -202,17 +207,28 @@ TOPICS: list[tuple[str, str, str, Callable[[pd.DataFrame], Any]]] = [
      _velocity),
     ("/mavros/battery", "sensor_msgs/msg/BatteryState", "battery", _battery),
 ]
-"""(topic, ROS 2 type name, rate key, message builder factory)."""
+"""(topic, ROS 2 type name, rate key, message builder factory).
+
+A factory takes the table resampled to the topic's rate (the RC ones also the RC range)
+and returns a builder ``(sample index, stamp ns) -> fields``, or None when the table lacks
+the topic's columns."""
+PWM_FACTORIES = (_rc_in, _rc_out)
 
 
-def mavros_messages(table: pd.DataFrame) -> tuple[list[tuple[str, str]], Iterator[Message]]:
-    """Topics (name, type) and the time-ordered stream of MAVROS messages for ``table``."""
+def mavros_messages(table: pd.DataFrame, rc_range_us: RcRange = DEFAULT_RC_RANGE_US
+                    ) -> tuple[list[tuple[str, str]], Iterator[Message]]:
+    """Topics (name, type) and the time-ordered stream of MAVROS messages for ``table``.
+
+    ``rc_range_us`` (PWM min, centre, max, µs) converts sticks and motors to RC and servo
+    channels (:mod:`etsid.pwm`).
+    """
     t = np.asarray(table.index, dtype=float)
     start_ns = round(float(table.attrs.get("start_time") or DEFAULT_START) * NS)
     topics, streams = [], []
     for order, (topic, msgtype, key, factory) in enumerate(TOPICS):
         ticks = _ticks(t, RATES[key])
-        make = factory(resample_at(table, ticks))
+        frame = resample_at(table, ticks)
+        make = factory(frame, rc_range_us) if factory in PWM_FACTORIES else factory(frame)
         if make is None:
             continue
         stamps = start_ns + np.round((ticks - t[0]) * NS).astype(np.int64)
@@ -256,16 +272,20 @@ def instantiate(store: Any, typename: str, values: dict[str, Any]) -> Any:
     return store.types[typename](**kwargs)
 
 
-def write_ros1_bag(table: pd.DataFrame, path: Path) -> Path:
-    """Write ``table`` as a ROS 1 bag (lz4 chunks) with MAVROS topics; returns ``path``."""
+def write_ros1_bag(table: pd.DataFrame, path: Path,
+                   rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
+    """Write ``table`` as a ROS 1 bag (lz4 chunks) with MAVROS topics; returns ``path``.
+
+    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels.
+    """
     from rosbags.rosbag1 import Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     path = Path(path)
     path.unlink(missing_ok=True)
     store = typestore(ros1=True)
-    topics, messages = mavros_messages(table)
+    topics, messages = mavros_messages(table, rc_range_us)
     writer = Writer(path)
     writer.set_compression(Writer.CompressionFormat.LZ4)
     with writer:
@@ -277,20 +297,24 @@ def write_ros1_bag(table: pd.DataFrame, path: Path) -> Path:
     return path
 
 
-def write_ros2_bag(table: pd.DataFrame, path: Path, storage: str = "sqlite3") -> Path:
-    """Write ``table`` as a ROS 2 bag directory (``sqlite3`` or ``mcap`` storage); returns it."""
+def write_ros2_bag(table: pd.DataFrame, path: Path, storage: str = "sqlite3",
+                   rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
+    """Write ``table`` as a ROS 2 bag directory (``sqlite3`` or ``mcap`` storage); returns it.
+
+    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels.
+    """
     import shutil
 
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from etsid.ingest.ros_messages import typestore
+    from etsid.rosmsgs import typestore
 
     path = Path(path)
     if path.exists():
         shutil.rmtree(path)
     plugin = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}[storage]
     store = typestore(ros1=False)
-    topics, messages = mavros_messages(table)
+    topics, messages = mavros_messages(table, rc_range_us)
     with Writer(path, version=9, storage_plugin=plugin) as writer:
         conns = {name: writer.add_connection(name, msgtype, typestore=store)
                  for name, msgtype in topics}

@@ -9,9 +9,10 @@ time plus a seeded random link delay (a few ms, with occasional stalls of up to 
 that release queued frames in a burst); the link is FIFO, so frames stay in send order.
 Only streams whose columns the table has are written; HEARTBEAT always is.
 
-Inverse of :mod:`etsid.ingest.tlog`: sticks → PWM 1500 ± 500 µs (throttle 1000…2000 µs),
-motors 0…1 → 1000…2000 µs, alt → DISTANCE_SENSOR cm (orientation 25, downward) and
-LOCAL_POSITION_NED −z, vbat → SYS_STATUS mV. NaN in an integer field becomes the field's
+Inverse of :mod:`etsid.ingest.mavlink.tlog`: sticks and motors → PWM through :mod:`etsid.pwm`
+(default range: sticks 1500 ± 500 µs, throttle and motors 1000…2000 µs), alt →
+DISTANCE_SENSOR cm (orientation 25, downward) and LOCAL_POSITION_NED −z, vbat → SYS_STATUS
+mV. NaN in an integer field becomes the field's
 "unknown" value (UINT16_MAX for RC channels and voltage, 0 for servo outputs).
 """
 
@@ -25,6 +26,14 @@ from typing import Any, BinaryIO
 import numpy as np
 import pandas as pd
 
+from etsid.pwm import (
+    DEFAULT_RC_MAP,
+    DEFAULT_RC_RANGE_US,
+    UNUSED,
+    RcRange,
+    motor_to_pwm,
+    stick_to_pwm,
+)
 from etsid.table import COLUMNS
 
 RATES: dict[str, float] = {
@@ -121,8 +130,8 @@ def _streams(table: pd.DataFrame, rates: dict[str, float]) -> dict[str, np.ndarr
     return out
 
 
-def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: dict[str, int]
-              ) -> dict[str, Callable[[int], Any]]:
+def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: dict[str, int],
+              rc_range_us: RcRange) -> dict[str, Callable[[int], Any]]:
     """Message name → function(sample index) → pymavlink message."""
     col = {name: {c: _column(table, c, ts) for c in table.columns if c in COLUMNS}
            for name, ts in t.items()}
@@ -156,13 +165,12 @@ def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: d
         for stick, ch in rc_map.items():
             v = col["RC_CHANNELS"].get(stick)
             if v is not None:
-                pwm = 1000.0 + 1000.0 * v if stick == "u_thrust" else 1500.0 + 500.0 * v
-                chans[ch - 1] = _u16(pwm, 65535)
+                chans[ch - 1] = _u16(stick_to_pwm(v, stick, rc_range_us), UNUSED)
         ms = boot_ms("RC_CHANNELS")
         enc["RC_CHANNELS"] = lambda i, ms=ms: mav.rc_channels_encode(
             int(ms[i]), nchan, *(int(c) for c in chans[:, i]), *([65535] * (18 - nchan)), 200)
     if "SERVO_OUTPUT_RAW" in t:
-        servos = [_u16(1000.0 + 1000.0 * g("SERVO_OUTPUT_RAW", f"m{k}", np.nan), 0)
+        servos = [_u16(motor_to_pwm(g("SERVO_OUTPUT_RAW", f"m{k}", np.nan), rc_range_us), 0)
                   for k in range(1, 9)]
         us32 = np.rint((t["SERVO_OUTPUT_RAW"] + BOOT_OFFSET_S) * 1e6).astype(np.int64) % 2**32
         enc["SERVO_OUTPUT_RAW"] = lambda i: mav.servo_output_raw_encode(
@@ -194,7 +202,7 @@ def _encoders(table: pd.DataFrame, mav: Any, t: dict[str, np.ndarray], rc_map: d
 
 def _attitude_target(mav: Any, ts: np.ndarray, col: dict[str, np.ndarray | None],
                      boot_ms: Callable[[str], np.ndarray]) -> Callable[[int], Any]:
-    from etsid.ingest.frames import euler_to_quat
+    from etsid.frames import euler_to_quat
 
     zero = np.zeros(ts.size)
     rates = [col.get(c) for c in ("sp_p", "sp_q", "sp_r")]
@@ -214,7 +222,8 @@ def _attitude_target(mav: Any, ts: np.ndarray, col: dict[str, np.ndarray | None]
 
 def write_tlog(table: pd.DataFrame, path: str | Path, sysid: int = 1, compid: int = 1,
                rates: dict[str, float] | None = None, seed: int = 0,
-               rc_map: dict[str, int] | None = None) -> Path:
+               rc_map: dict[str, int] | None = None,
+               rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
     """Write ``table`` (a FlightTable) as a MAVLink 2 telemetry log.
 
     Parameters
@@ -229,6 +238,9 @@ def write_tlog(table: pd.DataFrame, path: str | Path, sysid: int = 1, compid: in
     rc_map
         Stick → RC channel (1-based), default ArduPilot AETR (1 roll, 2 pitch, 3 throttle,
         4 yaw).
+    rc_range_us
+        PWM min, centre, max, µs, for sticks and motors (:mod:`etsid.pwm`; not clipped, so
+        sticks beyond ±1 give PWM beyond the range).
 
     Returns
     -------
@@ -236,8 +248,6 @@ def write_tlog(table: pd.DataFrame, path: str | Path, sysid: int = 1, compid: in
         ``path``.
     """
     from pymavlink.dialects.v20 import common
-
-    from etsid.ingest.base import DEFAULT_RC_MAP
 
     path = Path(path)
     rates = {**RATES, **(rates or {})}
@@ -247,7 +257,7 @@ def write_tlog(table: pd.DataFrame, path: str | Path, sysid: int = 1, compid: in
     with path.open("wb") as handle:
         sink = _StampedSink(handle)
         mav = common.MAVLink(sink, srcSystem=sysid, srcComponent=compid)
-        enc = _encoders(table, mav, t, dict(rc_map or DEFAULT_RC_MAP))
+        enc = _encoders(table, mav, t, dict(rc_map or DEFAULT_RC_MAP), rc_range_us)
         names = list(t)
         send = np.concatenate([t[n] for n in names]) if names else np.empty(0)
         which = np.concatenate([np.full(t[n].size, k) for k, n in enumerate(names)])

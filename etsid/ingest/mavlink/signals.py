@@ -1,8 +1,10 @@
 """MAVLink messages → FlightTable signals: which fields, which units, which priority.
 
 Each decoder takes the decoded payloads of one message (a numpy structured array), their
-autopilot times (s) and the read options, and returns candidate signals already in SI
-units and FRD body / NED world frames (MAVLink's own conventions, so no rotation).
+autopilot times (s), the read options and the list of repaired-sample counts, and returns
+candidate signals already in SI units and FRD body / NED world frames (MAVLink's own
+conventions, so no rotation). PWM goes through :mod:`etsid.ingest.rc` (the RC range of the
+read options, clipped and counted).
 Priorities (lower wins; see docs/ingest_mavlink.md):
 
 ======== ==================================================================================
@@ -14,7 +16,7 @@ roll…    ATTITUDE (0)
 ax ay az HIGHRES_IMU (0), SCALED_IMU/2/3 mG (1/2/3), RAW_IMU (9, assumed mG)
 u_*      RC_CHANNELS (0), RC_CHANNELS_RAW (1) via ``rc_map``; ATTITUDE_TARGET.thrust (5)
 sp_*     ATTITUDE_TARGET body rates (0); samples whose ``type_mask`` ignores them are NaN
-m1…m8    SERVO_OUTPUT_RAW servo1..8 (0), 1000–2000 µs → 0…1, port 0 only
+m1…m8    SERVO_OUTPUT_RAW servo1..8 (0), RC range (1000–2000 µs) → 0…1, port 0 only
 alt      DISTANCE_SENSOR cm, orientation 25 (downward) only (0), LOCAL_POSITION_NED −z (5),
          GLOBAL_POSITION_INT relative_alt mm (8)
 vx vy vz LOCAL_POSITION_NED (0), GLOBAL_POSITION_INT cm/s (2)
@@ -28,10 +30,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from etsid.ingest.base import ReadOptions, Signal
+from etsid.ingest.base import Issue, ReadOptions, Signal
+from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 
 G = 9.80665
-Decoder = Callable[[np.ndarray, np.ndarray, ReadOptions], list[Signal]]
+Decoder = Callable[[np.ndarray, np.ndarray, ReadOptions, list[Issue]], list[Signal]]
 
 CLOCK_FIELDS: dict[str, tuple[str, str]] = {
     "ATTITUDE": ("time_boot_ms", "ms"),
@@ -67,7 +70,8 @@ def _xyz(msg: str, a: np.ndarray, t: np.ndarray, fields: tuple[str, str, str],
             for c, f in zip(columns, fields, strict=True)]
 
 
-def attitude(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def attitude(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     return (_xyz("ATTITUDE", a, t, ("roll", "pitch", "yaw"), ("roll", "pitch", "yaw"), 1, 0)
             + _xyz("ATTITUDE", a, t, ("rollspeed", "pitchspeed", "yawspeed"),
                    ("p", "q", "r"), 1, 0))
@@ -75,7 +79,8 @@ def attitude(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
 
 def _imu(msg: str, gyro_scale: float, acc_scale: float, gyro_prio: int,
          acc_prio: int) -> Decoder:
-    def decode(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+    def decode(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
         return (_xyz(msg, a, t, ("xgyro", "ygyro", "zgyro"), ("p", "q", "r"), gyro_scale,
                      gyro_prio)
                 + _xyz(msg, a, t, ("xacc", "yacc", "zacc"), ("ax", "ay", "az"), acc_scale,
@@ -83,34 +88,27 @@ def _imu(msg: str, gyro_scale: float, acc_scale: float, gyro_prio: int,
     return decode
 
 
-def stick(raw: np.ndarray, column: str, o: ReadOptions) -> np.ndarray:
-    """PWM µs → stick: −1…1 around the centre, throttle 0…1; 0 and 65535 (unused) → NaN."""
-    lo, mid, hi = o.rc_range_us
-    v = raw.astype(np.float64)
-    v[(raw == 0) | (raw == 65535)] = np.nan
-    if column == "u_thrust":
-        return np.clip((v - lo) / (hi - lo), 0.0, 1.0)
-    return np.clip((v - mid) / (0.5 * (hi - lo)), -1.0, 1.0)
-
-
 def _rc(msg: str, nchan: int, prio: int) -> Decoder:
-    def decode(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+    def decode(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+               repaired: list[Issue]) -> list[Signal]:
         out = []
         for column, ch in o.rc_map.items():
             if not 1 <= ch <= nchan:
                 continue
             name = f"chan{ch}_raw"
-            v = stick(a[name], column, o)
+            pwm = a[name].copy()
             if "chancount" in (a.dtype.names or ()):
                 count = a["chancount"]
-                v[(count > 0) & (count < ch)] = np.nan
+                pwm[(count > 0) & (count < ch)] = 0  # beyond the channels sent: no value
+            v = stick_from_pwm(pwm, column, f"{msg}.{name}", o, repaired)
             if np.isfinite(v).any():
                 out.append(_sig(column, t, v, f"{msg}.{name}", prio))
         return out
     return decode
 
 
-def servo_output_raw(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def servo_output_raw(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+                     repaired: list[Issue]) -> list[Signal]:
     port0 = a["port"] == 0
     a, t = a[port0], t[port0]
     out = []
@@ -119,13 +117,13 @@ def servo_output_raw(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signa
         raw = a[name]
         if not (raw != 0).any():
             continue
-        v = np.clip((raw.astype(np.float64) - 1000.0) / 1000.0, 0.0, 1.0)
-        v[raw == 0] = np.nan
+        v = motor_from_pwm(raw, f"SERVO_OUTPUT_RAW.{name}", o, repaired)
         out.append(_sig(f"m{i}", t, v, f"SERVO_OUTPUT_RAW.{name}", 0))
     return out
 
 
-def attitude_target(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def attitude_target(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     mask = a["type_mask"]
     out = []
     for bit, field, column in ((1, "body_roll_rate", "sp_p"), (2, "body_pitch_rate", "sp_q"),
@@ -137,7 +135,8 @@ def attitude_target(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal
     return out
 
 
-def distance_sensor(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def distance_sensor(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     down = a["orientation"] == 25
     if not down.any():
         return []
@@ -148,18 +147,21 @@ def distance_sensor(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal
     return [_sig("alt", t, v, "DISTANCE_SENSOR.current_distance", 0)]
 
 
-def local_position_ned(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def local_position_ned(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     vel = _xyz("LOCAL_POSITION_NED", a, t, ("vx", "vy", "vz"), ("vx", "vy", "vz"), 1, 0)
     return [*vel, _sig("alt", t, -_f(a, "z"), "LOCAL_POSITION_NED.z", 5)]
 
 
-def global_position_int(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def global_position_int(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     vel = _xyz("GLOBAL_POSITION_INT", a, t, ("vx", "vy", "vz"), ("vx", "vy", "vz"), 0.01, 2)
     alt = _f(a, "relative_alt", 1e-3)
     return [*vel, _sig("alt", t, alt, "GLOBAL_POSITION_INT.relative_alt", 8)]
 
 
-def sys_status(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def sys_status(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     raw = a["voltage_battery"]
     v = raw.astype(np.float64) * 1e-3
     v[(raw == 65535) | (raw == 0)] = np.nan
@@ -168,7 +170,8 @@ def sys_status(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
     return [_sig("vbat", t, v, "SYS_STATUS.voltage_battery", 0)]
 
 
-def battery_status(a: np.ndarray, t: np.ndarray, o: ReadOptions) -> list[Signal]:
+def battery_status(a: np.ndarray, t: np.ndarray, o: ReadOptions,
+        repaired: list[Issue]) -> list[Signal]:
     first = a["id"] == a["id"].min() if a.size else a["id"] == 0
     a, t = a[first], t[first]
     cells = a["voltages"].astype(np.float64)

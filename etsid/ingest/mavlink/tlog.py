@@ -4,11 +4,11 @@ A tlog is what a ground station records: each MAVLink v1/v2 frame prefixed by it
 8-byte big-endian receive time (µs since the Unix epoch). The file is read in chunks
 of :data:`CHUNK` bytes (a partial frame carries over to the next chunk, so memory is
 bounded by the decoded output); a numba kernel finds the frames and checks their CRC
-(:mod:`etsid.ingest.mavlink_scan`), and only the messages in
-:data:`~etsid.ingest.mavlink_signals.DECODERS` (plus those named by ``--map``) are
+(:mod:`etsid.ingest.mavlink.scan`), and only the messages in
+:data:`~etsid.ingest.mavlink.signals.DECODERS` (plus those named by ``--map``) are
 decoded, in blocks, with numpy dtypes built from pymavlink's own definitions
-(:mod:`etsid.ingest.mavlink_dtypes`). Columns, units and priorities:
-:mod:`etsid.ingest.mavlink_signals`; time handling: :mod:`etsid.ingest.mavlink_clock`.
+(:mod:`etsid.ingest.mavlink.dtypes`). Columns, units and priorities:
+:mod:`etsid.ingest.mavlink.signals`; time handling: :mod:`etsid.ingest.mavlink.clock`.
 
 System choice: ``options.sysid``, else the system with the most ATTITUDE messages
 (ground stations, sysid 255, never count); within it the component with the most
@@ -26,15 +26,15 @@ import numpy as np
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, Override, RawLog, ReadOptions, Signal
-from etsid.ingest.mavlink_clock import BOOT, NONE, WRAP32_US, Clock, autopilot_clock
-from etsid.ingest.mavlink_dtypes import (
+from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, Clock, autopilot_clock
+from etsid.ingest.mavlink.dtypes import (
     crc_extra_table,
     message_class,
     message_dtype,
     message_ids,
 )
-from etsid.ingest.mavlink_scan import OK, UNKNOWN, gather_payloads, scan_frames
-from etsid.ingest.mavlink_signals import CLOCK_FIELDS, DECODERS
+from etsid.ingest.mavlink.scan import OK, UNKNOWN, gather_payloads, scan_frames
+from etsid.ingest.mavlink.signals import CLOCK_FIELDS, DECODERS
 from etsid.progress import progress
 
 CHUNK = 8 << 20
@@ -242,7 +242,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                       "autopilot clock", late, names[mid]))
         times[mid] = (float(t[0]), float(t[-1]))
         if names[mid] in DECODERS:
-            raw.signals.extend(DECODERS[names[mid]](rec, t, options))
+            raw.signals.extend(DECODERS[names[mid]](rec, t, options, raw.repaired))
         for o in overrides:
             if o.topic == names[mid]:
                 raw.signals.append(_override_signal(o, rec, t, path))

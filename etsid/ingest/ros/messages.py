@@ -1,18 +1,16 @@
-"""Turn decoded ROS messages (ROS 1, ROS 2, MAVLink-as-JSON) into FlightTable signals.
+"""Which ROS message types (ROS 1, ROS 2, MAVLink-as-JSON) fill which FlightTable columns.
 
-Shared by :mod:`etsid.ingest.rosbag` and :mod:`etsid.ingest.mcapfile`. A
-:class:`Converter` receives each decoded message with its record (log) time, keeps only
-the numbers it needs per topic (compact ``array('d')`` buffers, memory bounded by the
-output) and at the end converts them to SI, FRD body / NED world signals.
+Shared by :mod:`etsid.ingest.ros.bag` and :mod:`etsid.ingest.ros.mcap` through
+:class:`etsid.ingest.ros.converter.Converter`. Each converted type has a :class:`Spec`: a
+row of numbers per message, and a finish function that turns a topic's rows into SI,
+FRD body / NED world signals.
 
 Frames: ROS messages follow REP-103 (FLU body, ENU world, as MAVROS publishes them):
 rates and specific force have y and z negated, orientation becomes
 R_ned_frd = A·R_enu_flu·B, world vectors map ENU→NED. px4_msgs and MAVLink are FRD/NED.
 
-Time: ``header.stamp`` when valid (non-zero and within a day of the record time), else
-the record time (counted in ``repaired``); px4_msgs ``timestamp`` (µs) and MAVLink
-``time_boot_ms``/``time_usec`` are on the autopilot boot clock, shifted to the record
-clock by one offset per log (the smallest record-minus-boot delay).
+Time: see :mod:`etsid.ingest.ros.converter` (``Spec.clock`` and ``Spec.boot`` say which
+clock a type carries).
 
 Priorities (lower wins; ties go to the higher rate, see :mod:`etsid.ingest.mapping`):
 
@@ -43,22 +41,18 @@ Covariance −1 in sensor_msgs/Imu marks a field the driver does not provide: it
 from __future__ import annotations
 
 import math
-from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cache
-from importlib import resources
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
-from etsid.ingest.base import Channel, Issue, Override, RawLog, ReadOptions, Signal, get_field
-from etsid.ingest.frames import enu_flu_quat_to_ned_frd_euler, quat_to_euler, quat_to_matrix
+from etsid.frames import enu_flu_quat_to_ned_frd_euler, quat_to_euler, quat_to_matrix
+from etsid.ingest.base import Issue, ReadOptions, Signal
+from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 
 NS = 1_000_000_000
-PLAUSIBLE_NS = 86_400 * NS
-"""A header stamp further than this from the record time is not trusted."""
 NAN = math.nan
 DOWNWARD_HINTS = ("rangefinder", "distance_sensor", "down", "altitude", "height", "agl")
 SERVICE_NOTE = "service events: listed, not flight data"
@@ -76,36 +70,6 @@ def as_message(obj: Any) -> Any:
     if isinstance(obj, list):
         return [as_message(v) for v in obj]
     return obj
-
-
-# ---------------------------------------------------------------------------
-# shipped definitions
-
-
-@cache
-def shipped_types() -> dict[str, Any]:
-    """rosbags type definitions parsed from ``etsid/ingest/msgdefs/*.msg``."""
-    from rosbags.typesys import get_types_from_msg
-
-    types: dict[str, Any] = {}
-    for entry in resources.files("etsid.ingest.msgdefs").iterdir():
-        if entry.name.endswith(".msg"):
-            package, _, name = entry.name[:-4].partition("__")
-            types.update(get_types_from_msg(entry.read_text(), f"{package}/msg/{name}"))
-    return types
-
-
-@cache
-def typestore(ros1: bool = False) -> Any:
-    """A rosbags typestore (ROS 1 Noetic or ROS 2 Humble) with the shipped types added.
-
-    Cached and shared: callers must not register further types in it.
-    """
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
-    store.register(shipped_types())
-    return store
 
 
 # ---------------------------------------------------------------------------
@@ -146,6 +110,7 @@ class Batch:
     rows: np.ndarray
     options: ReadOptions
     dropped: list[Issue]
+    repaired: list[Issue]
 
     def col(self, i: int) -> np.ndarray:
         return self.rows[:, i]
@@ -270,32 +235,28 @@ def _battery_finish(b: Batch) -> list[Signal]:
 
 
 def _sticks(b: Batch, pwm: np.ndarray, fields: Callable[[int], str], prio: int) -> list[Signal]:
-    lo, centre, hi = b.options.rc_range_us
     out = []
     for stick, channel in b.options.rc_map.items():
         if channel > pwm.shape[1]:
             continue
-        raw = pwm[:, channel - 1]
-        if stick == "u_thrust":
-            values = (raw - lo) / (hi - lo)
-        else:
-            values = (raw - centre) / (0.5 * (hi - lo))
-        keep = np.isfinite(raw) & (raw > 0)
+        fld = fields(channel)
+        values = stick_from_pwm(pwm[:, channel - 1], stick, f"{b.topic}.{fld}", b.options,
+                                b.repaired)
+        keep = np.isfinite(values)
         if keep.any():
-            out.append(b.signal(stick, values, fields(channel), prio, keep,
-                                "RC channel missing or 0"))
+            out.append(b.signal(stick, values, fld, prio, keep, "RC channel missing or unused"))
     return out
 
 
 def _motors(b: Batch, pwm: np.ndarray, fields: Callable[[int], str], prio: int) -> list[Signal]:
-    lo, _, hi = b.options.rc_range_us
     out = []
     for i in range(min(8, pwm.shape[1])):
-        raw = pwm[:, i]
-        keep = np.isfinite(raw) & (raw > 0)
+        fld = fields(i + 1)
+        values = motor_from_pwm(pwm[:, i], f"{b.topic}.{fld}", b.options, b.repaired)
+        keep = np.isfinite(values)
         if keep.any():
-            out.append(b.signal(f"m{i + 1}", (raw - lo) / (hi - lo), fields(i + 1), prio, keep,
-                                "output channel missing or 0"))
+            out.append(b.signal(f"m{i + 1}", values, fld, prio, keep,
+                                "output channel missing or unused"))
     return out
 
 
@@ -467,197 +428,3 @@ def spec_for(msgtype: str, topic: str) -> tuple[Spec | None, str]:
     if spec is None:
         return None, "message type not converted (use --map COLUMN=TOPIC.FIELD)"
     return spec, ""
-
-
-# ---------------------------------------------------------------------------
-# accumulation
-
-
-class TopicData:
-    """Numbers collected from one topic while streaming."""
-
-    def __init__(self, topic: str, msgtype: str, spec: Spec | None, note: str,
-                 requests: list[Override]) -> None:
-        self.topic, self.msgtype, self.spec, self.note = topic, msgtype, spec, note
-        self.requests = requests
-        self.count = 0
-        self.first_ns: int | None = None
-        self.last_ns: int | None = None
-        self.t = array("d")
-        self.rows = array("d")
-        self.width = 0
-        self.bad_stamp = 0
-        self.failed = 0
-        self.error = ""
-        self.zero_stamp = 0
-        self.req_t: list[array[float]] = [array("d") for _ in requests]
-        self.req_v: list[array[float]] = [array("d") for _ in requests]
-
-    @property
-    def decode(self) -> bool:
-        """Whether messages of this topic need decoding at all."""
-        return self.spec is not None or bool(self.requests)
-
-
-class Converter:
-    """Collect decoded messages of any number of topics, then build a :class:`RawLog`."""
-
-    def __init__(self, options: ReadOptions) -> None:
-        self.options = options
-        self.topics: dict[str, TopicData] = {}
-        self.base_ns: int | None = None
-        self.boot_offset_ns: int | None = None
-
-    def topic(self, topic: str, msgtype: str) -> TopicData:
-        """The collector for ``topic`` (created on first use)."""
-        data = self.topics.get(topic)
-        if data is None:
-            spec, note = spec_for(msgtype, topic)
-            requests = [o for o in self.options.field_requests() if o.topic == topic]
-            data = self.topics[topic] = TopicData(topic, msgtype, spec, note, requests)
-        return data
-
-    def count(self, data: TopicData, log_ns: int) -> None:
-        """Count a message that is not decoded."""
-        if self.base_ns is None:
-            self.base_ns = log_ns
-        data.count += 1
-        if data.first_ns is None:
-            data.first_ns = log_ns
-        data.last_ns = log_ns
-
-    def add(self, data: TopicData, msg: Any, log_ns: int) -> None:
-        """Take the numbers needed from one decoded message received at ``log_ns``."""
-        self.count(data, log_ns)
-        spec = data.spec
-        stamp = log_ns
-        if spec is not None and spec.clock is not None:
-            try:
-                stamp = spec.clock(msg)
-            except (AttributeError, TypeError, ValueError):
-                stamp = 0
-            if spec.boot:
-                if stamp <= 0:
-                    data.zero_stamp += 1
-                    return
-                delay = log_ns - stamp
-                if self.boot_offset_ns is None or delay < self.boot_offset_ns:
-                    self.boot_offset_ns = delay
-            elif stamp <= 0 or abs(stamp - log_ns) > PLAUSIBLE_NS:
-                data.bad_stamp += 1
-                stamp = log_ns
-        t = stamp * 1e-9 if spec is not None and spec.boot else (stamp - self.base_ns) * 1e-9
-        if spec is not None:
-            try:
-                row = spec.row(msg)
-            except (AttributeError, TypeError, ValueError, IndexError, KeyError) as err:
-                data.failed += 1
-                data.error = data.error or f"{type(err).__name__}: {err}"
-            else:
-                if not data.width:
-                    data.width = len(row)
-                data.rows.extend(row)
-                data.t.append(t)
-        for i, req in enumerate(data.requests):
-            try:
-                value = get_field(msg, req.field or "")
-            except (AttributeError, TypeError, ValueError, IndexError, KeyError):
-                continue
-            data.req_t[i].append(t)
-            data.req_v[i].append(value)
-
-    def count_many(self, data: TopicData, log_ns: np.ndarray) -> None:
-        """Count messages that are not decoded (record times ``log_ns``, in order)."""
-        if len(log_ns):
-            if self.base_ns is None:
-                self.base_ns = int(log_ns[0])
-            data.count += len(log_ns)
-            if data.first_ns is None:
-                data.first_ns = int(log_ns[0])
-            data.last_ns = int(log_ns[-1])
-
-    def add_rows(self, data: TopicData, stamps: np.ndarray, log_ns: np.ndarray,
-                 rows: np.ndarray) -> None:
-        """Vectorised :meth:`add` of a batch already turned into rows.
-
-        Parameters
-        ----------
-        data : TopicData
-            The topic (its spec gives the clock kind); no field requests.
-        stamps : numpy.ndarray
-            int64 message clock per message (``spec.clock``), ns.
-        log_ns : numpy.ndarray
-            int64 record times, ns.
-        rows : numpy.ndarray
-            float64 (messages, width): what ``spec.row`` gives per message.
-        """
-        spec = data.spec
-        assert spec is not None and not data.requests
-        self.count_many(data, log_ns)
-        stamps = np.array(stamps, dtype=np.int64)
-        if spec.boot:
-            ok = stamps > 0
-            data.zero_stamp += int((~ok).sum())
-            stamps, log_ns, rows = stamps[ok], log_ns[ok], rows[ok]
-            if len(stamps):
-                delay = int((log_ns - stamps).min())
-                if self.boot_offset_ns is None or delay < self.boot_offset_ns:
-                    self.boot_offset_ns = delay
-            t = stamps.astype(np.float64) * 1e-9
-        else:
-            bad = (stamps <= 0) | (np.abs(stamps - log_ns) > PLAUSIBLE_NS)
-            data.bad_stamp += int(bad.sum())
-            stamps[bad] = log_ns[bad]
-            t = (stamps - np.int64(self.base_ns)).astype(np.float64) * 1e-9
-        if not len(t):
-            return
-        if not data.width:
-            data.width = rows.shape[1]
-        data.rows.frombytes(np.ascontiguousarray(rows, dtype=np.float64).tobytes())
-        data.t.frombytes(np.ascontiguousarray(t).tobytes())
-
-    def finish(self, raw: RawLog) -> None:
-        """Fill ``raw`` with channels, signals, start time and issues."""
-        base = self.base_ns or 0
-        raw.start_time = base * 1e-9 if self.base_ns is not None else None
-        shift = ((self.boot_offset_ns or 0) - base) * 1e-9
-        for data in self.topics.values():
-            boot = data.spec is not None and data.spec.boot
-            signals = self._signals(data, raw, shift if boot else 0.0)
-            raw.signals.extend(signals)
-            note = data.note
-            if data.spec is not None and data.failed:
-                note = f"{data.failed} message(s) lacked the expected fields ({data.error})"
-                raw.dropped.append(Issue("message lacks expected fields", data.failed,
-                                         data.topic))
-            if data.bad_stamp:
-                raw.repaired.append(Issue("header.stamp zero or implausible, used record time",
-                                          data.bad_stamp, data.topic))
-            if data.zero_stamp:
-                raw.dropped.append(Issue("timestamp 0 (not set)", data.zero_stamp, data.topic))
-            raw.channels.append(Channel(
-                name=data.topic, type=data.msgtype, count=data.count,
-                t_first=None if data.first_ns is None else (data.first_ns - base) * 1e-9,
-                t_last=None if data.last_ns is None else (data.last_ns - base) * 1e-9,
-                columns=sorted({s.column for s in signals}, key=_column_order), note=note))
-
-    def _signals(self, data: TopicData, raw: RawLog, shift: float) -> list[Signal]:
-        out: list[Signal] = []
-        if data.spec is not None and data.width and len(data.t):
-            t = np.frombuffer(data.t, dtype=float) + shift
-            rows = np.frombuffer(data.rows, dtype=float).reshape(len(data.t), data.width)
-            batch = Batch(data.topic, t, rows, self.options, raw.dropped)
-            out = data.spec.finish(batch)
-        for req, tt, vv in zip(data.requests, data.req_t, data.req_v, strict=True):
-            if len(tt):
-                out.append(Signal(req.column, np.frombuffer(tt, dtype=float) + shift,
-                                  np.frombuffer(vv, dtype=float), f"{data.topic}.{req.field}",
-                                  priority=-1))
-        return out
-
-
-def _column_order(name: str) -> int:
-    from etsid.table import COLUMNS
-
-    names = list(COLUMNS)
-    return names.index(name) if name in names else len(names)

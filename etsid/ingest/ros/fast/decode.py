@@ -13,7 +13,7 @@ arrays (RC channels) whose lengths are constant. For such a batch this module:
    lengths and (CDR) the little-endian encapsulation, so the same offsets hold for all;
 3. reads the whole batch with one numpy structured dtype (:func:`numpy.frombuffer`) and
    builds the converter's rows with the vectorised row functions of
-   :mod:`etsid.ingest.ros_fast_rows`.
+   :mod:`etsid.ingest.ros.fast.rows`.
 
 Anything else (lengths differing within the batch, big-endian CDR, types without a
 vectorised row function, ``--map`` field requests, unsupported field types) returns
@@ -31,8 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from etsid.ingest.ros_fast_rows import FAST_ROWS, fast_clock
-from etsid.ingest.ros_messages import Converter, TopicData, message_type
+from etsid.ingest.ros.converter import Converter, TopicData
+from etsid.ingest.ros.fast.rows import FAST_ROWS, fast_clock
+from etsid.ingest.ros.messages import message_type
 
 ENABLED = os.environ.get("ETSID_ROS_FAST", "1") not in ("0", "false", "no", "off")
 """Master switch of the vectorised path (tests force it off to compare)."""
@@ -177,6 +178,10 @@ class Cols:
 
     def __init__(self, rec: np.ndarray, prefix: str = "") -> None:
         self._rec, self._prefix = rec, prefix
+
+    def __len__(self) -> int:
+        """Number of messages in the batch."""
+        return len(self._rec)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):

@@ -6,7 +6,7 @@ records and the records of each decompressed chunk (none/zstd/lz4) are located w
 ``struct.unpack_from`` each, and the message records of a run (the messages between two
 Schema/Channel records) are read at once with numpy gathers: channel id, log time, body
 offset and length. Same-length bodies of one channel come out as a (messages, bytes)
-array for :func:`etsid.ingest.ros_fast.decode_batch`.
+array for :func:`etsid.ingest.ros.fast.decode.decode_batch`.
 
 Only complete files (closing magic present) are read here; a cut or damaged file raises
 :class:`NotFast` and the caller uses the stream reader, which reports the damage.
@@ -168,7 +168,7 @@ def _chunk(buf: bytes, pos: int) -> bytes:
 
 def _top(handle: Any, end: int) -> Iterator[Any]:
     """Top-level records read one at a time (memory: one chunk); unchunked message records
-    are gathered into runs of up to ``_RUN_BYTES``."""
+    are gathered into runs of up to ``RUN_BYTES``."""
     run = bytearray()
     while handle.tell() < end:
         head = handle.read(9)
@@ -180,7 +180,7 @@ def _top(handle: Any, end: int) -> Iterator[Any]:
         if op == _OP_MESSAGE:
             run += head
             run += handle.read(length)
-            if len(run) > _RUN_BYTES:
+            if len(run) > RUN_BYTES:
                 yield from _walk(bytes(run), 0, len(run), False)
                 run = bytearray()
             continue
@@ -198,7 +198,8 @@ def _top(handle: Any, end: int) -> Iterator[Any]:
         yield from _walk(bytes(run), 0, len(run), False)
 
 
-_RUN_BYTES = 4 << 20
+RUN_BYTES = 4 << 20
+"""Bytes of message records gathered before a run is decoded."""
 
 
 def records(path: Path) -> Iterator[Any]:

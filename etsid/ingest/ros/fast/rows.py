@@ -1,6 +1,6 @@
-"""Vectorised twins of the per-message row functions of :mod:`etsid.ingest.ros_messages`.
+"""Vectorised twins of the per-message row functions of :mod:`etsid.ingest.ros.messages`.
 
-Each function takes a :class:`etsid.ingest.ros_fast.Cols` (the columns of a decoded batch,
+Each function takes a :class:`etsid.ingest.ros.fast.decode.Cols` (the columns of a decoded batch,
 read like a message) and returns the float64 rows (messages × width) that the
 per-message row function would give message by message, bit for bit: the same fields,
 the same order, the same float64 conversions (float32 and integers widen exactly, NaN
@@ -32,7 +32,7 @@ def _pad(values: np.ndarray, n: int, rows: int) -> np.ndarray:
 
 
 def _rows(m: Any) -> int:
-    return len(m._rec)
+    return len(m)
 
 
 def _imu(m: Any) -> np.ndarray:

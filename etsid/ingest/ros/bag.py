@@ -2,16 +2,16 @@
 
 Read with rosbags' :class:`~rosbags.highlevel.AnyReader`, streaming; each message is
 decoded only when its type maps to FlightTable columns (see
-:mod:`etsid.ingest.ros_messages` for types, frames, times and priorities) or a ``--map``
+:mod:`etsid.ingest.ros.messages` for types, frames, times and priorities) or a ``--map``
 asks for one of its fields. Messages are converted a batch per topic at a time: batches of
-same-length hot-type messages with numpy (:mod:`etsid.ingest.ros_fast`), the rest one by
+same-length hot-type messages with numpy (:mod:`etsid.ingest.ros.fast.decode`), the rest one by
 one with rosbags' deserialisers. Indexed ROS 1 bags are read by
-:mod:`etsid.ingest.ros_fast_ros1` and one-file ROS 2 bags straight from their storage by
-:mod:`etsid.ingest.ros_fast_ros2` when their layout allows it (same signals, verified).
+:mod:`etsid.ingest.ros.fast.ros1` and one-file ROS 2 bags straight from their storage by
+:mod:`etsid.ingest.ros.fast.ros2` when their layout allows it (same signals, verified).
 
 Definitions: those embedded in the bag (ROS 1 connection headers, ROS 2 metadata or
 storage schemas); for bags without them, ROS 2 Humble's standard types plus the shipped
-mavros_msgs / px4_msgs definitions (``etsid/ingest/msgdefs``).
+mavros_msgs / px4_msgs definitions (``etsid/rosmsgs/msgdefs``, :mod:`etsid.rosmsgs`).
 
 Real-world quirks handled:
 
@@ -32,12 +32,15 @@ from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
-from etsid.ingest import ros_fast, ros_fast_mcap, ros_fast_ros2
 from etsid.ingest.base import RawLog, ReadOptions
-from etsid.ingest.ros_fast import Batcher
-from etsid.ingest.ros_fast_ros1 import NotFast, Ros1Bag
-from etsid.ingest.ros_messages import Converter, TopicData, typestore
+from etsid.ingest.ros.converter import Converter, TopicData
+from etsid.ingest.ros.fast import decode as fast
+from etsid.ingest.ros.fast import mcap as fast_mcap
+from etsid.ingest.ros.fast import ros2 as fast_ros2
+from etsid.ingest.ros.fast.decode import Batcher
+from etsid.ingest.ros.fast.ros1 import NotFast, Ros1Bag
 from etsid.progress import progress
+from etsid.rosmsgs import typestore
 
 
 def read(path: Path, options: ReadOptions) -> RawLog:
@@ -131,15 +134,15 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
             _slow_one(conv, broken, deser, topic, typename, data, log_ns)
 
         batcher = Batcher(conv, slow)
-        fast = _read_ros2_fast(reader, paths, options, deser) if reader.is2 else None
+        done_fast = _read_ros2_fast(reader, paths, options, deser) if reader.is2 else None
         done = 0
         total = sum(_size(p) for p in paths)
         with progress(total, f"reading {paths[0].name}", options.progress) as bar:
-            if fast is not None:
-                conv, broken = fast
+            if done_fast is not None:
+                conv, broken = done_fast
                 bar.update(total)
             try:
-                for conn, log_ns, data in (() if fast is not None else reader.messages()):
+                for conn, log_ns, data in (() if done_fast is not None else reader.messages()):
                     topic = topics[conn.id]
                     if not topic.decode or topic.topic in broken:
                         conv.count(topic, log_ns)
@@ -162,10 +165,10 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
 
 def _read_ros2_fast(reader: Any, paths: list[Path], options: ReadOptions,
                     deser: Any) -> tuple[Converter, dict[str, str]] | None:
-    """A one-file ROS 2 bag through :mod:`etsid.ingest.ros_fast_ros2`; None when the
+    """A one-file ROS 2 bag through :mod:`etsid.ingest.ros.fast.ros2`; None when the
     rosbags iteration must be used."""
-    storage = ros_fast_ros2.storage_file(paths)
-    if not ros_fast.ENABLED or storage is None:
+    storage = fast_ros2.storage_file(paths)
+    if not fast.ENABLED or storage is None:
         return None
     if not sum(c.msgcount for c in reader.connections):
         return None
@@ -182,9 +185,9 @@ def _read_ros2_fast(reader: Any, paths: list[Path], options: ReadOptions,
         _slow_one(conv, broken, deser, topic, typename, data, log_ns)
 
     try:
-        ros_fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow,
+        fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow,
                            broken)
-    except (ros_fast_ros2.NotFast, ros_fast_mcap.NotFast, OSError):
+    except (fast_ros2.NotFast, fast_mcap.NotFast, OSError):
         return None
     return conv, broken
 
@@ -193,7 +196,7 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
     """Indexed ROS 1 bag through :class:`Ros1Bag`; None when rosbags must read it."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    if not ros_fast.ENABLED:
+    if not fast.ENABLED:
         return None
     try:
         bag = Ros1Bag(path)
@@ -222,7 +225,7 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
                 if not topic.decode or topic.topic in broken:
                     conv.count_many(topic, log_ns)
                     continue
-                if arr is not None and ros_fast.decode_batch(
+                if arr is not None and fast.decode_batch(
                         conv, topic, store.fielddefs, typename, arr, log_ns, cdr=False):
                     done += arr.size
                 else:

@@ -1,8 +1,8 @@
 """MCAP files (``.mcap``): ros1, ros2 (cdr) and json message encodings.
 
 One sequential pass (memory bounded by the output): complete files with the numpy record
-walker of :mod:`etsid.ingest.ros_fast_mcap` and batch decoding of
-:mod:`etsid.ingest.ros_fast`; files cut short (summary missing) or damaged with
+walker of :mod:`etsid.ingest.ros.fast.mcap` and batch decoding of
+:mod:`etsid.ingest.ros.fast.decode`; files cut short (summary missing) or damaged with
 :class:`mcap.stream_reader.StreamReader`. Messages are decoded per
 channel: ``cdr`` (ROS 2) and ``ros1`` with rosbags' generated deserializers built from the
 channel's schema (5-10x faster than the pure-Python mcap decoders, and the very code the
@@ -10,7 +10,7 @@ bag reader uses), falling back to mcap-ros2-support's / mcap-ros1-support's deco
 factories when rosbags cannot parse a schema; ``json`` with :func:`json.loads`. Only
 channels whose type maps to FlightTable columns (or that a ``--map`` field asks for) are
 decoded; the conversion is
-:mod:`etsid.ingest.ros_messages` (the same as for bags, so a ROS 2 bag's ``.mcap``
+:mod:`etsid.ingest.ros.messages` (the same as for bags, so a ROS 2 bag's ``.mcap``
 storage file gives the same signals as its bag directory). JSON messages use the field
 names of the ROS message they stand for; MAVLink messages as JSON (schema name
 ``mavlink.ATTITUDE`` …) are understood too.
@@ -30,10 +30,12 @@ from typing import Any
 import numpy as np
 
 from etsid.errors import IngestError
-from etsid.ingest import ros_fast, ros_fast_mcap
 from etsid.ingest.base import RawLog, ReadOptions
-from etsid.ingest.ros_fast import Batcher
-from etsid.ingest.ros_messages import Converter, TopicData, as_message
+from etsid.ingest.ros.converter import Converter, TopicData
+from etsid.ingest.ros.fast import decode as fast
+from etsid.ingest.ros.fast import mcap as fast_mcap
+from etsid.ingest.ros.fast.decode import Batcher
+from etsid.ingest.ros.messages import as_message
 from etsid.progress import progress
 
 
@@ -84,9 +86,9 @@ class _Decoders:
         """A decoder for ``encoding`` and ``schema``; raises ValueError when there is none."""
         if encoding == "json":
             return _json_decoder
-        fast = self._rosbags(encoding, schema)
-        if fast is not None:
-            return fast
+        decoder = self._rosbags(encoding, schema)
+        if decoder is not None:
+            return decoder
         for factory in self.factories:
             decoder = factory.decoder_for(encoding, schema)
             if decoder is not None:
@@ -107,13 +109,13 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     from mcap.stream_reader import StreamReader
 
     path = Path(path)
-    if ros_fast.ENABLED:
+    if fast.ENABLED:
         raw = RawLog(path=path, format="mcap")
         state = _State(options, raw)
         try:
-            for record in ros_fast_mcap.records(path):
+            for record in fast_mcap.records(path):
                 state.record(record)
-        except ros_fast_mcap.NotFast:
+        except fast_mcap.NotFast:
             pass
         else:
             return state.finish()
@@ -166,7 +168,7 @@ class _State:
         """Take a Schema, Channel or Header record, or a run of messages (numpy walk)."""
         from mcap.records import Channel, Header, Schema
 
-        if isinstance(record, ros_fast_mcap.Messages):
+        if isinstance(record, fast_mcap.Messages):
             self.run(record)
         elif isinstance(record, Schema):
             self.schemas[record.id] = record
@@ -186,7 +188,7 @@ class _State:
             _take(self.conv, self.batcher, entry, record.log_time, record.data, self.decoders,
                   self.broken)
 
-    def run(self, run: ros_fast_mcap.Messages) -> None:
+    def run(self, run: fast_mcap.Messages) -> None:
         """Take a run of messages at once: vectorised per channel where possible."""
         self.messages += len(run.channel)
         known = np.isin(run.channel, list(self.channels))
@@ -208,9 +210,9 @@ class _State:
                     self.conv.count_many(topic, logs[1:])
                     continue
             arr, bodies = run.bodies(mask)
-            if arr is not None and state[3] is not None and ros_fast.fast_kind(topic):
+            if arr is not None and state[3] is not None and fast.fast_kind(topic):
                 self.batcher.flush(topic.topic)
-                if ros_fast.decode_batch(self.conv, topic, state[3][0], state[3][1], arr, logs,
+                if fast.decode_batch(self.conv, topic, state[3][0], state[3][1], arr, logs,
                                          state[3][2]):
                     continue
             if arr is not None:

@@ -3,8 +3,8 @@
 rosbags (opened first: connections, type definitions, start time) yields one message at a
 time in time order across topics (≈ 150 k msg/s before any decoding). Here the storage file
 is read in storage order, a batch at a time (sqlite3: one scan of the messages table; mcap:
-:mod:`etsid.ingest.ros_fast_mcap`) and split per topic, and each batch goes to
-:func:`etsid.ingest.ros_fast.decode_batch` or, message by message, to the slow path.
+:mod:`etsid.ingest.ros.fast.mcap`) and split per topic, and each batch goes to
+:func:`etsid.ingest.ros.fast.decode.decode_batch` or, message by message, to the slow path.
 
 The result equals rosbags' order only when every topic's record times strictly increase
 and the bag's start time is the smallest record time; both are verified while reading, and
@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from etsid.ingest import ros_fast, ros_fast_mcap
-from etsid.ingest.ros_messages import Converter, TopicData
+from etsid.ingest.ros.converter import Converter, TopicData
+from etsid.ingest.ros.fast import decode as fast
+from etsid.ingest.ros.fast import mcap as fast_mcap
 
 Slow = Callable[[TopicData, str, bytes, int], None]
 
@@ -72,7 +73,7 @@ def _take(conv: Converter, topic: TopicData, typename: str, fielddefs: dict[str,
     if not topic.decode or topic.topic in broken:
         conv.count_many(topic, log_ns)
         return
-    if arr is not None and ros_fast.decode_batch(conv, topic, fielddefs, typename, arr,
+    if arr is not None and fast.decode_batch(conv, topic, fielddefs, typename, arr,
                                                  log_ns, cdr=True):
         return
     if arr is not None:
@@ -124,7 +125,7 @@ def _sqlite(path: Path, by_topic: dict[str, Any], decode: set[str]) -> Iterator[
         wanted = ",".join(str(int(i)) for i, name in ids.items() if name in decode) or "-1"
         cur = db.execute("SELECT topic_id, timestamp, CASE WHEN topic_id IN "
                          f"({wanted}) THEN data END FROM messages")
-        while rows := cur.fetchmany(ros_fast.BATCH):
+        while rows := cur.fetchmany(fast.BATCH):
             tids, logs, datas = zip(*rows, strict=True)
             tid = np.array(tids, dtype=np.int64)
             log_ns = np.array(logs, dtype=np.int64)
@@ -137,7 +138,7 @@ def _sqlite(path: Path, by_topic: dict[str, Any], decode: set[str]) -> Iterator[
                     yield name, None, [], log_ns[idx]
                     continue
                 bodies = [datas[i] for i in idx.tolist()]
-                arr = ros_fast.same_length(bodies)
+                arr = fast.same_length(bodies)
                 yield name, arr, ([] if arr is not None else bodies), log_ns[idx]
     except sqlite3.Error as err:
         raise NotFast(str(err)) from err
@@ -149,12 +150,12 @@ def _mcap(path: Path, by_topic: dict[str, Any], decode: set[str]) -> Iterator[Ba
     from mcap.records import Channel
 
     names: dict[int, str] = {}
-    for record in ros_fast_mcap.records(path):
+    for record in fast_mcap.records(path):
         if isinstance(record, Channel):
             if record.topic not in by_topic:
                 raise NotFast("storage topics differ from the metadata")
             names[record.id] = record.topic
-        elif isinstance(record, ros_fast_mcap.Messages):
+        elif isinstance(record, fast_mcap.Messages):
             for cid in np.unique(record.channel).tolist():
                 if cid not in names:
                     raise NotFast("message on an unknown channel")

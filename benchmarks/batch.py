@@ -1,0 +1,151 @@
+"""``etsid batch identify`` over a simulated fleet: throughput, CPU efficiency, determinism.
+
+Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--dask]
+
+1. Writes a fleet of ``--logs`` simulated flights (``etsid.sim.simulate`` +
+   ``etsid.sim.writers.write_log``) in mixed formats — tlog, ROS 1 bag, ROS 2 bag directory
+   (sqlite3), MCAP — and scenarios, ``--duration`` s ±20 % each, plus ``--broken`` broken
+   logs (garbage, an empty file, a truncated bag, a flight too short to identify). The
+   fleet is kept in ``--fleet`` (default: a temporary directory) and reused when it exists.
+2. Runs ``run_batch`` (what ``etsid batch identify`` calls) once per ``--jobs`` value on the
+   local process pool, and with ``--dask`` on a Dask LocalCluster (``--scheduler
+   processes``) with the largest job count.
+3. Prints throughput in logs/min, the speed-up and the CPU efficiency against ``--jobs 1``
+   (efficiency = speed-up / jobs; "workers busy" = summed per-log wall time / (jobs × batch
+   wall time)), the peak memory per worker against the largest log, and
+   checks that every run gives the same rows bit for bit (all columns but wall time, peak
+   memory, worker and finish time) and that every broken log is an error row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import shutil
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from etsid.batch import VOLATILE, BatchSpec, default_jobs, find_inputs, read_results, run_batch
+from etsid.ident import IdentConfig
+from etsid.ingest import ReadOptions
+
+FORMATS = (".tlog", ".bag", ".db3", ".mcap")
+SCENARIOS = ("hover-ige", "steps", "forward-flight", "sine-altitude", "hover-oge")
+
+
+def _write_one(args: tuple[Path, int, float]) -> str:
+    from etsid.sim import simulate
+    from etsid.sim.writers import write_log
+
+    root, index, duration = args
+    scenario = SCENARIOS[index % len(SCENARIOS)]
+    suffix = FORMATS[(index // len(SCENARIOS)) % len(FORMATS)]
+    flight = simulate(scenario, duration=duration, seed=index)
+    return str(write_log(flight.table, root / f"flight{index:04d}-{scenario}{suffix}"))
+
+
+def make_fleet(root: Path, n: int, duration: float, broken: int, jobs: int) -> list[str]:
+    """Simulated fleet in ``root`` (made once; reused when ``root/done`` exists)."""
+    if (root / "done").exists():
+        return find_inputs([root])
+    root.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    durations = duration * rng.uniform(0.8, 1.2, n - broken)
+    with ProcessPoolExecutor(jobs) as pool:
+        written = list(pool.map(_write_one, [(root, i, float(d))
+                                             for i, d in enumerate(durations)]))
+    bad = root / "broken"
+    bad.mkdir(exist_ok=True)
+    makers = [
+        lambda i: (bad / f"garbage{i}.tlog").write_bytes(b"\xfe\x09" + bytes(range(200))),
+        lambda i: (bad / f"empty{i}.ulg").write_bytes(b""),
+        lambda i: (bad / f"truncated{i}.bag").write_bytes(
+            Path(next(w for w in written if w.endswith(".bag"))).read_bytes()[:3000]),
+        lambda i: _short_flight(bad / f"short{i}.tlog"),
+    ]
+    for i in range(broken):
+        makers[i % len(makers)](i)
+    (root / "done").write_text("")
+    return find_inputs([root])
+
+
+def _short_flight(path: Path) -> None:
+    from etsid.sim import simulate
+    from etsid.sim.writers import write_log
+
+    write_log(simulate("steps", duration=0.3, seed=1).table, path)
+
+
+def timed_batch(logs: list[str], out: Path, jobs: int, scheduler: str) -> float:
+    """Wall time of one batch into ``out`` (a fresh directory), s."""
+    shutil.rmtree(out, ignore_errors=True)
+    spec = BatchSpec("identify", read_options=ReadOptions(), ident_config=IdentConfig())
+    wall = time.perf_counter()
+    run_batch(logs, spec, out, jobs=jobs, scheduler=scheduler)
+    return time.perf_counter() - wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--logs", type=int, default=200, help="fleet size (with the broken)")
+    parser.add_argument("--duration", type=float, default=25.0, help="mean flight, s")
+    parser.add_argument("--broken", type=int, default=6, help="broken logs in the fleet")
+    parser.add_argument("--jobs", default=None, help="comma-separated job counts "
+                        "(default: 1 and every core)")
+    parser.add_argument("--dask", action="store_true", help="also a Dask LocalCluster run")
+    parser.add_argument("--fleet", type=Path, default=None, help="fleet directory (kept)")
+    args = parser.parse_args()
+    cores = default_jobs()
+    jobs = sorted({int(j) for j in args.jobs.split(",")} if args.jobs else {1, cores})
+    work = Path(tempfile.mkdtemp(prefix="etsid-batch-bench-"))
+    fleet = args.fleet or work / "fleet"
+    t0 = time.perf_counter()
+    logs = make_fleet(fleet, args.logs, args.duration, args.broken, cores)
+    sizes = {p: sum(f.stat().st_size for f in Path(p).rglob("*") if f.is_file())
+             if Path(p).is_dir() else Path(p).stat().st_size for p in logs}
+    print(f"# {platform.machine()}, {os.cpu_count()} cpus ({cores} usable), python "
+          f"{platform.python_version()}, load {os.getloadavg()[0]:.1f}")
+    print(f"fleet: {len(logs)} logs ({args.broken} broken), {sum(sizes.values()) / 2**20:.0f} "
+          f"MB, largest {max(sizes.values()) / 2**20:.1f} MB, made in "
+          f"{time.perf_counter() - t0:.0f} s ({fleet})")
+    runs = [(j, "local") for j in jobs] + ([(max(jobs), "processes")] if args.dask else [])
+    results = {}
+    base = None
+    for j, scheduler in runs:
+        out = work / f"out-{scheduler}-{j}"
+        wall = timed_batch(logs, out, j, scheduler)
+        frame = read_results(out)
+        results[(j, scheduler)] = frame
+        if base is None and j == 1:
+            base = wall
+        speedup = base / wall if base else float("nan")
+        busy = frame["wall_s"].sum() / (j * wall) * 100
+        print(f"{scheduler:>9} jobs {j}: {wall:7.1f} s wall, "
+              f"{len(logs) / wall * 60:6.1f} logs/min, speed-up {speedup:4.2f}, "
+              f"efficiency {speedup / j * 100:5.1f} % of linear, workers busy {busy:4.1f} %; "
+              "peak memory per worker "
+              f"max {frame['peak_rss_mb'].max():.0f} MB, median "
+              f"{frame['peak_rss_mb'].median():.0f} MB")
+    frames = [f.drop(columns=list(VOLATILE)) for f in results.values()]
+    same = all(f.equals(frames[0]) for f in frames[1:])
+    print(f"rows identical bit for bit across {len(frames)} runs (all but "
+          f"{', '.join(VOLATILE)}): {same}")
+    first = next(iter(results.values()))
+    failed = first[first["status"] == "error"]
+    broken = [p for p in logs if "/broken/" in p]
+    print(f"error rows: {len(failed)} (broken logs {len(broken)}, all rows: "
+          f"{set(broken) <= set(failed['input'])})")
+    for _, row in failed.iterrows():
+        print(f"  {Path(row['input']).name}: {row['error_kind']}: {row['error'][:110]}")
+    shutil.rmtree(work / "out-local-1", ignore_errors=True)
+    if not same or not set(broken) <= set(failed["input"]):
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,191 @@
+"""What a batch runs over: log files found in directories, list files and fsspec URLs.
+
+An input is a local path or an fsspec URL (``s3://…``, ``gcs://…``, ``file://…``); the
+reader always gets a local path (a URL is copied to a temporary file by the worker, see
+:mod:`etsid.batch.fetch`).
+
+* a file with a log or saved-table extension is one log;
+* a directory is searched recursively for every supported log format; a directory with
+  ``metadata.yaml`` is one ROS 2 bag and is not searched further;
+* a ``.txt`` / ``.list`` / ``.lst`` file lists one input per line (``#`` starts a
+  comment; relative paths are relative to the list file);
+* for ``gap``, a ``.csv`` file of ``SIM,REAL`` pairs (optional header ``sim,real``).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+from etsid.errors import BatchError
+
+LOG_SUFFIXES = (".tlog", ".bin", ".ulg", ".bag", ".db3", ".mcap")
+"""File extensions searched for in directories (the readers of :mod:`etsid.ingest`)."""
+
+TABLE_SUFFIXES = (".parquet", ".csv")
+"""Saved FlightTables: taken when named, never searched for (a folder of results is full of
+Parquet files that are not flight tables)."""
+
+LIST_SUFFIXES = (".txt", ".list", ".lst")
+"""Files that list inputs, one per line."""
+
+BAG_METADATA = "metadata.yaml"
+
+
+def is_url(text: str) -> bool:
+    """True for an fsspec URL (``scheme://…``), False for a local path."""
+    scheme, sep, _ = text.partition("://")
+    return bool(sep) and scheme.isidentifier() and len(scheme) > 1
+
+
+def _local_key(path: Path) -> str:
+    return os.path.normpath(os.path.abspath(path))
+
+
+def _walk_local(root: Path, exclude: Path | None) -> list[str]:
+    """Logs below ``root``: files with a log extension and ROS 2 bag directories."""
+    found: list[str] = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        here = Path(dirpath)
+        if exclude is not None and _local_key(here) == _local_key(exclude):
+            dirnames[:] = []
+            continue
+        if BAG_METADATA in filenames and here != root:
+            found.append(str(here))
+            dirnames[:] = []
+            continue
+        if BAG_METADATA in filenames:  # the root itself is a bag
+            return [str(root)]
+        dirnames.sort()
+        found.extend(str(here / name) for name in sorted(filenames)
+                     if Path(name).suffix.lower() in LOG_SUFFIXES)
+    return found
+
+
+def _walk_url(url: str) -> list[str]:
+    """Logs below a directory URL (needs fsspec); a bag directory is one input."""
+    fs, root = _url_fs(url)
+    if not fs.isdir(root):
+        return [url]
+    protocol = url.split("://", 1)[0]
+    files = sorted(fs.find(root))
+    bags = sorted({str(Path(f).parent) for f in files if Path(f).name == BAG_METADATA})
+    found = [f"{protocol}://{b}" for b in bags]
+    for f in files:
+        if Path(f).suffix.lower() in LOG_SUFFIXES and not any(
+                f.startswith(b.rstrip("/") + "/") for b in bags):
+            found.append(f"{protocol}://{f}")
+    return sorted(found)
+
+
+def _url_fs(url: str):  # type: ignore[no-untyped-def]
+    try:
+        import fsspec
+    except ImportError as err:
+        raise BatchError(f"{url}: URLs need fsspec (pip install \"etsid[cluster]\")") from err
+    try:
+        return fsspec.core.url_to_fs(url)
+    except (ImportError, ValueError) as err:
+        raise BatchError(f"{url}: cannot open this URL ({err})") from err
+
+
+def _read_list(path: Path) -> list[str]:
+    try:
+        lines = path.read_text().splitlines()
+    except (OSError, UnicodeDecodeError) as err:
+        raise BatchError(f"{path}: cannot read the list of inputs ({err})") from err
+    items = []
+    for line in lines:
+        text = line.split("#", 1)[0].strip()
+        if not text:
+            continue
+        if is_url(text) or Path(text).is_absolute():
+            items.append(text)
+        else:
+            items.append(str(path.parent / text))
+    return items
+
+
+def find_inputs(items: Iterable[str | Path], exclude: Path | None = None) -> list[str]:
+    """Expand INPUTS into the logs of a batch, in a stable order, each once.
+
+    Parameters
+    ----------
+    items
+        Files, directories, list files or fsspec URLs, as given on the command line.
+    exclude
+        A directory never searched (the batch's own ``--out``).
+
+    Notes
+    -----
+    A named path that does not exist stays an input: it becomes an error row
+    ("no such file or directory") rather than stopping the batch.
+    """
+    seen: set[str] = set()
+    out: list[str] = []
+
+    def add(item: str) -> None:
+        key = item if is_url(item) else _local_key(Path(item))
+        if key not in seen:
+            seen.add(key)
+            out.append(item)
+
+    for raw in items:
+        item = str(raw)
+        if is_url(item):
+            for found in _walk_url(item):
+                add(found)
+            continue
+        path = Path(item)
+        if path.is_dir():
+            for found in _walk_local(path, exclude):
+                add(found)
+        elif path.is_file() and path.suffix.lower() in LIST_SUFFIXES:
+            for listed in find_inputs(_read_list(path), exclude):
+                add(listed)
+        else:
+            add(item)
+    return out
+
+
+def read_pairs(items: Iterable[str | Path]) -> list[tuple[str, str]]:
+    """``(sim, real)`` pairs from CSV files of two columns ``SIM,REAL``.
+
+    A first row ``sim,real`` (any case) is a header; relative paths are relative to the
+    CSV file; blank lines and lines starting with ``#`` are skipped.
+
+    Raises
+    ------
+    BatchError
+        A file that cannot be read or a row without exactly two paths.
+    """
+    pairs: list[tuple[str, str]] = []
+    for raw in items:
+        path = Path(raw)
+        try:
+            rows = list(csv.reader(path.read_text().splitlines()))
+        except (OSError, UnicodeDecodeError) as err:
+            raise BatchError(f"{path}: cannot read the pairs CSV ({err})") from err
+        for number, row in enumerate(rows, start=1):
+            cells = [c.strip() for c in row]
+            if not cells or not any(cells) or cells[0].startswith("#"):
+                continue
+            if number == 1 and [c.lower() for c in cells] == ["sim", "real"]:
+                continue
+            if len(cells) != 2 or not all(cells):
+                raise BatchError(f"{path}: line {number}: expected SIM,REAL (two paths), "
+                                 f"got {','.join(cells)!r}")
+            pairs.append(tuple(  # type: ignore[arg-type]
+                c if is_url(c) or Path(c).is_absolute() else str(path.parent / c)
+                for c in cells))
+    return pairs
+
+
+def run_name(item: str) -> str:
+    """A readable file-name stem for an input (its base name without extension)."""
+    name = item.rstrip("/").rsplit("/", 1)[-1] or "log"
+    stem = Path(name).stem if Path(name).suffix.lower() in (
+        *LOG_SUFFIXES, *TABLE_SUFFIXES) else name
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in stem)[:60] or "log"

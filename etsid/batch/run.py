@@ -1,0 +1,167 @@
+"""``etsid batch``: run one command over many logs, a result row per log.
+
+Every log runs independently, with the same options, in its own run directory
+``DIR/runs/COMMAND-DIGEST/NAME-HASH/``; its row lands in ``DIR/results/`` the moment it
+finishes. ``DIR/batch.json`` records the command, the options and how the batch ended.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from etsid.batch.results import done_keys, write_row
+from etsid.batch.spec import COMMANDS, BatchSpec
+from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
+from etsid.batch.worker import Item, Outcome
+from etsid.errors import BatchError
+from etsid.progress import progress
+
+SCHEDULERS = ("local", "processes")
+"""``--scheduler`` names; anything else is a Dask scheduler address (``dask://HOST:PORT``)."""
+
+
+@dataclass
+class BatchSummary:
+    """How a batch went: counts, wall time and the failed logs with their errors."""
+
+    out: Path
+    total: int = 0
+    ok: int = 0
+    failed: int = 0
+    skipped: int = 0
+    wall_s: float = 0.0
+    failures: list[tuple[str, str]] = field(default_factory=list)
+
+
+def default_jobs() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def _runner(spec: BatchSpec, out: Path, done: frozenset[str], jobs: int, scheduler: str,
+            max_memory_mb: float | None) -> Any:
+    if scheduler == "local":
+        from etsid.batch.local import LocalRunner
+
+        return LocalRunner(spec, out, done, jobs, max_memory_mb)
+    from etsid.batch.cluster import DaskRunner, scheduler_address
+
+    if scheduler != "processes" and "://" not in scheduler:
+        raise BatchError(f"--scheduler {scheduler!r}: use local, processes or "
+                         "dask://HOST:PORT")
+    return DaskRunner(spec, out, done, jobs, scheduler_address(scheduler))
+
+
+def _write_meta(out: Path, data: dict[str, Any]) -> None:
+    path = out / "batch.json"
+    tmp = out / ".batch.json.tmp"
+    tmp.write_text(json.dumps(data, indent=1, default=str) + "\n")
+    os.replace(tmp, path)
+
+
+def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | None = None,
+              scheduler: str = "local", resume: bool = False, show_progress: bool = False,
+              max_memory_mb: float | None = None) -> BatchSummary:
+    """Run ``spec.command`` on every item and write a result row per item.
+
+    Parameters
+    ----------
+    items
+        Logs (paths or URLs; :func:`etsid.batch.find_inputs`), or ``(sim, real)`` pairs
+        for ``gap`` (:func:`etsid.batch.read_pairs`).
+    out
+        Batch directory (created); rows go to ``out/results/``.
+    jobs
+        Worker processes (default: every core).
+    scheduler
+        ``local`` (a process pool here), ``processes`` (a Dask LocalCluster here) or a
+        Dask scheduler address ``dask://HOST:PORT``.
+    resume
+        Skip every log with a row for the same input hash and options.
+    show_progress
+        Progress bar over logs on stderr.
+    max_memory_mb
+        Memory (RSS) limit of each local pool worker, MB (None: no limit); a log that
+        passes it becomes a MemoryError row.
+
+    Raises
+    ------
+    BatchError
+        Unknown command or scheduler, no inputs, gap analysis not available.
+    KeyboardInterrupt
+        Ctrl-C: workers stopped; the rows written so far stay, ``--resume`` continues.
+    """
+    if spec.command not in COMMANDS:
+        raise BatchError(f"unknown batch command {spec.command!r}")
+    if spec.command == "gap" and not gap_available():
+        raise BatchError(GAP_UNAVAILABLE)
+    if not items:
+        raise BatchError("no logs to run: the inputs hold no file of a supported format")
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise BatchError(f"{out}: cannot create the batch directory ({err.strerror})") from err
+    jobs = max(1, jobs or default_jobs())
+    digest = spec.digest()
+    done = done_keys(out, spec.command, digest) if resume else frozenset()
+    runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb)
+    summary = BatchSummary(out, total=len(items))
+    meta: dict[str, Any] = {
+        "schema": "etsid.batch/1", "command": spec.command, "options_digest": digest,
+        "options": spec.options(), "inputs": len(items), "jobs": jobs,
+        "scheduler": scheduler, "resume": resume,
+        "started": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+    }
+    _write_meta(out, meta)
+    start = time.perf_counter()
+    running = 0
+    with progress(len(items), f"{spec.command} logs", show_progress) as bar:
+
+        def status() -> str:
+            return (f"ok {summary.ok} · failed {summary.failed} · running {running}"
+                    + (f" · skipped {summary.skipped}" if summary.skipped else ""))
+
+        def on_running(n: int) -> None:
+            nonlocal running
+            if n != running:
+                running = n
+                bar.update(0, status())
+
+        def on_done(outcome: Outcome) -> None:
+            if outcome.row is None:
+                summary.skipped += 1
+            else:
+                write_row(out, spec.command, outcome.row, outcome.key)
+                if outcome.row["status"] == "ok":
+                    summary.ok += 1
+                else:
+                    summary.failed += 1
+                    summary.failures.append((outcome.row["input"], outcome.row["error"]))
+            bar.update(1, status())
+
+        try:
+            runner.run(items, on_done, on_running)
+        except KeyboardInterrupt:
+            meta.update(ended="interrupted", **_counts(summary, start))
+            _write_meta(out, meta)
+            raise
+    summary.wall_s = time.perf_counter() - start
+    meta.update(ended="finished", **_counts(summary, start))
+    _write_meta(out, meta)
+    return summary
+
+
+def _counts(summary: BatchSummary, start: float) -> dict[str, Any]:
+    return {"ok": summary.ok, "failed": summary.failed, "skipped": summary.skipped,
+            "wall_s": round(time.perf_counter() - start, 3),
+            "finished": dt.datetime.now(dt.UTC).isoformat(timespec="seconds")}

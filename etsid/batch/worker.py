@@ -1,0 +1,237 @@
+"""One log of a batch, start to finish: fetch, hash, skip or run, and a result row.
+
+:func:`run_log` never raises for a bad log: any error becomes the row's one-line ``error``
+(a :class:`KeyboardInterrupt` still stops it). It runs the same in the parent
+(``--jobs 1``), in a process of the local pool, and on a Dask worker.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import hashlib
+import os
+import resource
+import shutil
+import signal
+import socket
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from etsid import __version__
+from etsid.batch import tasks
+from etsid.batch.inputs import is_url, run_name
+from etsid.batch.results import RUNS
+from etsid.batch.spec import BatchSpec
+from etsid.errors import BatchError, EtsidError
+
+Item = str | tuple[str, str]
+"""A log (path or URL), or for ``gap`` a ``(sim, real)`` pair."""
+
+
+@dataclass
+class Outcome:
+    """What one log gave: its row, or ``row=None`` when ``--resume`` skipped it."""
+
+    item: Item
+    key: str | None
+    row: dict[str, Any] | None
+
+
+def sha256(path: Path) -> str:
+    """SHA-256 (hex) of a file, or of every file below a directory in path order."""
+    digest = hashlib.sha256()
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for item in files:
+        with item.open("rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+    return digest.hexdigest()
+
+
+@contextlib.contextmanager
+def local_copy(item: str) -> Iterator[Path]:
+    """A local path for ``item``: the path itself, or a URL copied to a temporary directory
+    (a bag directory URL recursively), removed afterwards."""
+    if not is_url(item):
+        path = Path(item)
+        if not path.exists():
+            raise BatchError(f"{item}: no such file or directory")
+        yield path
+        return
+    from etsid.batch.inputs import _url_fs
+
+    fs, remote = _url_fs(item)
+    tmp = Path(tempfile.mkdtemp(prefix="etsid-batch-"))
+    try:
+        local = tmp / (remote.rstrip("/").rsplit("/", 1)[-1] or "log")
+        try:
+            if fs.isdir(remote):
+                fs.get(remote.rstrip("/") + "/", str(local), recursive=True)
+            else:
+                fs.get(remote, str(local))
+        except (OSError, ValueError) as err:
+            raise BatchError(f"{item}: cannot fetch ({err})") from err
+        yield local
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def reset_peak_memory() -> None:
+    """Start a new peak-RSS measurement (Linux: clears VmHWM; elsewhere a no-op)."""
+    with contextlib.suppress(OSError), open("/proc/self/clear_refs", "w") as handle:
+        handle.write("5")
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process since :func:`reset_peak_memory`, MB."""
+    with contextlib.suppress(OSError, ValueError, IndexError), \
+            open("/proc/self/status") as handle:
+        for line in handle:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def one_line(err: BaseException) -> str:
+    """The first line of an error message (the class name for an empty one)."""
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__
+
+
+def error_fields(err: BaseException) -> dict[str, Any]:
+    """``status``/``error``/``error_kind`` of a failed log."""
+    if isinstance(err, MemoryError):
+        text = one_line(err) if str(err).startswith("out of memory") else (
+            "out of memory (give the worker more memory)")
+    elif isinstance(err, EtsidError):
+        text = one_line(err)
+    else:
+        text = f"internal error: {type(err).__name__}: {one_line(err)}"
+    return {"status": "error", "error": text, "error_kind": type(err).__name__}
+
+
+def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[str],
+         row: dict[str, Any]) -> bool:
+    """Fill ``row`` for one log (hash and run directory first, so that they stay in an
+    error row); False when the log is in ``done`` (skipped)."""
+    with contextlib.ExitStack() as stack:
+        if isinstance(item, tuple):
+            sim = stack.enter_context(local_copy(item[0]))
+            real = stack.enter_context(local_copy(item[1]))
+            row.update(sim_sha256=sha256(sim), input_sha256=sha256(real))
+            key = hashlib.sha256(f"{row['sim_sha256']}:{row['input_sha256']}".encode())
+            row["_key"] = key.hexdigest()
+            if row["_key"][:32] in done:
+                return False
+            run_dir = out / RUNS / f"gap-{digest[:8]}" / f"{run_name(item[1])}-{row['_key'][:12]}"
+            row["run_dir"] = run_dir.relative_to(out).as_posix()
+            row.update(tasks.gap(sim, real, spec, run_dir))
+            return True
+        path = stack.enter_context(local_copy(item))
+        row["_local"] = str(path)
+        row["input_sha256"] = row["_key"] = sha256(path)
+        if row["_key"][:32] in done:
+            return False
+        name = f"{run_name(item)}-{row['_key'][:12]}"
+        run_dir = out / RUNS / f"{spec.command}-{digest[:8]}" / name
+        row["run_dir"] = run_dir.relative_to(out).as_posix()
+        row.update(tasks.RUNNERS[spec.command](path, spec, run_dir))
+        return True
+
+
+def run_log(item: Item, spec: BatchSpec, out: str | Path,
+            done: frozenset[str] = frozenset()) -> Outcome:
+    """Run ``spec.command`` on one log (or pair) and return its :class:`Outcome`.
+
+    Parameters
+    ----------
+    item
+        A path or URL; for ``gap`` a ``(sim, real)`` pair.
+    out
+        The batch directory (run directories go to ``out/runs/``).
+    done
+        Result keys (first 32 hex digits of the input hash) already in the results for
+        this options digest; such a log is skipped.
+    """
+    out = Path(out)
+    digest = spec.digest()
+    start = time.perf_counter()
+    reset_peak_memory()
+    row: dict[str, Any] = {"input": item[1] if isinstance(item, tuple) else item,
+                           "sim_input": item[0] if isinstance(item, tuple) else None,
+                           "options_digest": digest, "status": "ok"}
+    try:
+        if not _run(item, spec, out, digest, done, row):
+            return Outcome(item, row.get("_key"), None)
+    except Exception as err:  # one bad log never stops the batch: it becomes a row
+        row.update(error_fields(err))
+        if row.get("_local") and row["_local"] != item:  # name the URL, not the copy
+            row["error"] = row["error"].replace(row["_local"], str(item))
+    row.pop("_local", None)
+    key = row.pop("_key", None)
+    row.update(wall_s=time.perf_counter() - start, peak_rss_mb=peak_memory_mb(),
+               worker=f"{socket.gethostname()}:{os.getpid()}", etsid_version=__version__,
+               finished=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"))
+    return Outcome(item, key, row)
+
+
+# -- process-pool workers: the batch's fixed arguments are set once per process ----------
+
+_STATE: dict[str, Any] = {}
+
+
+def _rss_mb() -> float | None:
+    with contextlib.suppress(OSError, ValueError, IndexError), \
+            open("/proc/self/statm") as handle:
+        return int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    return None
+
+
+def _over_limit(signum: int, frame: Any) -> None:
+    raise MemoryError(f"out of memory: the log needed more than --max-memory "
+                      f"{_STATE['max_memory_mb']:g} MB")
+
+
+def _watch_memory(limit_mb: float, period_s: float = 0.05) -> None:
+    """Thread body: when this process's RSS passes ``limit_mb``, interrupt the main thread
+    with a MemoryError (at its next Python instruction)."""
+    main = threading.main_thread().ident
+    fired = None
+    while True:
+        time.sleep(period_s)
+        running = _STATE.get("running")
+        if running is None or running == fired or main is None:
+            continue
+        rss = _rss_mb()
+        if rss is not None and rss > limit_mb:
+            fired = running  # once per log
+            signal.pthread_kill(main, signal.SIGUSR1)
+
+
+def init_worker(spec: BatchSpec, out: str, done: frozenset[str],
+                max_memory_mb: float | None) -> None:
+    """Initializer of a pool process: ignore Ctrl-C (the parent stops the pool), watch the
+    memory when asked, import the command's modules, keep the batch arguments."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for name in tasks.PRELOAD:
+        __import__(name)
+    _STATE.update(spec=spec, out=out, done=done, max_memory_mb=max_memory_mb)
+    if max_memory_mb and _rss_mb() is not None:
+        signal.signal(signal.SIGUSR1, _over_limit)
+        threading.Thread(target=_watch_memory, args=(max_memory_mb,), daemon=True).start()
+
+
+def run_pooled(item: Item) -> Outcome:
+    """:func:`run_log` with the arguments :func:`init_worker` kept."""
+    _STATE["running"] = _STATE.get("count", 0) + 1
+    _STATE["count"] = _STATE["running"]
+    try:
+        return run_log(item, _STATE["spec"], _STATE["out"], _STATE["done"])
+    finally:
+        _STATE["running"] = None

@@ -1,0 +1,170 @@
+"""``etsid batch inspect|ingest|identify|gap``: one command over many logs.
+
+Each batch command takes the options of the single command of the same name (the very same
+click options, so the two never drift apart) plus the batch options.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+import click
+
+from etsid.batch import (
+    BatchSpec,
+    BatchSummary,
+    find_inputs,
+    read_pairs,
+    run_batch,
+)
+from etsid.cli.ident_cmds import identify_cmd
+from etsid.cli.ingest_cmds import ingest as ingest_cmd
+from etsid.cli.ingest_cmds import inspect as inspect_cmd
+from etsid.cli.options import read_options
+from etsid.progress import wanted
+
+_NOT_BATCH = {"log", "out", "as_json", "quiet"}
+"""Parameters of the single commands a batch sets itself."""
+
+
+def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
+    func = click.option("--quiet", "-q", is_flag=True, help="No progress bar.")(func)
+    func = click.option("--max-memory", "max_memory_mb", type=click.FloatRange(100),
+                        default=None, metavar="MB",
+                        help="Memory limit of each local worker process, MB: a log whose "
+                             "worker grows past it becomes an error row (default: no "
+                             "limit; each worker is renewed every 50 logs anyway).")(func)
+    func = click.option("--resume", is_flag=True,
+                        help="Skip every log that has a result for the same input (SHA-256) "
+                             "and options.")(func)
+    func = click.option("--scheduler", default="local", show_default=True,
+                        metavar="local|processes|dask://HOST:PORT",
+                        help="local: a process pool here; processes: a Dask LocalCluster "
+                             "here; dask://HOST:PORT: an existing Dask cluster "
+                             "(processes and dask:// need etsid[cluster]).")(func)
+    func = click.option("--jobs", "-j", type=click.IntRange(1), default=None,
+                        help="Worker processes (default: every core).")(func)
+    func = click.option("-o", "--out", required=True,
+                        type=click.Path(file_okay=False, path_type=Path),
+                        help="Batch directory: runs/ (one directory per log), results/ "
+                             "(the Parquet dataset), batch.json.")(func)
+    return func
+
+
+def _borrowed(command: click.Command) -> list[click.Parameter]:
+    return [p for p in command.params if p.name not in _NOT_BATCH]
+
+
+def _echo_summary(summary: BatchSummary, command: str) -> None:
+    for item, error in summary.failures[:20]:
+        click.echo(f"failed: {error if error.startswith(item) else f'{item}: {error}'}",
+                   err=True)
+    if len(summary.failures) > 20:
+        click.echo(f"… and {len(summary.failures) - 20} more failures (see results/)",
+                   err=True)
+    skipped = f", {summary.skipped} skipped (--resume)" if summary.skipped else ""
+    rate = summary.total / summary.wall_s * 60 if summary.wall_s > 0 else float("nan")
+    click.echo(f"{summary.total} logs: {summary.ok} ok, {summary.failed} failed{skipped} in "
+               f"{summary.wall_s:.1f} s ({rate:.1f} logs/min); results in "
+               f"{summary.out}/results/; next: etsid report {summary.out}")
+
+
+def _run(items: list[Any], spec: BatchSpec, out: Path, jobs: int | None, scheduler: str,
+         resume: bool, max_memory_mb: float | None, quiet: bool) -> None:
+    summary = run_batch(items, spec, out, jobs=jobs, scheduler=scheduler, resume=resume,
+                        show_progress=wanted(quiet), max_memory_mb=max_memory_mb)
+    _echo_summary(summary, spec.command)
+
+
+def _read_spec(command: str, kw: dict[str, Any]) -> BatchSpec:
+    """BatchSpec of the single command's options (``--map``, ``--rate``, …)."""
+    options = read_options(kw.pop("maps", ()), kw.pop("mapping_file", None),
+                           kw.pop("sysid", None), True)
+    return BatchSpec(command, read_options=options)
+
+
+_INPUTS = click.argument("logs", nargs=-1, required=True, metavar="INPUTS...")
+
+
+@click.group()
+def batch() -> None:
+    """Run inspect, ingest, identify or gap over many logs: a result row per log.
+
+    INPUTS are log files, directories (searched recursively for every supported format;
+    a directory with metadata.yaml is a ROS 2 bag), text files (.txt/.list) listing
+    inputs, or fsspec URLs. Rows go to the Parquet dataset DIR/results/ (read it with
+    pandas, Dask or DuckDB); `etsid report DIR` draws the fleet report.
+    """
+
+
+@batch.command("inspect")
+@_INPUTS
+@_batch_options
+def batch_inspect(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: str,
+                  resume: bool, max_memory_mb: float | None, quiet: bool,
+                  **kw: Any) -> None:
+    """etsid inspect on every log of INPUTS."""
+    spec = _read_spec("inspect", kw)
+    _run(find_inputs(logs, exclude=out), spec, out, jobs, scheduler, resume,
+         max_memory_mb, quiet)
+
+
+@batch.command("ingest")
+@_INPUTS
+@_batch_options
+def batch_ingest(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: str,
+                 resume: bool, max_memory_mb: float | None, quiet: bool,
+                 **kw: Any) -> None:
+    """etsid ingest on every log of INPUTS (RUN_DIR/table.parquet per log)."""
+    spec = _read_spec("ingest", kw)
+    spec.rate_hz, spec.start, spec.end = kw["rate_hz"], kw["start"], kw["end"]
+    _run(find_inputs(logs, exclude=out), spec, out, jobs, scheduler, resume,
+         max_memory_mb, quiet)
+
+
+@batch.command("identify")
+@_INPUTS
+@_batch_options
+def batch_identify(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: str,
+                   resume: bool, max_memory_mb: float | None, quiet: bool,
+                   **kw: Any) -> None:
+    """etsid identify on every log of INPUTS (a RUN_DIR per log)."""
+    from etsid.ident import IdentConfig
+
+    spec = _read_spec("identify", kw)
+    spec.rate_hz = kw.pop("rate_hz")
+    outputs = kw.pop("outputs")
+    kw["outputs"] = [s.strip() for s in outputs.split(",") if s.strip()] if outputs else None
+    names = {f.name for f in fields(IdentConfig)}
+    spec.ident_config = IdentConfig(**{k: v for k, v in kw.items() if k in names})
+    _run(find_inputs(logs, exclude=out), spec, out, jobs, scheduler, resume,
+         max_memory_mb, quiet)
+
+
+@batch.command("gap")
+@click.argument("pairs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@_batch_options
+@click.option("--vehicle", default=None,
+              help="Vehicle TOML file or packaged name for every pair (as etsid gap).")
+def batch_gap(pairs: tuple[Path, ...], out: Path, jobs: int | None, scheduler: str,
+              resume: bool, max_memory_mb: float | None, quiet: bool,
+              vehicle: str | None, **kw: Any) -> None:
+    """Sim-vs-real gap analysis of every SIM,REAL pair in the PAIRS CSV files."""
+    from etsid.batch import GAP_UNAVAILABLE, BatchError, gap_available
+
+    if not gap_available():
+        raise BatchError(GAP_UNAVAILABLE)
+    spec = _read_spec("gap", kw)
+    if vehicle is not None:
+        spec.extra["vehicle"] = vehicle
+    _run(list(read_pairs(pairs)), spec, out, jobs, scheduler, resume, max_memory_mb, quiet)
+
+
+for _command, _single in ((batch_inspect, inspect_cmd), (batch_ingest, ingest_cmd),
+                          (batch_identify, identify_cmd), (batch_gap, inspect_cmd)):
+    _command.params.extend(_borrowed(_single))
+
+COMMANDS = [batch]

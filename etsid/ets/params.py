@@ -1,0 +1,86 @@
+"""The eTS learning parameters: one list, one default each (the single source of truth).
+
+:class:`ETSParams` names every tuning parameter of :class:`etsid.ets.ETS` with its default.
+``ETS.__init__``, the numpy reference (:class:`etsid.ets.reference.ReferenceETS`),
+identification (:class:`etsid.ident.IdentConfig`, which starts from
+:data:`etsid.ident.config.IDENT_ETS`) and the ``etsid identify`` options all take their
+defaults from here. The meaning of each parameter is documented on :class:`etsid.ets.ETS`.
+
+The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``input_names``,
+``output_names``) are not tuning parameters and are not listed.
+
+>>> from etsid.ets.params import DEFAULTS, PARAM_NAMES
+>>> DEFAULTS.radius, DEFAULTS.variant
+(0.4, 'ets+')
+>>> PARAM_NAMES[:3]
+('radius', 'omega', 'variant')
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+VARIANTS = ("ets", "ets+")
+"""Values of ``variant``: eTS (Angelov & Filev 2004) or eTS+ (Angelov 2010)."""
+
+RLS_KINDS = ("local", "global")
+"""Values of ``rls``: fuzzily weighted local RLS per rule, or one global RLS."""
+
+
+@dataclass(frozen=True)
+class ETSParams:
+    """Tuning parameters of the eTS learner and their defaults (see :class:`etsid.ets.ETS`).
+
+    Attributes
+    ----------
+    radius
+        Zone of influence r, normalised units (fraction of the input range); a single
+        value or one per input.
+    omega
+        Initial covariance ω I of a new rule's RLS (dimensionless, large = weak prior).
+    variant
+        ``ets`` or ``ets+`` (:data:`VARIANTS`).
+    max_rules
+        Cap on the number of rules.
+    rls
+        ``local`` or ``global`` (:data:`RLS_KINDS`).
+    forgetting
+        RLS forgetting factor in (0, 1]; 1 means no forgetting.
+    utility_threshold
+        eTS+: utility below which a rule is removed.
+    min_support
+        eTS+: least samples a rule must win after ``prune_after`` steps.
+    prune_after
+        eTS+: steps (samples) a rule lives before utility and support are checked.
+    adaptive_spread
+        exTS per-rule, per-input radii.
+    coverage
+        eTS+: also add a rule for any sample no rule covers (etsid extension).
+    history_every
+        Samples between two snapshots of all consequents.
+    """
+
+    radius: float | tuple[float, ...] = 0.4
+    omega: float = 1000.0
+    variant: str = "ets+"
+    max_rules: int = 50
+    rls: str = "local"
+    forgetting: float = 1.0
+    utility_threshold: float = 0.05
+    min_support: int = 3
+    prune_after: int = 50
+    adaptive_spread: bool = False
+    coverage: bool = False
+    history_every: int = 1000
+
+    def to_dict(self) -> dict[str, Any]:
+        """The parameters as keyword arguments of :class:`etsid.ets.ETS`."""
+        return asdict(self)
+
+
+DEFAULTS = ETSParams()
+"""The defaults of :class:`etsid.ets.ETS`."""
+
+PARAM_NAMES: tuple[str, ...] = tuple(f.name for f in fields(ETSParams))
+"""Names of the tuning parameters, in the order of the ``ETS`` signature."""

@@ -1,0 +1,85 @@
+"""The online learning pass (predict, then learn) over a regression, and its rule history
+as the history.parquet and consequents.parquet frames."""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from etsid.ets import ETS
+from etsid.ident.regressors import Regression
+from etsid.progress import progress
+
+CHUNK = 4096
+"""Samples learned per call between progress-bar updates."""
+
+
+def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
+                 label: str) -> tuple[np.ndarray, dict[str, Any] | None]:
+    """Online pass over ``reg``.
+
+    Returns
+    -------
+    yhat
+        The one-step prediction of every row made before learning from it, shape (N, m).
+    frozen
+        The model dict as it stood after ``stop_at`` rows (None when ``stop_at`` is not
+        inside the data).
+    """
+    n = len(reg.X)
+    yhat = np.full(reg.Y.shape, np.nan)
+    frozen: dict[str, Any] | None = None
+    bounds = sorted({0, n, *range(0, n, CHUNK), *([stop_at] if 0 < stop_at <= n else [])})
+    with progress(n, label, show) as bar:
+        for a, b in itertools.pairwise(bounds):
+            yhat[a:b] = np.asarray(model.run(reg.X[a:b], reg.Y[a:b])).reshape(b - a, -1)
+            if b == stop_at:
+                frozen = model.to_dict()
+            bar.update(b - a)
+    return yhat, frozen
+
+
+def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """history.parquet and consequents.parquet frames of the last ``len(reg)`` learned
+    samples (a loaded model continues its step count)."""
+    hist = model.history
+    frame = hist.to_frame()
+    first_step = int(frame["step"].iloc[-len(reg.t)]) - 1 if len(frame) >= len(reg.t) else 0
+    frame = frame[frame["step"] > first_step].reset_index(drop=True)
+    pos = frame["step"].to_numpy() - first_step - 1
+    frame.insert(1, "t", reg.t[pos])
+    kinds = {"birth": "births", "replace": "replacements", "removal": "removals"}
+    for col in kinds.values():
+        frame[col] = np.zeros(len(frame), dtype=np.int64)
+    text = [""] * len(frame)
+    for event in hist.events:
+        i = int(event["step"]) - first_step - 1
+        if 0 <= i < len(frame):
+            frame.loc[i, kinds[event["kind"]]] += 1
+            text[i] = (text[i] + "; " if text[i] else "") + f"{event['kind']} {event['rule_id']}"
+    frame["events"] = text
+    rows = []
+    inputs, outputs = model.names()
+    terms = ["1", *inputs]
+    for snap in hist.snapshots:
+        i = int(snap["step"]) - first_step - 1
+        if not 0 <= i < len(reg.t):
+            continue
+        cons = np.asarray(snap["consequents"])
+        for r, rid in enumerate(np.asarray(snap["rule_ids"])):
+            for j, term in enumerate(terms):
+                for o, out in enumerate(outputs):
+                    rows.append((int(snap["step"]), float(reg.t[i]), int(rid), out, term,
+                                 float(cons[r, j, o])))
+    cons_frame = pd.DataFrame(rows, columns=["step", "t", "rule_id", "output", "term", "value"])
+    return frame, cons_frame
+
+
+def empty_history() -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The history and consequents frames of a run that learned nothing."""
+    return (pd.DataFrame(columns=["step", "t", "n_rules", "potential", "focal_max",
+                                  "focal_min"]),
+            pd.DataFrame(columns=["step", "t", "rule_id", "output", "term", "value"]))

@@ -1,0 +1,121 @@
+"""Applying a saved rule base: :func:`load_rules` reads rules.json, :func:`predict` runs it
+over another table (one-step and free-run, optionally learning on)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from etsid.errors import IdentError, ModelError
+from etsid.ets import ETS
+from etsid.ident.evaluate import (
+    noise_std,
+    output_metrics,
+    prediction_columns,
+    predictions_frame,
+    rate_info,
+    validation_info,
+)
+from etsid.ident.learn import empty_history, history_frames, learn_online
+from etsid.ident.regressors import RegressorSpec, build
+from etsid.ident.resample import decimate
+from etsid.ident.rundir import Run, jsonable, rules_json, run_header, sha256
+
+
+def load_rules(path: str | Path) -> tuple[ETS, RegressorSpec, dict[str, Any]]:
+    """A rule base and its regressor spec from rules.json (or a RUN_DIR holding one).
+
+    Raises
+    ------
+    IdentError
+        Missing file, invalid rule base, or no regressor spec in it.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / "rules.json"
+    if not path.exists():
+        raise IdentError(f"{path}: no such rule-base file")
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise IdentError(f"{path}: not a JSON rule base ({err})") from err
+    if not isinstance(data, dict) or "regressors" not in data:
+        raise IdentError(f"{path}: the rule base has no 'regressors' spec; "
+                         "it was not written by etsid identify")
+    spec = RegressorSpec.from_dict(data["regressors"])
+    try:
+        model = ETS.from_dict(data)
+    except ModelError as err:
+        raise IdentError(f"{path}: {err}") from err
+    return model, spec, data
+
+
+def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
+            sim_from: float | None = None, source: str | Path | None = None,
+            show_progress: bool = False) -> Run:
+    """Apply a saved rule base to ``table``: one-step and free-run, optionally learning on.
+
+    Parameters
+    ----------
+    table
+        The flight to predict (must have the rule base's columns).
+    rules
+        rules.json written by :func:`etsid.ident.identify` (or a RUN_DIR).
+    learn
+        Continue learning while predicting (``y_hat`` is then predict-then-learn, as in
+        identify's online pass); without it the rules stay frozen.
+    sim_from
+        Time (s) from which the free-run simulation starts (default: the first usable row).
+        The rows before it are the ARX baseline's learning part. Use identify's
+        ``validation.t_start`` to reproduce its validation predictions exactly.
+    source, show_progress
+        As for :func:`etsid.ident.identify`.
+    """
+    path = Path(rules)
+    model, spec, data = load_rules(path)
+    sigma_native = noise_std(table, spec.outputs)
+    rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
+    table = decimate(table, float(rate_hz) if rate_hz else None)
+    reg = build(table, spec)
+    n = len(reg.X)
+    split = 0 if sim_from is None else int(np.searchsorted(reg.t, sim_from, side="left"))
+    frozen = ETS.from_dict(data)
+    if learn:
+        yhat, _ = learn_online(model, reg, -1, show_progress, "predict")
+    else:
+        yhat = np.asarray(frozen.predict(reg.X)).reshape(n, -1)
+    cols = prediction_columns(reg, spec, split, len(table), yhat, frozen)
+    cols["y_val"][:split] = np.nan
+    if not learn:
+        cols["y_val"][split:] = yhat[split:]
+    history, consequents = history_frames(model, reg) if learn else empty_history()
+    sigma = noise_std(table, spec.outputs)
+    peak = int(history["n_rules"].max()) if len(history) else frozen.n_rules
+    metrics = {
+        "n_samples": n,
+        "rules": {"final": model.n_rules, "peak": max(peak, frozen.n_rules),
+                  "frozen": frozen.n_rules},
+        "skipped": reg.skipped,
+        "validation": validation_info(reg, split, (n - split) / n),
+        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native),
+        "sample_rate": rate_info(table),
+    }
+    run_config = {
+        **run_header("predict", table, source),
+        "rules": {"path": str(path), "sha256": sha256(path if path.is_file()
+                                                      else path / "rules.json")},
+        "model": {**spec.to_dict(), "inputs": {"columns": [
+            c for c in spec.columns if c not in spec.outputs]}, "notes": []},
+        "parameters": {"learn": learn, "sim_from": sim_from},
+        "ets": {**{k: data["params"].get(k) for k in ("radius", "omega", "variant")},
+                "fixed_ranges": data["params"].get("x_range") is not None}
+        if isinstance(data.get("params"), dict) else {},
+        "skipped": reg.skipped,
+        "warnings": list(table.attrs.get("warnings") or []),
+    }
+    return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
+               history, consequents, data, rules_json(model.to_dict(), spec) if learn else None)

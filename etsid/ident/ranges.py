@@ -1,0 +1,57 @@
+"""eTS normalisation ranges for ``--normalise``: fixed from the learning part, a priori, or
+the eTS running min/max (docs/identify.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from etsid.errors import IdentError
+from etsid.ident.regressors import Regression, RegressorSpec
+
+NORMALISE_MODES = ("learn", "running", "apriori")
+"""How eTS normalises its inputs and outputs (``--normalise``, docs/identify.md)."""
+
+RANGE_MARGIN = 0.05
+"""Fixed ranges are widened by this fraction of their width on each side."""
+
+APRIORI_RANGES = {"u_roll": (-1.0, 1.0), "u_pitch": (-1.0, 1.0), "u_yaw": (-1.0, 1.0),
+                  "u_thrust": (0.0, 1.0)}
+"""FlightTable contract ranges of the loop commands (``--normalise apriori``)."""
+
+
+def learn_range(v: np.ndarray) -> tuple[float, float]:
+    """[low, high] of learning-part values, widened by :data:`RANGE_MARGIN` of the width
+    on each side; a (near-)constant column gets width 1 around its value (the eTS rule for
+    a zero range) so that later excursions are not blown up."""
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return -0.5, 0.5
+    lo, hi = float(v.min()), float(v.max())
+    width = hi - lo
+    if width <= 1e-9 * max(1.0, abs(lo), abs(hi)):
+        mid = 0.5 * (lo + hi)
+        return mid - 0.5, mid + 0.5
+    return lo - RANGE_MARGIN * width, hi + RANGE_MARGIN * width
+
+
+def fixed_ranges(reg: Regression, spec: RegressorSpec, split: int,
+                 mode: str) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """eTS ``x_range``, ``y_range`` for ``--normalise mode`` (None, None for ``running``).
+
+    ``learn``: each regressor's and output's min/max over the learning part (the first
+    ``split`` rows), widened by :data:`RANGE_MARGIN`. ``apriori``: regressors of the loop
+    commands get :data:`APRIORI_RANGES` (the FlightTable contract), everything else as in
+    ``learn``.
+    """
+    if mode not in NORMALISE_MODES:
+        raise IdentError(f"--normalise {mode!r}: choose one of {', '.join(NORMALISE_MODES)}")
+    if mode == "running":
+        return None, None
+    X, Y = reg.X[:split], reg.Y[:split]
+    x_range = np.array([learn_range(X[:, j]) for j in range(X.shape[1])])
+    y_range = np.array([learn_range(Y[:, o]) for o in range(Y.shape[1])])
+    if mode == "apriori":
+        for j, term in enumerate(spec.terms):
+            if term.name in APRIORI_RANGES:
+                x_range[j] = APRIORI_RANGES[term.name]
+    return x_range, y_range

@@ -1,0 +1,307 @@
+"""The fleet report of a batch directory (``etsid report DIR`` on what ``etsid batch`` wrote).
+
+``DIR/report/``: ``index.html`` (self-contained), ``report.md`` and
+``distributions.png``: the batch in numbers, distributions of the key figures, the best
+and the worst flights with links to their own reports (written here when missing), the
+failures grouped by cause, and every log in one table. The results are read straight from
+the Parquet dataset ``DIR/results/`` (rows of the latest batch's options only).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from etsid.errors import EtsidError
+from etsid.report.build import Report, save_figure
+from etsid.report.figures import WIDTH, style
+
+FIGURES = {
+    "duration_s": "log duration, s",
+    "fit_one_step": "validation one-step fit, % (mean over outputs)",
+    "fit_free_run": "validation free-run fit, % (mean over outputs)",
+    "rules_frozen": "rules of the saved model",
+    "wall_s": "wall time per log, s",
+    "peak_rss_mb": "peak worker memory per log, MB",
+}
+"""Result columns drawn as distributions (those with data), with their labels."""
+
+RANK_BY = ("fit_one_step", "fit_online")
+"""Figures that rank flights best to worst (the first one with data)."""
+
+TOP = 5
+"""Flights listed as best and as worst."""
+
+TABLE_COLUMNS = ("input", "status", "format", "duration_s", "rows", "rules_frozen",
+                 "fit_one_step", "fit_free_run", "wall_s", "peak_rss_mb", "error")
+
+
+def is_batch_dir(path: str | Path) -> bool:
+    """True for a directory written by ``etsid batch`` (``batch.json`` and ``results/``)."""
+    path = Path(path)
+    return (path / "batch.json").is_file() and (path / "results").is_dir()
+
+
+def load_fleet(path: str | Path) -> tuple[dict[str, Any], pd.DataFrame]:
+    """``batch.json`` and the rows of its command and options, sorted by input."""
+    path = Path(path)
+    try:
+        meta = json.loads((path / "batch.json").read_text())
+        frame = pd.read_parquet(path / "results")
+    except (OSError, ValueError) as err:
+        raise EtsidError(f"{path}: unreadable batch directory ({err})") from err
+    if "command" in frame.columns:
+        frame = frame[frame["command"].astype(str) == meta.get("command")]
+    if meta.get("options_digest") and "options_digest" in frame.columns:
+        frame = frame[frame["options_digest"] == meta["options_digest"]]
+    return meta, frame.sort_values("input", kind="stable").reset_index(drop=True)
+
+
+def cause_of(error: str, item: str) -> str:
+    """An error message as a cause: the log's path taken out, numbers replaced by N."""
+    text = str(error).replace(str(item), "").strip().lstrip(":").strip()
+    return re.sub(r"\d+(\.\d+)?", "N", text)
+
+
+def failures_by_cause(frame: pd.DataFrame) -> pd.DataFrame:
+    """Failed logs grouped by :func:`cause_of`: cause, kind, count, example logs."""
+    failed = frame[frame["status"] == "error"]
+    if failed.empty:
+        return pd.DataFrame(columns=["cause", "kind", "count", "examples"])
+    causes = [cause_of(e, i) for e, i in zip(failed["error"], failed["input"], strict=True)]
+    grouped = failed.assign(cause=causes).groupby(["cause", "error_kind"], sort=False)
+    table = grouped["input"].agg(["count", lambda s: ", ".join(list(s)[:3])]).reset_index()
+    table.columns = ["cause", "kind", "count", "examples"]
+    return table.sort_values(["count", "cause"], ascending=[False, True]).reset_index(drop=True)
+
+
+def ranking(frame: pd.DataFrame) -> tuple[str | None, pd.DataFrame, pd.DataFrame]:
+    """(figure, best, worst): the :data:`TOP` best and worst successful flights."""
+    ok = frame[frame["status"] == "ok"]
+    for column in RANK_BY:
+        if column in ok.columns and ok[column].notna().any():
+            ranked = ok[ok[column].notna()].sort_values([column, "input"],
+                                                        ascending=[False, True])
+            return column, ranked.head(TOP), ranked.tail(TOP).iloc[::-1]
+    return None, ok.head(0), ok.head(0)
+
+
+def fig_distributions(frame: pd.DataFrame) -> Figure | None:
+    """Histograms of the :data:`FIGURES` columns that have data (None: none has)."""
+    ok = frame[frame["status"] == "ok"]
+    columns = [c for c in FIGURES if c in ok.columns and ok[c].notna().any()]
+    if not columns:
+        return None
+    ncols = 3
+    nrows = (len(columns) + ncols - 1) // ncols
+    with style():
+        fig = Figure(figsize=(WIDTH, 2.0 * nrows), layout="constrained")
+        axes = fig.subplots(nrows, ncols, squeeze=False)
+        for ax, column in zip(axes.flat, columns, strict=False):
+            values = ok[column].dropna().to_numpy(dtype=float)
+            values = values[np.isfinite(values)]
+            ax.hist(values, bins=min(30, max(5, values.size // 3)), color="tab:blue",
+                    alpha=0.8)
+            ax.set_xlabel(FIGURES[column])
+            ax.set_ylabel("logs")
+            if values.size:
+                ax.axvline(float(np.median(values)), color="tab:red", lw=1,
+                           label=f"median {np.median(values):.3g}")
+                ax.legend()
+        for ax in list(axes.flat)[len(columns):]:
+            ax.set_visible(False)
+    return fig
+
+
+def _run_report(batch_dir: Path, run_dir: str | None, command: str) -> str | None:
+    """Relative link from DIR/report/ to a run's own report (written when missing)."""
+    if not run_dir or command != "identify":
+        return None
+    target = batch_dir / run_dir / "report" / "index.html"
+    if not target.exists():
+        from etsid.report.build import make_report
+
+        try:
+            make_report(batch_dir / run_dir)
+        except EtsidError:
+            return None
+    return os.path.relpath(target, batch_dir / "report")
+
+
+def _fmt(value: Any) -> str:
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def _html_table(frame: pd.DataFrame, columns: list[str],
+                links: dict[str, str] | None = None) -> str:
+    esc = html.escape
+    links = links or {}
+    head = "".join(f"<th>{esc(c)}</th>" for c in columns)
+    rows = []
+    for _, row in frame.iterrows():
+        cells = []
+        for c in columns:
+            text = esc(_fmt(row.get(c)))
+            if c == "input" and row.get("input") in links:
+                text = f'<a href="{esc(links[row["input"]])}">{text}</a>'
+            cells.append(f"<td>{text}</td>")
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><tr>{head}</tr>{''.join(rows)}</table>"
+
+
+def _md_table(frame: pd.DataFrame, columns: list[str],
+              links: dict[str, str] | None = None) -> list[str]:
+    links = links or {}
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for _, row in frame.iterrows():
+        cells = []
+        for c in columns:
+            text = _fmt(row.get(c)).replace("|", "\\|")
+            if c == "input" and row.get("input") in links:
+                text = f"[{text}]({links[row['input']]})"
+            cells.append(text)
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def summary_lines(meta: dict[str, Any], frame: pd.DataFrame) -> list[str]:
+    """The batch in a few sentences."""
+    ok = int((frame["status"] == "ok").sum())
+    failed = int((frame["status"] == "error").sum())
+    lines = [f"Command: etsid batch {meta.get('command')} over {len(frame)} logs: {ok} ok, "
+             f"{failed} failed.",
+             f"Options digest {str(meta.get('options_digest', ''))[:12]}; "
+             f"{meta.get('jobs')} jobs on the {meta.get('scheduler')} scheduler; "
+             f"started {meta.get('started')}, {meta.get('ended', 'running')}"
+             + (f" after {meta['wall_s']:.1f} s." if meta.get("wall_s") else ".")]
+    if "wall_s" in frame and frame["wall_s"].notna().any():
+        lines.append(f"CPU-side time per log: median {frame['wall_s'].median():.2f} s, "
+                     f"max {frame['wall_s'].max():.2f} s; peak worker memory max "
+                     f"{frame['peak_rss_mb'].max():.0f} MB.")
+    return lines
+
+
+def make_fleet_report(batch_dir: str | Path, fmt: str = "png") -> Report:
+    """Write ``DIR/report/``: index.html, report.md and the distributions figure.
+
+    Raises
+    ------
+    EtsidError
+        Not a batch directory, or unreadable results.
+    """
+    batch_dir = Path(batch_dir)
+    if not is_batch_dir(batch_dir):
+        raise EtsidError(f"{batch_dir}: not a batch directory (no batch.json and results/)")
+    meta, frame = load_fleet(batch_dir)
+    command = str(meta.get("command"))
+    out = batch_dir / "report"
+    out.mkdir(exist_ok=True)
+    report = Report(out)
+    fig = fig_distributions(frame)
+    image = None
+    if fig is not None:
+        report.figures["distributions"] = save_figure(fig, out / f"distributions.{fmt}")
+        png = report.figures["distributions"]
+        if fmt == "pdf":
+            png = save_figure(fig, out / "distributions.png")
+        mime = "image/svg+xml" if fmt == "svg" else "image/png"
+        image = (mime, base64.b64encode(png.read_bytes()).decode())
+    figure, best, worst = ranking(frame)
+    links = {}
+    for _, row in pd.concat([best, worst]).iterrows():
+        link = _run_report(batch_dir, row.get("run_dir"), command)
+        if link:
+            links[row["input"]] = link
+    causes = failures_by_cause(frame)
+    parts = _Parts(meta, frame, figure, best, worst, causes, links)
+    report.html = out / "index.html"
+    report.html.write_text(parts.html(image))
+    report.markdown = out / "report.md"
+    report.markdown.write_text(parts.markdown(report.figures.get("distributions")))
+    return report
+
+
+class _Parts:
+    """The report's sections, rendered as HTML or Markdown."""
+
+    def __init__(self, meta: dict[str, Any], frame: pd.DataFrame, figure: str | None,
+                 best: pd.DataFrame, worst: pd.DataFrame, causes: pd.DataFrame,
+                 links: dict[str, str]) -> None:
+        self.meta, self.frame, self.figure = meta, frame, figure
+        self.best, self.worst, self.causes, self.links = best, worst, causes, links
+        self.title = f"etsid fleet report: {meta.get('command')} over {len(frame)} logs"
+        self.columns = [c for c in TABLE_COLUMNS
+                        if c in frame.columns and frame[c].notna().any()]
+        self.rank_columns = ["input", *[c for c in (figure, "duration_s", "rules_frozen")
+                                        if c]]
+
+    def _ranking_note(self) -> str:
+        if self.figure is None:
+            return "No figure ranks these logs (only identify batches are ranked)."
+        return (f"Ranked by {self.figure} ({FIGURES.get(self.figure, self.figure)}); "
+                "each log links to its own report.")
+
+    def html(self, image: tuple[str, str] | None) -> str:
+        esc = html.escape
+        parts = [
+            "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+            f"<title>{esc(self.title)}</title>",
+            "<style>body{font-family:sans-serif;max-width:70em;margin:2em auto;padding:0 1em;"
+            "color:#222}table{border-collapse:collapse;font-size:85%}"
+            "td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
+            "th{background:#eee}td:first-child,th:first-child{text-align:left}"
+            "img{max-width:100%}</style></head><body>",
+            f"<h1>{esc(self.title)}</h1>",
+            '<section id="summary"><h2>Summary</h2><ul>'
+            + "".join(f"<li>{esc(s)}</li>" for s in summary_lines(self.meta, self.frame))
+            + "</ul></section>",
+            '<section id="distributions"><h2>Distributions</h2>',
+        ]
+        if image is not None:
+            parts.append(f'<img alt="distributions" src="data:{image[0]};base64,{image[1]}">')
+        else:
+            parts.append("<p>No successful log to draw.</p>")
+        parts += ["</section>", '<section id="best-worst"><h2>Best and worst flights</h2>',
+                  f"<p>{esc(self._ranking_note())}</p>"]
+        if self.figure is not None:
+            parts += ["<h3>Best</h3>", _html_table(self.best, self.rank_columns, self.links),
+                      "<h3>Worst</h3>", _html_table(self.worst, self.rank_columns, self.links)]
+        parts += ["</section>", '<section id="failures"><h2>Failures by cause</h2>']
+        if self.causes.empty:
+            parts.append("<p>No log failed.</p>")
+        else:
+            parts.append(_html_table(self.causes, ["cause", "kind", "count", "examples"]))
+        parts += ["</section>", '<section id="logs"><h2>Every log</h2>',
+                  _html_table(self.frame, self.columns, self.links), "</section>",
+                  "</body></html>"]
+        return "\n".join(parts) + "\n"
+
+    def markdown(self, figure_path: Path | None) -> str:
+        lines = [f"# {self.title}", "", "## Summary", ""]
+        lines += [f"- {s}" for s in summary_lines(self.meta, self.frame)]
+        lines += ["", "## Distributions", ""]
+        lines.append(f"![distributions]({figure_path.name})" if figure_path
+                     else "No successful log to draw.")
+        lines += ["", "## Best and worst flights", "", self._ranking_note(), ""]
+        if self.figure is not None:
+            lines += ["### Best", "", *_md_table(self.best, self.rank_columns, self.links),
+                      "", "### Worst", "",
+                      *_md_table(self.worst, self.rank_columns, self.links), ""]
+        lines += ["## Failures by cause", ""]
+        lines += (["No log failed."] if self.causes.empty
+                  else _md_table(self.causes, ["cause", "kind", "count", "examples"]))
+        lines += ["", "## Every log", "", *_md_table(self.frame, self.columns, self.links), ""]
+        return "\n".join(lines)

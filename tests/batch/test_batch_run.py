@@ -1,0 +1,119 @@
+"""``etsid batch``: one row per log, errors as rows, the same results whatever the job count,
+resume, and the gap command before gap analysis exists."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+
+from etsid.batch import SCHEMA, VOLATILE, BatchSpec, read_results, run_batch
+from etsid.cli import cli
+from etsid.ident import IdentConfig, identify
+from etsid.ident.inputs import load_for_ident
+from etsid.ingest import ReadOptions
+
+
+def identify_spec(**config: object) -> BatchSpec:
+    return BatchSpec("identify", read_options=ReadOptions(),
+                     ident_config=IdentConfig(**config))  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def serial(fleet_logs: list[str], tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An identify batch of the fleet, run in this process (--jobs 1)."""
+    out = tmp_path_factory.mktemp("serial")
+    summary = run_batch(fleet_logs, identify_spec(), out, jobs=1)
+    assert (summary.total, summary.ok, summary.failed) == (5, 4, 1)
+    return out
+
+
+def test_one_row_per_log_with_the_schema(serial: Path, fleet_logs: list[str]) -> None:
+    files = sorted((serial / "results" / "command=identify").glob("*.parquet"))
+    assert len(files) == len(fleet_logs)
+    for path in files:
+        assert pq.read_schema(path).remove_metadata().equals(SCHEMA.remove_metadata())
+    frame = read_results(serial)
+    assert sorted(frame["input"]) == sorted(fleet_logs)
+    assert set(frame["command"]) == {"identify"}
+    ok = frame[frame["status"] == "ok"].set_index("input")
+    assert sorted(ok["format"]) == ["mcap", "ros1", "ros2", "tlog"]
+    assert (ok["duration_s"] > 7.5).all() and (ok["duration_s"] < 8.5).all()
+    assert ok["input_sha256"].str.fullmatch("[0-9a-f]{64}").all()
+    assert (ok["peak_rss_mb"] > 10).all() and (ok["wall_s"] > 0).all()
+    assert ok["airborne_s"].isna().all()  # identify does not report it (yet)
+
+
+def test_rows_hold_what_identify_itself_gives(serial: Path, fleet: Path) -> None:
+    frame = read_results(serial).set_index("input")
+    log = fleet / "a.tlog"
+    run = identify(load_for_ident(log), IdentConfig(), source=log)
+    row = frame.loc[str(log)]
+    assert json.loads(row["metrics_json"]) == json.loads(json.dumps(run.metrics))
+    assert row["rules_frozen"] == run.metrics["rules"]["frozen"]
+    fit = run.metrics["outputs"]["q"]["validation"]["one_step"]["fit"]
+    assert row["q_fit_one_step"] == fit
+    assert (serial / row["run_dir"] / "rules.json").read_text() == \
+        json.dumps(run.rules, indent=1) + "\n"
+
+
+def test_a_broken_log_is_an_error_row(serial: Path, fleet: Path) -> None:
+    frame = read_results(serial).set_index("input")
+    row = frame.loc[str(fleet / "broken.tlog")]
+    assert row["status"] == "error"
+    assert row["error_kind"] == "IngestError"
+    assert "broken.tlog" in row["error"] and "\n" not in row["error"]
+    assert len(row["input_sha256"]) == 64
+    assert frame.loc[frame["status"] == "ok", "error"].isna().all()
+
+
+def test_two_jobs_give_the_same_rows_bit_for_bit(serial: Path, fleet_logs: list[str],
+                                                 tmp_path: Path) -> None:
+    run_batch(fleet_logs, identify_spec(), tmp_path, jobs=2)
+    one = read_results(serial).drop(columns=list(VOLATILE))
+    two = read_results(tmp_path).drop(columns=list(VOLATILE))
+    assert len(one) == 5
+    assert one.equals(two)
+
+
+def test_resume_skips_finished_logs_and_reruns_on_new_options(
+        fleet_logs: list[str], tmp_path: Path) -> None:
+    logs = fleet_logs[:2]
+    spec = identify_spec()
+    run_batch(logs, spec, tmp_path, jobs=1)
+    rows = sorted((tmp_path / "results" / "command=identify").glob("*.parquet"))
+    stamps = [p.stat().st_mtime_ns for p in rows]
+    again = run_batch(logs, spec, tmp_path, jobs=1, resume=True)
+    assert (again.skipped, again.ok, again.failed) == (2, 0, 0)
+    assert [p.stat().st_mtime_ns for p in rows] == stamps
+    # a third log is new; the first two stay skipped
+    more = run_batch(fleet_logs[:3], spec, tmp_path, jobs=1, resume=True)
+    assert (more.skipped, more.ok + more.failed) == (2, 1)
+    # other options: every log runs again, into rows of their own
+    changed = run_batch(logs, identify_spec(radius=1.5), tmp_path, jobs=1, resume=True)
+    assert changed.skipped == 0 and changed.ok + changed.failed == 2
+    frame = read_results(tmp_path)
+    assert frame["options_digest"].nunique() == 2 and len(frame) == 5
+
+
+def test_cli_batch_inspect_and_gap(fleet: Path, tmp_path: Path) -> None:
+    runner = CliRunner()
+    result = runner.invoke(cli, ["batch", "inspect", str(fleet), "-o", str(tmp_path / "b"),
+                                 "-j", "1"])
+    assert result.exit_code == 0, result.output
+    assert "5 logs: 4 ok, 1 failed" in result.output
+    frame = read_results(tmp_path / "b")
+    assert (frame.loc[frame["status"] == "ok", "channels"] > 3).all()
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text(f"{fleet / 'a.tlog'},{fleet / 'd.mcap'}\n")
+    result = runner.invoke(cli, ["batch", "gap", str(pairs), "-o", str(tmp_path / "g"),
+                                 "-j", "1"])
+    assert result.exit_code == 0, result.output
+    row = read_results(tmp_path / "g").iloc[0]
+    # 8 s flights: too little airborne data for a verdict, said as such (not an error)
+    assert row["status"] == "ok" and row["gap_verdict"] == "insufficient"
+    assert json.loads(row["gap_json"])["schema"] == "etsid.gap/1"
+    assert (tmp_path / "g" / row["run_dir"] / "gap.json").is_file()
