@@ -117,7 +117,8 @@ def merge(a: Mods, b: Mods) -> Mods:
         offset[k] = offset.get(k, 0.0) + v
     return Mods(tau=tau, delay=a.delay + b.delay, thrust_gain=_times(a.thrust_gain, b.thrust_gain),
                 torque_gain=_times(a.torque_gain, b.torque_gain), inertia=a.inertia * b.inertia,
-                offset=offset, drag=a.drag + b.drag)
+                offset=offset, drag=a.drag + b.drag,
+                drag_moment=a.drag_moment + b.drag_moment)
 
 
 def ground_ratio(z: np.ndarray, radius: float, exponent: float = 2.0) -> np.ndarray:
@@ -192,10 +193,14 @@ LIBRARY: tuple[Candidate, ...] = (
         "response to motor commands later by a fixed time at every frequency, gain unchanged",
         "m_i(t) → m_i(t − d)", lambda th, ctx: Mods(delay=th[0])),
     Candidate(
-        "rotor_drag", (Param("drag", "1/s", 0.0, 3.0, 0.2),), ("ax", "ay"),
-        "horizontal specific force opposing the body velocity, growing with speed",
-        "a_xy = a_xy,nom − k v_xy,body (linear blade-flapping/H-force drag)",
-        lambda th, ctx: Mods(drag=th[0]), ("vel",)),
+        "rotor_drag", (Param("drag", "1/s", 0.0, 3.0, 0.2),
+                       Param("moment", "rad/s² per m/s", -5.0, 5.0, 0.0)),
+        ("ax", "ay", "p", "q"),
+        "horizontal specific force opposing the body velocity, growing with speed, and the "
+        "pitching/rolling moment it makes at the rotor plane above or below the CG",
+        "a_xy = a_xy,nom − k v_xy,body (linear blade-flapping/H-force drag); "
+        "q̇ += h v_x, ṗ −= h v_y",
+        lambda th, ctx: Mods(drag=th[0], drag_moment=th[1]), ("vel",)),
     Candidate(
         "inertia_scale", (Param("scale", "1", 0.3, 3.0, 1.0),), ("p", "q", "r"),
         "all angular accelerations smaller or larger by one factor; vertical force unchanged",

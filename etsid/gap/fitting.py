@@ -132,8 +132,10 @@ def _start(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray) -> np
     return np.array(x0)
 
 
-def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray) -> Fit:
-    """Fit the parameters of ``cands`` jointly on the samples in ``mask``."""
+def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
+                   x0: np.ndarray | None = None) -> Fit:
+    """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
+    e.g. the single fits of a pair; default the candidates' own starts)."""
     chans = channels_of(cands, scorer)
     params = [p for c in cands for p in c.params]
     lo = np.array([p.lo for p in params])
@@ -151,12 +153,16 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
                             options={"xatol": 1e-4 * (hi[0] - lo[0])})
         theta = np.array([r.x])
     else:
-        x0 = np.clip(_start(cands, scorer, mask), lo, hi)
+        x0 = np.clip(_start(cands, scorer, mask) if x0 is None else x0, lo, hi)
         span = hi - lo
-        r = minimize(lambda u: f(lo + u * span), (x0 - lo) / span, method="Powell",
+        u0 = (x0 - lo) / span
+        r = minimize(lambda u: f(lo + u * span), u0, method="Powell",
                      bounds=[(0.0, 1.0)] * len(params),
-                     options={"xtol": 1e-3, "ftol": 1e-6, "maxfev": 200})
+                     options={"xtol": 1e-3, "ftol": 1e-6, "maxfev": 200,
+                              "direc": 0.05 * np.eye(len(params))})
         theta = lo + np.clip(r.x, 0.0, 1.0) * span
+        if f(x0) < f(theta):  # never worse than the start (e.g. the single fits of a pair)
+            theta = x0
     stderr = _stderr(f, theta, lo, hi, scorer, mask)
     return Fit(cands, theta, stderr, _mods(cands, theta, scorer.ctx))
 

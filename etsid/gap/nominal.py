@@ -1,17 +1,17 @@
 """The nominal model: physics-structured regressions fitted on the simulation log.
 
-Per rotor, speed follows the command through a first-order lag (time constant ``tau``,
-s) and ``Omega_i ∝ m_i + k`` (``k`` = idle speed over speed range); thrust and reaction
-torque go as ``P_i = (m_i + k)²``. The channels:
+Per rotor, speed follows the command through a short delay (0–10 ms, the log's own) and a
+first-order lag (time constant ``tau``, s) and ``Omega_i ∝ m_i + k`` (``k`` = idle speed
+over speed range); thrust and reaction torque go as ``P_i = (m_i + k)²``. The channels:
 
 * ``az`` (m/s²): ``c1 ΣP_i + c2 v_bz + c3 |v_bz| v_bz + c4 ΣP_i (v_bx² + v_by²)`` — thrust
   over mass with climb-inflow, vertical drag and translational-lift corrections (no
   intercept: zero thrust is zero specific force);
 * ``ax``, ``ay`` (m/s²): rotor and body drag ``c1 Ω̄ v + c2 |v| v + c0`` (Ω̄ = mean (m_i + k));
 * ``p``, ``q`` (rad/s²): moments from thrust differences, ``Σ g_i (P_i − P̄)`` plus the
-  gyroscopic product (``q r`` or ``p r``) and a constant;
-* ``r`` (rad/s²): reaction torques ``Σ h_i (P_i − P̄)`` plus rotor spin-up ``Σ j_i dΩ_i/dt``, ``p q``
-  and a constant;
+  gyroscopic product (``q r`` or ``p r``), rotor damping (∝ ``p`` or ``q``) and a constant;
+* ``r`` (rad/s²): reaction torques ``Σ h_i (P_i − P̄)`` plus rotor spin-up ``Σ j_i dΩ_i/dt``,
+  ``p q``, damping (∝ ``r``) and a constant;
 * ``gyro_p``, ``gyro_q``, ``gyro_r`` (rad/s): the gyro against the body rate implied by the
   logged attitude (Euler kinematics); no coefficient to fit.
 
@@ -46,6 +46,9 @@ CUTOFF_HZ = {c: 8.0 for c in CHANNELS} | {c: 0.5 for c in GYRO_CHANNELS}
 K_DEFAULT = 0.1
 """Idle offset k of Ω ∝ m + k when no vehicle file gives it (idle ≈ 10 % of range)."""
 TAU_BOUNDS = (0.005, 0.25)
+NOMINAL_DELAYS_S = (0.0, 0.005, 0.01)
+"""Command-to-motor delays tried for the simulation's own log, s (a log records the
+command a step before the motors act on it)."""
 
 
 @dataclass
@@ -68,6 +71,9 @@ class Mods:
         Constant added to a channel's prediction (channel → value in its unit).
     drag : float
         Extra linear drag on ax and ay, 1/s (specific force −drag · v_body).
+    drag_moment : float
+        Angular acceleration per body speed of that drag acting at the rotor plane, above
+        or below the CG, rad/s² per m/s (q̇ += k v_x, ṗ −= k v_y).
     """
 
     tau: float | None = None
@@ -77,6 +83,7 @@ class Mods:
     inertia: float = 1.0
     offset: dict[str, float] = field(default_factory=dict)
     drag: float = 0.0
+    drag_moment: float = 0.0
 
 
 def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> np.ndarray:
@@ -125,13 +132,15 @@ def _column_gain(gain: float | np.ndarray, n: int) -> np.ndarray:
 
 
 def features(flight: Flight, k: float, tau: float, mods: Mods,
-             channels: tuple[str, ...] = CHANNELS) -> dict[str, np.ndarray]:
-    """Unfiltered regressors of the channels (n, n_features) under ``mods``."""
+             channels: tuple[str, ...] = CHANNELS, delay: float = 0.0
+             ) -> dict[str, np.ndarray]:
+    """Unfiltered regressors of the channels (n, n_features) under ``mods`` (``delay``, s:
+    the nominal command-to-motor delay, to which ``mods.delay`` adds)."""
     fs = flight.fs
     if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
         return {}
     tau_eff = tau if mods.tau is None else mods.tau
-    m_eff = motor_response(flight.motors, fs, tau_eff, mods.delay)
+    m_eff = motor_response(flight.motors, fs, tau_eff, delay + mods.delay)
     p, q, r = flight.rates.T
     vb = flight.v_body
     vh2 = vb[:, 0] ** 2 + vb[:, 1] ** 2
@@ -161,9 +170,10 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
         "ax": np.column_stack([om_mean * vb[:, 0], np.abs(vb[:, 0]) * vb[:, 0], one]),
         "ay": np.column_stack([om_mean * vb[:, 1], np.abs(vb[:, 1]) * vb[:, 1], one]),
-        "p": np.column_stack([mom, q * r, one]),
-        "q": np.column_stack([mom, p * r, one]),
-        "r": np.column_stack([yaw, p * q, one]),
+        # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
+        "p": np.column_stack([mom, q * r, p, one]),
+        "q": np.column_stack([mom, p * r, q, one]),
+        "r": np.column_stack([yaw, p * q, r, one]),
     }
     return out
 
@@ -182,12 +192,15 @@ class NominalModel:
         Channel → least-squares coefficients of its regressors.
     channels : tuple of str
         Channels the simulation log supports.
+    delay : float
+        Command-to-motor delay of the simulation's own log, s (a logging or mixing step).
     """
 
     k: float
     tau: float
     coef: dict[str, np.ndarray]
     channels: tuple[str, ...]
+    delay: float = 0.0
 
     def predict(self, flight: Flight, mods: Mods | None = None,
                 channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
@@ -195,7 +208,7 @@ class NominalModel:
         mods = mods or Mods()
         chans = self.channels if channels is None else tuple(c for c in channels
                                                              if c in self.channels)
-        feats = features(flight, self.k, self.tau, mods, chans)
+        feats = features(flight, self.k, self.tau, mods, chans, self.delay)
         out: dict[str, np.ndarray] = {}
         for c in chans:
             if c in GYRO_CHANNELS:
@@ -205,6 +218,9 @@ class NominalModel:
                 y = y / mods.inertia
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * flight.v_body[:, 0 if c == "ax" else 1]
+            if mods.drag_moment and c in ("p", "q"):
+                sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
+                y = y + sign * mods.drag_moment * flight.v_body[:, j]
             out[c] = lowpass(y, flight.fs, CUTOFF_HZ[c]) + mods.offset.get(c, 0.0)
         if any(c in chans for c in GYRO_CHANNELS):
             kin = lowpass(euler_body_rates(flight.att, flight.fs), flight.fs,
@@ -240,10 +256,10 @@ def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
 
 
 def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
-                     channels: tuple[str, ...]) -> dict[str, np.ndarray]:
+                     channels: tuple[str, ...], delay: float = 0.0) -> dict[str, np.ndarray]:
     """Least-squares coefficients per channel on the samples in ``mask``."""
     meas = measured(flight)
-    feats = features(flight, k, tau, Mods())
+    feats = features(flight, k, tau, Mods(), delay=delay)
     drop = _unexcited(flight, mask)
     coef = {}
     for c in channels:
@@ -258,10 +274,10 @@ def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
 
 
 def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
-                  channels: tuple[str, ...]) -> float:
+                  channels: tuple[str, ...], delay: float = 0.0) -> float:
     meas = measured(flight)
-    coef = fit_coefficients(flight, mask, k, tau, channels)
-    model = NominalModel(k, tau, coef, channels)
+    coef = fit_coefficients(flight, mask, k, tau, channels, delay)
+    model = NominalModel(k, tau, coef, channels, delay)
     pred = model.predict(flight)
     total = 0.0
     for c in channels:
@@ -293,8 +309,12 @@ def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None 
     channels = tuple(c for c in CHANNELS if c in measured(flight))
     rates = tuple(c for c in channels if c in RATE_CHANNELS)
     k = K_DEFAULT if k is None else float(k)
-    tau = minimize_scalar(lambda v: _weighted_sse(flight, mask, k, v, rates),
-                          bounds=TAU_BOUNDS, method="bounded",
-                          options={"xatol": 2e-3}).x
-    coef = fit_coefficients(flight, mask, k, float(tau), channels)
-    return NominalModel(k, float(tau), coef, channels)
+    best = (np.inf, 0.0, 0.0)
+    for delay in NOMINAL_DELAYS_S:
+        r = minimize_scalar(lambda v, d=delay: _weighted_sse(flight, mask, k, v, rates, d),
+                            bounds=TAU_BOUNDS, method="bounded", options={"xatol": 2e-3})
+        if r.fun < best[0]:
+            best = (float(r.fun), float(r.x), delay)
+    _, tau, delay = best
+    coef = fit_coefficients(flight, mask, k, tau, channels, delay)
+    return NominalModel(k, tau, coef, channels, delay)

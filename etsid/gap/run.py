@@ -29,19 +29,25 @@ from etsid.gap.nominal import (
     measured,
 )
 from etsid.gap.result import SCHEMA_NAME, write_gap_json
-from etsid.gap.select import Scored, Selection, fit_unexplained, select
+from etsid.gap.select import MIN_SHARE, Scored, Selection, fit_unexplained, select
 from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, prepare
 from etsid.gap.summary import effect_entry, summary_sentence
 
 Z_MISMATCH = 4.0
 """A channel is mismatched when REAL's mean squared error is this many times SIM's
 (RMSE twice SIM's own held-out error)."""
+Z_SMALL = 2.5
+MIN_SHARE_SMALL = 0.5
+"""Small but structured mismatch: with no channel above :data:`Z_MISMATCH`, channels (not
+the gyro ones) above ``Z_SMALL`` are explained only by an effect that removes
+``MIN_SHARE_SMALL`` of their held-out excess (both chosen on the dev seeds, whose 20
+no-effect pairs stay below z = 2 in every such channel)."""
 SIM_FIT_SHARE = 0.7
 FIT_SHARE = 0.6
-GYRO_FLOOR = 0.007
+GYRO_FLOOR = 0.009
 """rad/s: the flight-to-flight difference of a calibrated MEMS gyro's bias (≈0.3 °/s =
 0.005 rad/s per flight, two flights compared: 0.007 rad/s) is not evidence of missing
-physics."""
+physics; 0.009 keeps the dev seeds' no-effect pairs below the threshold."""
 SPEED_MARGIN = 0.5
 CLIMB_MARGIN = 0.15
 """m/s: REAL is compared only within SIM's speed and climb-rate range plus these."""
@@ -201,13 +207,17 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     scorer = Scorer(ctx, yr, sigma)
     z_all = scorer.zscores(None, real.airborne)
     mis = [c for c, z in sorted(z_all.items(), key=lambda kv: -kv[1]) if z > Z_MISMATCH]
+    small = not mis
+    if small:
+        mis = [c for c, z in sorted(z_all.items(), key=lambda kv: -kv[1])
+               if z > Z_SMALL and c not in GYRO_CHANNELS]
     r_fit, r_hold = _split(real.airborne, FIT_SHARE)
     res0 = scorer.residuals()
     rmse_before = _rmse(res0, r_hold)
     base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
             "noise": sigma, "units": {c: UNITS[c] for c in shared},
-            "nominal": {"k": k, "tau": nominal.tau, "channels": list(shared),
-                        "z_all": z_all},
+            "nominal": {"k": k, "tau": nominal.tau, "delay": nominal.delay,
+                        "channels": list(shared), "z_all": z_all},
             "rmse_before": rmse_before}
     series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": z_all}
     if not mis:
@@ -219,7 +229,12 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         return GapResult(data, sim, real, nominal, series)
 
     # --- explain -------------------------------------------------------------------------
-    sel = select(scorer, r_fit, r_hold, tuple(mis))
+    sel = select(scorer, r_fit, r_hold, tuple(mis),
+                 min_share=MIN_SHARE_SMALL if small else MIN_SHARE, z_left=Z_MISMATCH)
+    if small and sel.chosen:
+        notes.append(f"small but structured mismatch: {', '.join(mis)} between "
+                     f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× {sim_name}'s "
+                     "error, and a named effect predicts it on held-out data")
     mods = sel.chosen.fit.mods if sel.chosen else None
     effects = []
     radius = info.get("radius")

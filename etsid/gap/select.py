@@ -26,7 +26,10 @@ MIN_SHARE = 0.30
 MIN_EXTRA_SHARE = 0.10
 MIN_UNEXPLAINED_GAIN = 0.30
 """Least relative drop of a channel's held-out z that the eTS residual model must give."""
-PAIR_POOL = 3
+PAIR_POOL = 4
+MIN_LEFT_SHARE = 0.5
+"""A second effect is also kept when the first leaves a focus channel mismatched on held-out
+data and the pair removes this share of what is left there (chosen on the dev seeds)."""
 
 
 @dataclass
@@ -83,13 +86,28 @@ def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, fl
     return Scored(fit, z_after, gain, gain / max(e0, 1e-9))
 
 
+def _left_share(best: Scored, joint: Scored, left: list[str]) -> float:
+    """Share of the held-out excess the first effect left in ``left`` that the pair removes
+    (losses in any other channel count against it)."""
+    e_left = sum(max(best.z_after[c] - 1.0, 0.0) for c in left)
+    gain = sum(best.z_after[c] - joint.z_after[c] for c in left)
+    gain -= sum(max(joint.z_after[c] - best.z_after[c], 0.0) for c in joint.z_after
+                if c not in left)
+    return gain / max(e_left, 1e-9)
+
+
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
            focus: tuple[str, ...] = (),
-           library: tuple[Candidate, ...] = LIBRARY) -> Selection:
+           library: tuple[Candidate, ...] = LIBRARY, min_share: float = MIN_SHARE,
+           z_left: float = 4.0) -> Selection:
     """Fit every available candidate, keep the best one or two by held-out share.
 
     ``focus`` are the mismatched channels: the excess to explain is theirs (a channel
     that is merely noisier on REAL than on SIM is nothing a physical effect can explain).
+    The best single effect is kept if its share reaches ``min_share``. A second one, fitted
+    jointly with it, is kept if the pair raises the share by :data:`MIN_EXTRA_SHARE`, or —
+    when the first leaves a focus channel above ``z_left`` on held-out data — if the pair
+    removes :data:`MIN_LEFT_SHARE` of the excess left there.
     """
     z0 = scorer.zscores(None, hold)
     e0 = excess({c: v for c, v in z0.items() if c in focus or not focus})
@@ -101,16 +119,31 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
                                  focus))
     ranked.sort(key=lambda s: s.score, reverse=True)
     sel = Selection(z0, e0, ranked, None)
-    if not ranked or ranked[0].share < MIN_SHARE:
+    if not ranked or ranked[0].share < min_share:
         return sel
     best = ranked[0]
     chosen = best
-    pool = [s for s in ranked[1:PAIR_POOL + 1] if s.gain > 0]
+    left = [c for c in focus if best.z_after.get(c, 0.0) > z_left]
+    if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
+        sel.chosen = best  # nothing left for a second effect to explain
+        return sel
+    pool = [s for s in ranked[1:] if s.gain > 0
+            and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
+    best_left = MIN_LEFT_SHARE
     for other in pool:
         pair = (best.fit.candidates[0], other.fit.candidates[0])
-        joint = score_fit(fit_candidates(pair, scorer, fit_mask), scorer, hold, z0, e0, focus)
-        if (joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score):
+        start = np.concatenate([best.fit.theta, other.fit.theta])
+        joint = score_fit(fit_candidates(pair, scorer, fit_mask, start), scorer, hold, z0, e0,
+                          focus)
+        share_left = _left_share(best, joint, left) if left else 0.0
+        sel.notes.append(f"pair {joint.fit.name}: share {joint.share:.3f}, left "
+                         f"{share_left:.3f}")
+        if joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score:
             chosen = joint
+        elif (share_left >= best_left and joint.share >= best.share
+              and chosen.score - best.score < MIN_EXTRA_SHARE):
+            # the first effect leaves a channel mismatched; the pair explains what is left
+            chosen, best_left = joint, share_left
     sel.chosen = chosen
     return sel
 

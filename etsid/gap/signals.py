@@ -18,6 +18,9 @@ from scipy.signal import butter, sosfiltfilt
 from etsid.errors import GapError
 
 MODEL_HZ = 100.0
+ANTIALIAS_SHARE = 0.4
+"""A log faster than the analysis grid is low-passed at this share of the grid rate
+(40 Hz for 100 Hz) before resampling."""
 """Rate of the gap analysis, Hz (a slower log is analysed at its own rate)."""
 ANALYSIS_CUTOFF_HZ = 8.0
 """Zero-phase low-pass applied to measured outputs and to predictions alike, Hz."""
@@ -175,6 +178,10 @@ def prepare(table: pd.DataFrame, name: str) -> Flight:
     native = (t_src.size - 1) / (t_src[-1] - t_src[0])
     fs = float(min(MODEL_HZ, native))
     t = np.arange(t_src[0], t_src[-1], 1.0 / fs)
+    dt = np.diff(t_src)
+    # a faster log is low-passed before it is resampled: motor outputs carry the rate
+    # loop's high-frequency content, which would otherwise alias into the model's band
+    antialias = native > 1.25 * fs and float(np.std(dt)) < 0.1 * float(np.median(dt))
 
     def col(c: str) -> np.ndarray:
         if c not in table.columns:
@@ -183,6 +190,8 @@ def prepare(table: pd.DataFrame, name: str) -> Flight:
         good = np.isfinite(v)
         if good.sum() < 2:
             return np.full(t.size, np.nan)
+        if antialias and good.all():
+            v = lowpass(v, native, ANTIALIAS_SHARE * fs)
         return np.interp(t, t_src[good], v[good])
 
     have = {c for c in ("alt", "vbat", "ax", "ay", "roll", "vx") if c in table.columns
