@@ -52,6 +52,9 @@ SPEED_MARGIN = 0.5
 CLIMB_MARGIN = 0.15
 """m/s: REAL is compared only within SIM's speed and climb-rate range plus these."""
 MAX_HOVER_RATIO = 2.2
+MAX_VOLTAGE_RATIO = 1.3
+"""Mean airborne pack voltages further apart than this are different packs (cell counts:
+4S/3S is 1.33), hence different vehicles; battery sag in the dev pairs stays below 1.2."""
 
 
 @dataclass
@@ -198,6 +201,14 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         raise GapError(f"{real_name}: hover thrust command {ratio:.2f}× that of {sim_name}; "
                        "these look like different vehicles, not one vehicle with missing "
                        "physics")
+    if "vbat" in sim.have and "vbat" in real.have:
+        v_sim = float(np.nanmedian(sim.vbat[sim.airborne]))
+        v_real = float(np.nanmedian(real.vbat[real.airborne]))
+        v_ratio = v_real / max(v_sim, 1e-9)
+        if not 1.0 / MAX_VOLTAGE_RATIO < v_ratio < MAX_VOLTAGE_RATIO:
+            raise GapError(f"{real_name}: battery voltage {v_real:.1f} V against {v_sim:.1f} V "
+                           f"in {sim_name} (different packs); these look like different "
+                           "vehicles, not one vehicle with missing physics")
     # --- mismatch verdict on all airborne REAL -----------------------------------------
     ctx = Context(real, nominal,
                   float(np.nanmean(sim.vbat[sim.airborne])) if "vbat" in sim.have else None,

@@ -39,6 +39,22 @@ def test_different_vehicles_is_an_error(hover) -> None:
         analyse(hover, heavy, "sim.parquet", "real.parquet")
 
 
+def test_tarot_against_quad_is_never_a_confident_name() -> None:
+    """Two different vehicles: with motor outputs the motor count differs; with only stick
+    commands (four on both) the pack voltages do (6S against 3S). Either way an error."""
+    tarot = simulate("hover-oge", "tarot680", duration=30.0, seed=21, alt_wander=0.3).table
+    quad = simulate("hover-oge", "quad250", duration=30.0, seed=22, alt_wander=0.3).table
+    with pytest.raises(GapError, match="not the same vehicle type"):
+        analyse(tarot, quad, "sim.parquet", "real.parquet")
+
+    def sticks_only(t):
+        return t.drop(columns=[c for c in t.columns if c[0] == "m" and c[1:].isdigit()])
+
+    for sim, real in ((tarot, quad), (quad, tarot)):
+        with pytest.raises(GapError, match="real.parquet: battery voltage .*different vehicles"):
+            analyse(sticks_only(sim), sticks_only(real), "sim.parquet", "real.parquet")
+
+
 def test_too_little_airborne_data_is_insufficient(hover) -> None:
     short = simulate("hover-oge", duration=9.0, seed=14).table
     data = analyse(hover, short, "sim.parquet", "real.parquet").data
