@@ -2,7 +2,8 @@
 
 Run from the repository root::
 
-    python sample_logs/regenerate.py
+    python sample_logs/regenerate.py          # the sample flight in every format
+    python sample_logs/regenerate.py --gap    # the pair for `etsid gap` (low_hover_*.parquet)
 
 It flies the ``hover-ige`` scenario (Tarot 680 hexacopter hovering below 40 cm with
 roll/pitch/yaw stick excitation, ground effect on) with the project's simulator and writes
@@ -13,10 +14,12 @@ it with the project's log writers. Deterministic: the same seed gives the same b
 from __future__ import annotations
 
 import shutil
+import sys
 from pathlib import Path
 
 from etsid.sim import simulate
 from etsid.sim.writers import write_log
+from etsid.table import save_table
 
 HERE = Path(__file__).resolve().parent
 NAME = "hexa_hover_ige"
@@ -33,8 +36,32 @@ OUTPUTS = {
 }
 
 
+GAP_PAIR = ("low_hover_1.parquet", "low_hover_2.parquet")
+"""The gap-analysis pair (``etsid gap``): the same hexacopter hovering low, twice, with
+different pilots' inputs and lengths. One is a simulation without ground effect, the other
+the "recording" with it; the names do not say which is which (the README does)."""
+
+
+def gap_pair() -> None:
+    """Write the concealed ground-effect pair (``python sample_logs/regenerate.py --gap``)."""
+    sim = simulate(SCENARIO, duration=40.0, seed=21, ground_effect=False, altitude=0.36,
+                   alt_wander=0.10, amplitude=0.3)
+    rec = simulate(SCENARIO, duration=34.0, seed=22, ground_effect=True, altitude=0.34,
+                   alt_wander=0.13, amplitude=0.35,
+                   settings={"vehicle.sensors.gyro_std": 0.024,
+                             "vehicle.sensors.accel_std": 0.3})
+    for name, flight in zip(GAP_PAIR, (sim, rec), strict=True):
+        table = flight.table.iloc[::2].copy()  # 125 Hz, like a typical flight-log stream
+        table.attrs = {"source": name, "format": "table"}
+        save_table(table, HERE / name)
+        print(f"{name}: {(HERE / name).stat().st_size / 1e6:.2f} MB")
+
+
 def main() -> None:
     """Simulate once, write every format, print sizes."""
+    if "--gap" in sys.argv[1:]:
+        gap_pair()
+        return
     flight = simulate(SCENARIO, duration=DURATION_S, seed=SEED)
     for name, fmt in OUTPUTS.items():
         target = HERE / name

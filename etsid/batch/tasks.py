@@ -3,7 +3,8 @@
 A batch is many independent runs of the existing commands, never a second implementation:
 ``inspect`` is :func:`etsid.ingest.inspect_log`, ``ingest`` is :func:`etsid.ingest.read_log`
 + :func:`etsid.table.save_table`, ``identify`` is :func:`etsid.ident.identify` +
-:func:`etsid.ident.write_run` (with the log read as ``etsid identify`` reads it). Every
+:func:`etsid.ident.write_run` (with the log read as ``etsid identify`` reads it), ``gap`` is
+:func:`etsid.gap.run.run_gap`. Every
 call into those packages is in this module, so that a rename there is a one-line fix here.
 Each function writes the log's run directory and returns the row fields it knows.
 """
@@ -172,7 +173,11 @@ def gap(sim: Path, real: Path, spec: BatchSpec, run_dir: Path) -> dict[str, Any]
     """Sim-vs-real gap analysis of one pair (needs :mod:`etsid.gap`)."""
     if not gap_available():
         raise BatchError(GAP_UNAVAILABLE)
-    raise BatchError(f"{GAP_UNAVAILABLE}: etsid.gap exists but the batch is not wired to it")
+    from etsid.gap.run import run_gap
+
+    result = run_gap(sim, real, run_dir, vehicle=spec.extra.get("vehicle"),
+                     options=spec.read_options)
+    return gap_fields(result.data)
 
 
 def gap_fields(result: dict[str, Any]) -> dict[str, Any]:

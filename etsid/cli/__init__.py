@@ -25,6 +25,7 @@ COMMAND_MODULES: dict[str, str] = {
     "predict": "etsid.cli.ident_cmds",
     "rules": "etsid.cli.ident_cmds",
     "report": "etsid.cli.report_cmds",
+    "gap": "etsid.cli.gap_cmds",
     "batch": "etsid.cli.batch_cmds",
     "control": "etsid.cli.control_cmds",
 }

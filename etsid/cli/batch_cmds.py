@@ -147,14 +147,19 @@ def batch_identify(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler
 @batch.command("gap")
 @click.argument("pairs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @_batch_options
+@click.option("--vehicle", default=None,
+              help="Vehicle TOML file or packaged name for every pair (as etsid gap).")
 def batch_gap(pairs: tuple[Path, ...], out: Path, jobs: int | None, scheduler: str,
-              resume: bool, max_memory_mb: float | None, quiet: bool, **kw: Any) -> None:
+              resume: bool, max_memory_mb: float | None, quiet: bool,
+              vehicle: str | None, **kw: Any) -> None:
     """Sim-vs-real gap analysis of every SIM,REAL pair in the PAIRS CSV files."""
     from etsid.batch import GAP_UNAVAILABLE, BatchError, gap_available
 
     if not gap_available():
         raise BatchError(GAP_UNAVAILABLE)
     spec = _read_spec("gap", kw)
+    if vehicle is not None:
+        spec.extra["vehicle"] = vehicle
     _run(list(read_pairs(pairs)), spec, out, jobs, scheduler, resume, max_memory_mb, quiet)
 
 

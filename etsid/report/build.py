@@ -60,6 +60,10 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     """
     if fmt not in FORMATS:
         raise ReportError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+    if (Path(run_dir) / "gap.json").is_file():  # a directory written by `etsid gap`
+        from etsid.report.gap import make_gap_report
+
+        return make_gap_report(run_dir, fmt)
     from etsid.report.control import is_control_run, make_control_report
     from etsid.report.fleet import is_batch_dir, make_fleet_report
 

@@ -1,0 +1,227 @@
+"""The library of named physics candidates: small pluggable objects, one per phenomenon.
+
+Each :class:`Candidate` has a ``name`` from the gap vocabulary, its parameters with units
+and bounds, the channels it acts on, a one-line physical signature and its equation, and
+``mods(theta, ctx)``: the change it makes to the nominal model (:class:`~etsid.gap.nominal.Mods`).
+Fitting, scoring and selection are generic (:mod:`etsid.gap.select`), so adding a
+candidate is adding one object to :data:`LIBRARY`. None of these laws is the one the
+simulator uses to generate data (see docs/gap.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from etsid.gap.nominal import Mods, NominalModel
+from etsid.gap.signals import Flight
+
+GE_MAX_RATIO = 2.0
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of a candidate: name, unit, search bounds, start value."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    x0: float
+
+
+@dataclass
+class Context:
+    """What a candidate may use besides its parameters.
+
+    Attributes
+    ----------
+    flight : Flight
+        The flight the model predicts (REAL).
+    nominal : NominalModel
+        The model fitted on SIM.
+    v_ref : float or None
+        Mean airborne battery voltage of SIM, V (None: SIM has no voltage).
+    rotor_dirs : ndarray or None
+        (N, 2) unit directions (x forward, y right) of the rotors in the body, estimated
+        from the nominal moment coefficients (None when the inputs are commands).
+    arm : float or None
+        Hub distance from the CG, m, if a vehicle file gave it.
+    """
+
+    flight: Flight
+    nominal: NominalModel
+    v_ref: float | None
+    rotor_dirs: np.ndarray | None
+    arm: float | None = None
+    cache: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A named physical effect with a parametric law.
+
+    Attributes
+    ----------
+    name : str
+        Vocabulary name (``ground_effect`` …).
+    params : tuple of Param
+        Parameters, in the order of ``theta``.
+    channels : tuple of str
+        Channels the effect acts on.
+    signature : str
+        How it shows in the data (one sentence).
+    equation : str
+        Its law in plain text.
+    build : callable
+        ``build(theta, ctx) -> Mods``.
+    needs : tuple of str
+        Signals the REAL flight must have (``alt``, ``vbat``, ``vel``, ``roll``).
+    """
+
+    name: str
+    params: tuple[Param, ...]
+    channels: tuple[str, ...]
+    signature: str
+    equation: str
+    build: Callable[[np.ndarray, Context], Mods]
+    needs: tuple[str, ...] = ()
+
+    def available(self, ctx: Context) -> bool:
+        """Whether the flight has the signals this candidate needs."""
+        if self.name == "battery_sag" and ctx.v_ref is None:
+            return False
+        return all(s in ctx.flight.have for s in self.needs)
+
+    def mods(self, theta: np.ndarray, ctx: Context) -> Mods:
+        """The nominal-model change for parameters ``theta``."""
+        return self.build(np.asarray(theta, dtype=float), ctx)
+
+
+def _times(a: float | np.ndarray, b: float | np.ndarray) -> float | np.ndarray:
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if x.ndim == 1 and y.ndim == 2:
+        x = x[:, None]
+    if y.ndim == 1 and x.ndim == 2:
+        y = y[:, None]
+    return x * y
+
+
+def merge(a: Mods, b: Mods) -> Mods:
+    """Two effects at once: gains multiply, offsets and drags add, lag/delay combine."""
+    tau = a.tau if b.tau is None else (b.tau if a.tau is None else max(a.tau, b.tau))
+    offset = dict(a.offset)
+    for k, v in b.offset.items():
+        offset[k] = offset.get(k, 0.0) + v
+    return Mods(tau=tau, delay=a.delay + b.delay, thrust_gain=_times(a.thrust_gain, b.thrust_gain),
+                torque_gain=_times(a.torque_gain, b.torque_gain), inertia=a.inertia * b.inertia,
+                offset=offset, drag=a.drag + b.drag,
+                drag_moment=a.drag_moment + b.drag_moment)
+
+
+def ground_ratio(z: np.ndarray, radius: float, exponent: float = 2.0) -> np.ndarray:
+    """T_IGE/T_OGE = 1/(1 − (R/4z)^n), clipped at :data:`GE_MAX_RATIO` (z, R in m).
+
+    n = 2 is Cheeseman–Bennett's image-rotor law; a free n lets one law describe a whole
+    multirotor, whose neighbouring rotors and body make the excess decay more slowly.
+    """
+    x = radius / (4.0 * np.maximum(z, 1e-3))
+    den = np.maximum(1.0 - x**exponent, 1.0 / GE_MAX_RATIO)
+    return 1.0 / den
+
+
+def hub_heights(ctx: Context, arm: float) -> np.ndarray:
+    """(n, N) height of every hub above ground, m, from altitude, attitude and geometry."""
+    f = ctx.flight
+    alt = f.alt[:, None]
+    if ctx.rotor_dirs is None or arm <= 0:
+        return np.broadcast_to(alt, (f.n, max(f.motors.shape[1], 1)))
+    phi, th = f.att[:, 0:1], f.att[:, 1:2]
+    x = arm * ctx.rotor_dirs[None, :, 0]
+    y = arm * ctx.rotor_dirs[None, :, 1]
+    return alt + x * np.sin(th) - y * np.sin(phi) * np.cos(th)
+
+
+def _ground_effect(theta: np.ndarray, ctx: Context) -> Mods:
+    radius, n = theta[0], theta[1]
+    if ctx.arm is not None and ctx.rotor_dirs is not None:
+        return Mods(thrust_gain=ground_ratio(hub_heights(ctx, ctx.arm), radius, n))
+    return Mods(thrust_gain=ground_ratio(ctx.flight.alt, radius, n))
+
+
+def _battery(theta: np.ndarray, ctx: Context) -> Mods:
+    v = ctx.flight.vbat
+    gain = (np.clip(v, 0.3 * ctx.v_ref, 3.0 * ctx.v_ref) / ctx.v_ref) ** theta[0]
+    return Mods(thrust_gain=gain, torque_gain=gain)
+
+
+def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]:
+    def build(theta: np.ndarray, ctx: Context) -> Mods:
+        return Mods(offset={c: float(v) for c, v in zip(channels, theta, strict=True)})
+    return build
+
+
+LIBRARY: tuple[Candidate, ...] = (
+    Candidate(
+        "ground_effect", (Param("R", "m", 0.02, 1.5, 0.3), Param("exponent", "1", 0.6, 3.0, 2.0)),
+        ("az", "p", "q"),
+        "thrust excess that grows as the hubs near the ground (vertical force and the "
+        "restoring moments of a tilted rotor plane), independent of command",
+        "T = T_nom / (1 − (R / 4 z)^n), z height above ground (Cheeseman–Bennett for n = 2; "
+        "effective radius R and decay exponent n)",
+        _ground_effect, ("alt",)),
+    Candidate(
+        "thrust_scale", (Param("scale", "1", 0.4, 2.0, 1.0),), ("az", "p", "q"),
+        "thrust everywhere too high or low by the same factor: vertical force and roll/pitch "
+        "authority change together, yaw does not",
+        "T_i = s · T_i,nom", lambda th, ctx: Mods(thrust_gain=th[0])),
+    Candidate(
+        "battery_sag", (Param("exponent", "1", 0.0, 6.0, 2.0),), ("az", "p", "q", "r"),
+        "thrust and torque follow the measured pack voltage (drops under load and with charge)",
+        "T_i = T_i,nom · (V / V_sim)^n, V_sim the simulation's mean voltage",
+        _battery, ("vbat",)),
+    Candidate(
+        "motor_lag", (Param("tau", "s", 0.003, 0.5, 0.08),), ("az", "p", "q", "r"),
+        "response to motor commands smaller and later the faster the command changes "
+        "(a first-order roll-off), steady state unchanged",
+        "Ω̇_i = (Ω_i,cmd − Ω_i)/τ (symmetric first-order lag)",
+        lambda th, ctx: Mods(tau=th[0])),
+    Candidate(
+        "time_delay", (Param("delay", "s", 0.0, 0.3, 0.02),), ("az", "p", "q", "r"),
+        "response to motor commands later by a fixed time at every frequency, gain unchanged",
+        "m_i(t) → m_i(t − d)", lambda th, ctx: Mods(delay=th[0])),
+    Candidate(
+        "rotor_drag", (Param("drag", "1/s", 0.0, 3.0, 0.2),
+                       Param("moment", "rad/s² per m/s", -5.0, 5.0, 0.0)),
+        ("ax", "ay", "p", "q"),
+        "horizontal specific force opposing the body velocity, growing with speed, and the "
+        "pitching/rolling moment it makes at the rotor plane above or below the CG",
+        "a_xy = a_xy,nom − k v_xy,body (linear blade-flapping/H-force drag); "
+        "q̇ += h v_x, ṗ −= h v_y",
+        lambda th, ctx: Mods(drag=th[0], drag_moment=th[1]), ("vel",)),
+    Candidate(
+        "inertia_scale", (Param("scale", "1", 0.3, 3.0, 1.0),), ("p", "q", "r"),
+        "all angular accelerations smaller or larger by one factor; vertical force unchanged",
+        "ω̇ = ω̇_nom / s (inertia s times the simulation's)",
+        lambda th, ctx: Mods(inertia=th[0])),
+    Candidate(
+        "torque_offset",
+        (Param("p_offset", "rad/s²", -20.0, 20.0, 0.0), Param("q_offset", "rad/s²", -20.0,
+                                                            20.0, 0.0),
+         Param("r_offset", "rad/s²", -20.0, 20.0, 0.0)), ("p", "q", "r"),
+        "a constant angular acceleration the motors must hold against (steady differential "
+        "thrust in level flight): a CG offset or a constant moment",
+        "ω̇ = ω̇_nom + J⁻¹ M_0", _offsets(("p", "q", "r"))),
+    Candidate(
+        "gyro_bias",
+        (Param("bx", "rad/s", -0.5, 0.5, 0.0), Param("by", "rad/s", -0.5, 0.5, 0.0),
+         Param("bz", "rad/s", -0.5, 0.5, 0.0)), ("gyro_p", "gyro_q", "gyro_r"),
+        "the gyro reads a constant rate the attitude does not follow (the controller's "
+        "integrator hides it in the rate loop)",
+        "ω_gyro = ω_attitude + b", _offsets(("gyro_p", "gyro_q", "gyro_r")), ("roll",)),
+)
+
+BY_NAME = {c.name: c for c in LIBRARY}
+VOCABULARY = (*(c.name for c in LIBRARY), "unexplained")

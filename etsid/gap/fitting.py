@@ -1,0 +1,184 @@
+"""Fit one candidate (or two jointly) on the first part of REAL; score any model on a mask.
+
+The objective is the noise-normalised mean squared residual, summed over the channels the
+effect(s) act on: ``J = Σ_c mean((y_c − ŷ_c)²) / σ_c²``, with ``σ_c`` the nominal model's
+held-out error on SIM itself. Parameter uncertainty is the Gauss–Newton standard error
+from the curvature of ``J`` with the effective sample count of low-passed residuals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize, minimize_scalar
+
+from etsid.gap.candidates import Candidate, Context, merge
+from etsid.gap.nominal import CUTOFF_HZ, Mods
+
+
+@dataclass
+class Fit:
+    """A fitted candidate set.
+
+    Attributes
+    ----------
+    candidates : tuple of Candidate
+        One or two candidates.
+    theta : ndarray
+        Fitted parameters, concatenated in candidate order.
+    stderr : ndarray
+        Standard errors of ``theta``.
+    mods : Mods
+        The model change at ``theta``.
+    """
+
+    candidates: tuple[Candidate, ...]
+    theta: np.ndarray
+    stderr: np.ndarray
+    mods: Mods
+
+    @property
+    def name(self) -> str:
+        """``a`` or ``a+b``."""
+        return "+".join(c.name for c in self.candidates)
+
+    @property
+    def n_params(self) -> int:
+        """Number of fitted parameters."""
+        return int(self.theta.size)
+
+    def split(self) -> list[tuple[Candidate, np.ndarray, np.ndarray]]:
+        """(candidate, its theta, its stderr) per candidate."""
+        out, i = [], 0
+        for c in self.candidates:
+            k = len(c.params)
+            out.append((c, self.theta[i:i + k], self.stderr[i:i + k]))
+            i += k
+        return out
+
+
+class Scorer:
+    """Residuals of the nominal model (changed by candidates) on REAL, per channel.
+
+    Parameters
+    ----------
+    ctx : Context
+        REAL flight, nominal model and geometry.
+    measured : dict
+        Filtered measured channels of REAL.
+    sigma : dict
+        Channel → nominal held-out RMSE on SIM (noise and model error).
+    """
+
+    def __init__(self, ctx: Context, measured: dict[str, np.ndarray],
+                 sigma: dict[str, float]) -> None:
+        self.ctx = ctx
+        self.measured = measured
+        self.sigma = sigma
+
+    def residuals(self, mods: Mods | None = None,
+                  channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+        """Measured minus predicted, per channel (full length)."""
+        pred = self.ctx.nominal.predict(self.ctx.flight, mods, channels)
+        return {c: self.measured[c] - pred[c] for c in pred if c in self.measured}
+
+    def zscores(self, mods: Mods | None, mask: np.ndarray,
+                channels: tuple[str, ...] | None = None) -> dict[str, float]:
+        """Channel → mean squared residual over ``mask`` divided by ``σ_c²``."""
+        res = self.residuals(mods, channels)
+        chans = channels or tuple(res)
+        return {c: float(np.mean(res[c][mask] ** 2) / self.sigma[c] ** 2)
+                for c in chans if c in res}
+
+    def objective(self, mods: Mods, mask: np.ndarray, channels: tuple[str, ...]) -> float:
+        """Sum of the normalised mean squared residuals of ``channels`` over ``mask``."""
+        return float(sum(self.zscores(mods, mask, channels).values()))
+
+
+def _mods(cands: tuple[Candidate, ...], theta: np.ndarray, ctx: Context) -> Mods:
+    out: Mods | None = None
+    i = 0
+    for c in cands:
+        k = len(c.params)
+        m = c.mods(theta[i:i + k], ctx)
+        out = m if out is None else merge(out, m)
+        i += k
+    assert out is not None
+    return out
+
+
+def channels_of(cands: tuple[Candidate, ...], scorer: Scorer) -> tuple[str, ...]:
+    """Union of the channels the candidates act on that REAL and SIM both have."""
+    seen: list[str] = []
+    for c in cands:
+        seen += [ch for ch in c.channels if ch in scorer.measured and ch in scorer.sigma
+                 and ch not in seen]
+    return tuple(seen)
+
+
+def _start(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray) -> np.ndarray:
+    res = None
+    x0 = []
+    for c in cands:
+        for i, p in enumerate(c.params):
+            if p.name.endswith("_offset") or c.name == "gyro_bias":
+                if res is None:
+                    res = scorer.residuals()
+                ch = c.channels[i]
+                x0.append(float(np.mean(res[ch][mask])) if ch in res else 0.0)
+            else:
+                x0.append(p.x0)
+    return np.array(x0)
+
+
+def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
+                   x0: np.ndarray | None = None) -> Fit:
+    """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
+    e.g. the single fits of a pair; default the candidates' own starts)."""
+    chans = channels_of(cands, scorer)
+    params = [p for c in cands for p in c.params]
+    lo = np.array([p.lo for p in params])
+    hi = np.array([p.hi for p in params])
+
+    def f(theta: np.ndarray) -> float:
+        return scorer.objective(_mods(cands, theta, scorer.ctx), mask, chans)
+
+    if len(params) == 1:
+        grid = np.linspace(lo[0], hi[0], 13)
+        vals = [f(np.array([g])) for g in grid]
+        j = int(np.argmin(vals))
+        a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+        r = minimize_scalar(lambda v: f(np.array([v])), bounds=(a, b), method="bounded",
+                            options={"xatol": 1e-4 * (hi[0] - lo[0])})
+        theta = np.array([r.x])
+    else:
+        x0 = np.clip(_start(cands, scorer, mask) if x0 is None else x0, lo, hi)
+        span = hi - lo
+        u0 = (x0 - lo) / span
+        r = minimize(lambda u: f(lo + u * span), u0, method="Powell",
+                     bounds=[(0.0, 1.0)] * len(params),
+                     options={"xtol": 1e-3, "ftol": 1e-6, "maxfev": 200,
+                              "direc": 0.05 * np.eye(len(params))})
+        theta = lo + np.clip(r.x, 0.0, 1.0) * span
+        if f(x0) < f(theta):  # never worse than the start (e.g. the single fits of a pair)
+            theta = x0
+    stderr = _stderr(f, theta, lo, hi, scorer, mask)
+    return Fit(cands, theta, stderr, _mods(cands, theta, scorer.ctx))
+
+
+def _stderr(f, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray, scorer: Scorer,
+            mask: np.ndarray) -> np.ndarray:
+    fs = scorer.ctx.flight.fs
+    n_eff = max(float(np.sum(mask)) * 2.0 * min(CUTOFF_HZ.values()) / fs, 1.0)
+    j0 = f(theta)
+    out = np.empty(theta.size)
+    for i in range(theta.size):
+        h = 1e-3 * (hi[i] - lo[i])
+        tp, tm = theta.copy(), theta.copy()
+        tp[i] = min(theta[i] + h, hi[i])
+        tm[i] = max(theta[i] - h, lo[i])
+        d = (tp[i] - tm[i]) / 2.0
+        curv = (f(tp) - 2 * j0 + f(tm)) / max(d * d, 1e-18)
+        out[i] = np.sqrt(2.0 * max(j0, 1e-12) / (n_eff * curv)) if curv > 0 else np.inf
+    return out

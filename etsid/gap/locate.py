@@ -1,0 +1,156 @@
+"""Where the residual concentrates: channels, time segments and a regime of one
+scheduling variable (height, speed, thrust, command rate, battery voltage, time)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from etsid.gap.nominal import LABELS, UNITS
+from etsid.gap.signals import Flight, derivative, lowpass
+
+N_BINS = 8
+MIN_ETA2 = 0.15
+"""Least share of the residual variance one variable's bins must explain to name it."""
+SEGMENT_WINDOW_S = 1.0
+MAX_SEGMENTS = 12
+VARIABLE_TEXT = {"alt": "height above ground", "speed": "horizontal body speed",
+                 "thrust": "mean motor output", "command_rate": "motor command rate",
+                 "vbat": "battery voltage", "time": "time"}
+VARIABLE_UNITS = {"alt": "m", "speed": "m/s", "thrust": "1", "command_rate": "1/s",
+                  "vbat": "V", "time": "s"}
+
+
+@dataclass
+class Regime:
+    """A range of one scheduling variable where a channel's residual lives."""
+
+    channel: str
+    variable: str
+    lo: float
+    hi: float
+    eta2: float
+    mean_inside: float
+    description: str
+
+
+def scheduling_variables(flight: Flight) -> dict[str, np.ndarray]:
+    """Every scheduling variable the flight has, on its grid."""
+    out: dict[str, np.ndarray] = {}
+    if "alt" in flight.have and np.all(np.isfinite(flight.alt[flight.airborne])):
+        out["alt"] = flight.alt
+    if "vel" in flight.have:
+        out["speed"] = np.hypot(flight.v_body[:, 0], flight.v_body[:, 1])
+    out["thrust"] = flight.motors.mean(axis=1)
+    rate = np.abs(derivative(lowpass(flight.motors, flight.fs, 5.0), flight.fs))
+    out["command_rate"] = lowpass(rate.mean(axis=1), flight.fs, 1.0)
+    if "vbat" in flight.have and np.all(np.isfinite(flight.vbat[flight.airborne])):
+        out["vbat"] = flight.vbat
+    out["time"] = flight.t
+    return out
+
+
+def _bins(x: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    edges = np.unique(np.quantile(x, np.linspace(0, 1, N_BINS + 1)))
+    if edges.size < 3:
+        return edges, np.zeros(0), 0.0
+    idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, edges.size - 2)
+    means = np.array([e[idx == b].mean() if np.any(idx == b) else 0.0
+                      for b in range(edges.size - 1)])
+    counts = np.bincount(idx, minlength=edges.size - 1)
+    total = float(np.var(e)) + 1e-300
+    between = float(np.sum(counts * (means - e.mean()) ** 2) / counts.sum())
+    return edges, means, between / total
+
+
+def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight,
+                   radius: float | None = None) -> Regime:
+    """The scheduling variable whose bins explain most of ``resid`` on the airborne part.
+
+    Parameters
+    ----------
+    channel : str
+        Channel name.
+    resid : ndarray
+        Residual (measured − nominal) over the whole flight.
+    sigma : float
+        The channel's noise level measured on SIM.
+    flight : Flight
+        REAL, for the scheduling variables.
+    radius : float, optional
+        Rotor radius (m) to express heights as z/R.
+    """
+    air = flight.airborne
+    e = resid[air]
+    unit = UNITS[channel]
+    best: tuple[str, np.ndarray, np.ndarray, float] | None = None
+    rms_mode = False
+    for name, x in scheduling_variables(flight).items():
+        for sq in (False, True):  # the residual itself, or its power (zero-mean effects)
+            edges, means, eta2 = _bins(x[air], e**2 if sq else e)
+            if means.size and (best is None or eta2 > best[3]):
+                best = (name, edges, np.sqrt(np.maximum(means, 0)) if sq else means, eta2)
+                rms_mode = sq
+    mean_all = float(e.mean())
+    if best is None or best[3] < MIN_ETA2:
+        text = (f"{LABELS[channel]} {mean_all:+.2f} {unit} on average throughout the flight "
+                "(no height, speed, thrust, command-rate, voltage or time band stands out)")
+        return Regime(channel, "none", float("nan"), float("nan"),
+                      0.0 if best is None else best[3], mean_all, text)
+    name, edges, means, eta2 = best
+    floor = sigma if rms_mode else 2.0 * sigma / np.sqrt(max(e.size / N_BINS / 50.0, 1.0))
+    active = np.abs(means) > max(floor, 0.5 * np.max(np.abs(means)))
+    if not np.any(active):
+        active = np.abs(means) >= np.max(np.abs(means))
+    js = np.flatnonzero(active)
+    lo, hi = float(edges[js[0]]), float(edges[js[-1] + 1])
+    x_air = scheduling_variables(flight)[name][air]
+    inside = (x_air >= lo) & (x_air <= hi)
+    mean_in = float(np.sqrt(np.mean(e[inside] ** 2)) if rms_mode else e[inside].mean())
+    vunit = VARIABLE_UNITS[name]
+    full_lo, full_hi = float(edges[0]), float(edges[-1])
+    if js[0] == 0 and js[-1] < edges.size - 2:
+        where = f"below {hi:.3g} {vunit}"
+    elif js[-1] == edges.size - 2 and js[0] > 0:
+        where = f"above {lo:.3g} {vunit}"
+    elif js[0] == 0 and js[-1] == edges.size - 2:
+        low_end = abs(means[0]) > abs(means[-1])
+        where = (f"over the whole range {full_lo:.3g}–{full_hi:.3g} {vunit}, strongest at "
+                 f"its {'low' if low_end else 'high'} end")
+    else:
+        where = f"between {lo:.3g} and {hi:.3g} {vunit}"
+    if name == "alt" and radius:
+        where += f" (z/R {lo / radius:.2g}–{hi / radius:.2g})"
+    size = f"RMS {mean_in:.2f}" if rms_mode else f"{mean_in:+.2f}"
+    text = (f"{LABELS[channel]} {size} {unit} with {VARIABLE_TEXT[name]} {where}; "
+            "elsewhere within noise" if not (js[0] == 0 and js[-1] == edges.size - 2) else
+            f"{LABELS[channel]} residual follows {VARIABLE_TEXT[name]} {where}")
+    return Regime(channel, name, lo, hi, eta2, mean_in, text)
+
+
+def segments(resid: np.ndarray, sigma: float, flight: Flight) -> list[tuple[float, float]]:
+    """Time segments (s) where the 1 s mean of the residual exceeds twice its noise level."""
+    w = max(int(SEGMENT_WINDOW_S * flight.fs), 1)
+    e = np.where(flight.airborne, resid, 0.0)
+    cnt = np.convolve(flight.airborne.astype(float), np.ones(w), "same")
+    mean = np.convolve(e, np.ones(w), "same") / np.maximum(cnt, 1.0)
+    hot = flight.airborne & (np.abs(mean) > 2.0 * sigma / np.sqrt(max(w / 10.0, 1.0)))
+    out: list[tuple[float, float]] = []
+    i = 0
+    while i < hot.size:
+        if not hot[i]:
+            i += 1
+            continue
+        j = i
+        while j < hot.size and hot[j]:
+            j += 1
+        t0, t1 = float(flight.t[i]), float(flight.t[j - 1])
+        if out and t0 - out[-1][1] < SEGMENT_WINDOW_S:
+            out[-1] = (out[-1][0], t1)
+        elif t1 - t0 >= 0.5 * SEGMENT_WINDOW_S:
+            out.append((t0, t1))
+        i = j
+    out = [s for s in out if s[1] - s[0] >= SEGMENT_WINDOW_S]
+    out.sort(key=lambda s: s[1] - s[0], reverse=True)
+    return sorted(out[:MAX_SEGMENTS])

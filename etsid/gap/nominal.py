@@ -1,0 +1,320 @@
+"""The nominal model: physics-structured regressions fitted on the simulation log.
+
+Per rotor, speed follows the command through a short delay (0–10 ms, the log's own) and a
+first-order lag (time constant ``tau``, s) and ``Omega_i ∝ m_i + k`` (``k`` = idle speed
+over speed range); thrust and reaction torque go as ``P_i = (m_i + k)²``. The channels:
+
+* ``az`` (m/s²): ``c1 ΣP_i + c2 v_bz + c3 |v_bz| v_bz + c4 ΣP_i (v_bx² + v_by²)`` — thrust
+  over mass with climb-inflow, vertical drag and translational-lift corrections (no
+  intercept: zero thrust is zero specific force);
+* ``ax``, ``ay`` (m/s²): rotor and body drag ``c1 Ω̄ v + c2 |v| v + c0`` (Ω̄ = mean (m_i + k));
+* ``p``, ``q`` (rad/s²): moments from thrust differences, ``Σ g_i (P_i − P̄)`` plus the
+  gyroscopic product (``q r`` or ``p r``), rotor damping (∝ ``p`` or ``q``) and a constant;
+* ``r`` (rad/s²): reaction torques ``Σ h_i (P_i − P̄)`` plus rotor spin-up ``Σ j_i dΩ_i/dt``,
+  ``p q``, damping (∝ ``r``) and a constant;
+* ``gyro_p``, ``gyro_q``, ``gyro_r`` (rad/s): the gyro against the body rate implied by the
+  logged attitude (Euler kinematics); no coefficient to fit.
+
+Measured outputs and predictions are low-passed by the same zero-phase filter
+(:data:`CUTOFF_HZ`), so a linear regression on filtered features is the filtered
+prediction. ``k`` and ``tau`` are found by a bounded search on the simulation; the other
+coefficients by least squares. Candidates change the model through :class:`Mods`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.signal import lfilter
+
+from etsid.gap.signals import Flight, derivative, lowpass
+
+FORCE_CHANNELS = ("az", "ax", "ay")
+RATE_CHANNELS = ("p", "q", "r")
+GYRO_CHANNELS = ("gyro_p", "gyro_q", "gyro_r")
+CHANNELS = (*RATE_CHANNELS, *FORCE_CHANNELS, *GYRO_CHANNELS)
+UNITS = {"p": "rad/s²", "q": "rad/s²", "r": "rad/s²", "az": "m/s²", "ax": "m/s²",
+         "ay": "m/s²", "gyro_p": "rad/s", "gyro_q": "rad/s", "gyro_r": "rad/s"}
+LABELS = {"p": "roll angular acceleration", "q": "pitch angular acceleration",
+          "r": "yaw angular acceleration", "az": "vertical specific force",
+          "ax": "longitudinal specific force", "ay": "lateral specific force",
+          "gyro_p": "roll gyro vs attitude", "gyro_q": "pitch gyro vs attitude",
+          "gyro_r": "yaw gyro vs attitude"}
+CUTOFF_HZ = {c: 8.0 for c in CHANNELS} | {c: 0.5 for c in GYRO_CHANNELS}
+K_DEFAULT = 0.1
+"""Idle offset k of Ω ∝ m + k when no vehicle file gives it (idle ≈ 10 % of range)."""
+TAU_BOUNDS = (0.005, 0.25)
+NOMINAL_DELAYS_S = (0.0, 0.005, 0.01)
+"""Command-to-motor delays tried for the simulation's own log, s (a log records the
+command a step before the motors act on it)."""
+
+
+@dataclass
+class Mods:
+    """Changes a candidate makes to the nominal model (defaults change nothing).
+
+    Attributes
+    ----------
+    tau : float or None
+        Motor time constant, s (None: the nominal one).
+    delay : float
+        Transport delay from command to motor, s.
+    thrust_gain : float or ndarray
+        Multiplier on rotor thrust (az, p, q), scalar or per sample.
+    torque_gain : float or ndarray
+        Multiplier on rotor reaction torque (r).
+    inertia : float
+        Inertia ratio real/nominal: divides the predicted angular accelerations.
+    offset : dict
+        Constant added to a channel's prediction (channel → value in its unit).
+    drag : float
+        Extra linear drag on ax and ay, 1/s (specific force −drag · v_body).
+    drag_moment : float
+        Angular acceleration per body speed of that drag acting at the rotor plane, above
+        or below the CG, rad/s² per m/s (q̇ += k v_x, ṗ −= k v_y).
+    """
+
+    tau: float | None = None
+    delay: float = 0.0
+    thrust_gain: float | np.ndarray = 1.0
+    torque_gain: float | np.ndarray = 1.0
+    inertia: float = 1.0
+    offset: dict[str, float] = field(default_factory=dict)
+    drag: float = 0.0
+    drag_moment: float = 0.0
+
+
+def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> np.ndarray:
+    """Motor outputs delayed by ``delay`` s and lagged by a first-order ``tau`` s, per column."""
+    if delay > 0:
+        t = np.arange(m.shape[0]) / fs
+        m = np.column_stack([np.interp(t - delay, t, m[:, j]) for j in range(m.shape[1])])
+    a = float(np.exp(-1.0 / (fs * max(tau, 1e-6))))
+    zi = (a * m[0])[None, :]
+    out, _ = lfilter([1.0 - a], [1.0, -a], m, axis=0, zi=zi)
+    return out
+
+
+def euler_body_rates(att: np.ndarray, fs: float) -> np.ndarray:
+    """Body rates p q r (rad/s) implied by ZYX Euler angles ``att`` (n, 3) in rad."""
+    d = derivative(att, fs)
+    phi, th = att[:, 0], att[:, 1]
+    p = d[:, 0] - d[:, 2] * np.sin(th)
+    q = d[:, 1] * np.cos(phi) + d[:, 2] * np.sin(phi) * np.cos(th)
+    r = -d[:, 1] * np.sin(phi) + d[:, 2] * np.cos(phi) * np.cos(th)
+    return np.column_stack([p, q, r])
+
+
+def measured(flight: Flight) -> dict[str, np.ndarray]:
+    """Filtered measured outputs of every channel the flight supports."""
+    fs = flight.fs
+    out: dict[str, np.ndarray] = {}
+    acc_rates = derivative(lowpass(flight.rates, fs, CUTOFF_HZ["p"]), fs)
+    for j, c in enumerate(RATE_CHANNELS):
+        out[c] = acc_rates[:, j]
+    for j, c in zip((2, 0, 1), FORCE_CHANNELS, strict=True):
+        if np.all(np.isfinite(flight.acc[:, j])) and (c == "az" or "vel" in flight.have):
+            out[c] = lowpass(flight.acc[:, j], fs, CUTOFF_HZ[c])
+    if "roll" in flight.have and np.all(np.isfinite(flight.att)):
+        gyro = lowpass(flight.rates, fs, CUTOFF_HZ["gyro_p"])
+        for j, c in enumerate(GYRO_CHANNELS):
+            out[c] = gyro[:, j]
+    return out
+
+
+def _column_gain(gain: float | np.ndarray, n: int) -> np.ndarray:
+    g = np.asarray(gain, dtype=float)
+    if g.ndim == 0:
+        return np.full((n, 1), float(g))
+    return g[:, None] if g.ndim == 1 else g
+
+
+def features(flight: Flight, k: float, tau: float, mods: Mods,
+             channels: tuple[str, ...] = CHANNELS, delay: float = 0.0
+             ) -> dict[str, np.ndarray]:
+    """Unfiltered regressors of the channels (n, n_features) under ``mods`` (``delay``, s:
+    the nominal command-to-motor delay, to which ``mods.delay`` adds)."""
+    fs = flight.fs
+    if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
+        return {}
+    tau_eff = tau if mods.tau is None else mods.tau
+    m_eff = motor_response(flight.motors, fs, tau_eff, delay + mods.delay)
+    p, q, r = flight.rates.T
+    vb = flight.v_body
+    vh2 = vb[:, 0] ** 2 + vb[:, 1] ** 2
+    tg = _column_gain(mods.thrust_gain, p.size)
+    qg = _column_gain(mods.torque_gain, p.size)
+    one = np.ones_like(p)
+    if flight.inputs == "motors":
+        om = np.clip(m_eff, 0.0, 1.0) + k
+        pw = om**2
+        thrust = pw * tg
+        s = thrust.sum(axis=1)
+        # collective thrust makes no moment: only differences between rotors enter
+        mom = thrust - thrust.mean(axis=1, keepdims=True)
+        tq = pw * qg
+        dom = derivative(om, fs)
+        yaw = np.column_stack([tq - tq.mean(axis=1, keepdims=True),
+                               dom - dom.mean(axis=1, keepdims=True)])
+        om_mean = om.mean(axis=1)
+    else:  # stick commands: collective and three moment demands
+        omt = np.clip(m_eff[:, 0], 0.0, 1.0) + k
+        s = omt**2 * tg.mean(axis=1)
+        mom = m_eff[:, 1:] * (omt * tg.mean(axis=1))[:, None]
+        yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
+                               derivative(m_eff[:, 3:4], fs)])
+        om_mean = omt
+    out = {
+        "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
+        "ax": np.column_stack([om_mean * vb[:, 0], np.abs(vb[:, 0]) * vb[:, 0], one]),
+        "ay": np.column_stack([om_mean * vb[:, 1], np.abs(vb[:, 1]) * vb[:, 1], one]),
+        # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
+        "p": np.column_stack([mom, q * r, p, one]),
+        "q": np.column_stack([mom, p * r, q, one]),
+        "r": np.column_stack([yaw, p * q, r, one]),
+    }
+    return out
+
+
+@dataclass
+class NominalModel:
+    """Coefficients fitted on the simulation log.
+
+    Attributes
+    ----------
+    k : float
+        Idle offset of the rotor-speed law Ω ∝ m + k (dimensionless).
+    tau : float
+        Motor time constant, s.
+    coef : dict
+        Channel → least-squares coefficients of its regressors.
+    channels : tuple of str
+        Channels the simulation log supports.
+    delay : float
+        Command-to-motor delay of the simulation's own log, s (a logging or mixing step).
+    """
+
+    k: float
+    tau: float
+    coef: dict[str, np.ndarray]
+    channels: tuple[str, ...]
+    delay: float = 0.0
+
+    def predict(self, flight: Flight, mods: Mods | None = None,
+                channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+        """Filtered prediction of the channels (default all) for ``flight`` under ``mods``."""
+        mods = mods or Mods()
+        chans = self.channels if channels is None else tuple(c for c in channels
+                                                             if c in self.channels)
+        feats = features(flight, self.k, self.tau, mods, chans, self.delay)
+        out: dict[str, np.ndarray] = {}
+        for c in chans:
+            if c in GYRO_CHANNELS:
+                continue
+            y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
+            if c in RATE_CHANNELS:
+                y = y / mods.inertia
+            if c in ("ax", "ay") and mods.drag:
+                y = y - mods.drag * flight.v_body[:, 0 if c == "ax" else 1]
+            if mods.drag_moment and c in ("p", "q"):
+                sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
+                y = y + sign * mods.drag_moment * flight.v_body[:, j]
+            out[c] = lowpass(y, flight.fs, CUTOFF_HZ[c]) + mods.offset.get(c, 0.0)
+        if any(c in chans for c in GYRO_CHANNELS):
+            kin = lowpass(euler_body_rates(flight.att, flight.fs), flight.fs,
+                          CUTOFF_HZ["gyro_p"])
+            for j, c in enumerate(GYRO_CHANNELS):
+                if c in chans:
+                    out[c] = kin[:, j] + mods.offset.get(c, 0.0)
+        return out
+
+
+def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    scale = np.sqrt(np.mean(x**2, axis=0)) + 1e-12
+    xs = x / scale
+    a = xs.T @ xs + 1e-8 * len(y) * np.eye(x.shape[1])
+    return np.linalg.solve(a, xs.T @ y) / scale
+
+
+def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
+    """Regressors the simulation does not excite enough to extrapolate from (their
+    coefficient is fixed at 0): vertical-speed terms below 0.3 m/s of climb-rate spread,
+    speed-squared terms below 2 m/s of horizontal speed."""
+    vb = flight.v_body[mask]
+    speed = float(np.max(np.hypot(vb[:, 0], vb[:, 1]))) if vb.size else 0.0
+    climb = float(np.std(vb[:, 2])) * 4.0 if vb.size else 0.0
+    out: dict[str, list[int]] = {"az": [], "ax": [], "ay": []}
+    if climb < 0.3:
+        out["az"].append(1)
+    if speed < 2.0:
+        out["az"].append(3)
+        out["ax"].append(1)
+        out["ay"].append(1)
+    return out
+
+
+def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
+                     channels: tuple[str, ...], delay: float = 0.0) -> dict[str, np.ndarray]:
+    """Least-squares coefficients per channel on the samples in ``mask``."""
+    meas = measured(flight)
+    feats = features(flight, k, tau, Mods(), delay=delay)
+    drop = _unexcited(flight, mask)
+    coef = {}
+    for c in channels:
+        if c in GYRO_CHANNELS:
+            continue
+        x = lowpass(feats[c], flight.fs, CUTOFF_HZ[c])[mask]
+        keep = np.array([j not in drop.get(c, []) for j in range(x.shape[1])])
+        full = np.zeros(x.shape[1])
+        full[keep] = _solve(x[:, keep], meas[c][mask])
+        coef[c] = full
+    return coef
+
+
+def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
+                  channels: tuple[str, ...], delay: float = 0.0) -> float:
+    meas = measured(flight)
+    coef = fit_coefficients(flight, mask, k, tau, channels, delay)
+    model = NominalModel(k, tau, coef, channels, delay)
+    pred = model.predict(flight)
+    total = 0.0
+    for c in channels:
+        if c in GYRO_CHANNELS:
+            continue
+        e = (meas[c] - pred[c])[mask]
+        total += float(np.mean(e**2) / np.var(meas[c][mask]))
+    return total
+
+
+def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None = None
+                ) -> NominalModel:
+    """Fit the nominal model on the airborne part of the simulation (or on ``mask``).
+
+    Parameters
+    ----------
+    flight : Flight
+        The simulation, prepared.
+    mask : ndarray, optional
+        Samples to fit on (default: airborne).
+    k : float, optional
+        Idle offset of Ω ∝ m + k (from a vehicle file); default :data:`K_DEFAULT` — it is
+        weakly identifiable from hover data, whose command range is narrow.
+
+    The motor time constant ``tau`` is found by a bounded scalar search on the rate
+    channels; every other coefficient by least squares.
+    """
+    mask = flight.airborne if mask is None else mask
+    channels = tuple(c for c in CHANNELS if c in measured(flight))
+    rates = tuple(c for c in channels if c in RATE_CHANNELS)
+    k = K_DEFAULT if k is None else float(k)
+    best = (np.inf, 0.0, 0.0)
+    for delay in NOMINAL_DELAYS_S:
+        r = minimize_scalar(lambda v, d=delay: _weighted_sse(flight, mask, k, v, rates, d),
+                            bounds=TAU_BOUNDS, method="bounded", options={"xatol": 2e-3})
+        if r.fun < best[0]:
+            best = (float(r.fun), float(r.x), delay)
+    _, tau, delay = best
+    coef = fit_coefficients(flight, mask, k, tau, channels, delay)
+    return NominalModel(k, tau, coef, channels, delay)

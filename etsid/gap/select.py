@@ -1,0 +1,176 @@
+"""Choose the effect(s) that explain REAL: fit on the first part, score on the later part.
+
+Scores are held-out, noise-normalised: ``z_c = mean(residual_c²)/σ_c²`` on the held-out
+part of REAL (``σ_c`` = the nominal model's held-out error on SIM itself, so a model as
+good as on SIM scores 1). A set of effects is worth its *explained share*
+``(Σ_c z_c,before − Σ_c z_c,after) / Σ_c max(z_c,before − 1, 0)`` minus
+:data:`PARAM_PENALTY` per parameter. The best single effect is kept if its share reaches
+:data:`MIN_SHARE`; a second effect is added (refitted jointly) only if the pair raises the
+share by :data:`MIN_EXTRA_SHARE` and the second effect alone helps too. Structure left in
+a channel afterwards is offered to an eTS residual model (``unexplained``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from etsid.ets import ETS
+from etsid.gap.candidates import LIBRARY, Candidate
+from etsid.gap.fitting import Fit, Scorer, fit_candidates
+from etsid.gap.nominal import Mods
+
+PARAM_PENALTY = 0.02
+MIN_SHARE = 0.30
+MIN_EXTRA_SHARE = 0.10
+MIN_UNEXPLAINED_GAIN = 0.30
+"""Least relative drop of a channel's held-out z that the eTS residual model must give."""
+PAIR_POOL = 4
+MIN_LEFT_SHARE = 0.5
+"""A second effect is also kept when the first leaves a focus channel mismatched on held-out
+data and the pair removes this share of what is left there (chosen on the dev seeds)."""
+
+
+@dataclass
+class Scored:
+    """A fitted candidate set with its held-out scores."""
+
+    fit: Fit
+    z_after: dict[str, float]
+    gain: float
+    share: float
+
+    @property
+    def score(self) -> float:
+        """Explained share minus the complexity penalty."""
+        return self.share - PARAM_PENALTY * self.fit.n_params
+
+
+@dataclass
+class Unexplained:
+    """An eTS residual model on one channel, scheduled on one or two variables."""
+
+    channel: str
+    variables: list[str]
+    model: ETS
+    z_before: float
+    z_after: float
+    correction: np.ndarray
+
+
+@dataclass
+class Selection:
+    """The outcome of the search."""
+
+    z_before: dict[str, float]
+    excess: float
+    ranked: list[Scored]
+    chosen: Scored | None
+    unexplained: Unexplained | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def excess(z: dict[str, float]) -> float:
+    """Σ_c max(z_c − 1, 0): how far the channels are above SIM's own error."""
+    return float(sum(max(v - 1.0, 0.0) for v in z.values()))
+
+
+def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, float],
+              e0: float, focus: tuple[str, ...] = ()) -> Scored:
+    """Held-out scores of a fitted set: gains on the ``focus`` (mismatched) channels,
+    losses anywhere."""
+    z_after = scorer.zscores(fit.mods, hold, tuple(z_before))
+    gain = float(sum(z_before[c] - z_after[c] if c in focus or not focus
+                     else min(z_before[c] - z_after[c], 0.0) for c in z_before))
+    return Scored(fit, z_after, gain, gain / max(e0, 1e-9))
+
+
+def _left_share(best: Scored, joint: Scored, left: list[str]) -> float:
+    """Share of the held-out excess the first effect left in ``left`` that the pair removes
+    (losses in any other channel count against it)."""
+    e_left = sum(max(best.z_after[c] - 1.0, 0.0) for c in left)
+    gain = sum(best.z_after[c] - joint.z_after[c] for c in left)
+    gain -= sum(max(joint.z_after[c] - best.z_after[c], 0.0) for c in joint.z_after
+                if c not in left)
+    return gain / max(e_left, 1e-9)
+
+
+def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
+           focus: tuple[str, ...] = (),
+           library: tuple[Candidate, ...] = LIBRARY, min_share: float = MIN_SHARE,
+           z_left: float = 4.0) -> Selection:
+    """Fit every available candidate, keep the best one or two by held-out share.
+
+    ``focus`` are the mismatched channels: the excess to explain is theirs (a channel
+    that is merely noisier on REAL than on SIM is nothing a physical effect can explain).
+    The best single effect is kept if its share reaches ``min_share``. A second one, fitted
+    jointly with it, is kept if the pair raises the share by :data:`MIN_EXTRA_SHARE`, or —
+    when the first leaves a focus channel above ``z_left`` on held-out data — if the pair
+    removes :data:`MIN_LEFT_SHARE` of the excess left there.
+    """
+    z0 = scorer.zscores(None, hold)
+    e0 = excess({c: v for c, v in z0.items() if c in focus or not focus})
+    ranked: list[Scored] = []
+    for cand in library:
+        if not cand.available(scorer.ctx):
+            continue
+        ranked.append(score_fit(fit_candidates((cand,), scorer, fit_mask), scorer, hold, z0, e0,
+                                 focus))
+    ranked.sort(key=lambda s: s.score, reverse=True)
+    sel = Selection(z0, e0, ranked, None)
+    if not ranked or ranked[0].share < min_share:
+        return sel
+    best = ranked[0]
+    chosen = best
+    left = [c for c in focus if best.z_after.get(c, 0.0) > z_left]
+    if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
+        sel.chosen = best  # nothing left for a second effect to explain
+        return sel
+    pool = [s for s in ranked[1:] if s.gain > 0
+            and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
+    best_left = MIN_LEFT_SHARE
+    for other in pool:
+        pair = (best.fit.candidates[0], other.fit.candidates[0])
+        start = np.concatenate([best.fit.theta, other.fit.theta])
+        joint = score_fit(fit_candidates(pair, scorer, fit_mask, start), scorer, hold, z0, e0,
+                          focus)
+        share_left = _left_share(best, joint, left) if left else 0.0
+        sel.notes.append(f"pair {joint.fit.name}: share {joint.share:.3f}, left "
+                         f"{share_left:.3f}")
+        if joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score:
+            chosen = joint
+        elif (share_left >= best_left and joint.share >= best.share
+              and chosen.score - best.score < MIN_EXTRA_SHARE):
+            # the first effect leaves a channel mismatched; the pair explains what is left
+            chosen, best_left = joint, share_left
+    sel.chosen = chosen
+    return sel
+
+
+def fit_unexplained(scorer: Scorer, mods: Mods | None, channel: str,
+                    variables: dict[str, np.ndarray], fit_mask: np.ndarray,
+                    hold: np.ndarray) -> Unexplained | None:
+    """eTS model of the residual of ``channel`` on the scheduling variables; None if it
+    does not cut the held-out z of that channel by :data:`MIN_UNEXPLAINED_GAIN`."""
+    res = scorer.residuals(mods)[channel]
+    names = list(variables)
+    x = np.column_stack([variables[v] for v in names])
+    lo, hi = x[fit_mask].min(axis=0), x[fit_mask].max(axis=0)
+    hi = np.where(hi > lo, hi, lo + 1.0)
+    y = res[:, None]
+    ylo, yhi = float(np.min(y[fit_mask])), float(np.max(y[fit_mask]))
+    model = ETS(radius=0.3, x_range=np.column_stack([lo, hi]),
+                y_range=np.array([[ylo, max(yhi, ylo + 1e-9)]]), input_names=names,
+                output_names=[channel], max_rules=12, history_every=100000)
+    step = max(int(np.sum(fit_mask) / 4000), 1)
+    idx = np.flatnonzero(fit_mask)[::step]
+    model.run(x[idx], y[idx])
+    corr = np.zeros(res.size)
+    corr[:] = np.nan_to_num(model.predict(x)[:, 0])
+    sigma2 = scorer.sigma[channel] ** 2
+    z_b = float(np.mean(res[hold] ** 2) / sigma2)
+    z_a = float(np.mean((res - corr)[hold] ** 2) / sigma2)
+    if z_a > (1.0 - MIN_UNEXPLAINED_GAIN) * z_b:
+        return None
+    return Unexplained(channel, names, model, z_b, z_a, corr)

@@ -1,0 +1,225 @@
+"""Prepare one flight for the gap analysis: uniform grid, body velocity, airborne mask.
+
+Both logs go through exactly the same steps, so whatever the processing does to one it
+does to the other: resample to :data:`MODEL_HZ` (or the log's own rate if slower), rotate
+the NED velocity into body axes, find the airborne part, and keep the raw motor outputs
+(the candidates filter or delay them before the nominal model sees them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.signal import butter, sosfiltfilt
+
+from etsid.errors import GapError
+
+MODEL_HZ = 100.0
+ANTIALIAS_SHARE = 0.4
+"""A log faster than the analysis grid is low-passed at this share of the grid rate
+(40 Hz for 100 Hz) before resampling."""
+"""Rate of the gap analysis, Hz (a slower log is analysed at its own rate)."""
+ANALYSIS_CUTOFF_HZ = 8.0
+"""Zero-phase low-pass applied to measured outputs and to predictions alike, Hz."""
+EDGE_S = 1.0
+"""Seconds dropped at both ends of every airborne stretch (take-off/landing transients)."""
+MIN_AIRBORNE_S = 12.0
+"""Least airborne time a verdict needs, s."""
+REQUIRED = ("p", "q", "r", "az")
+
+
+@dataclass
+class Flight:
+    """One flight on the analysis grid (all arrays share the length ``n``).
+
+    Attributes
+    ----------
+    name : str
+        File name, for messages.
+    t : ndarray
+        Time, s.
+    fs : float
+        Sample rate, Hz.
+    motors : ndarray
+        (n, N) motor outputs 0..1 (or the four stick commands when the log has no motors).
+    inputs : str
+        ``"motors"`` or ``"commands"``.
+    rates, acc, att : ndarray
+        (n, 3) gyro p q r (rad/s), specific force ax ay az (m/s², NaN where absent),
+        Euler angles roll pitch yaw (rad, NaN where absent).
+    v_body : ndarray
+        (n, 3) velocity in body axes, m/s (zeros if the log has none).
+    alt, vbat : ndarray
+        Height above ground (m) and battery voltage (V); NaN where absent.
+    airborne : ndarray
+        Boolean mask of the samples used as evidence.
+    have : set of str
+        Which optional signals the log has (``alt``, ``vbat``, ``vel``, ``att``, ``ax``...).
+    """
+
+    name: str
+    t: np.ndarray
+    fs: float
+    motors: np.ndarray
+    inputs: str
+    rates: np.ndarray
+    acc: np.ndarray
+    att: np.ndarray
+    v_body: np.ndarray
+    alt: np.ndarray
+    vbat: np.ndarray
+    airborne: np.ndarray
+    have: set[str] = field(default_factory=set)
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return self.t.size
+
+    @property
+    def airborne_s(self) -> float:
+        """Airborne time used as evidence, s."""
+        return float(np.sum(self.airborne)) / self.fs
+
+
+def lowpass(x: np.ndarray, fs: float, cutoff: float = ANALYSIS_CUTOFF_HZ) -> np.ndarray:
+    """Zero-phase 4th-order Butterworth low-pass along axis 0 (cut-off in Hz)."""
+    wn = min(cutoff / (0.5 * fs), 0.95)
+    sos = butter(2, wn, output="sos")
+    return sosfiltfilt(sos, x, axis=0)
+
+
+def derivative(x: np.ndarray, fs: float) -> np.ndarray:
+    """Central-difference time derivative along axis 0, per s."""
+    return np.gradient(x, 1.0 / fs, axis=0)
+
+
+def _motor_columns(table: pd.DataFrame) -> list[str]:
+    cols = [c for c in table.columns if c.startswith("m") and c[1:].isdigit()]
+    return sorted(cols, key=lambda c: int(c[1:]))
+
+
+def _body_velocity(vned: np.ndarray, att: np.ndarray) -> np.ndarray:
+    roll, pitch, yaw = att[:, 0], att[:, 1], att[:, 2]
+    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
+                              np.cos(yaw), np.sin(yaw))
+    # rows of R (body -> NED) are used transposed: v_b = R^T v_ned
+    r00, r01, r02 = cp * cy, cp * sy, -sp
+    r10, r11, r12 = sr * sp * cy - cr * sy, sr * sp * sy + cr * cy, sr * cp
+    r20, r21, r22 = cr * sp * cy + sr * sy, cr * sp * sy - sr * cy, cr * cp
+    vx, vy, vz = vned[:, 0], vned[:, 1], vned[:, 2]
+    return np.column_stack([r00 * vx + r01 * vy + r02 * vz, r10 * vx + r11 * vy + r12 * vz,
+                            r20 * vx + r21 * vy + r22 * vz])
+
+
+def _airborne(table: pd.DataFrame, t: np.ndarray, thrust: np.ndarray, alt: np.ndarray,
+              fs: float) -> np.ndarray:
+    ok = np.isfinite(thrust)
+    level = np.nanmedian(thrust) if np.any(ok) else 0.0
+    mask = ok & (thrust > 0.5 * level) & (level > 0.05)
+    if "landed" in table.columns:
+        landed = np.interp(t, table.index.to_numpy(float),
+                           table["landed"].astype(float).to_numpy()) > 0.5
+        mask &= ~landed
+    if np.any(np.isfinite(alt)):
+        low = ~mask & np.isfinite(alt)  # height while motors are low: the ground
+        ground = np.nanpercentile(alt[low], 50) if np.sum(low) > fs else np.nanmin(alt) - 1.0
+        mask &= np.isfinite(alt) & (alt > ground + 0.03)
+    # keep stretches longer than two edges, minus an edge at both ends
+    edge = round(EDGE_S * fs)
+    out = np.zeros_like(mask)
+    i = 0
+    while i < mask.size:
+        if not mask[i]:
+            i += 1
+            continue
+        j = i
+        while j < mask.size and mask[j]:
+            j += 1
+        if j - i > 2 * edge + int(fs):
+            out[i + edge:j - edge] = True
+        i = j
+    return out
+
+
+def prepare(table: pd.DataFrame, name: str) -> Flight:
+    """Resample a FlightTable to the analysis grid and derive what the gap analysis uses.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        FlightTable (index ``t`` in s).
+    name : str
+        File name used in error messages.
+
+    Raises
+    ------
+    GapError
+        The log lacks body rates, vertical specific force or motor/command inputs.
+    """
+    missing = [c for c in REQUIRED if c not in table.columns or table[c].notna().sum() < 10]
+    motors = _motor_columns(table)
+    inputs = "motors"
+    if len(motors) < 3:
+        commands = ["u_thrust", "u_roll", "u_pitch", "u_yaw"]
+        if all(c in table.columns for c in commands):
+            motors, inputs = commands, "commands"
+        else:
+            missing.append("m1..mN motor outputs (or u_thrust/u_roll/u_pitch/u_yaw)")
+    if missing:
+        raise GapError(f"{name}: lacks {', '.join(missing)}; the gap analysis needs body "
+                       "rates, vertical specific force and motor outputs or commands")
+    t_src = table.index.to_numpy(dtype=float)
+    if t_src.size < 10 or not np.all(np.diff(t_src) > 0):
+        raise GapError(f"{name}: time index is too short or not increasing")
+    native = (t_src.size - 1) / (t_src[-1] - t_src[0])
+    fs = float(min(MODEL_HZ, native))
+    t = np.arange(t_src[0], t_src[-1], 1.0 / fs)
+    dt = np.diff(t_src)
+    # a faster log is low-passed before it is resampled: motor outputs carry the rate
+    # loop's high-frequency content, which would otherwise alias into the model's band
+    antialias = native > 1.25 * fs and float(np.std(dt)) < 0.1 * float(np.median(dt))
+
+    def col(c: str) -> np.ndarray:
+        if c not in table.columns:
+            return np.full(t.size, np.nan)
+        v = table[c].to_numpy(dtype=float)
+        good = np.isfinite(v)
+        if good.sum() < 2:
+            return np.full(t.size, np.nan)
+        if antialias and good.all():
+            v = lowpass(v, native, ANTIALIAS_SHARE * fs)
+        return np.interp(t, t_src[good], v[good])
+
+    have = {c for c in ("alt", "vbat", "ax", "ay", "roll", "vx") if c in table.columns
+            and table[c].notna().sum() > 10}
+    rates = np.column_stack([col(c) for c in ("p", "q", "r")])
+    acc = np.column_stack([col(c) for c in ("ax", "ay", "az")])
+    att = np.column_stack([col(c) for c in ("roll", "pitch", "yaw")])
+    if "roll" in have:
+        att[:, 2] = np.unwrap(att[:, 2]) if np.all(np.isfinite(att[:, 2])) else 0.0
+    m = np.column_stack([col(c) for c in motors])
+    thrust = m[:, 0] if inputs == "commands" else np.mean(m, axis=1)
+    alt = col("alt")
+    v_body = np.zeros((t.size, 3))
+    if "vx" in have and "roll" in have:
+        vned = np.column_stack([col(c) for c in ("vx", "vy", "vz")])
+        if np.all(np.isfinite(vned)) and np.all(np.isfinite(att)):
+            v_body = _body_velocity(vned, att)
+            have.add("vel")
+    air = _airborne(table, t, thrust, alt, fs)
+    for arr in (rates, acc[:, 2:], m):
+        air &= np.all(np.isfinite(arr), axis=1)
+    return Flight(name=name, t=t - t[0], fs=fs, motors=m, inputs=inputs, rates=rates, acc=acc,
+                  att=att, v_body=v_body, alt=alt, vbat=col("vbat"), airborne=air, have=have)
+
+
+def describe(flight: Flight) -> dict[str, Any]:
+    """Short provenance of a prepared flight for gap.json."""
+    return {"file": flight.name, "rate_hz": flight.fs, "inputs": flight.inputs,
+            "n_inputs": int(flight.motors.shape[1]), "airborne_s": round(flight.airborne_s, 2),
+            "duration_s": round(float(flight.t[-1]), 2),
+            "signals": sorted(flight.have)}
