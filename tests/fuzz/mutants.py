@@ -291,6 +291,11 @@ def _worker(tasks: mp.Queue, results: mp.Queue, memory_gb: float) -> None:
         results.put((source, seed, what, outcome.kind, outcome.detail, outcome.seconds, peak))
 
 
+SPAWN = mp.get_context("spawn")
+"""Workers are spawned, never forked: a fork of a process that already runs pyarrow's or
+numba's threads can hang in the child (seen: pyarrow's thread pool in ``save_table``)."""
+
+
 class Pool:
     """Worker processes fed one task at a time, so that a hung one can be killed alone."""
 
@@ -299,9 +304,9 @@ class Pool:
         self.slots = [self._start() for _ in range(jobs)]
 
     def _start(self) -> dict:
-        tasks: mp.Queue = mp.Queue()
-        results: mp.Queue = mp.Queue()
-        proc = mp.Process(target=_worker, args=(tasks, results, self.memory_gb), daemon=True)
+        tasks: mp.Queue = SPAWN.Queue()
+        results: mp.Queue = SPAWN.Queue()
+        proc = SPAWN.Process(target=_worker, args=(tasks, results, self.memory_gb), daemon=True)
         proc.start()
         return {"proc": proc, "tasks": tasks, "results": results, "task": None, "since": 0.0}
 

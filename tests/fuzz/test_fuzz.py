@@ -35,7 +35,7 @@ SEEDS: list[tuple[str, int]] = [
 """(format, seed) pairs read on every test run."""
 
 TIME_BOUND_S = 60.0
-MEMORY_GB = 3.0
+MEMORY_GB = 4.0
 
 
 @pytest.fixture(scope="module")
