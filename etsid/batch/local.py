@@ -1,8 +1,10 @@
 """Run a batch on this machine: in this process (``--jobs 1``) or a pool of processes.
 
 The pool is a :class:`concurrent.futures.ProcessPoolExecutor` on the ``forkserver``
-context: workers start from a server that has imported etsid once, each worker is replaced
-after :data:`TASKS_PER_CHILD` logs (memory held by one log never accumulates), and an
+context: workers start from a server that has imported etsid once, the pool is replaced by
+a fresh one after :data:`TASKS_PER_CHILD` logs per worker (memory held by one log never
+accumulates; the pool is renewed whole because ``max_tasks_per_child`` can hang
+Python 3.11's executor when a worker retires), and an
 optional address-space limit (``--max-memory``) turns a runaway log into a
 ``MemoryError`` row instead of the kernel's OOM killer. A worker that dies anyway (killed,
 crashed) breaks the pool: the unfinished logs go to a new pool, and a log that breaks a
@@ -27,7 +29,7 @@ from etsid.batch.spec import BatchSpec
 from etsid.batch.worker import Item, Outcome, error_fields, init_worker, run_log, run_pooled
 
 TASKS_PER_CHILD = 50
-"""Logs a pool process runs before it is replaced by a fresh one."""
+"""Logs per pool process before the pool is replaced by a fresh one."""
 
 WORKER_DIED = ("worker process died while reading this log (killed by the system, "
                "probably out of memory, or crashed)")
@@ -90,14 +92,16 @@ class LocalRunner:
                 on_done(run_log(item, self.spec, self.out, self.done))
             return
         breaks: Counter[Item] = Counter()
-        pending = items
-        while pending:
-            pending = self._pool_pass(pending, breaks, on_done, on_running, self.jobs)
-            alone = [item for item in pending if breaks[item] >= 2]
-            pending = [item for item in pending if breaks[item] < 2]
-            for item in alone:
-                if self._pool_pass([item], breaks, on_done, on_running, 1):
-                    on_done(_died(item, self.spec))
+        chunk = self.jobs * TASKS_PER_CHILD
+        for start in range(0, len(items), chunk):  # a fresh pool per chunk
+            pending = items[start:start + chunk]
+            while pending:
+                pending = self._pool_pass(pending, breaks, on_done, on_running, self.jobs)
+                alone = [item for item in pending if breaks[item] >= 2]
+                pending = [item for item in pending if breaks[item] < 2]
+                for item in alone:
+                    if self._pool_pass([item], breaks, on_done, on_running, 1):
+                        on_done(_died(item, self.spec))
 
     def _pool_pass(self, items: list[Item], breaks: Counter[Item],
                    on_done: Callable[[Outcome], None], on_running: Callable[[int], None],
@@ -106,8 +110,7 @@ class LocalRunner:
         executor = ProcessPoolExecutor(
             max_workers=min(jobs, len(items)), mp_context=_context(self.spec.command),
             initializer=init_worker,
-            initargs=(self.spec, str(self.out), self.done, self.max_memory_mb),
-            max_tasks_per_child=TASKS_PER_CHILD)
+            initargs=(self.spec, str(self.out), self.done, self.max_memory_mb))
         unfinished: list[Item] = []
         try:
             futures: dict[Future[Outcome], Item] = {

@@ -79,6 +79,20 @@ def test_two_jobs_give_the_same_rows_bit_for_bit(serial: Path, fleet_logs: list[
     assert one.equals(two)
 
 
+def test_workers_are_renewed_without_losing_a_log(serial: Path, fleet_logs: list[str],
+                                                 tmp_path: Path, monkeypatch) -> None:
+    """More logs than the workers may run before renewal: every log still gets its row
+    (Python 3.11's ``max_tasks_per_child`` hung here; the pool is renewed whole)."""
+    from etsid.batch import local
+
+    monkeypatch.setattr(local, "TASKS_PER_CHILD", 1)  # a fresh pool every 2 logs
+    summary = run_batch(fleet_logs, identify_spec(), tmp_path, jobs=2)
+    assert summary.ok + summary.failed == len(fleet_logs)
+    one = read_results(serial).drop(columns=list(VOLATILE))
+    again = read_results(tmp_path).drop(columns=list(VOLATILE))
+    assert one.equals(again)
+
+
 def test_resume_skips_finished_logs_and_reruns_on_new_options(
         fleet_logs: list[str], tmp_path: Path) -> None:
     logs = fleet_logs[:2]
