@@ -27,7 +27,7 @@ _FIELDS: list[tuple[str, pa.DataType, str]] = [
     ("format", pa.string(), "log format (tlog, ulog, ros1, …)"),
     ("run_dir", pa.string(), "this log's directory, relative to the batch directory"),
     ("duration_s", pa.float64(), "time span of the log, s"),
-    ("airborne_s", pa.float64(), "time in the air, s, where identify reports it"),
+    ("airborne_s", pa.float64(), "time in the air, s (identify's airborne segments)"),
     ("vehicle", pa.string(), "vehicle name where the log says"),
     ("autopilot", pa.string(), "autopilot where the log says"),
     ("start_time", pa.float64(), "UTC start of the log, s since 1970, where known"),

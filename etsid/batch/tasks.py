@@ -137,7 +137,7 @@ def metrics_fields(metrics: dict[str, Any], config: dict[str, Any]) -> dict[str,
                                for m in outputs.values()]),
         "ndei_one_step": _mean([_get(m, "validation", "one_step", "ndei")
                                 for m in outputs.values()]),
-        "airborne_s": metrics.get("airborne_s"),
+        "airborne_s": _get(metrics, "flight", "airborne_s"),
         "regimes": (json.dumps(metrics["regimes"], sort_keys=True)
                     if metrics.get("regimes") is not None else None),
         "metrics_json": json.dumps(metrics, sort_keys=True),

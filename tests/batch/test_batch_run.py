@@ -44,7 +44,7 @@ def test_one_row_per_log_with_the_schema(serial: Path, fleet_logs: list[str]) ->
     assert (ok["duration_s"] > 7.5).all() and (ok["duration_s"] < 8.5).all()
     assert ok["input_sha256"].str.fullmatch("[0-9a-f]{64}").all()
     assert (ok["peak_rss_mb"] > 10).all() and (ok["wall_s"] > 0).all()
-    assert ok["airborne_s"].isna().all()  # identify does not report it (yet)
+    assert (ok["airborne_s"] > 0).all()  # from identify's metrics.json flight block
 
 
 def test_rows_hold_what_identify_itself_gives(serial: Path, fleet: Path) -> None:
@@ -56,6 +56,7 @@ def test_rows_hold_what_identify_itself_gives(serial: Path, fleet: Path) -> None
     assert row["rules_frozen"] == run.metrics["rules"]["frozen"]
     fit = run.metrics["outputs"]["q"]["validation"]["one_step"]["fit"]
     assert row["q_fit_one_step"] == fit
+    assert row["airborne_s"] == run.metrics["flight"]["airborne_s"] > 0
     assert (serial / row["run_dir"] / "rules.json").read_text() == \
         json.dumps(run.rules, indent=1) + "\n"
 
