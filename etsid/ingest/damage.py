@@ -17,14 +17,16 @@ from functools import lru_cache
 def decoder_errors() -> tuple[type[BaseException], ...]:
     """Exception types that decoders and storage layers raise on damaged bytes.
 
-    ``RuntimeError`` is what lz4 raises on a bad frame, ``OverflowError``/``MemoryError``
+    ``TypeError`` is what damaged typed values give (a NULL or blob timestamp in a db3 row,
+    a string where metadata.yaml holds a number); ``RuntimeError`` is what lz4 raises on
+    a bad frame, ``OverflowError``/``MemoryError``
     what a third-party layer (rosbags, sqlite) raises on a corrupt 64-bit length it tries
     to seek to or allocate; etsid's own decoders check lengths against the bytes left
     before allocating.
     """
     errors: list[type[BaseException]] = [
-        OSError, EOFError, ValueError, struct.error, KeyError, IndexError, RuntimeError,
-        OverflowError, MemoryError, AssertionError, sqlite3.Error,
+        OSError, EOFError, ValueError, TypeError, struct.error, KeyError, IndexError,
+        RuntimeError, OverflowError, MemoryError, AssertionError, sqlite3.Error,
     ]
     try:
         import zstandard

@@ -28,6 +28,9 @@ SEEDS: list[tuple[str, int]] = [
     ("ros2-mcap", 1046),  # a corrupt 64-bit length → MemoryError in rosbags
     ("ros2-mcap", 1137),  # a corrupt offset → OverflowError in rosbags
     ("ros2-db3", 1129),  # zeroed page: "database disk image is malformed"
+    ("ros2-db3", 3418),  # flipped bytes: a NULL timestamp in a row → TypeError
+    ("ros2-db3", 3544),  # flipped bytes: a blob timestamp in a row → TypeError
+    ("ros2-mcap", 2187),  # metadata.yaml: a string where a number belongs → TypeError
     ("ros2-db3", 1850),  # apsw.CorruptError while rosbags iterates
     ("ros2-mcap", 1648),  # quaternion overflow: a raw numpy RuntimeWarning
     ("bin", 1755),  # DataFlash reader left its file open (ResourceWarning)
