@@ -2,7 +2,7 @@
 
 Run::
 
-    python benchmarks/ingest_mavlink.py [--minutes 60] [--workdir /tmp/etsid_bench]
+    python benchmarks/ingest_mavlink.py [--minutes 60] [--workdir bench_logs]
 
 * tlog: a ≥ 1 M-message log written by :func:`etsid.sim.writers.tlog.write_tlog`
   (cached in ``--workdir``); ``read_log`` packets/s and MB/s, peak memory
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import struct
+import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable
@@ -127,7 +128,8 @@ def build_bin(path: Path, seconds: float) -> int:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=61.0, help="length of the tlog")
-    parser.add_argument("--workdir", type=Path, default=Path("/tmp/etsid_bench"))
+    parser.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "etsid_bench",
+                        help="where the benchmark logs are written and kept")
     parser.add_argument("--pymavlink-limit", type=int, default=100_000,
                         help="packets read by the pymavlink loop (it is slow)")
     args = parser.parse_args()

@@ -9,8 +9,8 @@ Usage::
 
     python benchmarks/ingest_ros.py                 # ROS 1 bag ≥ 1 M messages, others 1/4
     python benchmarks/ingest_ros.py --messages 200000 --scale 1
-    python benchmarks/ingest_ros.py --dir /tmp/b    # keep (and reuse) the written logs
-    ETSID_ROS_FAST=0 python benchmarks/ingest_ros.py --dir /tmp/b   # per-message path only
+    python benchmarks/ingest_ros.py --dir bench_logs    # keep (and reuse) the written logs
+    ETSID_ROS_FAST=0 python benchmarks/ingest_ros.py --dir bench_logs   # per-message path only
 
 The load average (``/proc/loadavg``) is printed before and after: the figures are only
 comparable at similar load.

@@ -7,8 +7,8 @@ Inputs are min–max normalised with the training ranges (the peers do not norma
 
 The peer library is NOT an etsid dependency; run this in its own environment::
 
-    python3 -m venv /tmp/peers && /tmp/peers/bin/pip install evolvingfuzzysystems pandas
-    /tmp/peers/bin/python benchmarks/peers_ets.py
+    python3 -m venv .peers && .peers/bin/pip install evolvingfuzzysystems pandas
+    .peers/bin/python benchmarks/peers_ets.py
 
 Each model is run with its defaults and over a small grid of its radius-like parameter;
 the best result per model is reported, with the parameter, so the peers get a fair chance.
