@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from etsid.gap.nominal import LABELS, UNITS
-from etsid.gap.signals import Flight, derivative, lowpass
+from etsid.gap.signals import Flight, derivative, lowpass, true_runs
 
 N_BINS = 8
 MIN_ETA2 = 0.15
@@ -137,20 +137,12 @@ def segments(resid: np.ndarray, sigma: float, flight: Flight) -> list[tuple[floa
     mean = np.convolve(e, np.ones(w), "same") / np.maximum(cnt, 1.0)
     hot = flight.airborne & (np.abs(mean) > 2.0 * sigma / np.sqrt(max(w / 10.0, 1.0)))
     out: list[tuple[float, float]] = []
-    i = 0
-    while i < hot.size:
-        if not hot[i]:
-            i += 1
-            continue
-        j = i
-        while j < hot.size and hot[j]:
-            j += 1
+    for i, j in true_runs(hot):
         t0, t1 = float(flight.t[i]), float(flight.t[j - 1])
         if out and t0 - out[-1][1] < SEGMENT_WINDOW_S:
             out[-1] = (out[-1][0], t1)
         elif t1 - t0 >= 0.5 * SEGMENT_WINDOW_S:
             out.append((t0, t1))
-        i = j
     out = [s for s in out if s[1] - s[0] >= SEGMENT_WINDOW_S]
     out.sort(key=lambda s: s[1] - s[0], reverse=True)
     return sorted(out[:MAX_SEGMENTS])

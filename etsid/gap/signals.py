@@ -131,18 +131,21 @@ def _airborne(table: pd.DataFrame, t: np.ndarray, thrust: np.ndarray, alt: np.nd
     # keep stretches longer than two edges, minus an edge at both ends
     edge = round(EDGE_S * fs)
     out = np.zeros_like(mask)
-    i = 0
-    while i < mask.size:
-        if not mask[i]:
-            i += 1
-            continue
-        j = i
-        while j < mask.size and mask[j]:
-            j += 1
+    for i, j in true_runs(mask):
         if j - i > 2 * edge + int(fs):
             out[i + edge:j - edge] = True
-        i = j
     return out
+
+
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` index pairs of every run of True in a boolean array (stop exclusive).
+
+    >>> true_runs(np.array([False, True, True, False, True]))
+    [(1, 3), (4, 5)]
+    """
+    padded = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 def prepare(table: pd.DataFrame, name: str) -> Flight:
