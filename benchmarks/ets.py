@@ -90,7 +90,7 @@ BJ_SETTINGS = {
 MG_SETTINGS = {
     "defaults": {},
     "tuned": dict(variant="ets+", radius=0.2, coverage=True, utility_threshold=0.01,
-                  min_support=0, max_rules=200),
+                  min_support=0, max_rules=200, forgetting=1.0, adaptive_spread=False),
 }  # fmt: skip
 
 

@@ -107,6 +107,8 @@ class ETSController:
         s = self.settings
         self.model = ETS(radius=list(s.radius), omega=s.omega, variant="ets+",
                          max_rules=s.max_rules, forgetting=s.forgetting,
+                         # the ETS defaults before issue 11's study (tuned with them)
+                         utility_threshold=0.05, adaptive_spread=False,
                          x_range=np.asarray(s.x_range, dtype=np.float64),
                          y_range=np.array([[0.0, 1.0]]), history_every=10**9,
                          input_names=list(INPUT_NAMES), output_names=[OUTPUT_NAME])

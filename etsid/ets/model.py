@@ -101,7 +101,7 @@ class ETS:
     >>> rng = np.random.default_rng(0)
     >>> X = rng.uniform(-1.0, 1.0, size=(2000, 1))
     >>> Y = np.where(X[:, 0] < 0.0, -2.0 * X[:, 0], 0.5 * X[:, 0])
-    >>> model = ETS(radius=0.3)
+    >>> model = ETS(radius=0.3, adaptive_spread=False)  # fixed spreads: radius is the width
     >>> Yhat = model.run(X, Y)
     >>> Yhat.shape
     (2000,)

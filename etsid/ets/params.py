@@ -6,12 +6,19 @@ identification (:class:`etsid.ident.IdentConfig`, which starts from
 :data:`etsid.ident.config.IDENT_ETS`) and the ``etsid identify`` options all take their
 defaults from here. The meaning of each parameter is documented on :class:`etsid.ets.ETS`.
 
+The defaults were chosen by one study over Box–Jenkins, Mackey–Glass, two simulated flights,
+two static maps and a held-input safety check, each scored on an inner split of its
+learning part (``benchmarks/ets_defaults.py``, docs/ets.md "Choosing the defaults"): eTS+
+with radius 0.7, exTS adaptive spreads and utility threshold 0.03 (before: radius 0.4,
+fixed spreads, 0.05); no forgetting (every forgetting setting winds the RLS covariance up
+on a held input).
+
 The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``input_names``,
 ``output_names``) are not tuning parameters and are not listed.
 
 >>> from etsid.ets.params import DEFAULTS, PARAM_NAMES
 >>> DEFAULTS.radius, DEFAULTS.variant
-(0.4, 'ets+')
+(0.7, 'ets+')
 >>> PARAM_NAMES[:3]
 ('radius', 'omega', 'variant')
 """
@@ -61,16 +68,16 @@ class ETSParams:
         Samples between two snapshots of all consequents.
     """
 
-    radius: float | tuple[float, ...] = 0.4
+    radius: float | tuple[float, ...] = 0.7
     omega: float = 1000.0
     variant: str = "ets+"
     max_rules: int = 50
     rls: str = "local"
     forgetting: float = 1.0
-    utility_threshold: float = 0.05
+    utility_threshold: float = 0.03
     min_support: int = 3
     prune_after: int = 50
-    adaptive_spread: bool = False
+    adaptive_spread: bool = True
     coverage: bool = False
     history_every: int = 1000
 

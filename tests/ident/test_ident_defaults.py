@@ -54,8 +54,11 @@ def test_identify_defaults_see_80_ms_of_rates_and_120_ms_of_commands(default_run
 def test_identify_ets_parameters_differ_from_ets_only_where_documented(default_run) -> None:
     used = default_run.rules["params"]
     changed = {k for k, v in DEFAULTS.to_dict().items() if used[k] != v}
-    assert changed == {"radius", "max_rules", "history_every"}
+    assert changed == {"radius", "max_rules", "history_every", "utility_threshold",
+                       "adaptive_spread"}
     assert (used["radius"], used["max_rules"], used["history_every"]) == (2.0, 30, 250)
+    # identify keeps the ETS defaults from before the defaults study (issue 11)
+    assert (used["utility_threshold"], used["adaptive_spread"]) == (0.05, False)
 
 
 def test_identify_with_defaults_equals_the_documented_values_passed(default_run) -> None:
