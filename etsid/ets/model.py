@@ -62,7 +62,9 @@ class ETS:
     rls : {"local", "global"}
         Fuzzily weighted local RLS per rule, or one global RLS over all consequents.
     forgetting : float
-        RLS forgetting factor in (0, 1]; 1 means no forgetting.
+        RLS forgetting factor in (0, 1]; 1 means no forgetting. Below 1 the covariance of
+        directions the data do not excite grows without bound (RLS wind-up): avoid on long
+        streams with held inputs (docs/ets.md, "Choosing the defaults").
     utility_threshold : float
         eTS+: a rule whose utility (mean normalised firing since birth) falls below this is removed.
     min_support : int
@@ -71,7 +73,8 @@ class ETS:
     prune_after : int
         eTS+: steps a rule lives before utility and support are checked (samples).
     adaptive_spread : bool
-        exTS (Angelov & Zhou 2006): adapt per-rule, per-input radii to the local scatter.
+        exTS (Angelov & Zhou 2006): adapt per-rule, per-input radii to the local scatter
+        (on by default; ``radius`` is then the width a rule is born with).
     coverage : bool
         eTS+ only (an etsid extension, see docs/ets.md): also add a rule for any sample that
         no rule covers (within r/2 of a focal point in every input), whatever its potential.
