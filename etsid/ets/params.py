@@ -6,7 +6,7 @@ identification (:class:`etsid.ident.IdentConfig`, which starts from
 :data:`etsid.ident.config.IDENT_ETS`) and the ``etsid identify`` options all take their
 defaults from here. The meaning of each parameter is documented on :class:`etsid.ets.ETS`.
 
-The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``input_names``,
+The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``s_range``, ``input_names``,
 ``output_names``) are not tuning parameters and are not listed.
 
 >>> from etsid.ets.params import DEFAULTS, PARAM_NAMES
@@ -26,6 +26,11 @@ VARIANTS = ("ets", "ets+")
 
 RLS_KINDS = ("local", "global")
 """Values of ``rls``: fuzzily weighted local RLS per rule, or one global RLS."""
+
+CLUSTERINGS = ("potential", "evq")
+"""Values of ``clustering``: births and moves driven by the potentials (eTS / eTS+), or
+evolving vector quantisation (births where no rule covers the sample, the winner's focal
+point follows the mean of the samples it wins)."""
 
 
 @dataclass(frozen=True)
@@ -59,6 +64,8 @@ class ETSParams:
         eTS+: also add a rule for any sample no rule covers (etsid extension).
     history_every
         Samples between two snapshots of all consequents.
+    clustering
+        ``potential`` or ``evq`` (:data:`CLUSTERINGS`).
     """
 
     radius: float | tuple[float, ...] = 0.4
@@ -73,6 +80,7 @@ class ETSParams:
     adaptive_spread: bool = False
     coverage: bool = False
     history_every: int = 1000
+    clustering: str = "potential"
 
     def to_dict(self) -> dict[str, Any]:
         """The parameters as keyword arguments of :class:`etsid.ets.ETS`."""
