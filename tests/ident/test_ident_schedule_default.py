@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from etsid.ident import IdentConfig, identify
+from etsid.ident import IdentConfig, identify, predict
 from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
 from etsid.ident.regressors import ALT_FLOOR_M, RegressorSpec, build
+from etsid.ident.rundir import write_run
 from etsid.ident.synthetic import rate_table
 from etsid.sim import simulate
 
@@ -52,9 +53,10 @@ def _fits(run) -> tuple[list[float], list[float]]:
             [out[y]["arx"]["validation"]["free_run"]["fit"] for y in "pqr"])
 
 
-def test_ige_oge_flight_rules_separate_the_regimes_and_beat_global_arx() -> None:
+def test_ige_oge_flight_rules_separate_the_regimes_and_beat_global_arx(tmp_path) -> None:
     # seed 7: not one of the study seeds (1-3) nor of the benchmark (101.., 201.., 301..)
-    run = identify(simulate("ige-oge", seed=7).table)
+    table = simulate("ige-oge", seed=7).table
+    run = identify(table)
     focal = sorted(1.0 / r["focal_point"][0] for r in run.rules["rules"])
     assert 2 <= len(focal) <= 10
     # a rule in ground effect (CG 0.25 m dwells) and one out of it (1-2.5 m dwells)
@@ -62,6 +64,13 @@ def test_ige_oge_flight_rules_separate_the_regimes_and_beat_global_arx() -> None
     ets, arx = _fits(run)
     # oracle ceiling on this flight family: +3 p, +1.5 q (docs/identify.md)
     assert ets[0] > arx[0] + 1.0 and ets[1] > arx[1] + 1.0
+    # the saved rule base rebuilds 1/altitude from the log: predict reproduces the free run
+    write_run(run, tmp_path / "run")
+    again = predict(table, tmp_path / "run", sim_from=run.metrics["validation"]["t_start"])
+    val = run.predictions["part"] == "validation"
+    for y in "pq":
+        np.testing.assert_allclose(again.predictions.loc[val, f"{y}_sim"],
+                                   run.predictions.loc[val, f"{y}_sim"], rtol=1e-9)
 
 
 @pytest.mark.parametrize("scenario", ["hover-oge", "hover-ige"])
