@@ -20,7 +20,7 @@ default (benchmark, seeds never used for any choice)
     (``--antecedent none``, the previous default), the identify default (scheduled on
     ``inv_alt[k-1]``) and ARX, the frozen rule count and each rule's focal altitude.
 
-    python benchmarks/scheduled.py [--seeds 3]
+    python benchmarks/scheduled.py [--seeds 3] [--duration 300 --ige-oge-only]
     python benchmarks/scheduled.py --oracle [--duration 300]
     python benchmarks/scheduled.py --study
 """
@@ -61,13 +61,14 @@ def _focal_altitudes(run: Any) -> list[float]:
     return []
 
 
-def benchmark(n_seeds: int) -> None:
+def benchmark(n_seeds: int, duration: float = 150.0, single: bool = True) -> None:
     print("| flight | seed | model | fit p % | fit q % | fit r % | rules (frozen) | "
           "focal altitudes m |")
     print("|---|---|---|---|---|---|---|---|")
-    flights = ([("ige-oge", 101 + i, 150.0) for i in range(n_seeds)]
-               + [("hover-oge", 201 + i, 60.0) for i in range(max(1, n_seeds - 1))]
-               + [("hover-ige", 301 + i, 60.0) for i in range(max(1, n_seeds - 1))])
+    flights = [("ige-oge", 101 + i, duration) for i in range(n_seeds)]
+    if single:
+        flights += ([("hover-oge", 201 + i, 60.0) for i in range(max(1, n_seeds - 1))]
+                    + [("hover-ige", 301 + i, 60.0) for i in range(max(1, n_seeds - 1))])
     gains: dict[str, list[list[float]]] = {}
     for scenario, seed, duration in flights:
         table = simulate(scenario, duration=duration, seed=seed).table
@@ -222,14 +223,16 @@ def main() -> None:
     ap.add_argument("--study", action="store_true", help="the inner-split selection study")
     ap.add_argument("--oracle", action="store_true", help="the oracle-ceiling diagnosis")
     ap.add_argument("--duration", type=float, default=150.0,
-                    help="--oracle: ige-oge flight length, s")
+                    help="ige-oge flight length, s (--oracle and the benchmark)")
+    ap.add_argument("--ige-oge-only", action="store_true",
+                    help="benchmark: skip the single-regime flights")
     args = ap.parse_args()
     if args.oracle:
         oracle(args.duration)
     elif args.study:
         study()
     else:
-        benchmark(args.seeds)
+        benchmark(args.seeds, args.duration, not args.ige_oge_only)
 
 
 if __name__ == "__main__":
