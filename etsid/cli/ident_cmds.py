@@ -16,8 +16,9 @@ from etsid.cli.options import (
     read_options,
 )
 from etsid.errors import IdentError
-from etsid.ets.params import RLS_KINDS, VARIANTS
+from etsid.ets.params import CLUSTERINGS, RLS_KINDS, VARIANTS
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
+from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
 from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
 from etsid.ident.ranges import NORMALISE_MODES
 from etsid.ident.resample import DEFAULT_RATE_HZ
@@ -73,15 +74,24 @@ def _table_rate(table: object) -> float | None:
 @click.option("--regressors", metavar="SPEC",
               help='NARX regressors, e.g. "co2[k-1],input_gas_rate[k-4]" or '
                    '"p[k-1..k-3],u_roll[k-1..k-2]".')
-@click.option("--antecedent", metavar="SPEC",
+@click.option("--antecedent", metavar="SPEC|auto|none", default="auto", show_default=True,
               help='Scheduling terms the rules fire on (consequents stay on all '
-                   'regressors), e.g. "alt[k-1],u_thrust[k-1]"; default: the regressors.')
+                   'regressors), e.g. "inv_alt[k-1]" (1/altitude, the ground-effect '
+                   'coordinate) or "alt[k-1],u_thrust[k-1]"; auto = inv_alt[k-1] for the '
+                   'default rate model when the log has altitude, else none; none = the '
+                   'rules fire on the regressors.')
 @click.option("--output-lags", type=click.IntRange(1, 50), default=IdentConfig.output_lags,
               show_default=True, help="Default rate model: lags of each rate, samples.")
 @click.option("--input-lags", type=click.IntRange(1, 50), default=IdentConfig.input_lags,
               show_default=True, help="Default rate model: lags of each command, samples.")
-@click.option("--radius", type=click.FloatRange(0, min_open=True), default=IdentConfig.radius,
-              show_default=True, help="eTS zone of influence, fraction of the data range.")
+@click.option("--radius", type=click.FloatRange(0, min_open=True), default=None,
+              help=f"eTS zone of influence, fraction of the data range (default "
+                   f"{IDENT_ETS.radius:g}, {IDENT_SCHEDULED_ETS.radius:g} when the rules "
+                   "fire on --antecedent terms).")
+@click.option("--clustering", type=click.Choice(list(CLUSTERINGS)), default=None,
+              help=f"How rules are born and placed: potential (eTS/eTS+) or evq (evolving "
+                   f"vector quantisation; default {IDENT_ETS.clustering}, "
+                   f"{IDENT_SCHEDULED_ETS.clustering} when scheduled).")
 @click.option("--omega", type=click.FloatRange(0, min_open=True), default=IdentConfig.omega,
               show_default=True, help="Initial RLS covariance of a new rule.")
 @click.option("--variant", type=click.Choice(list(VARIANTS)), default=IdentConfig.variant,
@@ -125,8 +135,8 @@ def _table_rate(table: object) -> float | None:
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
-                 antecedent: str | None, output_lags: int, input_lags: int, radius: float,
-                 omega: float, variant: str,
+                 antecedent: str | None, output_lags: int, input_lags: int,
+                 radius: float | None, clustering: str | None, omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
                  rate_hz: float | None, ident_rate: float | None, inputs: str, segments: str,
@@ -155,7 +165,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
                          inputs=inputs, normalise=normalise, segments=segments,
-                         antecedent=antecedent)
+                         antecedent=antecedent, clustering=clustering)
     try:
         run = identify(table, config, source=log, show_progress=wanted(quiet))
     except IdentError as err:

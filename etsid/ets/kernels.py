@@ -19,6 +19,7 @@ from etsid.ets.layout import (
     FP_SPREAD_RHO,
     FP_UTILITY,
     IP_ADAPTIVE,
+    IP_CLUSTERING,
     IP_COVERAGE,
     IP_GLOBAL,
     IP_MAX_RULES,
@@ -351,6 +352,7 @@ def learn_kernel(
     umin = fp[FP_UTILITY]
     rho_s = fp[FP_SPREAD_RHO]
     coverage = ip[IP_COVERAGE] == 1
+    evq = ip[IP_CLUSTERING] == 1
 
     s = np.empty(d)
     w2 = np.empty(d)
@@ -523,7 +525,7 @@ def learn_kernel(
         else:
             high = pmax * (1.0 + TIE) < P
             low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
-            if high or low:
+            if evq or high or low:
                 dmin = np.inf
                 inear = 0
                 dcov = np.inf
@@ -541,7 +543,12 @@ def learn_kernel(
                     if dinf < 0.5 and d2 < dcov:
                         dcov = d2
                         icov = i
-                if variant == 0:
+                if evq:
+                    # evolving vector quantisation: grow where nothing covers the sample
+                    replace = False
+                    target = inear
+                    grow = icov < 0
+                elif variant == 0:
                     replace = P / pmax - np.sqrt(dmin) >= 1.0
                     target = inear
                     grow = not replace
@@ -642,6 +649,11 @@ def learn_kernel(
                     rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
                     q = s[j] * rad[w, j]
                     aT[j, w] = 4.0 / (q * q)  # as _sync_rule
+            if evq:
+                # the winner's focal point is the mean of the samples it has won
+                for j in range(d):
+                    cz[w, j] += (z[j] - cz[w, j]) / support[w]
+                _sync_rule(w, cz, rad, s, czT, aT)
         for i in range(R, RL):
             lam[i] = 0.0  # padding lanes: no update
         for i in range(R):

@@ -40,7 +40,8 @@ IP_PRUNE_AFTER = 4
 IP_ADAPTIVE = 5
 IP_COVERAGE = 6  # eTS+: also grow wherever no rule covers the sample
 IP_SCHEDULED = 7  # 1: antecedents on a separate scheduling vector s, z = [s; y; x]
-N_IP = 8
+IP_CLUSTERING = 8  # 0: potential-driven structure (eTS / eTS+), 1: evolving vector quantisation
+N_IP = 9
 # float parameters ``fp``
 FP_OMEGA = 0
 FP_FORGET = 1

@@ -13,7 +13,7 @@ from etsid.ets import layout as L
 from etsid.ets.history import History, HistoryRecorder
 from etsid.ets.kernels import learn_kernel, predict_kernel
 from etsid.ets.normalisation import scales
-from etsid.ets.params import DEFAULTS, RLS_KINDS, VARIANTS
+from etsid.ets.params import CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
 from etsid.ets.state import LearnedState
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -82,8 +82,19 @@ class ETS:
         Fixed [low, high] normalisation ranges in original units. When omitted the range is
         the running min/max of the data (focal points are kept in original units, so they
         never drift; consequents are re-expressed exactly when a range widens).
+    s_range : array-like of shape (na, 2), optional
+        Fixed [low, high] ranges of the scheduling inputs S of a scheduled model (the radius
+        is a fraction of them); omitted: their running min/max. Only with ``run(X, Y, S)``.
     history_every : int
         Record a snapshot of all consequents every this many learned samples.
+    clustering : {"potential", "evq"}
+        How the rule base evolves. "potential": births and focal-point moves driven by the
+        potentials, as ``variant`` says (eTS / eTS+). "evq": evolving vector quantisation
+        (Lughofer 2008, FLEXFIS): a rule is born on every sample no rule covers (within r/2
+        of a focal point in every antecedent input) and otherwise the winning rule's focal
+        point moves to the running mean of the samples it has won, so focal points sit at
+        the centres of the regimes visited instead of chasing the global data mean; the
+        potentials are still recorded and the eTS+ pruning still applies (variant "ets+").
     input_names, output_names : sequence of str, optional
         Names used by :meth:`rules` and the rule-base JSON (default x1.., y1..).
     antecedent_names : sequence of str, optional
@@ -131,7 +142,9 @@ class ETS:
         coverage: bool = DEFAULTS.coverage,
         x_range: Any = None,
         y_range: Any = None,
+        s_range: Any = None,
         history_every: int = DEFAULTS.history_every,
+        clustering: str = DEFAULTS.clustering,
         input_names: Sequence[str] | None = None,
         output_names: Sequence[str] | None = None,
         antecedent_names: Sequence[str] | None = None,
@@ -149,7 +162,9 @@ class ETS:
         self.coverage = coverage
         self.x_range = x_range
         self.y_range = y_range
+        self.s_range = s_range
         self.history_every = history_every
+        self.clustering = clustering
         self.input_names = input_names
         self.output_names = output_names
         self.antecedent_names = antecedent_names
@@ -163,6 +178,9 @@ class ETS:
     def _check_params(self) -> None:
         if self.variant not in VARIANTS:
             raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.clustering not in CLUSTERINGS:
+            raise ValueError(f"clustering must be one of {CLUSTERINGS}, "
+                             f"got {self.clustering!r}")
         if self.rls not in RLS_KINDS:
             raise ValueError(f"rls must be one of {RLS_KINDS}, got {self.rls!r}")
         r = np.atleast_1d(np.asarray(self.radius, dtype=np.float64))
@@ -198,9 +216,12 @@ class ETS:
         lo = np.zeros(d)
         hi = np.zeros(d)
         fixed = np.zeros(d, dtype=np.int8)
+        if self.s_range is not None and not scheduled:
+            raise ValueError("s_range is for a scheduled model: pass S to run()")
         for rng_, sl, name, width in (
             (self.x_range, slice(xo, xo + n), "x_range", n),
             (self.y_range, slice(na, na + m), "y_range", m),
+            (self.s_range, slice(0, na), "s_range", na),
         ):
             if rng_ is None:
                 continue
@@ -248,6 +269,7 @@ class ETS:
         ip[L.IP_ADAPTIVE] = int(bool(self.adaptive_spread))
         ip[L.IP_COVERAGE] = int(bool(self.coverage))
         ip[L.IP_SCHEDULED] = int(self.scheduled_)
+        ip[L.IP_CLUSTERING] = CLUSTERINGS.index(self.clustering)
         fp = np.zeros(L.N_FP)
         fp[L.FP_OMEGA] = float(self.omega)
         fp[L.FP_FORGET] = float(self.forgetting)

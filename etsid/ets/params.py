@@ -13,7 +13,7 @@ with radius 0.7, exTS adaptive spreads and utility threshold 0.03 (before: radiu
 fixed spreads, 0.05); no forgetting (every forgetting setting winds the RLS covariance up
 on a held input).
 
-The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``input_names``,
+The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``s_range``, ``input_names``,
 ``output_names``) are not tuning parameters and are not listed.
 
 >>> from etsid.ets.params import DEFAULTS, PARAM_NAMES
@@ -33,6 +33,11 @@ VARIANTS = ("ets", "ets+")
 
 RLS_KINDS = ("local", "global")
 """Values of ``rls``: fuzzily weighted local RLS per rule, or one global RLS."""
+
+CLUSTERINGS = ("potential", "evq")
+"""Values of ``clustering``: births and moves driven by the potentials (eTS / eTS+), or
+evolving vector quantisation (births where no rule covers the sample, the winner's focal
+point follows the mean of the samples it wins)."""
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,8 @@ class ETSParams:
         eTS+: also add a rule for any sample no rule covers (etsid extension).
     history_every
         Samples between two snapshots of all consequents.
+    clustering
+        ``potential`` or ``evq`` (:data:`CLUSTERINGS`).
     """
 
     radius: float | tuple[float, ...] = 0.7
@@ -80,6 +87,7 @@ class ETSParams:
     adaptive_spread: bool = True
     coverage: bool = False
     history_every: int = 1000
+    clustering: str = "potential"
 
     def to_dict(self) -> dict[str, Any]:
         """The parameters as keyword arguments of :class:`etsid.ets.ETS`."""

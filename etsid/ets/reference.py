@@ -93,6 +93,7 @@ class ReferenceETS:
     prune_after: int = DEFAULTS.prune_after
     adaptive_spread: bool = DEFAULTS.adaptive_spread
     coverage: bool = DEFAULTS.coverage
+    clustering: str = DEFAULTS.clustering
     na: int | None = None
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
@@ -197,13 +198,16 @@ class ReferenceETS:
             pots = np.array([r.pot for r in self.rules])
             high = pots.max() * (1.0 + 1e-10) < P
             low = self.variant == "ets+" and (pots.min() * (1.0 - 1e-10) > P or self.coverage)
-            if high or low:
+            evq = self.clustering == "evq"
+            if evq or high or low:
                 q = np.array([np.abs(a - r.z[:na]) / (s[:na] * r.rad) for r in self.rules])
                 d2 = np.sum(q**2, axis=1)
                 inear = int(np.argmin(d2))
                 cov = np.where(q.max(axis=1) < 0.5)[0]
                 icov = int(cov[np.argmin(d2[cov])]) if cov.size else -1
-                if self.variant == "ets":
+                if evq:
+                    replace, target, grow = False, inear, icov < 0
+                elif self.variant == "ets":
                     replace = P / pots.max() - np.sqrt(d2[inear]) >= 1.0
                     target, grow = inear, not replace
                 else:
@@ -230,6 +234,8 @@ class ReferenceETS:
                 r.scat = r.scat + ((a - r.z[:na]) ** 2 - r.scat) / r.support
                 rad = 0.5 * r.rad + 0.5 * np.sqrt(8.0) * np.sqrt(r.scat) / s[:na]
                 r.rad = np.maximum(rad, 0.01 * self.radius)
+            if self.clustering == "evq":
+                r.z = r.z + (z - r.z) / r.support
         for li, r in zip(lam, self.rules, strict=True):
             r.lamsum += li
         f = self.forgetting

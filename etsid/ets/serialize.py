@@ -60,7 +60,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     params.pop("input_names")
     params.pop("output_names")
     params.pop("antecedent_names")
-    for key in ("radius", "x_range", "y_range"):
+    for key in ("radius", "x_range", "y_range", "s_range"):
         v = params[key]
         params[key] = None if v is None else _listify(np.asarray(v, dtype=float))
     params["radius"] = _listify(params["radius"])

@@ -14,7 +14,7 @@ import numpy as np
 
 from etsid.errors import IdentError
 from etsid.ets.params import DEFAULTS, PARAM_NAMES
-from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS
+from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS, SCHEDULE
 from etsid.ident.resample import DEFAULT_RATE_HZ
 
 IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
@@ -37,6 +37,20 @@ IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
     (docs/identify.md), on 36 regressors with fixed learning-part ranges.
 """
 
+IDENT_SCHEDULED_ETS = replace(IDENT_ETS, radius=0.5, clustering="evq")
+"""eTS parameters of a scheduled ``etsid identify`` model (rules firing on ``--antecedent``
+terms, by default :data:`etsid.ident.defaults.SCHEDULE`): :data:`IDENT_ETS` except
+
+``radius`` 0.5
+    A fraction of the scheduling range (``inv_alt``: 0 … 5 m⁻¹, so the zone of a rule spans
+    about 2.5 m⁻¹); chosen on an inner split of the learning part (scheduling study in
+    docs/identify.md).
+``clustering`` "evq"
+    Rules are born where no rule covers the scheduling vector and their focal points follow
+    the mean of the samples they win, so they sit at the regimes flown (the potential of
+    eTS peaks at the global mean, between the regimes).
+"""
+
 
 @dataclass
 class IdentConfig:
@@ -52,8 +66,10 @@ class IdentConfig:
     output_lags, input_lags
         Lags of the default rate model, samples.
     radius, omega, variant, max_rules, rls, forgetting, utility_threshold, min_support,
-    prune_after, adaptive_spread, coverage, history_every
-        eTS parameters (see :class:`etsid.ets.ETS`); defaults :data:`IDENT_ETS`.
+    prune_after, adaptive_spread, coverage, history_every, clustering
+        eTS parameters (see :class:`etsid.ets.ETS`); defaults :data:`IDENT_ETS`. ``radius``
+        and ``clustering`` None: :data:`IDENT_ETS`'s value when the rules fire on the
+        regressors, :data:`IDENT_SCHEDULED_ETS`'s when they fire on an antecedent.
     validate
         Fraction of the usable rows, at the end, held out for frozen validation (0 … 0.9).
     normalise
@@ -71,7 +87,9 @@ class IdentConfig:
         ``setpoints`` (:mod:`etsid.ident.inputs`).
     antecedent
         Scheduling terms the rules fire on (same syntax as ``regressors``, e.g.
-        ``"alt[k-1],u_thrust[k-1]"``); None: the rules fire on the regressors.
+        ``"inv_alt[k-1]"`` or ``"alt[k-1],u_thrust[k-1]"``); ``"none"`` or None: the rules
+        fire on the regressors; ``"auto"`` (default): :data:`etsid.ident.defaults.SCHEDULE`
+        for the default rate model of a table with altitude data, else none.
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).
@@ -81,7 +99,7 @@ class IdentConfig:
     regressors: str | None = None
     output_lags: int = OUTPUT_LAGS
     input_lags: int = INPUT_LAGS
-    radius: float = IDENT_ETS.radius  # type: ignore[assignment]
+    radius: float | None = None
     omega: float = IDENT_ETS.omega
     variant: str = IDENT_ETS.variant
     max_rules: int = IDENT_ETS.max_rules
@@ -93,12 +111,13 @@ class IdentConfig:
     adaptive_spread: bool = IDENT_ETS.adaptive_spread
     coverage: bool = IDENT_ETS.coverage
     history_every: int = IDENT_ETS.history_every
+    clustering: str | None = None
     validate: float = 0.3
     ident_rate: float | None = None
     inputs: str = "auto"
     normalise: str = "learn"
     segments: str = "auto"
-    antecedent: str | None = None
+    antecedent: str | None = "auto"
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""
@@ -108,7 +127,25 @@ class IdentConfig:
             raise IdentError(f"--ident-rate must be ≥ 0 Hz, got {self.ident_rate}")
         return float(self.ident_rate) or None
 
-    def ets_params(self) -> dict[str, Any]:
+    def ets_params(self, scheduled: bool = False) -> dict[str, Any]:
         """Keyword arguments of :class:`etsid.ets.ETS` (every name of
-        :data:`etsid.ets.params.PARAM_NAMES`)."""
-        return {k: getattr(self, k) for k in PARAM_NAMES}
+        :data:`etsid.ets.params.PARAM_NAMES`); ``radius`` and ``clustering`` left None
+        take the default of a ``scheduled`` or unscheduled model."""
+        base = IDENT_SCHEDULED_ETS if scheduled else IDENT_ETS
+        out = {k: getattr(self, k) for k in PARAM_NAMES}
+        for key in ("radius", "clustering"):
+            if out[key] is None:
+                out[key] = getattr(base, key)
+        return out
+
+    def antecedent_for(self, table: Any) -> str | None:
+        """The antecedent spec for ``table``: ``"auto"`` resolved (module docstring of
+        :mod:`etsid.ident.defaults`), ``"none"`` as None."""
+        text = self.antecedent
+        if text is None or text.strip().lower() == "none":
+            return None
+        if text.strip().lower() != "auto":
+            return text
+        if self.outputs or "alt" not in table.columns or not table["alt"].notna().any():
+            return None
+        return SCHEDULE

@@ -44,6 +44,13 @@ OUTPUT_LAGS = 4
 INPUT_LAGS = 6
 """Lags of each loop command, samples at the identification rate."""
 
+SCHEDULE = "inv_alt[k-1]"
+"""Default antecedent of the rate model when the table has altitude (``--antecedent
+auto``): the rules fire on 1/altitude (:data:`etsid.ident.regressors.DERIVED`, the
+ground-effect coordinate) and every rule keeps a full local ARX consequent on the
+regressors. Chosen by the scheduling study of docs/identify.md (altitude, 1/altitude,
+1/altitude², with and without ``u_thrust``, on an inner split of the learning part)."""
+
 FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),
     ("rate setpoints", ("sp_p", "sp_q", "sp_r"), ()),

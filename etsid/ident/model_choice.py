@@ -42,22 +42,27 @@ def choose_model(table: pd.DataFrame, config: IdentConfig) -> ChosenModel:
         ``outputs`` without ``regressors``, a bad regressor spec, or no default model
         for the table's columns.
     """
+    antecedent = config.antecedent_for(table)
     if config.outputs:
         if not config.regressors:
             raise IdentError("--output needs --regressors, e.g. --regressors "
                              f"\"{config.outputs[0]}[k-1],u[k-1]\"")
-        spec = RegressorSpec.parse(config.regressors, config.outputs, config.antecedent)
+        spec = RegressorSpec.parse(config.regressors, config.outputs, antecedent)
         return ChosenModel(spec, [], {"family": "user", "columns": [
             c for c in spec.columns if c not in spec.outputs]})
     chosen = default_model(table, config.output_lags, config.input_lags, config.inputs)
     spec = chosen.spec
-    if config.regressors or config.antecedent:
-        spec = RegressorSpec.parse(config.regressors or spec.text, spec.outputs,
-                                   config.antecedent)
+    if config.regressors or antecedent:
+        spec = RegressorSpec.parse(config.regressors or spec.text, spec.outputs, antecedent)
     info: dict[str, Any] = {"family": chosen.family, "kind": chosen.kind,
                             "columns": chosen.inputs, "sources": chosen.sources,
                             "mode": config.inputs, "reason": chosen.reason}
     selection = table.attrs.get("input_selection")
     if isinstance(selection, dict):
         info["selection"] = selection
-    return ChosenModel(spec, [chosen.note], info)
+    notes = [chosen.note]
+    if antecedent and config.antecedent and config.antecedent.strip().lower() == "auto":
+        notes.append(f"rules fire on {antecedent} (altitude in the log: scheduled on the "
+                     "ground-effect coordinate; --antecedent none for rules on the "
+                     "regressors)")
+    return ChosenModel(spec, notes, info)

@@ -18,6 +18,12 @@ APRIORI_RANGES = {"u_roll": (-1.0, 1.0), "u_pitch": (-1.0, 1.0), "u_yaw": (-1.0,
                   "u_thrust": (0.0, 1.0)}
 """FlightTable contract ranges of the loop commands (``--normalise apriori``)."""
 
+SCHEDULE_RANGES = {"inv_alt": (0.0, 5.0)}
+"""Fixed ranges of scheduling terms (m⁻¹ for ``inv_alt``: every height from 0.2 m up), used
+whatever the flight: a flight that stays at one height then keeps one rule instead of
+being split by altitude noise over its own tiny range, and the radius means the same on
+every flight."""
+
 
 def learn_range(v: np.ndarray) -> tuple[float, float]:
     """[low, high] of learning-part values, widened by :data:`RANGE_MARGIN` of the width
@@ -55,3 +61,20 @@ def fixed_ranges(reg: Regression, spec: RegressorSpec, split: int,
             if term.name in APRIORI_RANGES:
                 x_range[j] = APRIORI_RANGES[term.name]
     return x_range, y_range
+
+
+def schedule_range(reg: Regression, spec: RegressorSpec, split: int,
+                   mode: str) -> np.ndarray | None:
+    """eTS ``s_range`` of the scheduling inputs: :data:`SCHEDULE_RANGES` where a term has
+    one, else (``learn``, ``apriori``) the learning-part min/max widened by
+    :data:`RANGE_MARGIN`; for ``running`` the a-priori ranges when every term has one, else
+    None (running min/max); None when the rules fire on the regressors. The radius of a
+    scheduled model is a fraction of it."""
+    if reg.S is None:
+        return None
+    if mode == "running":  # a-priori ranges are causal; the rest stays running
+        known = [SCHEDULE_RANGES.get(term.name) for term in spec.antecedent]
+        return None if None in known else np.array(known, dtype=float)
+    S = reg.S[:split]
+    return np.array([SCHEDULE_RANGES.get(term.name) or learn_range(S[:, j])
+                     for j, term in enumerate(spec.antecedent)])

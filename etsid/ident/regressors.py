@@ -84,6 +84,27 @@ def parse_terms(text: str) -> list[Term]:
     return terms
 
 
+ALT_FLOOR_M = 0.05
+"""Altitudes below this (m) count as this in ``inv_alt`` (landing-gear height and below)."""
+
+DERIVED: dict[str, str] = {"inv_alt": "alt"}
+"""Derived columns a term may name, and the table column each is computed from.
+
+``inv_alt`` = 1 / max(alt, :data:`ALT_FLOOR_M`), m⁻¹: the ground-effect coordinate. Every
+image term of the ground-effect ratio decays like (R/z)² (docs/physics.md), so thrust and
+control effectiveness change within a few rotor radii of the ground and not above: on the
+range-normalised 1/z scale all heights out of ground effect lie close together and the
+heights in it far apart, so a rule radius separates the two regimes (docs/identify.md).
+"""
+
+
+def column_values(table: pd.DataFrame, name: str) -> np.ndarray:
+    """Values of column ``name`` of ``table``, or of the derived column (:data:`DERIVED`)."""
+    if name == "inv_alt" and name not in table.columns:
+        return 1.0 / np.maximum(table["alt"].to_numpy(dtype=float), ALT_FLOOR_M)
+    return table[name].to_numpy(dtype=float)
+
+
 @dataclass(frozen=True)
 class RegressorSpec:
     """Outputs and lagged regressors of a NARX model.
@@ -151,8 +172,8 @@ class RegressorSpec:
     def columns(self) -> list[str]:
         """Table columns the spec needs (outputs first, no repeats)."""
         seen: dict[str, None] = dict.fromkeys(self.outputs)
-        seen.update(dict.fromkeys(t.name for t in self.terms))
-        seen.update(dict.fromkeys(t.name for t in self.antecedent))
+        seen.update(dict.fromkeys(DERIVED.get(t.name, t.name) for t in self.terms))
+        seen.update(dict.fromkeys(DERIVED.get(t.name, t.name) for t in self.antecedent))
         return list(seen)
 
     @property
@@ -270,10 +291,9 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
     first_of_segment = starts[np.searchsorted(starts, idx, side="right") - 1]
     history_ok = idx - spec.max_lag >= first_of_segment
-    X = np.column_stack([lagged(table[t.name].to_numpy(dtype=float), t.lag)
-                         for t in spec.terms])
+    X = np.column_stack([lagged(column_values(table, t.name), t.lag) for t in spec.terms])
     Y = table[list(spec.outputs)].to_numpy(dtype=float)
-    S = (np.column_stack([lagged(table[t.name].to_numpy(dtype=float), t.lag)
+    S = (np.column_stack([lagged(column_values(table, t.name), t.lag)
                           for t in spec.antecedent]) if spec.antecedent else None)
     finite = np.isfinite(X).all(axis=1) & np.isfinite(Y).all(axis=1)
     if S is not None:

@@ -47,7 +47,7 @@ from etsid.ident.flight import (
 )
 from etsid.ident.learn import history_frames, learn_online
 from etsid.ident.model_choice import choose_model
-from etsid.ident.ranges import fixed_ranges
+from etsid.ident.ranges import fixed_ranges, schedule_range
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header
@@ -70,11 +70,11 @@ def _flight_note(selection: FlightSelection, excited: np.ndarray, dt: float) -> 
 
 
 def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | None = None,
-               y_range: np.ndarray | None = None) -> ETS:
+               y_range: np.ndarray | None = None, s_range: np.ndarray | None = None) -> ETS:
     try:
-        return ETS(**config.ets_params(), input_names=spec.input_names,
+        return ETS(**config.ets_params(bool(spec.antecedent)), input_names=spec.input_names,
                    output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
-                   antecedent_names=spec.antecedent_names)
+                   s_range=s_range, antecedent_names=spec.antecedent_names)
     except (ValueError, TypeError) as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
 
@@ -123,7 +123,8 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     if rate_model:
         chosen.notes.extend(excitation_warnings(excited, split, reg.X.shape[1], dt))
     x_range, y_range = fixed_ranges(reg, spec, split, config.normalise)
-    model = _new_model(config, spec, x_range, y_range)
+    model = _new_model(config, spec, x_range, y_range,
+                       schedule_range(reg, spec, split, config.normalise))
     try:
         yhat, frozen_dict = learn_online(model, reg, split if split < n else -1,
                                          show_progress, "identify")
@@ -154,7 +155,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,
                   "sample_rate": rate_info(table)},
         "parameters": asdict(config),
-        "ets": {**config.ets_params(), "normalise": config.normalise},
+        "ets": {**config.ets_params(bool(spec.antecedent)), "normalise": config.normalise},
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
     }

@@ -88,7 +88,8 @@ CONFIGS = [
         ["ets", "ets+"], ["local", "global"], [False, True], [False, True], [1.0, 0.97]
     )
     if not (v == "ets" and c)
-]
+] + [dict(variant=v, clustering="evq", rls=r) for v in ("ets", "ets+")
+     for r in ("local", "global")]
 
 
 @pytest.mark.parametrize("cfg", CONFIGS, ids=lambda c: "-".join(str(v) for v in c.values()))

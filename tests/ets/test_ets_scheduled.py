@@ -31,6 +31,9 @@ CONFIGS = [
     dict(variant="ets+", rls="global"),
     dict(variant="ets+", adaptive_spread=True, forgetting=0.98),
     dict(variant="ets+", coverage=True, max_rules=4),
+    dict(variant="ets+", clustering="evq"),
+    dict(variant="ets", clustering="evq", max_rules=3),
+    dict(variant="ets+", clustering="evq", adaptive_spread=True, rls="global"),
 ]
 
 
