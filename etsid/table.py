@@ -66,6 +66,8 @@ COLUMNS: dict[str, ColumnSpec] = {
     "vbat": _spec("V", "battery voltage"),
     "landed": _spec("1", "autopilot land detector: 1 on the ground (or disarmed), "
                          "0 airborne", "hold"),
+    "ground_contact": _spec("1", "land detector's touch-down stages: 1 at ground contact or "
+                                 "maybe-landed (PX4), 0 otherwise", "hold"),
     **{f"m{i}": _spec("1", f"motor {i} output, 0..1", "hold") for i in range(1, 9)},
 }
 """Every FlightTable column, in canonical order."""

@@ -26,6 +26,7 @@ from etsid.ets import ETS
 from etsid.ident.checks import (
     data_warnings,
     excitation_warnings,
+    motion_warnings,
     refuse_coarse,
     split_excited,
 )
@@ -146,9 +147,11 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                        "excited_s": float(np.count_nonzero(excited[split:]) * dt)},
         "flight": {**selection.to_dict(), "excited_s": float(np.count_nonzero(excited) * dt),
                    "excitation_std_min": EXCITE_STD if rate_model else None},
-        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged),
+        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged,
+                                  EXCITE_STD),
         "sample_rate": rate_info(table),
     }
+    chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
     run_config = {
         **run_header("identify", table, source),
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,

@@ -15,6 +15,8 @@ roll…        vehicle_attitude q (0)
 sp_roll…     vehicle_attitude_setpoint q_d (0), roll_body/pitch_body/yaw_body (1)
 ax ay az     sensor_combined accelerometer_m_s2 (0), sensor_accel x/y/z (1)
 landed       vehicle_land_detected landed (0)
+ground_con…  vehicle_land_detected ground_contact or maybe_landed (0): the detector's
+             stages between touch-down and ``landed`` (and before lift-off)
 u_*          manual_control_setpoint (0; old fields x pitch, y roll, z throttle 0…1, r yaw;
              new fields roll, pitch, yaw, throttle −1…1 → 0…1), input_rc values via
              ``rc_map`` (1), controller torque/thrust commands: actuator_controls_0
@@ -201,6 +203,10 @@ def signals(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue
                 if d.has(f)]
     if (d := topics.get("vehicle_land_detected")) is not None and d.has("landed"):
         out.append(d.sig("landed", "landed", 0))
+        stages = [d.f(f) for f in ("ground_contact", "maybe_landed") if d.has(f)]
+        if stages:
+            out.append(Signal("ground_contact", d.t, np.fmax.reduce(stages),
+                              f"{d.name}.ground_contact", 0))
     if (d := topics.get("battery_status")) is not None:
         out += [d.sig("vbat", f, k) for k, f in enumerate(("voltage_filtered_v", "voltage_v"))
                 if d.has(f)]
