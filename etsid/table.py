@@ -90,6 +90,7 @@ ATTRS_KEYS = (
     "repaired",  # list of {"reason", "count", "signal"}: samples fixed (e.g. clock steps)
     "gaps",  # list of {"start", "end", "signal"} in table seconds
     "warnings",  # human-readable notes
+    "motor_layout",  # {"x", "y" (m, FRD), "spin" (+1 CCW from above)} per motor m1…mN, if known
 )
 
 

@@ -115,10 +115,10 @@ def _table_rate(table: object) -> float | None:
 @click.option("--inputs", "inputs", type=click.Choice(list(MODES)), default="auto",
               show_default=True,
               help="Rate-model inputs: pilot sticks, controller torque commands, rate "
-                   "or attitude setpoints; auto = sticks if they carry excitation (std ≥ "
-                   f"{STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each axis), else the "
-                   "first of torque, rate setpoints, attitude setpoints at ≥ 20 Hz, else "
-                   "the fastest.")
+                   "or attitude setpoints, motor outputs; auto = sticks if they carry "
+                   f"excitation (std ≥ {STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each "
+                   "axis), else the first of torque, rate setpoints, attitude setpoints at "
+                   "≥ 20 Hz, else the fastest, else sticks anyway, else motor outputs.")
 @click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
               help="Rows to identify on: auto = airborne samples (land detector, else the "
                    "thrust/altitude rule), all = every row, or time windows in s.")

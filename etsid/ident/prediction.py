@@ -23,6 +23,7 @@ from etsid.ident.evaluate import (
 )
 from etsid.ident.flight import EXCITE_STD, apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
+from etsid.ident.motors import add_motor_commands
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header, sha256
@@ -99,6 +100,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     model, spec, data = load_rules(path)
     sigma_native = noise_std(table, spec.outputs)
     rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
+    table = add_motor_commands(table)
     selection = select_flight(table, segments)
     table = apply_selection(table, selection)
     table = decimate(table, float(rate_hz) if rate_hz else None)

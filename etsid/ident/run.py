@@ -48,6 +48,7 @@ from etsid.ident.flight import (
 )
 from etsid.ident.learn import history_frames, learn_online
 from etsid.ident.model_choice import choose_model
+from etsid.ident.motors import add_motor_commands
 from etsid.ident.ranges import fixed_ranges
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
@@ -102,6 +103,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     """
     config = config or IdentConfig()
     rate_hz = config.rate_for(not config.outputs)
+    table = add_motor_commands(table)
     chosen = choose_model(table, config)
     spec = chosen.spec
     sigma_native = noise_std(table, spec.outputs)

@@ -214,6 +214,25 @@ def signals(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue
             + _position(topics))
 
 
+def motor_layout(params: dict[str, object]) -> dict[str, object] | None:
+    """The motor layout of PX4's control allocation (PX4 ≥ 1.13): ``CA_ROTOR_COUNT`` rotors,
+    rotor i at ``CA_ROTOR{i}_PX/_PY`` (m, FRD) spinning ``sign(CA_ROTOR{i}_KM)`` (positive =
+    counter-clockwise seen from above). Rotor i is ``actuator_motors.control[i]`` (``topic``);
+    the PWM ``actuator_outputs`` follow the output functions, not this order. None without
+    the parameters."""
+    try:
+        n = int(params["CA_ROTOR_COUNT"])  # type: ignore[call-overload]
+        rows = [(float(params[f"CA_ROTOR{i}_PX"]), float(params[f"CA_ROTOR{i}_PY"]),  # type: ignore[arg-type]
+                 float(np.sign(float(params.get(f"CA_ROTOR{i}_KM", 0.05)))))  # type: ignore[arg-type]
+                for i in range(n)]
+    except (KeyError, TypeError, ValueError):
+        return None
+    if n < 4:
+        return None
+    x, y, spin = (list(v) for v in zip(*rows, strict=True))
+    return {"x": x, "y": y, "spin": spin, "topic": "actuator_motors"}
+
+
 def _start_time(topics: dict[str, Topic]) -> float | None:
     for name in ("sensor_gps", "vehicle_gps_position"):
         d = topics.get(name)
@@ -285,6 +304,9 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                   -1))
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(topics)
+    layout = motor_layout(getattr(ulog, "initial_parameters", {}) or {})
+    if layout is not None:
+        raw.extra["motor_layout"] = layout
     columns: dict[str, list[str]] = {}
     for sig in raw.signals:
         cols = columns.setdefault(sig.topic, [])

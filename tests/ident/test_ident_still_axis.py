@@ -43,3 +43,18 @@ def test_still_axis_warns_in_one_line_and_table_says_so(still_yaw_run) -> None:
             if line.strip()}
     assert "not informative" in rows["r"]
     assert "not informative" not in rows["p"] and "not informative" not in rows["q"]
+
+
+def test_validation_figure_says_not_informative(still_yaw_run) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from etsid.report.figures import fig_validation
+
+    fig = fig_validation(still_yaw_run)
+    titles = [ax.get_title(loc="left") for ax in fig.axes]
+    plt.close(fig)
+    assert any("not informative" in t for t in titles)
+    assert sum("not informative" in t for t in titles) == 1  # r only
