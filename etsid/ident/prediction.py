@@ -23,7 +23,7 @@ from etsid.ident.evaluate import (
 )
 from etsid.ident.flight import EXCITE_STD, apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
-from etsid.ident.motors import add_motor_commands
+from etsid.ident.motors import MOTOR_COMMANDS, add_motor_commands
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header, sha256
@@ -101,6 +101,12 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     sigma_native = noise_std(table, spec.outputs)
     rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
     table = add_motor_commands(table)
+    need = [c for c in MOTOR_COMMANDS if c in spec.columns and c not in table.columns]
+    if need:
+        raise IdentError(f"{path}: the model's inputs are the motor commands "
+                         f"({', '.join(need)}), computed from m1…mN and the table's motor "
+                         "layout; this table has no layout matching its motor columns "
+                         "(attrs['motor_layout'])")
     selection = select_flight(table, segments)
     table = apply_selection(table, selection)
     table = decimate(table, float(rate_hz) if rate_hz else None)

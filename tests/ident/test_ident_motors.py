@@ -11,9 +11,10 @@ import pandas as pd
 import pytest
 
 from etsid.errors import IdentError
-from etsid.ident import IdentConfig, identify
+from etsid.ident import IdentConfig, identify, predict
 from etsid.ident.inputs import choose_inputs, load_for_ident
 from etsid.ident.motors import add_motor_commands, layout_of
+from etsid.ident.rundir import write_run
 from etsid.ingest.base import Signal
 from etsid.sim import simulate
 
@@ -46,7 +47,7 @@ def test_layout_must_match_the_motor_columns(sim_flight) -> None:
     assert layout_of(short) is None and "mot_roll" not in add_motor_commands(short)
 
 
-def test_motor_inputs_fit_a_simulated_flight(sim_flight) -> None:
+def test_motor_inputs_fit_a_simulated_flight(sim_flight, tmp_path: Path) -> None:
     table = sim_flight.table
     sticks = identify(table, IdentConfig())
     motors = identify(table, IdentConfig(inputs="motors"))
@@ -55,6 +56,13 @@ def test_motor_inputs_fit_a_simulated_flight(sim_flight) -> None:
     raw_table.attrs = {k: v for k, v in table.attrs.items() if k != "motor_layout"}
     raw = identify(raw_table, IdentConfig(inputs="motors"))
     assert raw.config["model"]["inputs"]["columns"] == [f"m{i}" for i in range(1, 7)]
+    run_dir = tmp_path / "run"
+    write_run(motors, run_dir)
+    again = predict(table, run_dir, sim_from=motors.metrics["validation"]["t_start"])
+    assert (again.metrics["outputs"]["p"]["validation"]["one_step"]
+            == motors.metrics["outputs"]["p"]["validation"]["one_step"])
+    with pytest.raises(IdentError, match="no layout matching its motor columns"):
+        predict(raw_table, run_dir)
     for y in ("p", "q", "r"):
         m = motors.metrics["outputs"][y]["validation"]
         s = sticks.metrics["outputs"][y]["validation"]
