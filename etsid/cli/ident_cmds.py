@@ -135,8 +135,9 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
 
     Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust]
-    from sticks or torque commands, else rate setpoints or motor outputs; see --inputs) at
-    50 Hz (--ident-rate). Writes RUN_DIR/ predictions.parquet,
+    from sticks or torque commands, else rate or attitude setpoints, else motor outputs;
+    see --inputs) at 50 Hz (--ident-rate), learned and validated on the airborne rows
+    (--segments). Writes RUN_DIR/ predictions.parquet,
     history.parquet, rules.json, metrics.json, config.json.
     """
     check_output_dir(out)
