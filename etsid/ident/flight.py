@@ -107,7 +107,8 @@ class FlightSelection:
     mode
         ``auto``, ``all`` or the windows as given.
     method
-        ``land detector``, ``rule (thrust)``, ``rule (altitude, vertical speed)``,
+        ``land detector + ground contact``, ``land detector, 1 s margins``,
+        ``armed state + …``, ``rule (thrust)``, ``rule (altitude, vertical speed)``,
         ``none (no detector, thrust or altitude: every row)``, ``all`` or ``windows``.
     keep
         Boolean mask over the table's rows.
