@@ -66,6 +66,8 @@ COLUMNS: dict[str, ColumnSpec] = {
     "vbat": _spec("V", "battery voltage"),
     "landed": _spec("1", "autopilot land detector: 1 on the ground (or disarmed), "
                          "0 airborne", "hold"),
+    "ground_contact": _spec("1", "land detector's touch-down stages: 1 at ground contact or "
+                                 "maybe-landed (PX4), 0 otherwise", "hold"),
     **{f"m{i}": _spec("1", f"motor {i} output, 0..1", "hold") for i in range(1, 9)},
 }
 """Every FlightTable column, in canonical order."""
@@ -88,6 +90,7 @@ ATTRS_KEYS = (
     "repaired",  # list of {"reason", "count", "signal"}: samples fixed (e.g. clock steps)
     "gaps",  # list of {"start", "end", "signal"} in table seconds
     "warnings",  # human-readable notes
+    "motor_layout",  # {"x", "y" (m, FRD), "spin" (+1 CCW from above)} per motor m1…mN, if known
 )
 
 

@@ -42,9 +42,12 @@ _FIELDS: list[tuple[str, pa.DataType, str]] = [
     ("rules_frozen", pa.int64(), "identify: rules of the saved (frozen) model"),
     ("input_family", pa.string(), "identify: input family of the rate model"),
     ("fit_online", pa.float64(), "identify: online fit, %, mean over outputs"),
-    ("fit_one_step", pa.float64(), "identify: validation one-step fit, %, mean over outputs"),
-    ("fit_free_run", pa.float64(), "identify: validation free-run fit, %, mean over outputs"),
-    ("ndei_one_step", pa.float64(), "identify: validation one-step NDEI, mean over outputs"),
+    ("fit_one_step", pa.float64(), "identify: validation one-step fit, %, mean over the "
+                                   "informative outputs"),
+    ("fit_free_run", pa.float64(), "identify: validation free-run fit, %, mean over the "
+                                   "informative outputs that did not diverge"),
+    ("ndei_one_step", pa.float64(), "identify: validation one-step NDEI, mean over the "
+                                    "informative outputs"),
     *[(f"{y}_fit_one_step", pa.float64(), f"identify: validation one-step fit of {y}, %")
       for y in RATE_OUTPUTS],
     *[(f"{y}_rmse_one_step", pa.float64(), f"identify: validation one-step RMSE of {y}, rad/s")

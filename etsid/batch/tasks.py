@@ -121,8 +121,18 @@ def _get(data: Any, *keys: str) -> Any:
     return data
 
 
+def _scored(block: Any, free_run: bool = False) -> Any:
+    """``block`` when its fit means something: not flagged ``informative: false`` (an output
+    that barely moves in the validation part) and, for a free run, not diverged."""
+    if not isinstance(block, dict) or block.get("informative") is False:
+        return None
+    return None if free_run and block.get("diverged") else block
+
+
 def metrics_fields(metrics: dict[str, Any], config: dict[str, Any]) -> dict[str, Any]:
-    """Row fields of an identification run from its metrics.json and config.json."""
+    """Row fields of an identification run from its metrics.json and config.json; the
+    validation means skip outputs whose validation part is not informative and diverged
+    free runs."""
     outputs = metrics.get("outputs") or {}
     row: dict[str, Any] = {
         "n_samples": metrics.get("n_samples"),
@@ -131,11 +141,11 @@ def metrics_fields(metrics: dict[str, Any], config: dict[str, Any]) -> dict[str,
         "rules_frozen": _get(metrics, "rules", "frozen"),
         "input_family": _get(config, "model", "inputs", "family"),
         "fit_online": _mean([_get(m, "online", "fit") for m in outputs.values()]),
-        "fit_one_step": _mean([_get(m, "validation", "one_step", "fit")
+        "fit_one_step": _mean([_get(_scored(_get(m, "validation", "one_step")), "fit")
                                for m in outputs.values()]),
-        "fit_free_run": _mean([_get(m, "validation", "free_run", "fit")
+        "fit_free_run": _mean([_get(_scored(_get(m, "validation", "free_run"), True), "fit")
                                for m in outputs.values()]),
-        "ndei_one_step": _mean([_get(m, "validation", "one_step", "ndei")
+        "ndei_one_step": _mean([_get(_scored(_get(m, "validation", "one_step")), "ndei")
                                 for m in outputs.values()]),
         "airborne_s": _get(metrics, "flight", "airborne_s"),
         "regimes": (json.dumps(metrics["regimes"], sort_keys=True)

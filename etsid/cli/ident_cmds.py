@@ -125,10 +125,10 @@ def _table_rate(table: object) -> float | None:
 @click.option("--inputs", "inputs", type=click.Choice(list(MODES)), default="auto",
               show_default=True,
               help="Rate-model inputs: pilot sticks, controller torque commands, rate "
-                   "or attitude setpoints; auto = sticks if they carry excitation (std ≥ "
-                   f"{STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each axis), else the "
-                   "first of torque, rate setpoints, attitude setpoints at ≥ 20 Hz, else "
-                   "the fastest.")
+                   "or attitude setpoints, motor outputs; auto = sticks if they carry "
+                   f"excitation (std ≥ {STICK_STD_MIN:g} and ≥ {STICK_RATE_MIN:g} Hz on each "
+                   "axis), else the first of torque, rate setpoints, attitude setpoints at "
+                   "≥ 20 Hz, else the fastest, else sticks anyway, else motor outputs.")
 @click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
               help="Rows to identify on: auto = airborne samples (land detector, else the "
                    "thrust/altitude rule), all = every row, or time windows in s.")
@@ -145,8 +145,9 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
 
     Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust]
-    from sticks or torque commands, else rate setpoints or motor outputs; see --inputs) at
-    50 Hz (--ident-rate). Writes RUN_DIR/ predictions.parquet,
+    from sticks or torque commands, else rate or attitude setpoints, else motor outputs;
+    see --inputs) at 50 Hz (--ident-rate), learned and validated on the airborne rows
+    (--segments). Writes RUN_DIR/ predictions.parquet,
     history.parquet, rules.json, metrics.json, config.json.
     """
     check_output_dir(out)

@@ -120,10 +120,11 @@ def _airborne(table: pd.DataFrame, t: np.ndarray, thrust: np.ndarray, alt: np.nd
     ok = np.isfinite(thrust)
     level = np.nanmedian(thrust) if np.any(ok) else 0.0
     mask = ok & (thrust > 0.5 * level) & (level > 0.05)
-    if "landed" in table.columns:
-        landed = np.interp(t, table.index.to_numpy(float),
-                           table["landed"].astype(float).to_numpy()) > 0.5
-        mask &= ~landed
+    for column in ("landed", "ground_contact"):  # the detector and its touch-down stages
+        if column in table.columns:
+            ground = np.interp(t, table.index.to_numpy(float),
+                               table[column].astype(float).to_numpy()) > 0.5
+            mask &= ~ground
     if np.any(np.isfinite(alt)):
         low = ~mask & np.isfinite(alt)  # height while motors are low: the ground
         ground = np.nanpercentile(alt[low], 50) if np.sum(low) > fs else np.nanmin(alt) - 1.0

@@ -3,6 +3,8 @@ about data too slow or too short to identify from."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -116,6 +118,20 @@ def excitation_warnings(excited: np.ndarray, split: int, n_regressors: int, dt: 
         notes.append(f"warning: the validation part holds only {n_val * dt:.1f} s of "
                      f"excited data (want ≥ {MIN_VALIDATION_EXCITED * params * dt:.1f} s): "
                      "its numbers say little about the model")
+    return notes
+
+
+def motion_warnings(outputs: dict[str, Any], threshold: float) -> list[str]:
+    """One line per output whose validation part barely moves (``informative`` false in
+    :func:`etsid.ident.evaluate.output_metrics`): its metrics describe noise."""
+    notes = []
+    for y, entry in outputs.items():
+        block = ((entry or {}).get("validation") or {}).get("one_step") or {}
+        if block.get("informative") is False:
+            unit = entry.get("unit") or ""
+            notes.append(f"warning: {y}: too little motion in the validation part (std "
+                         f"{block['signal_std']:.3g} {unit} < {threshold:g}); its metrics "
+                         "describe noise, its fit % is not informative")
     return notes
 
 

@@ -18,7 +18,12 @@ Inputs (``inputs="auto"``), first family present wins:
    ``vehicle_torque_setpoint``), whatever ingest mapped;
 2. ``sp_p sp_q sp_r``: rate setpoints (PX4 ``vehicle_rates_setpoint``, MAVLink
    ``ATTITUDE_TARGET``);
-3. motor outputs ``m1`` … ``m8``.
+3. attitude setpoints ``sp_roll sp_pitch sp_yaw`` (+ ``u_thrust``);
+4. motor outputs: the commands they carry ``mot_roll mot_pitch mot_yaw mot_thrust`` when
+   the motor layout is known (:mod:`etsid.ident.motors`), else ``m1`` … ``m8``.
+
+``inputs`` names a family (:data:`etsid.ident.inputs.MODES`); ``auto`` follows the choice
+made when the log was read, else the order above.
 
 >>> import pandas as pd
 >>> t = pd.DataFrame({c: [0.0, 0.1] for c in ["p", "q", "r", "sp_p", "sp_q", "sp_r"]})
@@ -34,7 +39,8 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
-from etsid.ident.inputs import AXES, excited, kind_of
+from etsid.ident.inputs import AXES, MODES, excited, kind_of
+from etsid.ident.motors import MOTOR_COMMANDS, motor_columns
 from etsid.ident.regressors import RegressorSpec
 from etsid.table import RATE_COLUMNS
 
@@ -55,6 +61,7 @@ FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),
     ("rate setpoints", ("sp_p", "sp_q", "sp_r"), ()),
     ("attitude setpoints", ("sp_roll", "sp_pitch", "sp_yaw"), ("u_thrust",)),
+    ("motor commands", MOTOR_COMMANDS, ()),
     ("motor outputs", ("m1", "m2", "m3", "m4"), ("m5", "m6", "m7", "m8")),
 )
 
@@ -114,15 +121,20 @@ def _family(table: pd.DataFrame, inputs: str,
         if "attitude setpoints" not in found:
             raise IdentError("--inputs attitude: the table has no sp_roll sp_pitch sp_yaw")
         return "attitude setpoints", "--inputs attitude"
+    motors = next((f for f in ("motor commands", "motor outputs") if f in found), None)
+    if inputs == "motors":
+        if motors is None:
+            raise IdentError("--inputs motors: the table has no motor outputs m1..m4")
+        return motors, "--inputs motors" + _layout_note(motors)
     if inputs != "auto":
-        raise IdentError(f"--inputs {inputs!r}: choose one of auto, sticks, torque, "
-                         "setpoints, attitude")
+        raise IdentError(f"--inputs {inputs!r}: choose one of {', '.join(MODES)}")
     selection = table.attrs.get("input_selection")
     if isinstance(selection, dict) and selection.get("kind"):
-        want = {"setpoints": "rate setpoints", "attitude": "attitude setpoints"}.get(
-            selection["kind"], loop)
+        want = {"setpoints": "rate setpoints", "attitude": "attitude setpoints",
+                "motors": motors}.get(selection["kind"], loop)
         if want in found:
-            return want, str(selection.get("reason", ""))
+            return want, str(selection.get("reason", "")) + (
+                _layout_note(want) if selection["kind"] == "motors" else "")
     if loop in found:
         if kind == "torque":
             return loop, "torque commands"
@@ -131,11 +143,18 @@ def _family(table: pd.DataFrame, inputs: str,
         if excited(stats):
             return loop, ""
         flat = ", ".join(f"{c} std {v['std']:.3g}" for c, v in stats.items())
-        for other in ("rate setpoints", "attitude setpoints", "motor outputs"):
+        for other in ("rate setpoints", "attitude setpoints", "motor commands",
+                      "motor outputs"):
             if other in found:
                 return other, f"loop commands without excitation ({flat}): {other}"
         return loop, f"loop commands without excitation ({flat}), nothing else: used anyway"
     return next(iter(found)), ""
+
+
+def _layout_note(family: str | None) -> str:
+    return ("; layout known: the commands the motor outputs carry (mixer inverse)"
+            if family == "motor commands" else
+            "; no motor layout: the raw motor outputs" if family == "motor outputs" else "")
 
 
 def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
@@ -151,7 +170,7 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
     output_lags, input_lags
         Lags, samples.
     inputs
-        ``auto``, ``sticks``, ``torque`` or ``setpoints`` (:mod:`etsid.ident.inputs`).
+        One of :data:`etsid.ident.inputs.MODES`.
 
     Raises
     ------
@@ -181,6 +200,9 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
     spec = RegressorSpec.parse(",".join(terms), RATE_COLUMNS)
     mapping = dict(table.attrs.get("mapping") or {})
     sources = {c: str(mapping[c]) for c in inputs_used if c in mapping}
+    if family == "motor commands":
+        motors = motor_columns(table)
+        sources = dict.fromkeys(inputs_used, f"mixer inverse of {motors[0]}…{motors[-1]}")
     kind = {"rate setpoints": "setpoints", "attitude setpoints": "attitude",
-            "motor outputs": "motors"}.get(family) or _u_kind(table)
+            "motor commands": "motors", "motor outputs": "motors"}.get(family) or _u_kind(table)
     return DefaultModel(spec, inputs_used, family, sources, kind, reason)

@@ -13,7 +13,7 @@ from etsid.ident.arx import ARX, rls_online
 from etsid.ident.metrics import scores
 from etsid.ident.regressors import Regression, RegressorSpec
 from etsid.ident.simulate import envelope, free_run, linear_stability
-from etsid.table import COLUMNS
+from etsid.table import COLUMNS, RATE_COLUMNS
 
 
 def noise_std(table: pd.DataFrame, outputs: tuple[str, ...]) -> dict[str, float]:
@@ -141,9 +141,17 @@ def _free_run_scores(meas: np.ndarray, sim: np.ndarray, reg: Regression, split: 
 def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
                    cols: dict[str, np.ndarray], sigma: dict[str, float],
                    sigma_native: dict[str, float] | None = None,
-                   diverged: dict[str, Any] | None = None) -> dict[str, Any]:
+                   diverged: dict[str, Any] | None = None,
+                   motion_min: float | None = None) -> dict[str, Any]:
     """metrics.json ``outputs``: online, validation, ARX and persistence scores per
-    output; free-run blocks carry ``diverged``, ``diverged_at`` (s) and ``segments``."""
+    output; free-run blocks carry ``diverged``, ``diverged_at`` (s) and ``segments``.
+
+    With ``motion_min`` (rad/s; identify and predict pass
+    :data:`etsid.ident.flight.EXCITE_STD`) every validation block (eTS and ARX, one-step
+    and free-run) of a body-rate output (p, q, r) also holds ``signal_std`` (the measured
+    output's standard deviation over the validation part) and ``informative``
+    (``signal_std`` ≥ ``motion_min``): an output that barely moves there is scored on
+    noise, and its fit % means nothing."""
     n = len(reg.Y)
     diverged = diverged or {"ets": [], "arx": []}
     stab: dict[str, Any] = diverged.get("stability") or {}
@@ -170,6 +178,12 @@ def output_metrics(reg: Regression, spec: RegressorSpec, split: int,
         else:
             arx["validation"] = None
         entry["arx"] = arx
+        if motion_min is not None and split < n and y in RATE_COLUMNS:
+            std = float(np.nanstd(meas[val]))
+            for block in (*(entry["validation"] or {}).values(),
+                          *((arx["validation"] or {}).values())):
+                block["signal_std"] = std
+                block["informative"] = bool(std >= motion_min)
         entry["persistence"] = {"online": scores(meas, cols["y_persist"][:, o]),
                                 "validation": scores(meas[val], cols["y_persist"][val, o])
                                 if split < n else None}

@@ -8,7 +8,12 @@ airborne rate dynamics must neither learn nor be judged there. ``--segments``:
     (column ``landed``: PX4 ``vehicle_land_detected.landed``, MAVLink
     ``EXTENDED_SYS_STATE.landed_state``, MAVROS ``extended_state``, ArduPilot ``EV``
     land-complete events): airborne where ``landed`` < 0.5; rows where the detector has no
-    value yet are not airborne. When ``landed`` is only an *armed state* (MAVLink
+    value yet are not airborne. A detector declares *landed* some time after touch-down
+    and *airborne* when the throttle rises, before lift-off: where the table has the
+    detector's earlier stages (column ``ground_contact``: PX4 ``ground_contact`` /
+    ``maybe_landed``) those rows are on the ground too; without them
+    :data:`LAND_MARGIN_S` is cut at each take-off and landing edge (:func:`trim_edges`).
+    When ``landed`` is only an *armed state* (MAVLink
     ``HEARTBEAT.base_mode``, MAVROS ``state.armed``, DataFlash ``ARM`` or ``EV``
     armed/disarmed events: see :func:`is_armed_state`), a disarmed vehicle is on the ground
     but an armed one may still sit on it, so airborne = armed **and** a rule
@@ -58,6 +63,19 @@ VZ_AIR = 0.3
 """Rule without thrust: a vertical speed of at least this, m/s, also counts as airborne
 (the climb of a take-off before it reaches :data:`ALT_AIR_M`)."""
 
+GROUND_CONTACT = "ground_contact"
+"""FlightTable column of the land detector's touch-down stages (1 ground contact or maybe
+landed)."""
+
+LAND_MARGIN_S = 1.0
+"""Seconds cut at each take-off and landing edge of a land detector's airborne stretch when
+the table has no ``ground_contact`` column. A detector declares *landed* only after its
+conditions have held for a trigger time (ArduPilot ``LAND_DETECTOR_TRIGGER_SEC`` = 1 s;
+PX4 passes ground contact → maybe landed → landed: 2.1 s from the first ground contact to
+``landed`` on the real coaxial-octocopter log) and *airborne* as soon as the throttle
+rises, while the vehicle still sits on its legs (2.8 s of ground contact at that log's
+take-off). One second is the shorter, documented of these trigger times."""
+
 MIN_AIR_S = 2.0
 """Airborne stretches shorter than this, s, are dropped (a hop, a detector blip)."""
 
@@ -89,7 +107,8 @@ class FlightSelection:
     mode
         ``auto``, ``all`` or the windows as given.
     method
-        ``land detector``, ``rule (thrust)``, ``rule (altitude, vertical speed)``,
+        ``land detector + ground contact``, ``land detector, 1 s margins``,
+        ``armed state + …``, ``rule (thrust)``, ``rule (altitude, vertical speed)``,
         ``none (no detector, thrust or altitude: every row)``, ``all`` or ``windows``.
     keep
         Boolean mask over the table's rows.
@@ -138,6 +157,34 @@ def clean_mask(mask: np.ndarray, t: np.ndarray, min_air_s: float = MIN_AIR_S,
         if _duration(t, a, b, dt) < min_air_s:
             mask[a:b] = False
     return mask
+
+
+def trim_edges(mask: np.ndarray, t: np.ndarray, margin_s: float = LAND_MARGIN_S
+               ) -> np.ndarray:
+    """``mask`` without the first and last ``margin_s`` seconds of every True run that
+    borders a False row (the log's own start and end are not take-offs or landings)."""
+    out = np.asarray(mask, dtype=bool).copy()
+    n = out.size
+    for a, b in _runs(out):
+        if a > 0:
+            out[a:b] &= t[a:b] >= t[a] + margin_s
+        if b < n:
+            out[a:b] &= t[a:b] <= t[b - 1] - margin_s
+    return out
+
+
+def _detector_airborne(table: pd.DataFrame, landed: np.ndarray, t: np.ndarray
+                       ) -> tuple[np.ndarray, str]:
+    """Airborne rows by a land detector (ground blips filled) without its touch-down
+    stages or margins (module docstring); short stretches are not dropped yet."""
+    with np.errstate(invalid="ignore"):
+        keep = clean_mask(np.nan_to_num(landed, nan=1.0) < 0.5, t, min_air_s=0.0)
+    contact = _column(table, GROUND_CONTACT)
+    if contact is not None:
+        with np.errstate(invalid="ignore"):
+            return (keep & (np.nan_to_num(contact, nan=0.0) < 0.5),
+                    "land detector + ground contact")
+    return trim_edges(keep, t), f"land detector, {LAND_MARGIN_S:g} s margins"
 
 
 def _column(table: pd.DataFrame, name: str) -> np.ndarray | None:
@@ -249,15 +296,16 @@ def select_flight(table: pd.DataFrame, mode: str = "auto") -> FlightSelection:
         keep, method = np.ones(n, dtype=bool), "all"
     elif mode == "auto":
         landed = _column(table, LANDED)
-        if landed is not None:
+        if landed is not None and not is_armed_state(table):
+            raw_air, method = _detector_airborne(table, landed, t)
+        elif landed is not None:
             with np.errstate(invalid="ignore"):
-                keep, method = (np.nan_to_num(landed, nan=1.0) < 0.5), "land detector"
-            if is_armed_state(table):
-                keep, method = armed_airborne(table, keep)
+                raw_air, method = armed_airborne(table, np.nan_to_num(landed, nan=1.0) < 0.5)
         else:
-            keep, method = airborne_rule(table)
-        raw_air = keep
-        keep = clean_mask(keep, t)
+            raw_air, method = airborne_rule(table)
+        # a detector's blips are filled before its touch-down stages are cut
+        keep = clean_mask(raw_air, t, blip_s=0.0 if method.startswith("land detector")
+                          else GROUND_BLIP_S)
     else:
         keep = np.zeros(n, dtype=bool)
         for t0, t1 in parse_windows(mode):

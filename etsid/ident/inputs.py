@@ -17,13 +17,21 @@
     Attitude setpoints ``sp_roll sp_pitch sp_yaw`` (PX4 ``vehicle_attitude_setpoint``,
     DataFlash ``ATT.DesRoll…``, MAVLink/MAVROS ``ATTITUDE_TARGET`` quaternions) with the
     thrust setpoint as ``u_thrust``: the commands to the attitude loops.
-``auto`` (default)
-    Sticks when they carry excitation — on each of roll, pitch and yaw the stick signal
-    has a standard deviation of at least :data:`STICK_STD_MIN` (normalised units) and a
-    native rate of at least :data:`STICK_RATE_MIN` Hz — else the first of torque
-    commands, rate setpoints, attitude setpoints whose native rate is at least
-    :data:`INPUT_RATE_MIN` Hz, else the fastest of them, else sticks anyway (with a note);
-    a saved table without any of these falls back to motor outputs.
+``motors``
+    Motor outputs ``m1 … mN`` (PX4 ``actuator_motors`` / ``actuator_outputs``, DataFlash
+    ``RCOU``, MAVLink ``SERVO_OUTPUT_RAW``, MAVROS ``rc/out``), at least four. With a known
+    motor layout the model's regressors are the commands they carry
+    (:mod:`etsid.ident.motors`), else the raw outputs.
+``auto`` (default), in this order:
+    1. sticks when they carry excitation — on each of roll, pitch and yaw the stick signal
+       has a standard deviation of at least :data:`STICK_STD_MIN` (normalised units) and a
+       native rate of at least :data:`STICK_RATE_MIN` Hz;
+    2. the first of torque commands, rate setpoints, attitude setpoints whose native rate
+       is at least :data:`INPUT_RATE_MIN` Hz;
+    3. the fastest of them;
+    4. sticks anyway (with a note);
+    5. motor outputs, when nothing else exists;
+    6. else a one-line refusal.
 
 The choice is made on the reader's candidate signals (:class:`etsid.ingest.base.Signal`),
 ranked within each family by ingest's own order (:func:`etsid.ingest.mapping.signal_rank`),
@@ -48,7 +56,7 @@ if TYPE_CHECKING:  # ingest is imported only when a log is read (ident → inges
     from etsid.ingest import ReadOptions
     from etsid.ingest.base import Signal
 
-MODES = ("auto", "sticks", "torque", "setpoints", "attitude")
+MODES = ("auto", "sticks", "torque", "setpoints", "attitude", "motors")
 """Values of ``--inputs``."""
 
 STICK_STD_MIN = 0.02
@@ -69,6 +77,9 @@ AXES = ("u_roll", "u_pitch", "u_yaw")
 LOOP = (*AXES, "u_thrust")
 SETPOINTS = ("sp_p", "sp_q", "sp_r")
 ATTITUDE = ("sp_roll", "sp_pitch", "sp_yaw")
+MOTORS = tuple(f"m{i}" for i in range(1, 9))
+MIN_MOTORS = 4
+"""Fewest motor outputs (m1 … m4) for the motor family."""
 
 TORQUE_TOPICS = frozenset({
     "actuator_controls_0", "actuator_controls", "vehicle_torque_setpoint",
@@ -125,9 +136,9 @@ class InputChoice:
     Attributes
     ----------
     mode
-        What was asked (``auto``, ``sticks``, ``torque``, ``setpoints``).
+        What was asked (one of :data:`MODES`).
     kind
-        What is used: ``sticks``, ``torque`` or ``setpoints``.
+        What is used: ``sticks``, ``torque``, ``setpoints``, ``attitude`` or ``motors``.
     columns
         Model input columns (``u_roll …`` or ``sp_p …``).
     sources
@@ -198,20 +209,24 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
     torque = _best([s for s in loop if kind_of(s.source) == "torque"], LOOP)
     setpoints = _best(signals, SETPOINTS)
     attitude = _best(signals, ATTITUDE)
+    motors = _best(signals, MOTORS)
+    n_motors = next((i for i, c in enumerate(MOTORS) if c not in motors), len(MOTORS))
     thrust_sp = _best([s for s in loop if kind_of(s.source) == "setpoint"], ("u_thrust",))
     if attitude:
         attitude.update(thrust_sp or {k: v for k, v in _best(loop, ("u_thrust",)).items()})
     stats = excitation(sticks)
     has = {"sticks": all(c in sticks for c in AXES), "torque": all(c in torque for c in AXES),
            "setpoints": all(c in setpoints for c in SETPOINTS),
-           "attitude": all(c in attitude for c in ATTITUDE)}
+           "attitude": all(c in attitude for c in ATTITUDE),
+           "motors": n_motors >= MIN_MOTORS}
     picked = {"sticks": sticks, "torque": torque, "setpoints": setpoints,
-              "attitude": attitude}
+              "attitude": attitude, "motors": motors}
     order = {"sticks": LOOP, "torque": LOOP, "setpoints": SETPOINTS,
-             "attitude": (*ATTITUDE, "u_thrust")}
+             "attitude": (*ATTITUDE, "u_thrust"), "motors": MOTORS[:n_motors]}
 
     def rate(kind: str) -> float:
-        return min(picked[kind][c].rate_hz for c in order[kind][:3])
+        return min(picked[kind][c].rate_hz for c in order[kind][:3 if kind != "motors"
+                                                               else n_motors])
 
     def make(kind: str, reason: str) -> InputChoice:
         chosen = picked[kind]
@@ -222,8 +237,10 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
     if mode != "auto":
         if not has[mode]:
             found = ", ".join(k for k, v in has.items() if v) or "none"
-            raise IdentError(f"{path}: --inputs {mode}: the log has no {mode} for all three "
-                             f"axes (families found: {found})")
+            what = (f"at least {MIN_MOTORS} motor outputs (m1…m{MIN_MOTORS})"
+                    if mode == "motors" else f"{mode} for all three axes")
+            raise IdentError(f"{path}: --inputs {mode}: the log has no {what} "
+                             f"(families found: {found})")
         return make(mode, f"--inputs {mode}")
     if has["sticks"] and excited(stats):
         return make("sticks", f"sticks carry excitation ({_describe(stats)})")
@@ -244,9 +261,12 @@ def choose_inputs(signals: list[Signal], mode: str = "auto",
                           f"({', '.join(slow)}): the fastest, {names[kind]}")
     if has["sticks"]:
         return make("sticks", f"{why}, no torque commands or setpoints: sticks anyway")
+    if has["motors"]:
+        return make("motors", f"{why}, no torque commands or setpoints: {n_motors} motor "
+                              f"outputs at {rate('motors'):.3g} Hz")
     raise IdentError(f"{path}: no inputs for the rate model: no sticks, torque commands, "
-                     "rate or attitude setpoints on all three axes (use --map or "
-                     "--regressors)")
+                     f"rate or attitude setpoints on all three axes, nor {MIN_MOTORS} motor "
+                     "outputs (use --map or --regressors)")
 
 
 def load_for_ident(path: str | Path, options: ReadOptions | None = None, inputs: str = "auto",

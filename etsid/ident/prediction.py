@@ -12,6 +12,7 @@ import pandas as pd
 from etsid.errors import IdentError, ModelError
 from etsid.ets import ETS
 from etsid.ets.serialize import check_caps, read_document
+from etsid.ident.checks import motion_warnings
 from etsid.ident.evaluate import (
     noise_std,
     output_metrics,
@@ -20,8 +21,9 @@ from etsid.ident.evaluate import (
     rate_info,
     validation_info,
 )
-from etsid.ident.flight import apply_selection, select_flight
+from etsid.ident.flight import EXCITE_STD, apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
+from etsid.ident.motors import MOTOR_COMMANDS, add_motor_commands
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header, sha256
@@ -98,6 +100,13 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     model, spec, data = load_rules(path)
     sigma_native = noise_std(table, spec.outputs)
     rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
+    table = add_motor_commands(table)
+    need = [c for c in MOTOR_COMMANDS if c in spec.columns and c not in table.columns]
+    if need:
+        raise IdentError(f"{path}: the model's inputs are the motor commands "
+                         f"({', '.join(need)}), computed from m1…mN and the table's motor "
+                         "layout; this table has no layout matching its motor columns "
+                         "(attrs['motor_layout'])")
     selection = select_flight(table, segments)
     table = apply_selection(table, selection)
     table = decimate(table, float(rate_hz) if rate_hz else None)
@@ -122,7 +131,8 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
                   "frozen": frozen.n_rules},
         "skipped": reg.skipped,
         "validation": validation_info(reg, split, (n - split) / n),
-        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged),
+        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged,
+                                  EXCITE_STD),
         "sample_rate": rate_info(table),
         "flight": selection.to_dict(),
     }
@@ -131,7 +141,8 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "rules": {"path": str(path), "sha256": sha256(path if path.is_file()
                                                       else path / "rules.json")},
         "model": {**spec.to_dict(), "inputs": {"columns": [
-            c for c in spec.columns if c not in spec.outputs]}, "notes": []},
+            c for c in spec.columns if c not in spec.outputs]},
+                  "notes": motion_warnings(metrics["outputs"], EXCITE_STD)},
         "parameters": {"learn": learn, "sim_from": sim_from, "segments": segments},
         "ets": {**{k: data["params"].get(k) for k in ("radius", "omega", "variant")},
                 "fixed_ranges": data["params"].get("x_range") is not None}

@@ -26,6 +26,7 @@ from etsid.ets import ETS
 from etsid.ident.checks import (
     data_warnings,
     excitation_warnings,
+    motion_warnings,
     refuse_coarse,
     split_excited,
 )
@@ -47,6 +48,7 @@ from etsid.ident.flight import (
 )
 from etsid.ident.learn import history_frames, learn_online
 from etsid.ident.model_choice import choose_model
+from etsid.ident.motors import add_motor_commands
 from etsid.ident.ranges import fixed_ranges, schedule_range
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
@@ -101,6 +103,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     """
     config = config or IdentConfig()
     rate_hz = config.rate_for(not config.outputs)
+    table = add_motor_commands(table)
     chosen = choose_model(table, config)
     spec = chosen.spec
     sigma_native = noise_std(table, spec.outputs)
@@ -147,9 +150,11 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                        "excited_s": float(np.count_nonzero(excited[split:]) * dt)},
         "flight": {**selection.to_dict(), "excited_s": float(np.count_nonzero(excited) * dt),
                    "excitation_std_min": EXCITE_STD if rate_model else None},
-        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged),
+        "outputs": output_metrics(reg, spec, split, cols, sigma, sigma_native, diverged,
+                                  EXCITE_STD),
         "sample_rate": rate_info(table),
     }
+    chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
     run_config = {
         **run_header("identify", table, source),
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,

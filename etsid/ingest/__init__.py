@@ -87,7 +87,7 @@ def table_from_raw(
     themselves from the reader's candidates and pass them as ``preset`` (``etsid identify
     --inputs``; see :func:`etsid.ingest.mapping.choose_signals`).
     """
-    if all(s.column == "landed" for s in raw.signals):  # an armed/landed state is no flight
+    if all(s.column in ("landed", "ground_contact") for s in raw.signals):  # no flight data
         kinds = ", ".join(sorted({f"{c.name} ({c.type})" for c in raw.channels})[:12])
         raise IngestError(
             f"{raw.path}: no usable flight data; found {kinds or 'no messages'}"

@@ -208,4 +208,8 @@ def build_table(
         "warnings": list(raw.warnings),
         "log": {k: v for k, v in raw.extra.items() if isinstance(v, (str, int, float, list))},
     }
+    layout = raw.extra.get("motor_layout")
+    if isinstance(layout, dict) and "m1" in cleaned and cleaned["m1"].topic == layout.get("topic"):
+        # the layout's motor order holds for the motor topic it names only
+        table.attrs["motor_layout"] = {k: v for k, v in layout.items() if k != "topic"}
     return validate(table)

@@ -8,10 +8,10 @@ Rule when several signals can fill one column (documented in docs/ingest.md):
    ``/mavros/imu/data`` before ``data_raw``);
 3. then the highest native rate, then the most samples, then the topic name (A→Z)
    (:func:`signal_rank`);
-4. rate beats priority for the body rates: when the preferred ``p``/``q``/``r`` source is
-   slower than :data:`SLOW_RATE_HZ` (too slow for the rate loop, e.g. DataFlash ``RATE`` at
-   10 Hz) and another candidate is at least twice as fast (``IMU.GyrX`` at 49 Hz), the
-   fastest candidate wins (:func:`prefer_rate`).
+4. rate beats priority for the inertial signals (body rates ``p q r`` and specific force
+   ``ax ay az``): when the preferred source is slower than :data:`SLOW_RATE_HZ` (too slow
+   for the rate loop, e.g. DataFlash ``RATE`` at 10 Hz) and another candidate is at least
+   twice as fast (``IMU.GyrX`` at 49 Hz), the fastest candidate wins (:func:`prefer_rate`).
 
 A caller that has already chosen the signal of some columns by its own rule (identify's
 input family, :mod:`etsid.ident.inputs`) passes them as ``preset``; they are used as given
@@ -87,13 +87,17 @@ def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]
 
 
 SLOW_RATE_HZ = 20.0
-"""A body-rate source slower than this, Hz, gives way to a candidate twice as fast."""
+"""A body-rate or specific-force source slower than this, Hz, gives way to a candidate
+twice as fast."""
+
+FAST_COLUMNS = ("p", "q", "r", "ax", "ay", "az")
+"""Columns of rule 4 (rate beats priority)."""
 
 
 def prefer_rate(column: str, cands: list[Signal]) -> list[Signal]:
     """``cands`` (sorted by :func:`signal_rank`) with the fastest first when rule 4 of the
     module docstring applies."""
-    if column not in ("p", "q", "r") or len(cands) < 2:
+    if column not in FAST_COLUMNS or len(cands) < 2:
         return cands
     first = cands[0]
     fastest = max(cands, key=lambda s: s.rate_hz)

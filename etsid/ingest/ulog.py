@@ -15,6 +15,8 @@ roll…        vehicle_attitude q (0)
 sp_roll…     vehicle_attitude_setpoint q_d (0), roll_body/pitch_body/yaw_body (1)
 ax ay az     sensor_combined accelerometer_m_s2 (0), sensor_accel x/y/z (1)
 landed       vehicle_land_detected landed (0)
+ground_con…  vehicle_land_detected ground_contact or maybe_landed (0): the detector's
+             stages between touch-down and ``landed`` (and before lift-off)
 u_*          manual_control_setpoint (0; old fields x pitch, y roll, z throttle 0…1, r yaw;
              new fields roll, pitch, yaw, throttle −1…1 → 0…1), input_rc values via
              ``rc_map`` (1), controller torque/thrust commands: actuator_controls_0
@@ -201,11 +203,34 @@ def signals(topics: dict[str, Topic], options: ReadOptions, repaired: list[Issue
                 if d.has(f)]
     if (d := topics.get("vehicle_land_detected")) is not None and d.has("landed"):
         out.append(d.sig("landed", "landed", 0))
+        stages = [d.f(f) for f in ("ground_contact", "maybe_landed") if d.has(f)]
+        if stages:
+            out.append(Signal("ground_contact", d.t, np.fmax.reduce(stages),
+                              f"{d.name}.ground_contact", 0))
     if (d := topics.get("battery_status")) is not None:
         out += [d.sig("vbat", f, k) for k, f in enumerate(("voltage_filtered_v", "voltage_v"))
                 if d.has(f)]
     return (out + _sticks(topics, options, repaired) + _motors(topics, options, repaired)
             + _position(topics))
+
+
+def motor_layout(params: dict[str, object]) -> dict[str, object] | None:
+    """The motor layout of PX4's control allocation (PX4 ≥ 1.13): ``CA_ROTOR_COUNT`` rotors,
+    rotor i at ``CA_ROTOR{i}_PX/_PY`` (m, FRD) spinning ``sign(CA_ROTOR{i}_KM)`` (positive =
+    counter-clockwise seen from above). Rotor i is ``actuator_motors.control[i]`` (``topic``);
+    the PWM ``actuator_outputs`` follow the output functions, not this order. None without
+    the parameters."""
+    try:
+        n = int(params["CA_ROTOR_COUNT"])  # type: ignore[call-overload]
+        rows = [(float(params[f"CA_ROTOR{i}_PX"]), float(params[f"CA_ROTOR{i}_PY"]),  # type: ignore[arg-type]
+                 float(np.sign(float(params.get(f"CA_ROTOR{i}_KM", 0.05)))))  # type: ignore[arg-type]
+                for i in range(n)]
+    except (KeyError, TypeError, ValueError):
+        return None
+    if n < 4:
+        return None
+    x, y, spin = (list(v) for v in zip(*rows, strict=True))
+    return {"x": x, "y": y, "spin": spin, "topic": "actuator_motors"}
 
 
 def _start_time(topics: dict[str, Topic]) -> float | None:
@@ -279,6 +304,9 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                   -1))
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(topics)
+    layout = motor_layout(getattr(ulog, "initial_parameters", {}) or {})
+    if layout is not None:
+        raw.extra["motor_layout"] = layout
     columns: dict[str, list[str]] = {}
     for sig in raw.signals:
         cols = columns.setdefault(sig.topic, [])

@@ -337,6 +337,9 @@ def fig_validation(run: Run) -> Figure:
                      .get("free_run") or {})
             fr = block.get("fit")
             title = f"free-run fit {fr:.1f} %" if fr is not None else ""
+            if block.get("informative") is False:
+                title = (f"too little motion (std {block['signal_std']:.2g}): free-run fit "
+                         f"{fr:.1f} % not informative" if fr is not None else "")
             for when in block.get("diverged_times") or []:
                 ax.axvline(when, color=COLORS["free_run"], linestyle="--", linewidth=1.0)
             if block.get("diverged"):

@@ -30,13 +30,17 @@ def fmt(value: Any, digits: int = 4) -> str:
 
 
 def free_run_text(block: Any) -> str:
-    """Free-run fit %, or ``diverged at t = … s (fit … before)`` when it diverged."""
+    """Free-run fit %, or ``diverged at t = … s (fit … before)`` when it diverged, or
+    ``not informative (fit; std …)`` when the output barely moves in the validation part."""
     if not isinstance(block, dict):
         return "–"
     if block.get("diverged"):
         before = block.get("fit")
         tail = f", fit {before:.3g} % before" if isinstance(before, float) else ""
         return f"diverged at t = {block['diverged_at']:.2f} s{tail}"
+    if block.get("informative") is False:
+        return (f"not informative ({fmt(block.get('fit'), 3)}; std "
+                f"{block['signal_std']:.2g})")
     if block.get("unstable_model"):
         return (f"{fmt(block.get('fit'), 3)} (unstable model: ρ = "
                 f"{block['spectral_radius']:.4g}, doubles in {block['doubling_time_s']:.3g} s)")

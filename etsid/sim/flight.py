@@ -150,6 +150,10 @@ def simulate(
         "params": {k: v for k, v in params.items()},
         "noise": lv,
         "hover_command": float(trim_oge.command),
+        # motor m(i+1) = rotor i: hub x, y (m, FRD), spin (+1 CCW seen from above)
+        "motor_layout": {"x": veh.rotor_positions[:, 0].tolist(),
+                         "y": veh.rotor_positions[:, 1].tolist(),
+                         "spin": veh.spin.tolist()},
     }
     truth_df.attrs = dict(table.attrs)
     return SimFlight(table=table, truth=truth_df, vehicle=veh, params=params)

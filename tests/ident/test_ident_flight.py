@@ -12,7 +12,14 @@ import pytest
 
 from etsid.errors import IdentError
 from etsid.ident import IdentConfig, identify
-from etsid.ident.flight import apply_selection, clean_mask, parse_windows, select_flight
+from etsid.ident.flight import (
+    LAND_MARGIN_S,
+    apply_selection,
+    clean_mask,
+    parse_windows,
+    select_flight,
+    trim_edges,
+)
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.simulate import envelope, free_run
 from etsid.sim import simulate
@@ -61,12 +68,44 @@ def flight() -> tuple[pd.DataFrame, list[tuple[float, float]]]:
 def test_airborne_segments_found(landed_column: bool) -> None:
     table, air = flight_with_ground(landed_column)
     sel = select_flight(table, "auto")
-    assert sel.method == ("land detector" if landed_column else "rule (thrust)")
+    # a land detector without its touch-down stages loses LAND_MARGIN_S at each edge
+    margin = LAND_MARGIN_S if landed_column else 0.0
+    assert sel.method == ("land detector, 1 s margins" if landed_column else "rule (thrust)")
     assert len(sel.windows) == 2
     for (a, b), (t0, t1) in zip(sel.windows, air, strict=True):
-        assert a == pytest.approx(t0, abs=0.05) and b == pytest.approx(t1, abs=0.05)
+        assert a == pytest.approx(t0 + margin, abs=0.05)
+        assert b == pytest.approx(t1 - margin, abs=0.05)
     kept = apply_selection(table, sel)
     assert kept["segment"].unique().tolist() == [0, 1]
+
+
+def test_ground_contact_stages_are_ground() -> None:
+    # PX4's detector: "airborne" while still on the legs after throttle-up (0.8 s here), and
+    # ground contact, a flicker back to flying and maybe-landed before "landed" (1.6 s)
+    table, air = flight_with_ground(landed_column=True)
+    t = table.index.to_numpy()
+    contact = np.zeros(len(t))
+    for t0, t1 in air:
+        contact[(t >= t0) & (t < t0 + 0.8)] = 1.0
+        contact[(t >= t1 - 1.6) & (t < t1)] = 1.0
+        contact[(t >= t1 - 1.3) & (t < t1 - 1.1)] = 0.0  # 0.2 s flicker: not filled
+    table["ground_contact"] = contact
+    sel = select_flight(table, "auto")
+    assert sel.method == "land detector + ground contact"
+    for (a, b), (t0, t1) in zip(sel.windows, air, strict=True):
+        assert a == pytest.approx(t0 + 0.8, abs=0.01)
+        assert b == pytest.approx(t1 - 1.6, abs=0.01)
+
+
+def test_trim_edges_keeps_the_log_ends() -> None:
+    t = np.arange(1000) / 100.0  # 10 s
+    mask = np.zeros(1000, dtype=bool)
+    mask[:300] = True  # airborne from the log start: only its landing edge is trimmed
+    mask[500:] = True  # airborne until the log end: only its take-off edge
+    out = trim_edges(mask, t, 1.0)
+    assert np.flatnonzero(out[:500]).max() == 199
+    assert np.flatnonzero(out).min() == 0 and out[-1]
+    assert np.flatnonzero(out[500:]).min() + 500 == 600
 
 
 def test_identify_learns_and_validates_on_airborne_rows_only(flight) -> None:
@@ -78,7 +117,7 @@ def test_identify_learns_and_validates_on_airborne_rows_only(flight) -> None:
         inside |= (pred["t"] >= t0) & (pred["t"] <= t1)
     assert inside.all()  # no learning or validation sample on the ground
     m = run.metrics
-    assert m["flight"]["airborne_s"] == pytest.approx(40.0, abs=0.2)
+    assert m["flight"]["airborne_s"] == pytest.approx(40.0 - 4 * LAND_MARGIN_S, abs=0.2)
     assert m["flight"]["excited_s"] > 25.0
     # validation starts inside the second pass and holds 30 % of the excited time
     assert air[1][0] < m["validation"]["t_start"] < air[1][1]
@@ -109,7 +148,8 @@ def test_predict_uses_the_same_airborne_rows(flight, tmp_path: Path) -> None:
     inside = np.zeros(len(pred), dtype=bool)
     for t0, t1 in air:
         inside |= (pred["t"] >= t0) & (pred["t"] <= t1)
-    assert inside.all() and again.metrics["flight"]["method"] == "land detector"
+    assert inside.all()
+    assert again.metrics["flight"]["method"] == run.metrics["flight"]["method"]
     np.testing.assert_array_equal(pred["t"], run.predictions["t"])
     val = pred["part"] == "validation"
     np.testing.assert_allclose(pred.loc[val, "p_val"], run.predictions.loc[val, "p_val"],

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common
 
-from etsid.ident.flight import is_armed_state, select_flight
+from etsid.ident.flight import LAND_MARGIN_S, is_armed_state, select_flight
 from etsid.ingest import read_log
 from etsid.ingest.base import Override, ReadOptions
 from etsid.rosmsgs import typestore
@@ -61,9 +61,10 @@ def test_tlog_extended_sys_state_is_the_land_detector(tmp_path: Path) -> None:
     assert (_between(table, 4.3, 13.9) == 0).all()
     assert (_between(table, 14.3, 19.8) == 1).all()
     sel = select_flight(table)
-    assert sel.method == "land detector"
-    assert sel.windows[0][0] == pytest.approx(4.0, abs=0.25)
-    assert sel.windows[0][1] == pytest.approx(14.0, abs=0.25)
+    # no touch-down stages in MAVLink: the documented margin is cut at take-off and landing
+    assert sel.method == f"land detector, {LAND_MARGIN_S:g} s margins"
+    assert sel.windows[0][0] == pytest.approx(4.0 + LAND_MARGIN_S, abs=0.25)
+    assert sel.windows[0][1] == pytest.approx(14.0 - LAND_MARGIN_S, abs=0.25)
 
 
 def test_tlog_heartbeat_armed_flag_is_an_armed_state(tmp_path: Path) -> None:
@@ -122,8 +123,9 @@ def test_dataflash_land_complete_events(tmp_path: Path) -> None:
     assert (_between(table, 4.05, 13.95) == 0).all()
     assert (_between(table, 14.05, 19.9) == 1).all()  # held to the end of the log
     sel = select_flight(table)
-    assert sel.method == "land detector"
-    assert sel.windows[0] == pytest.approx([4.0, 13.99], abs=0.05)
+    assert sel.method == f"land detector, {LAND_MARGIN_S:g} s margins"
+    assert sel.windows[0] == pytest.approx([4.0 + LAND_MARGIN_S, 13.99 - LAND_MARGIN_S],
+                                           abs=0.05)
 
 
 def test_dataflash_armed_events_and_arm_messages(tmp_path: Path) -> None:
@@ -178,7 +180,7 @@ def test_mavros_extended_state_wins_over_armed(tmp_path: Path) -> None:
     assert (_between(table, 0.3, 3.9) == 1).all()
     assert (_between(table, 4.3, 13.9) == 0).all()
     assert (_between(table, 14.3, 19.8) == 1).all()
-    assert select_flight(table).method == "land detector"
+    assert select_flight(table).method == f"land detector, {LAND_MARGIN_S:g} s margins"
 
 
 def test_mavros_state_armed(tmp_path: Path) -> None:

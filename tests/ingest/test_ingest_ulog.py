@@ -185,3 +185,15 @@ def test_rc_and_motor_pwm_use_the_configured_range(
                                    atol=1e-12)
     counts = {i.signal: i.count for i in raw.repaired if "PWM outside" in i.reason}
     assert counts == dict.fromkeys(clipped, 100)
+
+
+def test_land_detector_touch_down_stages() -> None:
+    # the real CubeOrange hop: the detector says airborne for 1.15 s, 0.62 s of it with
+    # ground contact (PX4's stage before lift-off); maybe_landed counts as contact too
+    out = read_log(CUBE)
+    assert out.attrs["mapping"]["ground_contact"] == "vehicle_land_detected.ground_contact"
+    rate = out.attrs["rate_hz"]
+    air = out["landed"] < 0.5
+    assert air.sum() / rate == pytest.approx(1.15, abs=0.02)
+    assert (air & (out["ground_contact"] > 0.5)).sum() / rate == pytest.approx(0.62, abs=0.02)
+    assert set(np.unique(out["ground_contact"].dropna())) <= {0.0, 1.0}
