@@ -24,6 +24,7 @@ from etsid.ident.resample import DEFAULT_RATE_HZ
 from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import read_log
 from etsid.progress import wanted
+from etsid.report.regimes import regime_text
 from etsid.report.tables import rules_text, summary_table
 
 
@@ -48,8 +49,18 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     for note in run.config.get("model", {}).get("notes") or []:
         click.echo(note)
     click.echo(summary_table(run))
+    regimes = regime_text(run)
+    if regimes:
+        click.echo(regimes)
     click.echo(f"wrote {out}/ (predictions.parquet, metrics.json, rules.json, …); "
                f"next: etsid report {out}")
+
+
+def _rotor_radius(vehicle: str) -> float:
+    """Rotor radius, m, of a packaged vehicle name or a vehicle TOML file."""
+    from etsid.sim import load_vehicle
+
+    return float(load_vehicle(vehicle).params["rotor"]["radius"])
 
 
 def _table_rate(table: object) -> float | None:
@@ -122,6 +133,10 @@ def _table_rate(table: object) -> float | None:
 @click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
               help="Rows to identify on: auto = airborne samples (land detector, else the "
                    "thrust/altitude rule), all = every row, or time windows in s.")
+@click.option("--vehicle", metavar="NAME|FILE",
+              help="The vehicle flown (packaged name such as tarot680, or a vehicle TOML): "
+                   "its rotor radius R puts the regimes in z/R (in / out of ground effect); "
+                   "without it a simulated table's own vehicle, else altitude bands in m.")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
@@ -130,8 +145,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
                  rate_hz: float | None, ident_rate: float | None, inputs: str, segments: str,
-                 as_json: bool, maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
-                 quiet: bool) -> None:
+                 vehicle: str | None, as_json: bool, maps: tuple[str, ...],
+                 mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
     """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
 
     Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust]
@@ -145,6 +160,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
         table = read_log(log, options, rate_hz=rate_hz)
     else:
         table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
+    if vehicle:
+        table.attrs["rotor_radius_m"] = _rotor_radius(vehicle)
     table_rate = _table_rate(table)
     if ident_rate and table_rate and ident_rate > 1.01 * table_rate:
         raise click.BadParameter(f"{ident_rate:g} Hz is above the rate of {log} "
