@@ -9,9 +9,10 @@ Three things for metrics.json ``regimes`` (:func:`regime_summary`), rendered by
   antecedent variables, the altitude where it leads, support, birth time, lifetime and
   regime (:func:`rule_table`);
 * one sentence of what the model learnt, from the rules' consequents
-  (:func:`learnt_sentence`): the effective input gain of each rule's local ARX (sum of the
-  coefficients of every lag of an input, the one-step response per unit input) compared
-  between the rule at the lowest and the rule at the highest altitude.
+  (:func:`learnt_sentence`): the input gain of each rule's local ARX (the coefficient of
+  the input's shortest lag: the response one sample after a unit command; see
+  :func:`input_gains` for why not the sum or the static gain) compared between the rule at
+  the lowest and the rule at the highest altitude.
 
 Bands. When the rotor radius R is known (``table.attrs["rotor_radius_m"]``; the simulator
 writes it) the bands are in z/R: *in ground effect* below z/R = 2 (one rotor diameter; the
@@ -228,10 +229,23 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     return out
 
 
+def _lag(term: str) -> int:
+    """The lag of a regressor term in samples (``u[k-3]`` → 3, ``u[k]`` → 0)."""
+    found = re.search(r"\[k(?:-(\d+))?\]", term)
+    return int(found.group(1) or 0) if found else 0
+
+
 def input_gains(rules: dict[str, Any]) -> list[dict[str, Any]]:
-    """Effective input gain of every rule's local ARX for each output/input pair: the sum of
-    the coefficients of every lag of the input (original units: output unit per input
-    unit, one step). Inputs are the regressor columns that are not outputs."""
+    """Input gains of every rule's local ARX for each output/input pair (original units:
+    output unit per input unit). Inputs are the regressor columns that are not outputs.
+
+    ``per_rule``: the coefficient of the input's shortest lag — the response one sample
+    after a unit command, the control effectiveness the rule has learnt. ``sum_per_rule``:
+    the sum over every lag. The sentence uses the first: with an attitude loop closed
+    around the sticks a held stick gives an angle, not a rate, so the sum of the input
+    coefficients (and the static gain) of a rate model is close to zero, and a ratio of
+    two such sums is noise.
+    """
     from etsid.ets import ETS
 
     model = ETS.from_dict(rules)
@@ -241,9 +255,12 @@ def input_gains(rules: dict[str, Any]) -> list[dict[str, Any]]:
     out = []
     for o, y in enumerate(outputs):
         for u in dict.fromkeys(c for c in columns if c not in outputs):
-            idx = [j + 1 for j, c in enumerate(columns) if c == u]
-            out.append({"output": y, "input": u,
-                        "per_rule": [float(v) for v in cons[:, idx, o].sum(axis=1)]})
+            idx = [j for j, c in enumerate(columns) if c == u]
+            first = min(idx, key=lambda j: _lag(inputs[j])) + 1
+            out.append({"output": y, "input": u, "term": inputs[first - 1],
+                        "per_rule": [float(v) for v in cons[:, first, o]],
+                        "sum_per_rule": [float(v) for v in
+                                         cons[:, [j + 1 for j in idx], o].sum(axis=1)]})
     return out
 
 
@@ -276,8 +293,8 @@ def learnt_sentence(table: list[dict[str, Any]], gains: list[dict[str, Any]],
             return "One rule: the model found one regime (no input to compare)."
         g = pairs[0]
         return (f"One rule: the model found one regime — a single linear model over the whole "
-                f"flight ({_words(g)} {g['per_rule'][0]:.3g} per unit {g['input']} per "
-                "step).")
+                f"flight ({_words(g)} {g['per_rule'][0]:.3g} per unit {g['input']} one "
+                "step after it).")
     placed = [r for r in table if r["alt_m"] is not None]
     if len(placed) < 2:
         key, what = _first_antecedent(table)
@@ -304,8 +321,9 @@ def learnt_sentence(table: list[dict[str, Any]], gains: list[dict[str, Any]],
                 factor = ratio if ratio >= 1 else 1.0 / ratio
                 size = (f"about the same (×{ratio:.2f})" if factor < SAME
                         else f"{factor:.2f}× {'larger' if ratio >= 1 else 'smaller'}")
+                than = "as" if factor < SAME else "than"
                 parts.append(f"{_words(g).capitalize()} per unit {g['input']} is {size} "
-                             f"{where_lo} than {where_hi}")
+                             f"{where_lo} {than} {where_hi}")
         else:
             name = AXIS_WORDS.get(g["output"], g["output"])
             parts.append(f"{name} {ratio:.2f}×" if ratio is not None
@@ -360,7 +378,7 @@ def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
         out["rules"] = rule_table(rules, A, alt if bands is not None else None, t, split,
                                   bands)
         out["gains"] = input_gains(rules)
-        out["gain_kind"] = ("sum of the coefficients of every lag of the input in the rule's "
-                            "consequent (one-step response per unit input)")
+        out["gain_kind"] = ("the coefficient of the input's shortest lag in the rule's "
+                            "consequent (the response one sample after a unit command)")
         out["sentence"] = learnt_sentence(out["rules"], out["gains"], bands)
     return out

@@ -118,13 +118,17 @@ def test_no_altitude_no_bands_but_rules_and_gains() -> None:
     assert "at h[k-1]" in block["sentence"]
 
 
-def test_input_gains_sum_every_lag_of_an_input() -> None:
+def test_input_gains_first_lag_and_sum_of_every_lag() -> None:
     table = _table(1500)
-    run = identify(table, IdentConfig(outputs=["y"], regressors="y[k-1],u[k-1..k-2]",
+    run = identify(table, IdentConfig(outputs=["y"], regressors="y[k-1],u[k-3],u[k-1..k-2]",
                                       segments="all", max_rules=1))
     (gain,) = input_gains(run.rules)
     cons = run.rules["rules"][0]["consequent_original_units"]
     names = run.rules["inputs"]
     expect = sum(cons[j + 1][0] for j, name in enumerate(names) if name.startswith("u["))
-    assert gain["output"] == "y" and gain["input"] == "u"
-    assert gain["per_rule"][0] == pytest.approx(expect)
+    assert gain["output"] == "y" and gain["input"] == "u" and gain["term"] == "u[k-1]"
+    assert gain["sum_per_rule"][0] == pytest.approx(expect)
+    assert gain["per_rule"][0] == pytest.approx(cons[names.index("u[k-1]") + 1][0])
+    # the known system: y[k] = 0.6 y[k-1] + g u[k-1], g = 2 low and 1 high (one rule: between)
+    assert 1.0 < gain["per_rule"][0] < 2.0
+    assert abs(gain["sum_per_rule"][0] - gain["per_rule"][0]) < 0.2
