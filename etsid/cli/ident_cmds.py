@@ -198,16 +198,22 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
 @click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
               help="Rows to predict and score: auto = airborne samples (the same rule as "
                    "identify), all = every row, or time windows in s.")
+@click.option("--vehicle", metavar="NAME|FILE",
+              help="The vehicle flown: its rotor radius puts the scores per regime in z/R "
+                   "(as for identify).")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: float | None,
-                rate_hz: float | None, segments: str, as_json: bool, maps: tuple[str, ...],
-                mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
+                rate_hz: float | None, segments: str, vehicle: str | None, as_json: bool,
+                maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
+                quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
     if sim_from is not None and not np.isfinite(sim_from):
         raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
     check_output_dir(out)
     table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    if vehicle:
+        table.attrs["rotor_radius_m"] = _rotor_radius(vehicle)
     t = table.index.to_numpy(dtype=float)
     if sim_from is not None and len(t) and not t[0] <= sim_from < t[-1]:
         raise click.BadParameter(f"{sim_from:g} s is outside {log} (0 … {t[-1]:.2f} s)",

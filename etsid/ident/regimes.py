@@ -167,7 +167,8 @@ def _firing_exponents(A: np.ndarray, focal: np.ndarray, radii: np.ndarray,
 
 
 def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | None,
-               t: np.ndarray, split: int, bands: Bands | None) -> list[dict[str, Any]]:
+               t: np.ndarray, split: int, bands: Bands | None, learnt_here: bool = True
+               ) -> list[dict[str, Any]]:
     """One entry per rule of the frozen rule base ``rules`` (a rules.json dict).
 
     Parameters
@@ -181,6 +182,9 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
         Time of every row, s.
     split
         Rows learned before the model was frozen.
+    learnt_here
+        False for a rule base applied to another flight (``etsid predict``): the rules lead
+        over every row and their birth times (steps of the learning flight) are not given.
 
     Each entry: ``rule`` (1-based, as ``etsid rules`` prints), ``id``, ``focal`` (antecedent
     name → focal value, raw units), ``alt_m`` and ``alt_source`` (the focal altitude when
@@ -197,9 +201,10 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     R = state.n_rules
     focal = state.focal_points[:, :na]
     lead = np.full(0, -1)
-    if A is not None and split > 0 and R:
+    rows = split if learnt_here else (0 if A is None else len(A))
+    if A is not None and rows > 0 and R:
         scale = model.scales()[:na]
-        lead = np.argmin(_firing_exponents(A[:split], focal, state.radii, scale), axis=1)
+        lead = np.argmin(_firing_exponents(A[:rows], focal, state.radii, scale), axis=1)
     alt_term = next((j for j, name in enumerate(names) if _column(name) == ALTITUDE), None)
     t_freeze = float(t[split - 1]) if split > 0 else float("nan")
     out = []
@@ -208,11 +213,12 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
         if alt_term is not None:
             alt_m, source = float(focal[i, alt_term]), "focal"
         elif alt is not None and mine.any():
-            alt_m, source = float(np.nanmedian(alt[:split][mine])), "led rows"
+            alt_m, source = float(np.nanmedian(alt[:rows][mine])), "led rows"
         else:
             alt_m, source = None, None
         birth = int(state.births[i])  # 1-based sample counter
-        born_t = float(t[min(max(birth - 1, 0), len(t) - 1)]) if len(t) else None
+        born_t = float(t[min(max(birth - 1, 0), len(t) - 1)]) if len(t) and learnt_here \
+            else None
         out.append({
             "rule": i + 1, "id": int(state.rule_ids[i]),
             "focal": {name: float(focal[i, j]) for j, name in enumerate(names)}
@@ -223,7 +229,7 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
             "support": int(state.support[i]),
             "born_t": born_t,
             "lifetime_s": t_freeze - born_t if born_t is not None else None,
-            "regime": ("whole flight" if R == 1 else
+            "regime": (("whole flight" if bands is not None else "whole record") if R == 1 else
                        bands.name_of(alt_m) if bands is not None else None),
         })
     return out
@@ -292,9 +298,10 @@ def learnt_sentence(table: list[dict[str, Any]], gains: list[dict[str, Any]],
         if not pairs:
             return "One rule: the model found one regime (no input to compare)."
         g = pairs[0]
+        what = "flight" if bands is not None else "record"
         return (f"One rule: the model found one regime — a single linear model over the whole "
-                f"flight ({_words(g)} {g['per_rule'][0]:.3g} per unit {g['input']} one "
-                "step after it).")
+                f"{what} ({_words(g)} {g['per_rule'][0]:.3g} per unit {g['input']} one step "
+                "after it).")
     placed = [r for r in table if r["alt_m"] is not None]
     if len(placed) < 2:
         key, what = _first_antecedent(table)
@@ -354,8 +361,8 @@ def _first_antecedent(table: list[dict[str, Any]]) -> tuple[str | None, str]:
 
 def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
                    attrs: dict[str, Any], A: np.ndarray | None, t: np.ndarray, Y: np.ndarray,
-                   outputs: list[str], cols: dict[str, np.ndarray], split: int
-                   ) -> dict[str, Any]:
+                   outputs: list[str], cols: dict[str, np.ndarray], split: int,
+                   learnt_here: bool = True) -> dict[str, Any]:
     """metrics.json ``regimes``: bands, scores per band, the rule → regime table, the input
     gains per rule and the sentence (see the module docstring).
 
@@ -376,7 +383,7 @@ def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
         out["note"] = "no altitude in the log: no regimes"
     if rules and rules.get("rules"):
         out["rules"] = rule_table(rules, A, alt if bands is not None else None, t, split,
-                                  bands)
+                                  bands, learnt_here)
         out["gains"] = input_gains(rules)
         out["gain_kind"] = ("the coefficient of the input's shortest lag in the rule's "
                             "consequent (the response one sample after a unit command)")

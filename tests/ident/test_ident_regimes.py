@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from etsid.ident import IdentConfig, identify
+from etsid.ident import IdentConfig, identify, predict
 from etsid.ident.regimes import bands_for, input_gains, rotor_radius
 
 LOW, HIGH = 0.25, 2.0
@@ -116,6 +116,9 @@ def test_no_altitude_no_bands_but_rules_and_gains() -> None:
     assert "no altitude" in block["note"]
     assert len(block["rules"]) >= 2 and all(r["regime"] is None for r in block["rules"])
     assert "at h[k-1]" in block["sentence"]
+    one = identify(table, IdentConfig(**BASE, max_rules=1)).metrics["regimes"]
+    assert [r["regime"] for r in one["rules"]] == ["whole record"]
+    assert "over the whole record" in one["sentence"]
 
 
 def test_input_gains_first_lag_and_sum_of_every_lag() -> None:
@@ -132,3 +135,21 @@ def test_input_gains_first_lag_and_sum_of_every_lag() -> None:
     # the known system: y[k] = 0.6 y[k-1] + g u[k-1], g = 2 low and 1 high (one rule: between)
     assert 1.0 < gain["per_rule"][0] < 2.0
     assert abs(gain["sum_per_rule"][0] - gain["per_rule"][0]) < 0.2
+
+
+def test_predict_scores_regimes_of_another_flight(tmp_path) -> None:
+    import json
+
+    run = identify(_table(), IdentConfig(**BASE, antecedent="alt[k-1]"))
+    path = tmp_path / "rules.json"
+    path.write_text(json.dumps(run.rules))
+    other = predict(_table(1200, seed=5), path, segments="all")
+    block = other.metrics["regimes"]
+    assert block["basis"] == "z/R"
+    assert [r["id"] for r in block["rules"]] == [r["id"] for r in run.metrics["regimes"]["rules"]]
+    assert all(r["born_t"] is None and r["lifetime_s"] is None for r in block["rules"])
+    assert sum(r["share"] for r in block["rules"]) == pytest.approx(1.0)
+    per = {r["name"]: r for r in block["per_regime"]}
+    assert per["in ground effect"]["n_validation"] + per["out of ground effect"][
+        "n_validation"] == other.metrics["validation"]["n_validation"]
+    assert per["in ground effect"]["outputs"]["y"]["free_run"]["fit"] > 90.0
