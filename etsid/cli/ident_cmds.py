@@ -25,6 +25,7 @@ from etsid.ident.resample import DEFAULT_RATE_HZ
 from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import read_log
 from etsid.progress import wanted
+from etsid.report.regimes import regime_text
 from etsid.report.tables import rules_text, summary_table
 
 
@@ -49,8 +50,18 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     for note in run.config.get("model", {}).get("notes") or []:
         click.echo(note)
     click.echo(summary_table(run))
+    regimes = regime_text(run)
+    if regimes:
+        click.echo(regimes)
     click.echo(f"wrote {out}/ (predictions.parquet, metrics.json, rules.json, …); "
                f"next: etsid report {out}")
+
+
+def _rotor_radius(vehicle: str) -> float:
+    """Rotor radius, m, of a packaged vehicle name or a vehicle TOML file."""
+    from etsid.sim import load_vehicle
+
+    return float(load_vehicle(vehicle).params["rotor"]["radius"])
 
 
 def _table_rate(table: object) -> float | None:
@@ -132,6 +143,10 @@ def _table_rate(table: object) -> float | None:
 @click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
               help="Rows to identify on: auto = airborne samples (land detector, else the "
                    "thrust/altitude rule), all = every row, or time windows in s.")
+@click.option("--vehicle", metavar="NAME|FILE",
+              help="The vehicle flown (packaged name such as tarot680, or a vehicle TOML): "
+                   "its rotor radius R puts the regimes in z/R (in / out of ground effect); "
+                   "without it a simulated table's own vehicle, else altitude bands in m.")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
@@ -140,8 +155,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
                  rate_hz: float | None, ident_rate: float | None, inputs: str, segments: str,
-                 as_json: bool, maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
-                 quiet: bool) -> None:
+                 vehicle: str | None, as_json: bool, maps: tuple[str, ...],
+                 mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
     """Learn an eTS model of LOG (a flight log or a saved .parquet/.csv table).
 
     Default: the MIMO rate model (outputs p q r, inputs u_roll u_pitch u_yaw [u_thrust]
@@ -156,6 +171,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
         table = read_log(log, options, rate_hz=rate_hz)
     else:
         table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
+    if vehicle:
+        table.attrs["rotor_radius_m"] = _rotor_radius(vehicle)
     table_rate = _table_rate(table)
     if ident_rate and table_rate and ident_rate > 1.01 * table_rate:
         raise click.BadParameter(f"{ident_rate:g} Hz is above the rate of {log} "
@@ -192,16 +209,22 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
 @click.option("--segments", default="auto", show_default=True, metavar="auto|all|T0:T1,…",
               help="Rows to predict and score: auto = airborne samples (the same rule as "
                    "identify), all = every row, or time windows in s.")
+@click.option("--vehicle", metavar="NAME|FILE",
+              help="The vehicle flown: its rotor radius puts the scores per regime in z/R "
+                   "(as for identify).")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: float | None,
-                rate_hz: float | None, segments: str, as_json: bool, maps: tuple[str, ...],
-                mapping_file: Path | None, sysid: int | None, quiet: bool) -> None:
+                rate_hz: float | None, segments: str, vehicle: str | None, as_json: bool,
+                maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
+                quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
     if sim_from is not None and not np.isfinite(sim_from):
         raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
     check_output_dir(out)
     table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
+    if vehicle:
+        table.attrs["rotor_radius_m"] = _rotor_radius(vehicle)
     t = table.index.to_numpy(dtype=float)
     if sim_from is not None and len(t) and not t[0] <= sim_from < t[-1]:
         raise click.BadParameter(f"{sim_from:g} s is outside {log} (0 … {t[-1]:.2f} s)",

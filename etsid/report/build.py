@@ -17,6 +17,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from etsid.errors import IdentError, ReportError
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
+from etsid.report.regimes import regimes_html, regimes_markdown
 from etsid.report.tables import metrics_rows, rules_text
 
 FORMATS = ("png", "svg", "pdf")
@@ -202,6 +203,7 @@ def render_html(run: Run, images: dict[str, tuple[str, str]], rules: str) -> str
         "<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr>",
         *("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>" for row in rows),
         "</table>",
+        *regimes_html(run),
     ]
     for name, (_, caption) in FIGURES.items():
         if name in images:
@@ -224,6 +226,7 @@ def render_markdown(run: Run, figures: dict[str, Path], rules: str) -> str:
               "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     lines += ["| " + " | ".join(row) + " |" for row in rows]
     lines.append("")
+    lines += regimes_markdown(run)
     for name, (_, caption) in FIGURES.items():
         if name in figures:
             lines += [f"![{caption}]({figures[name].name})", "", f"*{caption}*", ""]

@@ -81,7 +81,7 @@ def text_table(head: list[str], rows: list[list[str]]) -> str:
 
 def summary_table(run: Run) -> str:
     """The short stdout summary of ``identify`` / ``predict``: key metrics and rules."""
-    keep = [0, 2, 3, 4, 7, 12, 14, 10]
+    keep = [0, 2, 3, 4, 7, 12, 14, 10, 13]
     head, rows = metrics_rows(run)
     table = text_table([head[i] for i in keep], [[r[i] for i in keep] for r in rows])
     rules = run.metrics["rules"]

@@ -143,6 +143,7 @@ def simulate(
         "format": "sim",
         "scenario": scenario,
         "vehicle": veh.name,
+        "rotor_radius_m": float(veh.params["rotor"]["radius"]),
         "seed": int(seed),
         "ground_effect": bool(ground_effect),
         "rate_hz": float(rate_hz),

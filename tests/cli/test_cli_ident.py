@@ -37,6 +37,7 @@ def run_dir(saved_table: Path) -> Path:
     assert result.exit_code == 0, result.output
     assert "inputs: loop commands (u_roll, u_pitch, u_yaw, u_thrust)" in result.output
     assert "rules: final" in result.output
+    assert "rule → regime" in result.output and "\nlearnt: " in result.output
     return out
 
 
@@ -144,6 +145,22 @@ def test_one_line_errors(args: list[str], message: str, tmp_path: Path) -> None:
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("etsid: error:") and message in lines[0]
+
+
+def test_vehicle_sets_the_regime_bands(tmp_path: Path) -> None:
+    table = rate_table(1500, seed=8)
+    table["alt"] = np.where(np.arange(len(table)) < 700, 0.1, 1.0)
+    saved_table = save_table(table, tmp_path / "alt.parquet")
+    result = invoke("identify", saved_table, "--out", tmp_path / "v", "--quiet",
+                    "--vehicle", "quad250")
+    assert result.exit_code == 0, result.output
+    regimes = json.loads((tmp_path / "v" / "metrics.json").read_text())["regimes"]
+    assert regimes["basis"] == "z/R" and regimes["rotor_radius_m"] == 0.0635
+    result = CliRunner().invoke(cli, ["identify", str(saved_table), "--out",
+                                      str(tmp_path / "w"), "--vehicle", "nope"])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "unknown vehicle 'nope'" in lines[0]
 
 
 def test_usage_errors_exit_2(tmp_path: Path) -> None:

@@ -18,7 +18,7 @@ from click.testing import CliRunner
 from etsid.cli import cli
 
 ROOT = Path(__file__).resolve().parents[2]
-TLOG = ROOT / "sample_logs" / "hexa_hover_ige.tlog"
+TLOG = ROOT / "sample_logs" / "hexa_ige_oge.tlog"
 BIN = ROOT / "tests" / "data" / "arduplane_truncated.BIN"
 VEHICLE = ROOT / "etsid" / "sim" / "vehicles" / "tarot680.toml"
 

@@ -20,11 +20,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 SOURCES: dict[str, Path] = {
-    "tlog": ROOT / "sample_logs" / "hexa_hover_ige.tlog",
-    "ros1": ROOT / "sample_logs" / "hexa_hover_ige.bag",
-    "mcap": ROOT / "sample_logs" / "hexa_hover_ige.mcap",
-    "ros2-db3": ROOT / "sample_logs" / "hexa_hover_ige_db3",
-    "ros2-mcap": ROOT / "sample_logs" / "hexa_hover_ige_mcap",
+    "tlog": ROOT / "sample_logs" / "hexa_ige_oge.tlog",
+    "ros1": ROOT / "sample_logs" / "hexa_ige_oge.bag",
+    "mcap": ROOT / "sample_logs" / "hexa_ige_oge.mcap",
+    "ros2-db3": ROOT / "sample_logs" / "hexa_ige_oge_db3",
+    "ros2-mcap": ROOT / "sample_logs" / "hexa_ige_oge_mcap",
     "ulog": ROOT / "tests" / "data" / "px4_cubeorange_real.ulg",
     "bin": ROOT / "tests" / "data" / "arduplane_truncated.BIN",
 }

@@ -65,7 +65,7 @@ def test_every_written_table_respects_the_limits() -> None:
 
 def test_damaged_imu_type_name_is_reported(tmp_path: Path) -> None:
     bag = tmp_path / "bag"
-    shutil.copytree(ROOT / "sample_logs" / "hexa_hover_ige_db3", bag)
+    shutil.copytree(ROOT / "sample_logs" / "hexa_ige_oge_db3", bag)
     meta = bag / "metadata.yaml"
     meta.write_text(meta.read_text().replace("sensor_msgs/msg/Imu", "sensor_msgs/msg/Imq"))
     table = read_log(bag)
@@ -82,6 +82,6 @@ def test_inspect_rate_is_not_a_burst_artefact() -> None:
     assert rate == 3.0 and "burst" in why
     steady = Channel("IMU", "IMU", 1001, t_first=0.0, t_last=100.0)
     assert robust_rate(steady, [], 0.0, 100.0) == (10.0, "")
-    info = inspect_log(ROOT / "sample_logs" / "hexa_hover_ige.tlog")
+    info = inspect_log(ROOT / "sample_logs" / "hexa_ige_oge.tlog")
     rates = {c["name"]: c["rate_hz"] for c in info["channels"]}
     assert abs(rates["ATTITUDE"] - 50.0) < 1.0

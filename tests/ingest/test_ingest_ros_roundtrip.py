@@ -255,3 +255,18 @@ def test_cli_ingest_writes_the_table(written: dict[str, Path], tmp_path: Path) -
 
     loaded = load_table(out)
     assert loaded.attrs["format"] == "ros2" and "vbat" in loaded.columns
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "ros2-db3", "mcap"])
+def test_stream_rates_are_the_writers_rates_option(table: pd.DataFrame, tmp_path: Path,
+                                                   fmt: str) -> None:
+    from etsid.sim.writers import write_log
+
+    name = {"ros1": "r.bag", "ros2-db3": "r.db3", "mcap": "r.mcap"}[fmt]
+    path = write_log(table, tmp_path / name, fmt, rates={"rc_in": 50.0, "battery": 0.0})
+    channels = {c["name"]: c for c in inspect_log(path)["channels"]}
+    assert "/mavros/battery" not in channels
+    assert channels["/mavros/rc/in"]["rate_hz"] == pytest.approx(50.0, rel=0.01)  # default 25
+    assert channels["/mavros/imu/data"]["rate_hz"] == pytest.approx(100.0, rel=0.01)
+    with pytest.raises(ValueError, match="unknown MAVROS stream"):
+        write_log(table, tmp_path / f"x{name}", fmt, rates={"gyro": 10.0})

@@ -40,31 +40,36 @@ def format_for(path: Path, fmt: str | None = None) -> str:
     return chosen
 
 
-def write_log(table: pd.DataFrame, path: str | Path, fmt: str | None = None) -> Path:
+def write_log(table: pd.DataFrame, path: str | Path, fmt: str | None = None,
+              rates: dict[str, float] | None = None) -> Path:
     """Write ``table`` to ``path`` in the format of :func:`format_for`; returns what was written.
 
-    For ROS 2 bags the returned path is the bag directory.
+    For ROS 2 bags the returned path is the bag directory. ``rates`` overrides stream
+    rates, Hz: MAVLink message names for a tlog (:data:`etsid.sim.writers.tlog.RATES`),
+    MAVROS stream keys for ROS and MCAP (:data:`etsid.sim.writers.rosbag.RATES`); tables
+    are written at their own rate.
     """
     path = Path(path)
     fmt = format_for(path, fmt)
     if fmt == "tlog":
         from etsid.sim.writers.tlog import write_tlog
 
-        return write_tlog(table, path)
+        return write_tlog(table, path, rates=rates)
     if fmt == "ros1":
         from etsid.sim.writers.rosbag import write_ros1_bag
 
-        return write_ros1_bag(table, path)
+        return write_ros1_bag(table, path, rates=rates)
     if fmt in ("ros2-db3", "ros2-mcap"):
         from etsid.sim.writers.rosbag import write_ros2_bag
 
         bag_dir = path.with_suffix("") if path.suffix in (".db3", ".mcap") else path
-        return write_ros2_bag(table, bag_dir, storage="sqlite3" if fmt == "ros2-db3" else "mcap")
+        return write_ros2_bag(table, bag_dir, storage="sqlite3" if fmt == "ros2-db3" else "mcap",
+                              rates=rates)
     if fmt.startswith("mcap"):
         from etsid.sim.writers.mcapfile import write_mcap
 
         encoding = {"mcap": "ros2", "mcap-ros1": "ros1", "mcap-json": "json"}[fmt]
-        return write_mcap(table, path, encoding=encoding)
+        return write_mcap(table, path, encoding=encoding, rates=rates)
     from etsid.table import save_table
 
     return save_table(table, path)

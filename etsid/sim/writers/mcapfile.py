@@ -25,27 +25,30 @@ CHUNK_SIZE = 256 * 1024
 
 
 def write_mcap(table: pd.DataFrame, path: Path, encoding: str = "ros2",
-               rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
+               rc_range_us: RcRange = DEFAULT_RC_RANGE_US,
+               rates: dict[str, float] | None = None) -> Path:
     """Write ``table`` to the MCAP file ``path`` (``encoding`` ros2, ros1 or json).
 
-    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels.
+    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels; ``rates``:
+    stream rate overrides, Hz (:func:`~etsid.sim.writers.rosbag.mavros_messages`).
     """
     writers = {"ros2": _write_ros2, "ros1": _write_ros1, "json": _write_json}
     if encoding not in writers:
         raise ValueError(f"unknown MCAP encoding {encoding!r}; use ros2, ros1 or json")
     path = Path(path)
     with path.open("wb") as handle:
-        writers[encoding](table, handle, rc_range_us)
+        writers[encoding](table, handle, rc_range_us, rates)
     return path
 
 
-def _write_ros2(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
+def _write_ros2(table: pd.DataFrame, handle: Any, rc_range_us: RcRange,
+                rates: dict[str, float] | None = None) -> None:
     from mcap_ros2.writer import Writer
 
     from etsid.rosmsgs import typestore
 
     store = typestore(ros1=False)
-    topics, messages = mavros_messages(table, rc_range_us)
+    topics, messages = mavros_messages(table, rc_range_us, rates)
     writer = Writer(handle, chunk_size=CHUNK_SIZE)
     schemas = {msgtype: writer.register_msgdef(msgtype, store.generate_msgdef(msgtype, 2)[0])
                for _, msgtype in topics}
@@ -55,14 +58,15 @@ def _write_ros2(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
     writer.finish()
 
 
-def _write_ros1(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
+def _write_ros1(table: pd.DataFrame, handle: Any, rc_range_us: RcRange,
+                rates: dict[str, float] | None = None) -> None:
     from mcap_ros1._vendor.genpy.dynamic import generate_dynamic
     from mcap_ros1.writer import Writer
 
     from etsid.rosmsgs import typestore
 
     store = typestore(ros1=True)
-    topics, messages = mavros_messages(table, rc_range_us)
+    topics, messages = mavros_messages(table, rc_range_us, rates)
     classes = {}
     for _, msgtype in topics:
         name = msgtype.replace("/msg/", "/")
@@ -98,10 +102,11 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _write_json(table: pd.DataFrame, handle: Any, rc_range_us: RcRange) -> None:
+def _write_json(table: pd.DataFrame, handle: Any, rc_range_us: RcRange,
+                rates: dict[str, float] | None = None) -> None:
     from mcap.writer import Writer
 
-    _, messages = mavros_messages(table, rc_range_us)
+    _, messages = mavros_messages(table, rc_range_us, rates)
     writer = Writer(handle, chunk_size=CHUNK_SIZE)
     writer.start(profile="", library=LIBRARY)
     channels: dict[str, int] = {}

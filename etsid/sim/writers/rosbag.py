@@ -215,18 +215,27 @@ the topic's columns."""
 PWM_FACTORIES = (_rc_in, _rc_out)
 
 
-def mavros_messages(table: pd.DataFrame, rc_range_us: RcRange = DEFAULT_RC_RANGE_US
+def mavros_messages(table: pd.DataFrame, rc_range_us: RcRange = DEFAULT_RC_RANGE_US,
+                    rates: dict[str, float] | None = None
                     ) -> tuple[list[tuple[str, str]], Iterator[Message]]:
     """Topics (name, type) and the time-ordered stream of MAVROS messages for ``table``.
 
     ``rc_range_us`` (PWM min, centre, max, µs) converts sticks and motors to RC and servo
-    channels (:mod:`etsid.pwm`).
+    channels (:mod:`etsid.pwm`). ``rates`` overrides the stream rates of :data:`RATES`
+    (Hz, keyed ``imu``, ``rc_in`` …; 0 drops a topic).
     """
+    rates = {**RATES, **(rates or {})}
+    unknown = sorted(set(rates) - set(RATES))
+    if unknown:
+        raise ValueError(f"unknown MAVROS stream(s) {', '.join(unknown)}; "
+                         f"known: {', '.join(RATES)}")
     t = np.asarray(table.index, dtype=float)
     start_ns = round(float(table.attrs.get("start_time") or DEFAULT_START) * NS)
     topics, streams = [], []
     for order, (topic, msgtype, key, factory) in enumerate(TOPICS):
-        ticks = _ticks(t, RATES[key])
+        if rates[key] <= 0:
+            continue
+        ticks = _ticks(t, rates[key])
         frame = resample_at(table, ticks)
         make = factory(frame, rc_range_us) if factory in PWM_FACTORIES else factory(frame)
         if make is None:
@@ -273,10 +282,12 @@ def instantiate(store: Any, typename: str, values: dict[str, Any]) -> Any:
 
 
 def write_ros1_bag(table: pd.DataFrame, path: Path,
-                   rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
+                   rc_range_us: RcRange = DEFAULT_RC_RANGE_US,
+                   rates: dict[str, float] | None = None) -> Path:
     """Write ``table`` as a ROS 1 bag (lz4 chunks) with MAVROS topics; returns ``path``.
 
-    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels.
+    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels; ``rates``:
+    stream rate overrides, Hz (:func:`mavros_messages`).
     """
     from rosbags.rosbag1 import Writer
 
@@ -285,7 +296,7 @@ def write_ros1_bag(table: pd.DataFrame, path: Path,
     path = Path(path)
     path.unlink(missing_ok=True)
     store = typestore(ros1=True)
-    topics, messages = mavros_messages(table, rc_range_us)
+    topics, messages = mavros_messages(table, rc_range_us, rates)
     writer = Writer(path)
     writer.set_compression(Writer.CompressionFormat.LZ4)
     with writer:
@@ -298,10 +309,12 @@ def write_ros1_bag(table: pd.DataFrame, path: Path,
 
 
 def write_ros2_bag(table: pd.DataFrame, path: Path, storage: str = "sqlite3",
-                   rc_range_us: RcRange = DEFAULT_RC_RANGE_US) -> Path:
+                   rc_range_us: RcRange = DEFAULT_RC_RANGE_US,
+                   rates: dict[str, float] | None = None) -> Path:
     """Write ``table`` as a ROS 2 bag directory (``sqlite3`` or ``mcap`` storage); returns it.
 
-    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels.
+    ``rc_range_us``: PWM min, centre, max (µs) of the RC and servo channels; ``rates``:
+    stream rate overrides, Hz (:func:`mavros_messages`).
     """
     import shutil
 
@@ -314,7 +327,7 @@ def write_ros2_bag(table: pd.DataFrame, path: Path, storage: str = "sqlite3",
         shutil.rmtree(path)
     plugin = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}[storage]
     store = typestore(ros1=False)
-    topics, messages = mavros_messages(table, rc_range_us)
+    topics, messages = mavros_messages(table, rc_range_us, rates)
     with Writer(path, version=9, storage_plugin=plugin) as writer:
         conns = {name: writer.add_connection(name, msgtype, typestore=store)
                  for name, msgtype in topics}
