@@ -230,7 +230,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             "nominal": {"k": k, "tau": nominal.tau, "delay": nominal.delay,
                         "channels": list(shared), "z_all": z_all},
             "rmse_before": rmse_before}
-    series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": z_all}
+    series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": z_all,
+              "scorer": scorer}
     if not mis:
         data = {**base, "verdict": "consistent", "mismatch": None, "effects": [],
                 "rmse_after": rmse_before, "notes": notes,
@@ -254,7 +255,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             single = next((s for s in sel.ranked if s.fit.candidates == (cand,)), None)
             effects.append(effect_entry(cand, theta, err, single, sel, scorer, r_hold,
                                         res0))
-            if cand.name == "ground_effect":
+            if cand.name == "ground_effect" and radius is None:
                 radius = float(theta[0])
     res1 = scorer.residuals(mods)
     z_after = scorer.zscores(mods, r_hold)
@@ -294,7 +295,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         data["summary"] = summary_sentence(data)
         return GapResult(data, sim, real, nominal, series)
     main = mis[0]
-    reg = locate_channel(main, res0[main], sigma[main], real, radius)
+    effective = info.get("radius") is None
+    reg = locate_channel(main, res0[main], sigma[main], real, radius, effective)
     segs = segments(res0[main], sigma[main], real)
     regime = {"channel": main, "variable": reg.variable,
               "range": None if reg.variable == "none" else [reg.lo, reg.hi],
@@ -303,6 +305,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                "time": "s"}[reg.variable],
               "z_over_r": [reg.lo / radius, reg.hi / radius]
               if reg.variable == "alt" and radius else None,
+              "radius": None if not (reg.variable == "alt" and radius) else
+              {"value": radius, "unit": "m",
+               "source": "fitted effective" if effective else "vehicle"},
               "description": reg.description}
     data = {**base, "verdict": "mismatch",
             "reason": f"{', '.join(LABELS[c] for c in mis)} differ beyond {sim_name}'s own error",
