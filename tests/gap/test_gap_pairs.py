@@ -44,6 +44,7 @@ def test_ground_effect_named_located_and_sized() -> None:
 
 
 def test_motor_lag_named_with_time_constant() -> None:
+    """Asymmetric spin-up/spin-down lag against the symmetric candidate: named alone."""
     _, _, data = _pair(dict(HOVER, seed=1),
                        dict(HOVER, seed=2, settings={"vehicle.motor_lag": [0.09, 0.13]}))
     tau = _effect(data, "motor_lag")["parameters"]["tau"]["value"]
@@ -66,3 +67,39 @@ def test_no_effect_pair_is_consistent() -> None:
                                                  duration=36.0))
     assert data["verdict"] == "consistent"
     assert data["effects"] == []
+
+
+def test_ground_effect_on_small_quad_multirotor_law() -> None:
+    """quad250 (R = 6.35 cm) hubs wandering through z/R ≈ 1.5–4 on the multirotor law:
+    named ground effect (its saturated start must not trap the fit), thrust excess within
+    20 %, located on height starting at the bottom of the flight."""
+    from etsid.gap.candidates import ground_ratio
+
+    low = dict(scenario="hover-ige", vehicle="quad250", duration=30.0, altitude=0.17,
+               alt_wander=0.09)
+    _sim, real, data = _pair(dict(low, seed=21, ground_effect=False),
+                            dict(low, seed=22, ground_effect=True,
+                                 settings={"vehicle.ground.model": "sanchez-cuevas"}))
+    eff = _effect(data, "ground_effect")
+    alt = real.truth["true_alt"].to_numpy()
+    true_excess = real.truth[[f"true_ge{i}" for i in range(1, 5)]].to_numpy().mean() - 1.0
+    p = eff["parameters"]
+    fitted = float(np.mean(ground_ratio(alt, p["R"]["value"], p["exponent"]["value"]))) - 1.0
+    assert fitted == pytest.approx(true_excess, rel=0.2)
+    reg = data["mismatch"]["regime"]
+    assert reg["variable"] == "alt"
+    assert reg["range"][0] <= np.percentile(alt[alt > 0.06], 10) + 0.02
+    assert reg["radius"]["source"] == "fitted effective"
+    assert "z/R_eff" in reg["description"]
+
+
+def test_thrust_scale_and_delay_named_together() -> None:
+    """Two effects at once: a static gain and a delay, both named, both within 20 %."""
+    _, _, data = _pair(dict(HOVER, seed=1),
+                       dict(HOVER, seed=2, settings={"vehicle.thrust_scale": 0.85,
+                                                     "vehicle.time_delay": 0.03}))
+    named = {e["name"]: e for e in data["effects"] if e["name"] != "unexplained"}
+    assert set(named) == {"thrust_scale", "time_delay"}, data["summary"]
+    assert named["thrust_scale"]["parameters"]["scale"]["value"] - 1.0 == \
+        pytest.approx(-0.15, rel=0.2)
+    assert named["time_delay"]["parameters"]["delay"]["value"] == pytest.approx(0.03, rel=0.2)
