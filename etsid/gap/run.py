@@ -43,7 +43,8 @@ the gyro ones) above ``Z_SMALL`` are explained only by an effect that removes
 ``MIN_SHARE_SMALL`` of their held-out excess (both chosen on the dev seeds, whose 20
 no-effect pairs stay below z = 2 in every such channel)."""
 CALM_QUANTILE = 1.0 / 3.0
-"""The calm part of REAL: samples whose motor command rate is in the lowest third."""
+"""The calm (busy) part of REAL: samples whose motor command rate is in the lowest
+(highest) third."""
 SIM_FIT_SHARE = 0.7
 FIT_SHARE = 0.6
 GYRO_FLOOR = 0.009
@@ -245,9 +246,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     # --- explain -------------------------------------------------------------------------
     rate = scheduling_variables(real)["command_rate"]
     calm = r_hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
+    busy = r_hold & (rate >= np.quantile(rate[real.airborne], 1.0 - CALM_QUANTILE))
     sel = select(scorer, r_fit, r_hold, tuple(mis),
                  min_share=MIN_SHARE_SMALL if small else MIN_SHARE, z_left=Z_MISMATCH,
-                 calm=calm)
+                 activity=(calm, busy))
     if small and sel.chosen:
         notes.append(f"small but structured mismatch: {', '.join(mis)} between "
                      f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× {sim_name}'s "

@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from etsid.gap.candidates import BY_NAME
+from etsid.gap.fitting import fit_candidates
+from etsid.gap.locate import scheduling_variables
 from etsid.gap.run import analyse
+from etsid.gap.select import static_in_calm
 from etsid.sim import simulate
 
 HOVER = dict(scenario="hover-oge", duration=30.0, alt_wander=0.3)
@@ -44,11 +48,24 @@ def test_ground_effect_named_located_and_sized() -> None:
 
 
 def test_motor_lag_named_with_time_constant() -> None:
-    """Asymmetric spin-up/spin-down lag against the symmetric candidate: named alone."""
-    _, _, data = _pair(dict(HOVER, seed=1),
-                       dict(HOVER, seed=2, settings={"vehicle.motor_lag": [0.09, 0.13]}))
-    tau = _effect(data, "motor_lag")["parameters"]["tau"]["value"]
+    """Asymmetric spin-up/spin-down lag against the symmetric candidate: named alone, and a
+    thrust scale that takes up the slow spin-down's extra mean thrust fails the static
+    signature (it helps the busy, high-command-rate part far more than the calm part)."""
+    sim = simulate(**dict(HOVER, seed=1))
+    real = simulate(**dict(HOVER, seed=2, settings={"vehicle.motor_lag": [0.09, 0.13]}))
+    result = analyse(sim.table, real.table)
+    tau = _effect(result.data, "motor_lag")["parameters"]["tau"]["value"]
     assert tau == pytest.approx(0.11, rel=0.2)
+    sel, scorer, s = result.series["selection"], result.series["scorer"], result.series
+    lag = next(x for x in sel.ranked if x.fit.name == "motor_lag")
+    scale = next(x for x in sel.ranked if x.fit.name == "thrust_scale")
+    joint = fit_candidates((BY_NAME["motor_lag"], BY_NAME["thrust_scale"]), scorer, s["fit"],
+                           np.concatenate([lag.fit.theta, scale.fit.theta]))
+    rate = scheduling_variables(result.real)["command_rate"]
+    air = result.real.airborne
+    calm = s["hold"] & (rate <= np.quantile(rate[air], 1 / 3))
+    busy = s["hold"] & (rate >= np.quantile(rate[air], 2 / 3))
+    assert not static_in_calm(lag, joint, BY_NAME["thrust_scale"], scorer, (calm, busy))
 
 
 def test_torque_offset_named_with_angular_acceleration() -> None:
