@@ -132,6 +132,28 @@ def _start(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray) -> np
     return np.array(x0)
 
 
+GRID_POINTS = 7
+"""Points per parameter of the coarse grid that starts a single candidate's local search
+(a law such as ground effect saturates far from its optimum, where the objective is flat)."""
+
+
+def _grid_start(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
+                hi: np.ndarray) -> np.ndarray:
+    """The best point of a coarse grid over the parameters of a single two-parameter law
+    (offsets excluded: their start is the mean residual), else ``x0``."""
+    if len(cands) != 1 or x0.size != 2 or cands[0].name in ("torque_offset", "gyro_bias"):
+        return x0
+    axes = [np.geomspace(a, b, GRID_POINTS) if a > 0 else np.linspace(a, b, GRID_POINTS)
+            for a, b in zip(lo, hi, strict=True)]
+    best, best_val = x0, f(x0)
+    for u in axes[0]:
+        for v in axes[1]:
+            val = f(np.array([u, v]))
+            if val < best_val:
+                best, best_val = np.array([u, v]), val
+    return best
+
+
 def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
                    x0: np.ndarray | None = None) -> Fit:
     """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
@@ -153,7 +175,9 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
                             options={"xatol": 1e-4 * (hi[0] - lo[0])})
         theta = np.array([r.x])
     else:
-        x0 = np.clip(_start(cands, scorer, mask) if x0 is None else x0, lo, hi)
+        if x0 is None:
+            x0 = _grid_start(cands, f, _start(cands, scorer, mask), lo, hi)
+        x0 = np.clip(x0, lo, hi)
         span = hi - lo
         u0 = (x0 - lo) / span
         r = minimize(lambda u: f(lo + u * span), u0, method="Powell",

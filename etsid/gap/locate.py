@@ -65,7 +65,7 @@ def _bins(x: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight,
-                   radius: float | None = None) -> Regime:
+                   radius: float | None = None, effective: bool = False) -> Regime:
     """The scheduling variable whose bins explain most of ``resid`` on the airborne part.
 
     Parameters
@@ -80,6 +80,9 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
         REAL, for the scheduling variables.
     radius : float, optional
         Rotor radius (m) to express heights as z/R.
+    effective : bool
+        ``radius`` is the ground-effect law's fitted effective radius, not the rotor's
+        (no vehicle file): the text says z/R_eff and names it.
     """
     air = flight.airborne
     e = resid[air]
@@ -121,7 +124,9 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
     else:
         where = f"between {lo:.3g} and {hi:.3g} {vunit}"
     if name == "alt" and radius:
-        where += f" (z/R {lo / radius:.2g}–{hi / radius:.2g})"
+        where += (f" (z/R_eff {lo / radius:.2g}–{hi / radius:.2g}, effective R = "
+                  f"{radius:.3g} m fitted)" if effective else
+                  f" (z/R {lo / radius:.2g}–{hi / radius:.2g})")
     size = f"RMS {mean_in:.2f}" if rms_mode else f"{mean_in:+.2f}"
     text = (f"{LABELS[channel]} {size} {unit} with {VARIABLE_TEXT[name]} {where}; "
             "elsewhere within noise" if not (js[0] == 0 and js[-1] == edges.size - 2) else

@@ -42,6 +42,9 @@ MIN_SHARE_SMALL = 0.5
 the gyro ones) above ``Z_SMALL`` are explained only by an effect that removes
 ``MIN_SHARE_SMALL`` of their held-out excess (both chosen on the dev seeds, whose 20
 no-effect pairs stay below z = 2 in every such channel)."""
+CALM_QUANTILE = 1.0 / 3.0
+"""The calm (busy) part of REAL: samples whose motor command rate is in the lowest
+(highest) third."""
 SIM_FIT_SHARE = 0.7
 FIT_SHARE = 0.6
 GYRO_FLOOR = 0.009
@@ -230,7 +233,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             "nominal": {"k": k, "tau": nominal.tau, "delay": nominal.delay,
                         "channels": list(shared), "z_all": z_all},
             "rmse_before": rmse_before}
-    series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": z_all}
+    series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": z_all,
+              "scorer": scorer}
     if not mis:
         data = {**base, "verdict": "consistent", "mismatch": None, "effects": [],
                 "rmse_after": rmse_before, "notes": notes,
@@ -240,8 +244,12 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         return GapResult(data, sim, real, nominal, series)
 
     # --- explain -------------------------------------------------------------------------
+    rate = scheduling_variables(real)["command_rate"]
+    calm = r_hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
+    busy = r_hold & (rate >= np.quantile(rate[real.airborne], 1.0 - CALM_QUANTILE))
     sel = select(scorer, r_fit, r_hold, tuple(mis),
-                 min_share=MIN_SHARE_SMALL if small else MIN_SHARE, z_left=Z_MISMATCH)
+                 min_share=MIN_SHARE_SMALL if small else MIN_SHARE, z_left=Z_MISMATCH,
+                 activity=(calm, busy))
     if small and sel.chosen:
         notes.append(f"small but structured mismatch: {', '.join(mis)} between "
                      f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× {sim_name}'s "
@@ -254,7 +262,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             single = next((s for s in sel.ranked if s.fit.candidates == (cand,)), None)
             effects.append(effect_entry(cand, theta, err, single, sel, scorer, r_hold,
                                         res0))
-            if cand.name == "ground_effect":
+            if cand.name == "ground_effect" and radius is None:
                 radius = float(theta[0])
     res1 = scorer.residuals(mods)
     z_after = scorer.zscores(mods, r_hold)
@@ -294,7 +302,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         data["summary"] = summary_sentence(data)
         return GapResult(data, sim, real, nominal, series)
     main = mis[0]
-    reg = locate_channel(main, res0[main], sigma[main], real, radius)
+    effective = info.get("radius") is None
+    reg = locate_channel(main, res0[main], sigma[main], real, radius, effective)
     segs = segments(res0[main], sigma[main], real)
     regime = {"channel": main, "variable": reg.variable,
               "range": None if reg.variable == "none" else [reg.lo, reg.hi],
@@ -303,6 +312,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                "time": "s"}[reg.variable],
               "z_over_r": [reg.lo / radius, reg.hi / radius]
               if reg.variable == "alt" and radius else None,
+              "radius": None if not (reg.variable == "alt" and radius) else
+              {"value": radius, "unit": "m",
+               "source": "fitted effective" if effective else "vehicle"},
               "description": reg.description}
     data = {**base, "verdict": "mismatch",
             "reason": f"{', '.join(LABELS[c] for c in mis)} differ beyond {sim_name}'s own error",

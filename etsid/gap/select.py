@@ -27,6 +27,15 @@ MIN_EXTRA_SHARE = 0.10
 MIN_UNEXPLAINED_GAIN = 0.30
 """Least relative drop of a channel's held-out z that the eTS residual model must give."""
 PAIR_POOL = 4
+STATIC = ("thrust_scale", "torque_offset", "ground_effect")
+"""Effects independent of command activity (a constant gain or offset, or a gain set by
+height). As the second effect to a dynamic one (lag, delay) such a term must improve the
+calm held-out samples (lowest third of motor command rate) by at least
+:data:`MIN_CALM_RATIO` of what it improves in the busy ones (highest third): the extra mean
+thrust a slow spin-down rectifies out of a lag grows with command activity, so a thrust
+scale or ground effect that takes it up helps the busy part many times more (8–10× on the
+dev seeds; about 1× for a true thrust scale)."""
+MIN_CALM_RATIO = 1.0 / 3.0
 MIN_LEFT_SHARE = 0.5
 """A second effect is also kept when the first leaves a focus channel mismatched on held-out
 data and the pair removes this share of what is left there (chosen on the dev seeds)."""
@@ -96,10 +105,31 @@ def _left_share(best: Scored, joint: Scored, left: list[str]) -> float:
     return gain / max(e_left, 1e-9)
 
 
+def static_in_calm(best: Scored, joint: Fit, other: Candidate, scorer: Scorer,
+                   activity: tuple[np.ndarray, np.ndarray] | None) -> bool:
+    """Whether a static ``other`` (:data:`STATIC`) added to a dynamic ``best`` helps the
+    calm held-out samples as it helps the busy ones (``activity`` = (calm, busy) masks).
+    Always true for a non-static ``other``, a static ``best`` or without masks."""
+    if other.name not in STATIC or activity is None or best.fit.candidates[0].name in STATIC:
+        return True
+    calm, busy = activity
+    if not (np.any(calm) and np.any(busy)):
+        return True
+    chans = tuple(c for c in other.channels if c in scorer.sigma and c in scorer.measured)
+
+    def gain(mask: np.ndarray) -> float:
+        return float(sum(scorer.zscores(best.fit.mods, mask, chans).values())
+                     - sum(scorer.zscores(joint.mods, mask, chans).values()))
+
+    g_calm, g_busy = gain(calm), gain(busy)
+    return g_calm > 0.0 and g_calm >= MIN_CALM_RATIO * g_busy
+
+
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
            focus: tuple[str, ...] = (),
            library: tuple[Candidate, ...] = LIBRARY, min_share: float = MIN_SHARE,
-           z_left: float = 4.0) -> Selection:
+           z_left: float = 4.0,
+           activity: tuple[np.ndarray, np.ndarray] | None = None) -> Selection:
     """Fit every available candidate, keep the best one or two by held-out share.
 
     ``focus`` are the mismatched channels: the excess to explain is theirs (a channel
@@ -107,7 +137,9 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     The best single effect is kept if its share reaches ``min_share``. A second one, fitted
     jointly with it, is kept if the pair raises the share by :data:`MIN_EXTRA_SHARE`, or —
     when the first leaves a focus channel above ``z_left`` on held-out data — if the pair
-    removes :data:`MIN_LEFT_SHARE` of the excess left there.
+    removes :data:`MIN_LEFT_SHARE` of the excess left there. A constant gain or offset
+    (:data:`STATIC`) joins a dynamic first effect only if it improves the calm held-out
+    samples about as much as the busy ones (``activity`` = (calm, busy) masks).
     """
     z0 = scorer.zscores(None, hold)
     e0 = excess({c: v for c, v in z0.items() if c in focus or not focus})
@@ -136,8 +168,12 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
         joint = score_fit(fit_candidates(pair, scorer, fit_mask, start), scorer, hold, z0, e0,
                           focus)
         share_left = _left_share(best, joint, left) if left else 0.0
+        steady = static_in_calm(best, joint.fit, other.fit.candidates[0], scorer,
+                                activity)
         sel.notes.append(f"pair {joint.fit.name}: share {joint.share:.3f}, left "
-                         f"{share_left:.3f}")
+                         f"{share_left:.3f}{'' if steady else ', static term fits only busy part'}")
+        if not steady:
+            continue
         if joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score:
             chosen = joint
         elif (share_left >= best_left and joint.share >= best.share

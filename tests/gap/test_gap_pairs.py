@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from etsid.gap.candidates import BY_NAME
+from etsid.gap.fitting import fit_candidates
+from etsid.gap.locate import scheduling_variables
 from etsid.gap.run import analyse
+from etsid.gap.select import static_in_calm
 from etsid.sim import simulate
 
 HOVER = dict(scenario="hover-oge", duration=30.0, alt_wander=0.3)
@@ -44,10 +48,24 @@ def test_ground_effect_named_located_and_sized() -> None:
 
 
 def test_motor_lag_named_with_time_constant() -> None:
-    _, _, data = _pair(dict(HOVER, seed=1),
-                       dict(HOVER, seed=2, settings={"vehicle.motor_lag": [0.09, 0.13]}))
-    tau = _effect(data, "motor_lag")["parameters"]["tau"]["value"]
+    """Asymmetric spin-up/spin-down lag against the symmetric candidate: named alone, and a
+    thrust scale that takes up the slow spin-down's extra mean thrust fails the static
+    signature (it helps the busy, high-command-rate part far more than the calm part)."""
+    sim = simulate(**dict(HOVER, seed=1))
+    real = simulate(**dict(HOVER, seed=2, settings={"vehicle.motor_lag": [0.09, 0.13]}))
+    result = analyse(sim.table, real.table)
+    tau = _effect(result.data, "motor_lag")["parameters"]["tau"]["value"]
     assert tau == pytest.approx(0.11, rel=0.2)
+    sel, scorer, s = result.series["selection"], result.series["scorer"], result.series
+    lag = next(x for x in sel.ranked if x.fit.name == "motor_lag")
+    scale = next(x for x in sel.ranked if x.fit.name == "thrust_scale")
+    joint = fit_candidates((BY_NAME["motor_lag"], BY_NAME["thrust_scale"]), scorer, s["fit"],
+                           np.concatenate([lag.fit.theta, scale.fit.theta]))
+    rate = scheduling_variables(result.real)["command_rate"]
+    air = result.real.airborne
+    calm = s["hold"] & (rate <= np.quantile(rate[air], 1 / 3))
+    busy = s["hold"] & (rate >= np.quantile(rate[air], 2 / 3))
+    assert not static_in_calm(lag, joint, BY_NAME["thrust_scale"], scorer, (calm, busy))
 
 
 def test_torque_offset_named_with_angular_acceleration() -> None:
@@ -66,3 +84,39 @@ def test_no_effect_pair_is_consistent() -> None:
                                                  duration=36.0))
     assert data["verdict"] == "consistent"
     assert data["effects"] == []
+
+
+def test_ground_effect_on_small_quad_multirotor_law() -> None:
+    """quad250 (R = 6.35 cm) hubs wandering through z/R ≈ 1.5–4 on the multirotor law:
+    named ground effect (its saturated start must not trap the fit), thrust excess within
+    20 %, located on height starting at the bottom of the flight."""
+    from etsid.gap.candidates import ground_ratio
+
+    low = dict(scenario="hover-ige", vehicle="quad250", duration=30.0, altitude=0.17,
+               alt_wander=0.09)
+    _sim, real, data = _pair(dict(low, seed=21, ground_effect=False),
+                            dict(low, seed=22, ground_effect=True,
+                                 settings={"vehicle.ground.model": "sanchez-cuevas"}))
+    eff = _effect(data, "ground_effect")
+    alt = real.truth["true_alt"].to_numpy()
+    true_excess = real.truth[[f"true_ge{i}" for i in range(1, 5)]].to_numpy().mean() - 1.0
+    p = eff["parameters"]
+    fitted = float(np.mean(ground_ratio(alt, p["R"]["value"], p["exponent"]["value"]))) - 1.0
+    assert fitted == pytest.approx(true_excess, rel=0.2)
+    reg = data["mismatch"]["regime"]
+    assert reg["variable"] == "alt"
+    assert reg["range"][0] <= np.percentile(alt[alt > 0.06], 10) + 0.02
+    assert reg["radius"]["source"] == "fitted effective"
+    assert "z/R_eff" in reg["description"]
+
+
+def test_thrust_scale_and_delay_named_together() -> None:
+    """Two effects at once: a static gain and a delay, both named, both within 20 %."""
+    _, _, data = _pair(dict(HOVER, seed=1),
+                       dict(HOVER, seed=2, settings={"vehicle.thrust_scale": 0.85,
+                                                     "vehicle.time_delay": 0.03}))
+    named = {e["name"]: e for e in data["effects"] if e["name"] != "unexplained"}
+    assert set(named) == {"thrust_scale", "time_delay"}, data["summary"]
+    assert named["thrust_scale"]["parameters"]["scale"]["value"] - 1.0 == \
+        pytest.approx(-0.15, rel=0.2)
+    assert named["time_delay"]["parameters"]["delay"]["value"] == pytest.approx(0.03, rel=0.2)
