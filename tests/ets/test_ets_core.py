@@ -75,7 +75,7 @@ def test_one_rule_local_rls_equals_batch_least_squares() -> None:
     rng = np.random.default_rng(4)
     X = rng.uniform(-1, 1, size=(400, 3))
     Y = X @ [[1.0, -2.0], [0.5, 0.0], [-1.5, 3.0]] + [0.3, -0.7] + 0.05 * rng.normal(size=(400, 2))
-    model = ETS(max_rules=1, omega=1e8, x_range=[[-1, 1]] * 3, variant="ets")
+    model = ETS(max_rules=1, omega=1e8, x_range=[[-1, 1]] * 3, variant="ets", forgetting=1.0)
     model.run(X, Y)
     A = np.c_[np.ones(400), X]
     theta = np.linalg.lstsq(A, Y, rcond=None)[0]
