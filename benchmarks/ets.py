@@ -39,10 +39,10 @@ def speed(N: int, repeats: int) -> list[dict]:
         X, Y = drone_like(N, n)
         best = np.inf
         for _ in range(repeats):
-            # fixed spreads, utility 0.05: the settings of the recorded speed figures
-            # (the ETS defaults before issue 11's study)
+            # fixed spreads, utility 0.05, no forgetting: the settings of the recorded
+            # speed figures (the ETS defaults before issue 11's study)
             model = ETS(radius=0.3, rls=rls, max_rules=20, adaptive_spread=False,
-                        utility_threshold=0.05)
+                        utility_threshold=0.05, forgetting=1.0)
             model.run(X[:1000], Y[:1000])
             t0 = time.process_time()
             model.run(X, Y)

@@ -324,6 +324,14 @@ def learn_kernel(
     (step, kind, rule id) are appended to ``ev`` from row ``nev[0]``; the caller sizes ``ev``
     for the worst case (4 N + max_rules rows).
 
+    Wind-up guard (trace-bounded, or conditional, forgetting — a standard remedy for
+    estimator wind-up under poor excitation, Åström & Wittenmark, *Adaptive Control*,
+    2nd ed. 1995): with f < 1, local rule i uses f_i = 1 − λ_i (1 − f) only while
+    trace(C_i) <= Ω (n + 1) (the trace of a new rule's covariance), else f_i = 1; the
+    global RLS forgets only while trace(C) <= Ω R (n + 1). A direction the data never
+    excite therefore stops growing once the trace reaches the bound (every entry stays
+    below Ω (n + 1) / f). With f = 1 the guard is skipped: the arithmetic is unchanged.
+
     Speed (docs/performance.md): all work arrays are allocated once per call; 1/s, 1/s^2 and
     the firing coefficients 4/(s r)^2 are recomputed only when a range widens, a rule is
     born, moved or removed, or a spread adapts; focal points are mirrored into a transposed
@@ -349,6 +357,7 @@ def learn_kernel(
     omega = fp[FP_OMEGA]
     forget = fp[FP_FORGET]
     omf = 1.0 - forget
+    cbound = omega * n1  # wind-up guard: largest trace of a local covariance that forgets
     umin = fp[FP_UTILITY]
     rho_s = fp[FP_SPREAD_RHO]
     coverage = ip[IP_COVERAGE] == 1
@@ -674,18 +683,26 @@ def learn_kernel(
                 pb = phi[b]
                 for a in range(p):
                     g[a] += Cg[b, a] * pb
-            den = forget
+            # wind-up guard (trace-bounded forgetting): forget only while trace(C) <= omega p
+            fg = forget
+            if forget != 1.0:
+                tr = 0.0
+                for a in range(p):
+                    tr += Cg[a, a]
+                if tr > omega * p:
+                    fg = 1.0
+            den = fg
             for a in range(p):
                 den += phi[a] * g[a]
             iden = 1.0 / den
             # C_ab - (g_a g_b) / den is exactly symmetric: no mirroring needed
-            if forget == 1.0:
+            if fg == 1.0:
                 for a in range(p):
                     ga = g[a]
                     for b in range(p):
                         Cg[a, b] -= (ga * g[b]) * iden
             else:
-                ifg = 1.0 / forget
+                ifg = 1.0 / fg
                 for a in range(p):
                     ga = g[a]
                     for b in range(p):
@@ -704,6 +721,15 @@ def learn_kernel(
             for i in range(RL):
                 fiv[i] = 1.0 - lam[i] * omf
                 cw[i] = 0.0
+            if forget != 1.0:
+                # wind-up guard (trace-bounded forgetting): rule i forgets only while
+                # trace(C_i) <= omega (n + 1), the trace of a new rule's covariance
+                for i in range(R):
+                    tr = 0.0
+                    for a in range(n1):
+                        tr += CT[a, a, i]
+                    if tr > cbound:
+                        fiv[i] = 1.0
             for a in range(n1):
                 for i in range(RL):
                     gT[a, i] = 0.0

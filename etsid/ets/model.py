@@ -62,9 +62,9 @@ class ETS:
     rls : {"local", "global"}
         Fuzzily weighted local RLS per rule, or one global RLS over all consequents.
     forgetting : float
-        RLS forgetting factor in (0, 1]; 1 means no forgetting. Below 1 the covariance of
-        directions the data do not excite grows without bound (RLS wind-up): avoid on long
-        streams with held inputs (docs/ets.md, "Choosing the defaults").
+        RLS forgetting factor in (0, 1]; 1 means no forgetting. Weighted by each rule's
+        firing, and guarded against wind-up on held inputs: a rule forgets only while
+        trace(C_i) <= omega (n + 1) (docs/ets.md, "Consequents").
     utility_threshold : float
         eTS+: a rule whose utility (mean normalised firing since birth) falls below this is removed.
     min_support : int

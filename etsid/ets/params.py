@@ -9,9 +9,9 @@ defaults from here. The meaning of each parameter is documented on :class:`etsid
 The defaults were chosen by one study over Box–Jenkins, Mackey–Glass, two simulated flights,
 two static maps and a held-input safety check, each scored on an inner split of its
 learning part (``benchmarks/ets_defaults.py``, docs/ets.md "Choosing the defaults"): eTS+
-with radius 0.7, exTS adaptive spreads and utility threshold 0.03 (before: radius 0.4,
-fixed spreads, 0.05); no forgetting (every forgetting setting winds the RLS covariance up
-on a held input).
+with radius 0.7, exTS adaptive spreads, utility threshold 0.03 and forgetting 0.9 (before:
+radius 0.4, fixed spreads, 0.05, no forgetting). Forgetting is safe on a held input since
+the RLS wind-up guard of the kernels (forget only while trace(C_i) <= Ω (n + 1)).
 
 The per-data arguments of ``ETS`` (``x_range``, ``y_range``, ``s_range``, ``input_names``,
 ``output_names``) are not tuning parameters and are not listed.
@@ -80,7 +80,7 @@ class ETSParams:
     variant: str = "ets+"
     max_rules: int = 50
     rls: str = "local"
-    forgetting: float = 1.0
+    forgetting: float = 0.9
     utility_threshold: float = 0.03
     min_support: int = 3
     prune_after: int = 50

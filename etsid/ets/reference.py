@@ -59,6 +59,14 @@ def recursive_focal_update(p_prev: float, k: int, dist2: float) -> float:
     return (k - 1) * p_prev / (k - 2 + p_prev * (1.0 + dist2))
 
 
+def _trace(C: np.ndarray) -> float:
+    """Sum of the diagonal, left to right (the kernels' order)."""
+    tr = 0.0
+    for a in range(C.shape[0]):
+        tr += float(C[a, a])
+    return tr
+
+
 @dataclass
 class RefRule:
     """One rule of the reference model (focal point in raw units)."""
@@ -244,6 +252,8 @@ class ReferenceETS:
             theta = np.concatenate([r.Pi for r in self.rules], axis=0)
             err = y - phi @ theta
             g = self.Cg @ phi
+            if _trace(self.Cg) > self.omega * phi.size:
+                f = 1.0  # wind-up guard: no forgetting while the trace is above Ω p
             den = f + phi @ g
             self.Cg = (self.Cg - np.outer(g, g) / den) / f
             theta = theta + np.outer(g / den, err)
@@ -251,7 +261,9 @@ class ReferenceETS:
                 r.Pi = theta[i * (n + 1) : (i + 1) * (n + 1)]
         else:
             for li, r in zip(lam, self.rules, strict=True):
-                fi = 1.0 - li * (1.0 - f)
+                # wind-up guard: forget only while trace(C_i) <= Ω (n + 1)
+                bounded = _trace(r.C) <= self.omega * (n + 1)
+                fi = 1.0 - li * (1.0 - f) if bounded else 1.0
                 g = r.C @ xe
                 den = fi + li * xe @ g
                 r.C = (r.C - (li / den) * np.outer(g, g)) / fi

@@ -196,12 +196,12 @@ def fit_unexplained(scorer: Scorer, mods: Mods | None, channel: str,
     hi = np.where(hi > lo, hi, lo + 1.0)
     y = res[:, None]
     ylo, yhi = float(np.min(y[fit_mask])), float(np.max(y[fit_mask]))
-    # utility threshold and fixed spreads: the ETS defaults before issue 11's study, kept
-    # so that the gap search does not change with the ETS() defaults
+    # utility threshold, fixed spreads, no forgetting: the ETS defaults before issue 11's
+    # study, kept so that the gap search does not change with the ETS() defaults
     model = ETS(radius=0.3, x_range=np.column_stack([lo, hi]),
                 y_range=np.array([[ylo, max(yhi, ylo + 1e-9)]]), input_names=names,
                 output_names=[channel], max_rules=12, history_every=100000,
-                utility_threshold=0.05, adaptive_spread=False)
+                utility_threshold=0.05, adaptive_spread=False, forgetting=1.0)
     step = max(int(np.sum(fit_mask) / 4000), 1)
     idx = np.flatnonzero(fit_mask)[::step]
     model.run(x[idx], y[idx])

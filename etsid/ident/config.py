@@ -18,7 +18,7 @@ from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS, SCHEDULE
 from etsid.ident.resample import DEFAULT_RATE_HZ
 
 IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
-                    utility_threshold=0.05, adaptive_spread=False)
+                    utility_threshold=0.05, adaptive_spread=False, forgetting=1.0)
 """eTS parameters of ``etsid identify``: the ``ETS`` defaults except
 
 ``radius`` 2.0 (``ETS``: 0.7)
@@ -31,7 +31,7 @@ IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
 ``history_every`` 250 (``ETS``: 1000)
     A consequent snapshot every 5 s at the 50 Hz identification rate, for the
     consequent-history figure of ``etsid report``.
-``utility_threshold`` 0.05, ``adaptive_spread`` False (``ETS``: 0.03, True)
+``utility_threshold`` 0.05, ``adaptive_spread`` False, ``forgetting`` 1 (``ETS``: 0.03, True, 0.9)
     identify keeps the ``ETS`` defaults it was tuned with before the defaults study of
     docs/ets.md (issue 11 study pending): its choices are made by identify's own study
     (docs/identify.md), on 36 regressors with fixed learning-part ranges.

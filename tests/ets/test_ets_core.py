@@ -75,7 +75,7 @@ def test_one_rule_local_rls_equals_batch_least_squares() -> None:
     rng = np.random.default_rng(4)
     X = rng.uniform(-1, 1, size=(400, 3))
     Y = X @ [[1.0, -2.0], [0.5, 0.0], [-1.5, 3.0]] + [0.3, -0.7] + 0.05 * rng.normal(size=(400, 2))
-    model = ETS(max_rules=1, omega=1e8, x_range=[[-1, 1]] * 3, variant="ets")
+    model = ETS(max_rules=1, omega=1e8, x_range=[[-1, 1]] * 3, variant="ets", forgetting=1.0)
     model.run(X, Y)
     A = np.c_[np.ones(400), X]
     theta = np.linalg.lstsq(A, Y, rcond=None)[0]
@@ -112,6 +112,38 @@ def test_kernels_equal_numpy_reference(cfg: dict) -> None:
     h = np.array(ref.history)
     np.testing.assert_allclose(model.history.potential, h[:, 1], rtol=1e-9)
     np.testing.assert_array_equal(model.history.n_rules, h[:, 0])
+
+
+def _held_stream(n_samples: int, seed: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """A slow input, one input held constant (a held command), one of sensor noise."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(n_samples)
+    X = np.c_[np.sin(k / 50.0), np.full(n_samples, 0.3), 0.001 * rng.normal(size=n_samples)]
+    return X, np.c_[X[:, 0] ** 2, X[:, 0] - X[:, 2]]
+
+
+@pytest.mark.parametrize("rls", ["local", "global"])
+@pytest.mark.parametrize("forgetting", [1.0, 0.9])
+def test_kernels_equal_numpy_reference_on_a_held_input(rls: str, forgetting: float) -> None:
+    # with f < 1 the held input's direction is never excited: the wind-up guard engages
+    X, Y = _held_stream(600)
+    kw = dict(omega=1000.0, rls=rls, forgetting=forgetting, max_rules=8, prune_after=30)
+    model = ETS(radius=0.3, **kw)
+    Yhat = model.run(X, Y)
+    ref = ReferenceETS(3, 2, np.full(3, 0.3), **kw)
+    Yref = ref.run(X, Y)
+    np.testing.assert_allclose(Yhat[1:], Yref[1:], rtol=1e-9, atol=1e-9)
+    assert [(e["step"], e["kind"], e["rule_id"]) for e in model.history.events] == ref.events
+    R = model.n_rules
+    np.testing.assert_allclose(model.state_["Pi"][:R], ref.state()["Pi"], rtol=1e-9, atol=1e-8)
+    if rls == "local":
+        C, Cref = model.state_["Cl"][:R], np.array([r.C for r in ref.rules])
+    else:
+        C, Cref = model.state_["Cg"][: 4 * R, : 4 * R], ref.Cg
+    np.testing.assert_allclose(C, Cref, rtol=1e-9, atol=1e-6)
+    if forgetting < 1.0:  # the guard did engage: a trace sits at its bound
+        traces = np.trace(C, axis1=-2, axis2=-1) / (4 * 1000.0 * (1 if rls == "local" else R))
+        assert np.max(traces) > 0.9
 
 
 @pytest.mark.parametrize("rls", ["local", "global"])

@@ -91,11 +91,7 @@ def test_covariances_stay_symmetric_positive_definite(rls: str, forgetting: floa
     N = 50_000
     X = np.cumsum(rng.normal(size=(N, 3)), axis=0) * 0.02 + rng.normal(size=(N, 3))
     Y = np.c_[np.sin(X[:, 0]), X[:, 1] - X[:, 2]]
-    # fixed spreads and utility 0.05 (the defaults before issue 11): with exTS spreads,
-    # global RLS with forgetting winds its covariance up past 1e39 on this stream
-    # (docs/ets.md, "Choosing the defaults")
-    model = ETS(radius=0.3, rls=rls, forgetting=forgetting, coverage=True, max_rules=20,
-                adaptive_spread=False, utility_threshold=0.05)
+    model = ETS(radius=0.3, rls=rls, forgetting=forgetting, coverage=True, max_rules=20)
     yhat = model.run(X, Y)
     assert np.all(np.isfinite(yhat[1:]))
     R, n1 = model.n_rules, 4
@@ -104,6 +100,31 @@ def test_covariances_stay_symmetric_positive_definite(rls: str, forgetting: floa
             _assert_spd(model.state_["Cl"][i])
     else:
         _assert_spd(model.state_["Cg"][: R * n1, : R * n1])
+
+
+@pytest.mark.parametrize("rls", ["local", "global"])
+def test_forgetting_on_a_held_input_keeps_the_covariance_bounded(rls: str) -> None:
+    # a held command: x2 never moves, so its direction is never excited; unguarded
+    # forgetting (f = 0.9) grew the covariance by 1/f per firing sample, to 1e296 Ω after
+    # these 20 000 samples and to non-finite predictions later (RLS wind-up). The guard
+    # forgets only while trace(C) <= Ω (n + 1) per rule (global: Ω R (n + 1)).
+    rng = np.random.default_rng(5)
+    k = np.arange(20_000)
+    X = np.c_[np.sin(k / 500.0), np.full(k.size, 0.3), 0.001 * rng.normal(size=k.size)]
+    Y = X[:, 0] ** 2
+    model = ETS(forgetting=0.9, rls=rls)
+    yhat = model.run(X, Y)
+    assert np.all(np.isfinite(yhat[1:]))
+    state = model.export_state()
+    n1, omega = 4, model.omega
+    if rls == "local":
+        C = np.asarray(state.covariances)
+        assert np.max(np.trace(C, axis1=1, axis2=2)) <= omega * n1 / 0.9
+    else:
+        C = np.asarray(state.global_covariance)
+        assert np.trace(C) <= omega * n1 * model.max_rules / 0.9
+    # still learning: the one-step error over the last half is small next to y's spread
+    assert np.sqrt(np.mean((yhat[10_000:] - Y[10_000:]) ** 2)) < 0.2 * np.std(Y)
 
 
 def test_constant_inputs_and_outputs_give_no_nan() -> None:

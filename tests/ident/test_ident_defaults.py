@@ -55,10 +55,11 @@ def test_identify_ets_parameters_differ_from_ets_only_where_documented(default_r
     used = default_run.rules["params"]
     changed = {k for k, v in DEFAULTS.to_dict().items() if used[k] != v}
     assert changed == {"radius", "max_rules", "history_every", "utility_threshold",
-                       "adaptive_spread"}
+                       "adaptive_spread", "forgetting"}
     assert (used["radius"], used["max_rules"], used["history_every"]) == (2.0, 30, 250)
     # identify keeps the ETS defaults from before the defaults study (issue 11)
-    assert (used["utility_threshold"], used["adaptive_spread"]) == (0.05, False)
+    assert (used["utility_threshold"], used["adaptive_spread"], used["forgetting"]) == (
+        0.05, False, 1.0)
 
 
 def test_identify_with_defaults_equals_the_documented_values_passed(default_run) -> None:
