@@ -251,8 +251,11 @@ def _parse(path: Path, names: list[str]) -> object:
     from pyulog import ULog
 
     try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            return ULog(str(path), message_name_filter_list=names)
+        # the file is opened here and closed on every path: pyulog, given a name, leaves
+        # its handle open when it gives up on a damaged file (a ResourceWarning later)
+        with path.open("rb") as handle, contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            return ULog(handle, message_name_filter_list=names)
     except Exception as err:  # pyulog raises many types on broken files
         first = str(err).splitlines()[0] if str(err) else type(err).__name__
         raise IngestError(f"{path}: not a readable ULog file ({first})") from err
