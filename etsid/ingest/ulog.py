@@ -47,6 +47,7 @@ import numpy as np
 from etsid.errors import IngestError
 from etsid.frames import quat_to_euler
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
+from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.progress import progress
 
@@ -307,8 +308,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         raw.warnings.append(f"{path.name}: file is truncated: skipped the last {cut} bytes "
                             "(an incomplete message)")
     if getattr(ulog, "file_corruption", False):
-        raw.warnings.append(f"{path.name}: file is corrupt or truncated; pyulog kept the "
-                            "readable messages (the skipped byte count is not known)")
+        raw.warnings.append(stream_gap_note(
+            path.name, "file is corrupt; pyulog skipped the damaged bytes and kept the "
+            "readable messages", [t.t for t in topics.values()],
+            [(d.timestamp * 1e-6 - 0.01, d.timestamp * 1e-6 + d.duration * 1e-3 + 0.01)
+             for d in getattr(ulog, "dropouts", [])]))
     for dropped in getattr(ulog, "dropouts", []):
         raw.warnings.append(f"logger dropout of {dropped.duration} ms at "
                             f"{dropped.timestamp * 1e-6:.3f} s")

@@ -167,13 +167,16 @@ def _lost_note(storage: Path, lost: list[LostRows], base_ns: int | None, kept: i
     return text
 
 
-def read_mcap(storage: Path, options: ReadOptions, raw: RawLog) -> None:
-    """Fill ``raw`` from a damaged ``.mcap`` storage file read by etsid's MCAP reader."""
+def read_mcap(storage: Path, options: ReadOptions, raw: RawLog,
+              total_s: float | None = None) -> None:
+    """Fill ``raw`` from a damaged ``.mcap`` storage file read by etsid's MCAP reader
+    (``total_s``: the recording's length per metadata.yaml)."""
     from etsid.ingest.ros import mcap
 
-    sub = mcap.read(storage, options)
+    sub = mcap.read(storage, options, total_s)
     for item in fields(RawLog):
         if item.name not in ("path", "format", "warnings"):
             setattr(raw, item.name, getattr(sub, item.name))
     raw.warnings.extend(sub.warnings)
     raw.extra["storage"] = "mcap (salvaged)"
+    raw.extra["message_count"] = sum(c.count for c in raw.channels)
