@@ -3,7 +3,8 @@
 Every reader keeps what it can (chunks, pages and messages that decode) and notes what it
 lost; when nothing at all can be read, :func:`etsid.ingest.read_raw` turns the decoder's
 exception into one :class:`~etsid.errors.IngestError` naming the file. The notes say how
-much of the recording is missing and where (:func:`lost_note`).
+much of the recording is missing and where, in one wording for every format
+(:func:`gap_note` for data skipped inside a recording, :func:`cut_note` for a cut end).
 """
 
 from __future__ import annotations
@@ -66,18 +67,6 @@ def describe(err: BaseException) -> str:
     text = " ".join(str(a) for a in err.args) if err.args else ""
     text = text.strip().splitlines()[0] if text.strip() else type(err).__name__
     return text[:200]
-
-
-def lost_note(path: object, what: str, start_s: float | None, end_s: float | None) -> str:
-    """A coverage note: ``what`` was lost, covering ``start_s``..``end_s`` of the recording.
-
-    Times are seconds from the start of the recording; None when unknown.
-    """
-    if start_s is None or end_s is None:
-        return f"{path}: {what}"
-    span = max(0.0, end_s - start_s)
-    return (f"{path}: {what}: {span:.1f} s of the recording missing "
-            f"(t = {start_s:.1f}–{end_s:.1f} s)")
 
 
 def _where(spans: Sequence[tuple[float, float]]) -> str:
