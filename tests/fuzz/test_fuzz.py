@@ -35,6 +35,7 @@ SEEDS: list[tuple[str, int]] = [
     ("ros2-mcap", 1648),  # quaternion overflow: a raw numpy RuntimeWarning
     ("bin", 1755),  # DataFlash reader left its file open (ResourceWarning)
     ("ulog", 2923),  # pyulog left a damaged file open (ResourceWarning)
+    ("mcap", 1121),  # kept records of a zstd chunk failing its CRC: garbled times, overflow
 ]
 """(format, seed) pairs read on every test run."""
 

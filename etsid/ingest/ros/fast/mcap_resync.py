@@ -8,8 +8,10 @@ length), so the walk goes on after damage by finding where records start again:
   else the next byte that starts a plausible chunk (opcode 6, a length that fits, a header
   whose times, sizes and compression name agree) or a plausible message record;
 * inside a chunk (:func:`chunk_records`): a chunk that does not decompress is decompressed
-  as far as its bytes allow; a chunk whose records break (zeroed or overwritten bytes) is
-  walked record by record and resumes at the next message record whose channel is known,
+  as far as its bytes allow; a compressed chunk that decompresses but fails its CRC is
+  skipped whole (garbled from an unknown point on); a chunk whose records break (zeroed
+  or overwritten bytes) is walked record by record (every message's log time must lie in
+  the chunk's time range) and resumes at the next message record whose channel is known,
   whose log time lies in the chunk's time range and which is followed by another valid
   record. The record just before a break is dropped too (its tail may be damaged).
 
@@ -131,6 +133,8 @@ def walk(buf: bytes, ctx: _Context, partial: bool) -> Iterator[Any]:
         obj = None
         if got is not None and got[0] != _OP_MESSAGE:
             obj = _parses(buf, pos, got[0])
+        if got is not None and got[0] == _OP_MESSAGE and not ctx.plausible_message(buf, pos):
+            got = None  # a log time outside the chunk's range: damaged bytes
         if got is not None and (got[0] == _OP_MESSAGE or obj is not None):
             op, nxt = got
             if op == _OP_MESSAGE:
@@ -213,6 +217,11 @@ def chunk_records(buf: bytes, pos: int, end: int, ctx: _Context) -> Iterator[Any
         yield Lost(pos, end - pos, f"unknown chunk compression {kind[:20]!r}", start_ns, end_ns)
         return
     part = _partial_decompress(kind, data)
+    if kind and ("CRC" in why or "decompresses to" in why):
+        # a compressed stream that decompresses to the wrong bytes is garbled from the
+        # damage onwards, and where that starts is not known: the chunk is skipped whole
+        yield Lost(pos, end - pos, why, start_ns, end_ns)
+        return
     if "CRC" in why or "decompresses to" in why:
         # decompressed, but the bytes are not what was written: keep records only where
         # the damage shows (a break in the record structure); an intact-looking chunk with
