@@ -36,6 +36,7 @@ SEEDS: list[tuple[str, int]] = [
     ("bin", 1755),  # DataFlash reader left its file open (ResourceWarning)
     ("ulog", 2923),  # pyulog left a damaged file open (ResourceWarning)
     ("mcap", 1121),  # kept records of a zstd chunk failing its CRC: garbled times, overflow
+    ("mcap", 3025),  # garbled values in kept records: "invalid value encountered in cast"
 ]
 """(format, seed) pairs read on every test run."""
 

@@ -44,7 +44,9 @@ def _fields(buf: bytes | memoryview, op: bool = True) -> dict[str, bytes] | None
             return None
         out[name.decode("latin-1")] = value
         pos += 4 + size
-    return out if pos == len(buf) and ("op" in out or not op) else None
+    if pos != len(buf) or (op and len(out.get("op", b"")) != 1):
+        return None
+    return out
 
 
 def _record_at(view: memoryview, pos: int) -> tuple[dict[str, bytes], memoryview, int] | None:

@@ -296,9 +296,12 @@ def _resync_top(buf: Any, start: int, size: int, index: list[int], ctx: _Context
         found = None
     limit = size if found is None else found
     pos = start
+    chunk = message = start - 1  # next candidate of each kind (found lazily, once each)
     while pos < limit:
-        chunk = buf.find(b"\x06", pos, limit)
-        message = buf.find(b"\x05", pos, limit) if ctx.channels else -1
+        if chunk != -1 and chunk < pos:
+            chunk = buf.find(b"\x06", pos, limit)
+        if message != -1 and message < pos:
+            message = buf.find(b"\x05", pos, limit) if ctx.channels else -1
         cands = [c for c in (chunk, message) if c >= 0]
         if not cands:
             break
