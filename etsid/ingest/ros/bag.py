@@ -18,8 +18,13 @@ Real-world quirks handled:
 * a ROS 2 bag whose metadata.yaml is unusable (a storage path that does not exist, old
   layout) or disagrees with its storage file (QoS/format: rosbags then yields zero
   messages) is read again from its storage file(s) directly, with a warning;
-* a ROS 1 bag cut off before its index (truncated) is scanned chunk by chunk: the valid
-  part is kept, a warning gives the bytes that could not be read;
+* a ROS 1 bag cut off before its index (truncated), with a damaged index, or giving fewer
+  messages than its index lists is scanned record by record
+  (:mod:`etsid.ingest.ros.ros1_scan`): every message that decodes is kept, before and
+  after damage, and the notes say the seconds missing;
+* a one-file ROS 2 bag from which rosbags reads fewer messages than metadata.yaml lists
+  (or none) is read from its storage file by etsid's salvage readers, and the read that
+  keeps more messages wins;
 * a topic whose messages cannot be decoded is skipped, counted and noted.
 """
 
