@@ -24,9 +24,17 @@ def enu_to_ned(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray,
 
 
 def quat_to_matrix(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) from unit quaternions (normalised here)."""
-    with np.errstate(over="ignore", invalid="ignore"):  # damaged bytes: NaN, not a warning
-        n = np.sqrt(w * w + x * x + y * y + z * z)
+    """Rotation matrices (N, 3, 3) from unit quaternions (normalised here).
+
+    A quaternion from damaged bytes (huge, infinite or NaN components) gives a NaN matrix,
+    not a numpy warning; the plausibility limits drop it downstream.
+    """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _quat_to_matrix(w, x, y, z)
+
+
+def _quat_to_matrix(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    n = np.sqrt(w * w + x * x + y * y + z * z)
     n = np.where(n > 0, n, 1.0)
     n = np.where(np.isfinite(n), n, np.nan)  # an overflowing quaternion has no rotation
     w, x, y, z = w / n, x / n, y / n, z / n

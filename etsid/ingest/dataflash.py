@@ -51,6 +51,7 @@ import numpy as np
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
+from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.progress import progress
 
@@ -331,7 +332,7 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(msgs)
     _catalogue(raw, reader, data, msgs)
-    _damage(raw, reader, data, noise)
+    _damage(raw, reader, data, noise, [d.t for d in msgs.values()])
     return raw
 
 
@@ -358,7 +359,8 @@ def _catalogue(raw: RawLog, reader: object, data: np.ndarray,
                                     columns.get(fmt.name, [])))
 
 
-def _damage(raw: RawLog, reader: object, data: np.ndarray, noise: str) -> None:
+def _damage(raw: RawLog, reader: object, data: np.ndarray, noise: str,
+            streams: list[np.ndarray]) -> None:
     end = 0
     for mtype, offs in enumerate(reader.offsets):  # type: ignore[attr-defined]
         if offs and mtype in reader.formats:  # type: ignore[attr-defined]
@@ -377,3 +379,6 @@ def _damage(raw: RawLog, reader: object, data: np.ndarray, noise: str) -> None:
     bad = len(re.findall(r"bad header|unknown msg type", noise))
     if skipped or bad:
         raw.dropped.append(Issue("bytes that are no valid DataFlash message", skipped + bad, ""))
+        raw.warnings.append(stream_gap_note(
+            raw.path.name, f"skipped {skipped + bad} bytes that are no valid DataFlash message",
+            streams))

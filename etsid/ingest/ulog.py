@@ -49,6 +49,7 @@ import numpy as np
 from etsid.errors import IngestError
 from etsid.frames import quat_to_euler
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
+from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.progress import progress
 
@@ -276,8 +277,11 @@ def _parse(path: Path, names: list[str]) -> object:
     from pyulog import ULog
 
     try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            return ULog(str(path), message_name_filter_list=names)
+        # the file is opened here and closed on every path: pyulog, given a name, leaves
+        # its handle open when it gives up on a damaged file (a ResourceWarning later)
+        with path.open("rb") as handle, contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            return ULog(handle, message_name_filter_list=names)
     except Exception as err:  # pyulog raises many types on broken files
         first = str(err).splitlines()[0] if str(err) else type(err).__name__
         raise IngestError(f"{path}: not a readable ULog file ({first})") from err
@@ -332,8 +336,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         raw.warnings.append(f"{path.name}: file is truncated: skipped the last {cut} bytes "
                             "(an incomplete message)")
     if getattr(ulog, "file_corruption", False):
-        raw.warnings.append(f"{path.name}: file is corrupt or truncated; pyulog kept the "
-                            "readable messages (the skipped byte count is not known)")
+        raw.warnings.append(stream_gap_note(
+            path.name, "file is corrupt; pyulog skipped the damaged bytes and kept the "
+            "readable messages", [t.t for t in topics.values()],
+            [(d.timestamp * 1e-6 - 0.01, d.timestamp * 1e-6 + d.duration * 1e-3 + 0.01)
+             for d in getattr(ulog, "dropouts", [])]))
     for dropped in getattr(ulog, "dropouts", []):
         raw.warnings.append(f"logger dropout of {dropped.duration} ms at "
                             f"{dropped.timestamp * 1e-6:.3f} s")

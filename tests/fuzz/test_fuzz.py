@@ -34,6 +34,9 @@ SEEDS: list[tuple[str, int]] = [
     ("ros2-db3", 1850),  # apsw.CorruptError while rosbags iterates
     ("ros2-mcap", 1648),  # quaternion overflow: a raw numpy RuntimeWarning
     ("bin", 1755),  # DataFlash reader left its file open (ResourceWarning)
+    ("ulog", 2923),  # pyulog left a damaged file open (ResourceWarning)
+    ("mcap", 1121),  # kept records of a zstd chunk failing its CRC: garbled times, overflow
+    ("mcap", 3025),  # garbled values in kept records: "invalid value encountered in cast"
 ]
 """(format, seed) pairs read on every test run."""
 
@@ -57,6 +60,27 @@ def test_log_mutant_reads_or_fails_cleanly(verdicts: dict, source: str, seed: in
     _, _, what, kind, detail, seconds, _ = verdicts[source, seed]
     assert kind in ("read ok", "clean error"), f"{source} seed {seed} ({what}): {detail}"
     assert seconds < TIME_BOUND_S
+
+
+def test_damaged_ulog_leaves_no_file_open(tmp_path: Path) -> None:
+    """Seed 2923 (a duplicated 1 KiB stretch) made pyulog give up with its file still open;
+    every warning is an error here, and the garbage collector runs inside the check."""
+    import gc
+    import warnings
+
+    from etsid.errors import IngestError
+    from etsid.ingest import read_raw
+
+    mutant = mutants.make_mutant("ulog", 2923, tmp_path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("error")
+        warnings.simplefilter("always", ResourceWarning)  # raised in __del__: record it
+        try:
+            read_raw(mutant.path)
+        except IngestError as err:
+            assert mutant.path.name in str(err)
+        gc.collect()
+    assert not caught, [str(w.message) for w in caught]
 
 
 def test_mutants_are_reproducible(tmp_path: Path) -> None:

@@ -26,6 +26,7 @@ import numpy as np
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, Override, RawLog, ReadOptions, Signal
+from etsid.ingest.damage import gap_note
 from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, Clock, autopilot_clock
 from etsid.ingest.mavlink.dtypes import (
     crc_extra_table,
@@ -33,7 +34,7 @@ from etsid.ingest.mavlink.dtypes import (
     message_dtype,
     message_ids,
 )
-from etsid.ingest.mavlink.scan import OK, UNKNOWN, gather_payloads, scan_frames
+from etsid.ingest.mavlink.scan import OK, UNKNOWN, ScanResult, gather_payloads, scan_frames
 from etsid.ingest.mavlink.signals import CLOCK_FIELDS, DECODERS
 from etsid.progress import progress
 
@@ -54,6 +55,25 @@ class _Stats:
     skipped: int = 0
     bad_crc: int = 0
     truncated: int = 0
+    gaps_us: list[tuple[int, int]] = field(default_factory=list)  # around skipped bytes
+    first_us: int | None = None
+    last_us: int | None = None
+
+    def locate(self, res: ScanResult) -> None:
+        """Time spans around skipped bytes: a frame's payload starts more than a record
+        header (8-byte stamp + frame header, ≤ 31 bytes) after the previous frame's end."""
+        if not res.offset.size:
+            return
+        off = res.offset.astype(np.int64)
+        end = off + res.length.astype(np.int64) + 2  # CRC after the payload
+        step = off[1:] - end[:-1]
+        stamps = res.stamp_us.astype(np.int64)
+        for i in np.flatnonzero(step > 31).tolist():
+            self.gaps_us.append((int(stamps[i]), int(stamps[i + 1])))
+        if self.last_us is not None and off[0] > 31:
+            self.gaps_us.append((self.last_us, int(stamps[0])))
+        self.first_us = int(stamps[0]) if self.first_us is None else self.first_us
+        self.last_us = int(stamps[-1])
 
     def add(self, key: np.ndarray, stamp: np.ndarray) -> None:
         if not key.size:
@@ -105,6 +125,12 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
             res = scan_frames(buf, table, final)
             stats.skipped += res.skipped
             stats.bad_crc += res.bad_crc
+            if res.skipped:
+                stats.locate(res)
+            elif res.offset.size:
+                stats.first_us = stats.first_us if stats.first_us is not None else \
+                    int(res.stamp_us[0])
+                stats.last_us = int(res.stamp_us[-1])
             key = _key(res.sysid, res.compid, res.msgid)
             stats.add(key, res.stamp_us)
             unknown = res.status == UNKNOWN
@@ -307,8 +333,13 @@ def _damage(raw: RawLog, stats: _Stats, path: Path) -> None:
     if stats.skipped:
         raw.dropped.append(Issue("bytes between frames that are no valid tlog record",
                                  stats.skipped, ""))
-        raw.warnings.append(f"{path.name}: skipped {stats.skipped} bytes that are no valid "
-                            "tlog record")
+        t0 = stats.first_us or 0
+        spans = [((a - t0) * 1e-6, (b - t0) * 1e-6) for a, b in stats.gaps_us]
+        last = None if stats.last_us is None else (stats.last_us - t0) * 1e-6
+        bad = f", {stats.bad_crc} of them frames with a bad CRC" if stats.bad_crc else ""
+        what = (f"skipped {stats.skipped} bytes that are no valid tlog record{bad} "
+                "(times on the ground-station clock)")
+        raw.warnings.append(gap_note(path.name, what, spans, 0.0, last))
     if stats.truncated:
         raw.dropped.append(Issue("bytes of a truncated last frame", stats.truncated, ""))
         raw.warnings.append(f"{path.name}: file is truncated: skipped the last "

@@ -18,22 +18,26 @@ Real-world quirks handled:
 * a ROS 2 bag whose metadata.yaml is unusable (a storage path that does not exist, old
   layout) or disagrees with its storage file (QoS/format: rosbags then yields zero
   messages) is read again from its storage file(s) directly, with a warning;
-* a ROS 1 bag cut off before its index (truncated) is scanned chunk by chunk: the valid
-  part is kept, a warning gives the bytes that could not be read;
+* a ROS 1 bag cut off before its index (truncated), with a damaged index, or giving fewer
+  messages than its index lists is scanned record by record
+  (:mod:`etsid.ingest.ros.ros1_scan`): every message that decodes is kept, before and
+  after damage, and the notes say the seconds missing;
+* a one-file ROS 2 bag from which rosbags reads fewer messages than metadata.yaml lists
+  (or none) is read from its storage file by etsid's salvage readers, and the read that
+  keeps more messages wins;
 * a topic whose messages cannot be decoded is skipped, counted and noted.
 """
 
 from __future__ import annotations
 
-import bz2
 import struct
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
 from etsid.ingest.base import RawLog, ReadOptions
-from etsid.ingest.damage import decoder_errors
+from etsid.ingest.damage import decoder_errors, gap_note
+from etsid.ingest.ros import ros1_scan
 from etsid.ingest.ros.converter import Converter, TopicData
 from etsid.ingest.ros.fast import decode as fast
 from etsid.ingest.ros.fast import mcap as fast_mcap
@@ -252,11 +256,7 @@ def _note_lost(lost: list[LostChunk], conv: Converter, raw: RawLog) -> None:
     what = (f"skipped {len(lost)} damaged chunk(s) at byte "
             f"{', '.join(str(c.pos) for c in lost[:5])}{' …' if len(lost) > 5 else ''} "
             f"({lost[0].why}): {sum(c.messages for c in lost)} message(s) lost")
-    if spans:
-        where = ", ".join(f"{a:.1f}–{b:.1f} s" for a, b in spans[:5])
-        what += (f"; {sum(b - a for a, b in spans):.1f} s of the recording missing "
-                 f"(t = {where})")
-    raw.warnings.append(f"{raw.path}: {what}")
+    raw.warnings.append(gap_note(raw.path, what, spans))
 
 
 def _missing_types(default: Any, have: Any, names: set[str]) -> dict[str, Any]:
@@ -327,26 +327,29 @@ def _read_ros2(path: Path, options: ReadOptions, raw: RawLog) -> None:
                 raise IngestError(f"{path}: {why}; its storage files are not readable either "
                                   f"({_first_line(err)})") from err
             try:
-                _salvage(storage[0], options, raw)
+                _salvage(storage[0], options, raw, _metadata_seconds(path))
             except IngestError as salvage_err:
                 raise IngestError(f"{path}: {why}; its storage file is not readable either "
                                   f"({salvage_err})") from err
             return
     assert conv is not None
-    if len(storage) == 1 and storage[0].suffix == ".db3" and any(
-            "reading stopped early" in w for w in raw.warnings):
+    kept = sum(t.count for t in conv.topics.values())
+    short = kept < int(raw.extra.get("message_count") or 0)  # fewer than metadata.yaml says
+    if len(storage) == 1 and (short or any("reading stopped early" in w
+                                           for w in raw.warnings)):
         trial = RawLog(path=raw.path, format=raw.format)
         try:
-            _salvage(storage[0], options, trial)
+            _salvage(storage[0], options, trial, _metadata_seconds(path))
         except IngestError:
             trial = None
-        kept = sum(t.count for t in conv.topics.values())
         if trial is not None and int(trial.extra.get("message_count", 0)) > kept:
             early = [w for w in raw.warnings if "reading stopped early" in w]
             raw.warnings[:] = [w for w in raw.warnings if w not in early]
             for name in ("channels", "signals", "start_time", "dropped", "repaired", "extra"):
                 setattr(raw, name, getattr(trial, name))
-            raw.warnings.append(f"{early[0].split('; ')[0]}; read on past the damage")
+            head = early[0].split("; ")[0] if early else \
+                f"{raw.path}: rosbags read {kept} of the messages metadata.yaml lists"
+            raw.warnings.append(f"{head}; read on past the damage")
             raw.warnings.extend(trial.warnings)
             return
     conv.finish(raw)
@@ -366,12 +369,29 @@ def _metadata_loads(path: Path) -> bool:
         isinstance(f, str) and (path / f).is_file() for f in files)
 
 
-def _salvage(storage: Path, options: ReadOptions, raw: RawLog) -> None:
-    """Read what a damaged storage file still holds (:mod:`etsid.ingest.ros.salvage`)."""
+def _metadata_seconds(path: Path) -> float | None:
+    """The recording's length (s) that a bag's metadata.yaml states, or None."""
+    import yaml
+
+    if not path.is_dir():
+        return None
+    try:
+        data = yaml.safe_load((path / "metadata.yaml").read_text())
+        ns = data["rosbag2_bagfile_information"]["duration"]["nanoseconds"]
+        seconds = float(ns) * 1e-9
+    except (OSError, ValueError, TypeError, KeyError, yaml.YAMLError):
+        return None
+    return seconds if 0 < seconds < 1e7 else None
+
+
+def _salvage(storage: Path, options: ReadOptions, raw: RawLog,
+             total_s: float | None = None) -> None:
+    """Read what a damaged storage file still holds (:mod:`etsid.ingest.ros.salvage`);
+    ``total_s``: the recording's length per metadata.yaml, for the note on a cut file."""
     from etsid.ingest.ros import salvage
 
     if storage.suffix == ".mcap":
-        salvage.read_mcap(storage, options, raw)
+        salvage.read_mcap(storage, options, raw, total_s)
         return
     conv = salvage.read_db3(storage, options, raw)
     conv.finish(raw)
@@ -382,170 +402,40 @@ def _decoded_any(conv: Converter) -> bool:
 
 
 def _read_ros1(path: Path, options: ReadOptions, raw: RawLog) -> None:
-    from rosbags.rosbag1 import ReaderError as Reader1Error
-
-    errors = _errors()
+    """Through the index (fast reader, else rosbags); a bag whose index is missing or
+    damaged, or that gives fewer messages than its index lists, is scanned chunk by chunk
+    (:mod:`etsid.ingest.ros.ros1_scan`) and the scan kept when it reads more."""
+    conv: Converter | None = None
+    failure = ""
+    before = list(raw.warnings)
     try:
         conv = _read_ros1_fast(path, options, raw) or _read_any([path], options, raw, ros1=True)
-    except Reader1Error as err:
-        text = _first_line(err)
-        if "index" not in text.lower():
-            raise IngestError(f"{path}: not a readable ROS 1 bag ({text})") from err
-        conv = _scan_ros1(path, options, raw)
-    except errors as err:
-        text = _first_line(err)
-        if "index" not in text.lower():
-            raise IngestError(f"{path}: not a readable ROS 1 bag ({text})") from err
-        conv = _scan_ros1(path, options, raw)
+    except _errors() as err:
+        failure = _first_line(err)
+    kept = 0 if conv is None else sum(t.count for t in conv.topics.values())
+    listed = int(raw.extra.get("message_count") or 0) if conv is not None else 0
+    stopped = any("reading stopped early" in w for w in raw.warnings)
+    if conv is None or not kept or kept < listed or stopped:
+        trial = RawLog(path=raw.path, format=raw.format)
+        try:
+            scanned = ros1_scan.scan(path, options, trial)
+        except IngestError as err:
+            if conv is None:
+                raise IngestError(f"{path}: not a readable ROS 1 bag ({failure}; {err})"
+                                  ) from err
+            scanned = None
+        if conv is None and scanned is not None and not any(
+                t.count for t in scanned.topics.values()):
+            raise IngestError(f"{path}: not a readable ROS 1 bag ({failure}; no message "
+                              "found by scanning its chunks either)")
+        if scanned is not None and (conv is None or
+                                    sum(t.count for t in scanned.topics.values()) > kept):
+            why = failure or (f"its index lists {listed} messages, {kept} read through it"
+                              if listed else "no message read through its index")
+            raw.warnings[:] = before  # the notes of the index read no longer apply
+            raw.warnings.append(f"{path}: index unusable ({why}); scanned the chunks")
+            raw.warnings.extend(trial.warnings)
+            raw.extra.update(trial.extra)
+            conv = scanned
+    assert conv is not None
     conv.finish(raw)
-
-
-# ---------------------------------------------------------------------------
-# ROS 1 without index: scan chunks (truncated recordings)
-
-_OP_MSG, _OP_HEADER, _OP_CHUNK, _OP_CONN = 0x02, 0x03, 0x05, 0x07
-
-
-def _fields(buf: bytes | memoryview) -> dict[str, bytes]:
-    out: dict[str, bytes] = {}
-    pos = 0
-    while pos + 4 <= len(buf):
-        (size,) = struct.unpack_from("<I", buf, pos)
-        name, _, value = bytes(buf[pos + 4:pos + 4 + size]).partition(b"=")
-        out[name.decode("latin-1")] = value
-        pos += 4 + size
-    return out
-
-
-def _records(buf: bytes | memoryview, start: int = 0) -> Iterator[tuple[dict[str, bytes],
-                                                                        memoryview, int]]:
-    """Complete records (header fields, data, end offset) of ``buf`` from ``start``."""
-    view = memoryview(buf)
-    pos = start
-    while pos + 4 <= len(view):
-        (hlen,) = struct.unpack_from("<I", view, pos)
-        if pos + 8 + hlen > len(view):
-            return
-        header = _fields(view[pos + 4:pos + 4 + hlen])
-        (dlen,) = struct.unpack_from("<I", view, pos + 4 + hlen)
-        end = pos + 8 + hlen + dlen
-        if end > len(view):
-            return
-        yield header, view[pos + 8 + hlen:end], end
-        pos = end
-
-
-def _decompress(kind: str, data: bytes | memoryview) -> bytes:
-    """As much of a (possibly cut) chunk as can be decompressed."""
-    if kind == "none":
-        return bytes(data)
-    if kind == "bz2":
-        return bz2.BZ2Decompressor().decompress(bytes(data))
-    if kind == "lz4":
-        import lz4.frame
-
-        return lz4.frame.LZ4FrameDecompressor().decompress(bytes(data))
-    raise IngestError(f"unknown chunk compression {kind!r}")
-
-
-def _scan_ros1(path: Path, options: ReadOptions, raw: RawLog) -> Converter:
-    """Read a ROS 1 bag without its index, keeping every complete message."""
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    data = path.read_bytes()
-    magic = b"#ROSBAG V2.0\n"
-    if not data.startswith(magic):
-        raise IngestError(f"{path}: not a ROS 1 bag (bad magic line)")
-    conv = Converter(options)
-    store = get_typestore(Stores.EMPTY)
-    conns: dict[int, tuple[Any, str]] = {}
-    used = len(magic)
-    cut_chunk = False
-    for header, body, end in _records(data, len(magic)):
-        op = header.get("op", b"\0")[0]
-        if op == _OP_CHUNK:
-            kind = header.get("compression", b"none").decode("latin-1")
-            try:
-                inner = _decompress(kind, body)
-            except (OSError, EOFError, ValueError, RuntimeError) as err:
-                raw.warnings.append(f"{path}: chunk at byte {end - len(body)} unreadable ({err})")
-                continue
-            _scan_chunk(inner, conns, conv, store)
-        elif op == _OP_CONN:
-            _add_connection(header, body, conns, conv, store, get_types_from_msg)
-        used = end
-    tail = len(data) - used
-    if tail > 0:
-        # the last, cut record: try to recover the complete messages inside it
-        header_fields = next(iter(_partial_chunk(data, used)), None)
-        if header_fields is not None:
-            kind, body = header_fields
-            try:
-                inner = _decompress(kind, body)
-            except (OSError, EOFError, ValueError, RuntimeError):
-                inner = b""
-            kept = _scan_chunk(inner, conns, conv, store)
-            cut_chunk = kept > 0
-        raw.warnings.append(
-            f"{path}: truncated bag (no index): read the chunks before byte {used}"
-            + (" and the complete messages of the cut chunk" if cut_chunk else "")
-            + f"; {tail} byte(s) at the end could not be read")
-    raw.extra["storage"] = "rosbag1 (scanned without index)"
-    return conv
-
-
-def _partial_chunk(data: bytes, pos: int) -> Iterator[tuple[str, memoryview]]:
-    view = memoryview(data)
-    if pos + 4 > len(view):
-        return
-    (hlen,) = struct.unpack_from("<I", view, pos)
-    if pos + 8 + hlen > len(view):
-        return
-    header = _fields(view[pos + 4:pos + 4 + hlen])
-    if header.get("op", b"\0")[0] == _OP_CHUNK:
-        yield header.get("compression", b"none").decode("latin-1"), view[pos + 8 + hlen:]
-
-
-def _add_connection(header: dict[str, bytes], body: memoryview, conns: dict[int, Any],
-                    conv: Converter, store: Any, parse: Any) -> None:
-    cid = struct.unpack("<I", header["conn"])[0]
-    if cid in conns:
-        return
-    info = _fields(body)
-    topic = header.get("topic", info.get("topic", b"")).decode("utf-8", "replace")
-    msgtype = info.get("type", b"").decode("utf-8", "replace")
-    pkg, _, name = msgtype.partition("/")
-    typename = f"{pkg}/msg/{name}"
-    try:
-        store.register(parse(info.get("message_definition", b"").decode(), typename))
-    except Exception:  # a bad definition only disables this topic
-        conv.topic(topic, typename).spec = None
-    conns[cid] = (conv.topic(topic, typename), typename)
-
-
-def _scan_chunk(buf: bytes, conns: dict[int, Any], conv: Converter, store: Any) -> int:
-    from rosbags.typesys import get_types_from_msg
-
-    kept = 0
-    for header, body, _ in _records(buf):
-        op = header.get("op", b"\0")[0]
-        if op == _OP_CONN:
-            _add_connection(header, body, conns, conv, store, get_types_from_msg)
-        elif op == _OP_MSG:
-            cid = struct.unpack("<I", header["conn"])[0]
-            if cid not in conns:
-                continue
-            topic, typename = conns[cid]
-            sec, nsec = struct.unpack("<II", header["time"])
-            log_ns = sec * 1_000_000_000 + nsec
-            if not topic.decode:
-                conv.count(topic, log_ns)
-                continue
-            try:
-                msg = store.deserialize_ros1(bytes(body), typename)
-            except Exception:  # a bad definition only disables this topic
-                conv.count(topic, log_ns)
-                continue
-            conv.add(topic, msg, log_ns)
-            kept += 1
-    return kept

@@ -200,7 +200,10 @@ class Converter:
             t = np.frombuffer(data.t, dtype=float) + shift
             rows = np.frombuffer(data.rows, dtype=float).reshape(len(data.t), data.width)
             batch = Batch(data.topic, t, rows, self.options, raw.dropped, raw.repaired)
-            out = data.spec.finish(batch)
+            # values from damaged bytes (inf, NaN, huge) turn into NaN/inf here, silently;
+            # the plausibility limits drop them and say so
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                out = data.spec.finish(batch)
         for req, tt, vv in zip(data.requests, data.req_t, data.req_v, strict=True):
             if len(tt):
                 out.append(Signal(req.column, np.frombuffer(tt, dtype=float) + shift,

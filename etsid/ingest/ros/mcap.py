@@ -31,9 +31,11 @@ import numpy as np
 
 from etsid.errors import IngestError
 from etsid.ingest.base import RawLog, ReadOptions
+from etsid.ingest.damage import cut_note, describe, gap_note
 from etsid.ingest.ros.converter import Converter, TopicData
 from etsid.ingest.ros.fast import decode as fast
 from etsid.ingest.ros.fast import mcap as fast_mcap
+from etsid.ingest.ros.fast import mcap_resync
 from etsid.ingest.ros.fast.decode import Batcher
 from etsid.ingest.ros.messages import as_message
 from etsid.progress import progress
@@ -97,17 +99,17 @@ class _Decoders:
         raise ValueError(f"no decoder for message encoding {encoding!r} with {kind}")
 
 
-def read(path: Path, options: ReadOptions) -> RawLog:
+def read(path: Path, options: ReadOptions, total_s: float | None = None) -> RawLog:
     """Read an MCAP file into a :class:`RawLog`.
+
+    ``total_s``: the recording's length when known from elsewhere (a ROS 2 bag's
+    metadata.yaml), for the note on a cut file.
 
     Raises
     ------
     IngestError
         Not a readable MCAP file, or one without any complete message.
     """
-    from mcap.records import Channel, Header, Message, Schema
-    from mcap.stream_reader import StreamReader
-
     path = Path(path)
     if fast.ENABLED:
         raw = RawLog(path=path, format="mcap")
@@ -119,41 +121,52 @@ def read(path: Path, options: ReadOptions) -> RawLog:
             pass
         else:
             return state.finish()
+    elif (raw := _read_stream(path, options)) is not None:
+        return raw
+    raw = RawLog(path=path, format="mcap")
+    state = _State(options, raw, total_s)
+    size = path.stat().st_size
+    with progress(size, f"reading {path.name}", options.progress) as bar:
+        try:
+            for record in mcap_resync.scan(path):
+                state.record(record)
+        except (OSError, ValueError) as err:
+            raise IngestError(f"{path}: not a readable MCAP file ({describe(err)})") from err
+        bar.update(size)
+    if state.messages == 0 and state.cut is not None:
+        raise IngestError(f"{path}: truncated MCAP file: no complete message before byte "
+                          f"{state.cut.pos} of {size}")
+    if state.messages == 0:
+        raise IngestError(f"{path}: not a readable MCAP file: no complete message")
+    return state.finish()
+
+
+def _read_stream(path: Path, options: ReadOptions) -> RawLog | None:
+    """A whole file through :class:`mcap.stream_reader.StreamReader` (the reference path,
+    ``ETSID_ROS_FAST=0``); None when it meets damage (the resync scan reads it then)."""
+    from mcap.records import Channel, Header, Message, Schema
+    from mcap.stream_reader import StreamReader
+
     raw = RawLog(path=path, format="mcap")
     state = _State(options, raw)
-    size = path.stat().st_size
-    good_pos = 0
-    with path.open("rb") as handle, progress(size, f"reading {path.name}",
-                                             options.progress) as bar:
+    with path.open("rb") as handle:
         try:
             for record in StreamReader(handle).records:
                 if isinstance(record, Message):
                     state.message(record)
                 elif isinstance(record, (Schema, Channel, Header)):
                     state.record(record)
-                pos = handle.tell()
-                if pos - good_pos > 1 << 20:
-                    bar.update(pos - good_pos)
-                good_pos = pos
-        except Exception as err:  # the mcap/zstd/lz4 stack raises many types on bad bytes
-            why = (" ".join(str(a) for a in err.args) or type(err).__name__).splitlines()[0]
-            messages = state.messages
-            if messages == 0 and good_pos > 0 and "EndOfFile" in (why, type(err).__name__):
-                raise IngestError(f"{path}: truncated MCAP file: no complete message before "
-                                  f"byte {good_pos} of {size}") from err
-            if messages == 0:
-                raise IngestError(f"{path}: not a readable MCAP file ({why})") from err
-            raw.warnings.append(f"{path}: truncated or damaged after byte {good_pos} ({why}); "
-                                f"kept {messages} message(s) before it, "
-                                f"{size - good_pos} byte(s) could not be read")
+        except Exception:
+            return None
     return state.finish()
 
 
 class _State:
     """Channels, decoders and the converter of one read (stream reader or numpy walk)."""
 
-    def __init__(self, options: ReadOptions, raw: RawLog) -> None:
+    def __init__(self, options: ReadOptions, raw: RawLog, total_s: float | None = None) -> None:
         self.raw = raw
+        self.total_s = total_s
         self.conv = Converter(options)
         self.decoders = _Decoders()
         self.broken: dict[str, str] = {}
@@ -163,7 +176,22 @@ class _State:
         self.channels: dict[int, tuple[TopicData, Any]] = {}
         self.encodings: set[str] = set()
         self.messages = 0
-        self.lost: list[fast_mcap.LostChunk] = []
+        self.lost: list[mcap_resync.Lost] = []
+        self.gaps_ns: list[tuple[int, int]] = []  # log times around each damage
+        self.waiting: list[mcap_resync.Lost] = []  # damage not yet followed by a message
+        self.first_ns: int | None = None
+        self.last_ns: int | None = None
+        self.cut: mcap_resync.Cut | None = None
+
+    def _times(self, lo: int, hi: int) -> None:
+        """Log times of the next messages kept: close the gaps waiting for them."""
+        if self.waiting:  # one gap, however many stretches were skipped in a row
+            before = self.last_ns if self.last_ns is not None else self.waiting[0].start_ns
+            if before is not None:
+                self.gaps_ns.append((before, lo))
+            self.waiting = []
+        self.first_ns = lo if self.first_ns is None else min(self.first_ns, lo)
+        self.last_ns = hi if self.last_ns is None else max(self.last_ns, hi)
 
     def record(self, record: Any) -> None:
         """Take a Schema, Channel or Header record, or a run of messages (numpy walk)."""
@@ -171,8 +199,11 @@ class _State:
 
         if isinstance(record, fast_mcap.Messages):
             self.run(record)
-        elif isinstance(record, fast_mcap.LostChunk):
+        elif isinstance(record, mcap_resync.Lost):
             self.lost.append(record)
+            self.waiting.append(record)
+        elif isinstance(record, mcap_resync.Cut):
+            self.cut = record
         elif isinstance(record, Schema):
             self.schemas[record.id] = record
         elif isinstance(record, Channel):
@@ -186,6 +217,7 @@ class _State:
     def message(self, record: Any) -> None:
         """Take one Message record (stream reader)."""
         self.messages += 1
+        self._times(record.log_time, record.log_time)
         entry = self.channels.get(record.channel_id)
         if entry is not None:
             _take(self.conv, self.batcher, entry, record.log_time, record.data, self.decoders,
@@ -194,6 +226,8 @@ class _State:
     def run(self, run: fast_mcap.Messages) -> None:
         """Take a run of messages at once: vectorised per channel where possible."""
         self.messages += len(run.channel)
+        if len(run.log_ns):
+            self._times(int(run.log_ns.min()), int(run.log_ns.max()))
         known = np.isin(run.channel, list(self.channels))
         if not known.any():
             return
@@ -238,24 +272,32 @@ class _State:
         return self.raw
 
     def _note_lost(self) -> None:
-        """One coverage note for the damaged chunks that were skipped."""
-        if not self.lost:
-            return
-        base = self.conv.base_ns
-        spans = [(c.start_ns, c.end_ns) for c in self.lost]
-        seconds = None
-        if base is not None:
-            seconds = [((a - base) * 1e-9, (b - base) * 1e-9) for a, b in spans]
-            seconds = [(a, b) for a, b in seconds if -1e6 < a <= b < 1e6] or None
-        what = (f"skipped {len(self.lost)} damaged chunk(s) at byte "
-                f"{', '.join(str(c.pos) for c in self.lost[:5])}"
-                f"{' …' if len(self.lost) > 5 else ''} ({self.lost[0].why}); "
-                f"kept {self.messages} message(s) from the other chunks")
-        if seconds:
-            lost_s = sum(b - a for a, b in seconds)
-            where = ", ".join(f"{a:.1f}–{b:.1f} s" for a, b in seconds[:5])
-            what += f"; {lost_s:.1f} s of the recording missing (t = {where})"
-        self.raw.warnings.append(f"{self.raw.path}: {what}")
+        """Coverage notes: the damaged stretches skipped (in seconds) and a cut end."""
+        base = self.conv.base_ns if self.conv.base_ns is not None else self.first_ns
+
+        def sec(ns: int | None) -> float | None:
+            return None if ns is None or base is None else (ns - base) * 1e-9
+
+        first, last = sec(self.first_ns), sec(self.last_ns)
+        if self.lost:
+            gaps = [(sec(a), sec(b)) for a, b in self.gaps_ns]
+            for lost in self.waiting:  # damage after the last message kept
+                if lost.end_ns is not None and self.last_ns is not None \
+                        and lost.end_ns > self.last_ns:
+                    gaps.append((last, sec(lost.end_ns)))
+            spans = [(a, b) for a, b in gaps
+                     if a is not None and b is not None and -1e6 < a <= b < 1e6]
+            where = ", ".join(str(c.pos) for c in self.lost[:5])
+            what = (f"skipped {len(self.lost)} damaged stretch(es) at byte {where}"
+                    f"{' …' if len(self.lost) > 5 else ''} "
+                    f"({sum(c.nbytes for c in self.lost)} bytes; {self.lost[0].why}); "
+                    f"kept {self.messages} message(s) before and after")
+            self.raw.warnings.append(gap_note(self.raw.path, what, spans, first, last))
+        if self.cut is not None:
+            what = (f"truncated: the file ends ({self.cut.size} bytes) inside the record "
+                    f"at byte {self.cut.pos}")
+            self.raw.warnings.append(cut_note(self.raw.path, what, self.messages, first, last,
+                                              self.total_s))
 
 
 def _open_channel(conv: Converter, record: Any, schemas: dict[int, Any]) -> tuple[TopicData, Any]:

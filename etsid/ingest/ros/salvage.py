@@ -106,6 +106,7 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
     errors = decoder_errors()
     bad: dict[str, int] = {}
     lost: list[LostRows] = []
+    last_ns: int | None = None
     with tempfile.TemporaryDirectory() as tmp:
         copy = _padded_copy(storage, Path(tmp))
         db = sqlite3.connect(f"{copy.resolve().as_uri()}?immutable=1", uri=True)
@@ -120,6 +121,8 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
                 topic = topics.get(tid)
                 if topic is None:
                     continue
+                if isinstance(stamp, int) and (last_ns is None or stamp > last_ns):
+                    last_ns = stamp
                 if not topic.decode or data is None:
                     conv.count(topic, stamp)
                     continue
@@ -139,41 +142,44 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
     if not kept:
         raise IngestError(f"{storage}: damaged ROS 2 storage, no message could be read")
     if lost:
-        raw.warnings.append(_lost_note(storage, lost, conv.base_ns, kept))
+        raw.warnings.append(_lost_note(storage, lost, conv.base_ns, kept, last_ns))
     raw.extra["storage"] = "sqlite3 (salvaged)"
     raw.extra["message_count"] = kept
     return conv
 
 
-def _lost_note(storage: Path, lost: list[LostRows], base_ns: int | None, kept: int) -> str:
-    """One line: how many stretches of rows were lost, and which seconds of the recording."""
+def _lost_note(storage: Path, lost: list[LostRows], base_ns: int | None, kept: int,
+               last_ns: int | None = None) -> str:
+    """One line: how many stretches of rows were lost, and which seconds of the recording
+    (:func:`etsid.ingest.damage.gap_note`)."""
+    from etsid.ingest.damage import gap_note
+
     spans = []
     for gap in lost:
-        if base_ns is None or gap.after_ns is None:
+        if base_ns is None or gap.after_ns is None or gap.before_ns is None:
             continue
-        a = (gap.after_ns - base_ns) * 1e-9
-        spans.append((a, None if gap.before_ns is None else (gap.before_ns - base_ns) * 1e-9))
-    inner = [(a, b) for a, b in spans if b is not None]
-    text = (f"{storage}: damaged storage: {len(lost)} stretch(es) of messages unreadable, "
+        spans.append(((gap.after_ns - base_ns) * 1e-9, (gap.before_ns - base_ns) * 1e-9))
+    last = None if base_ns is None or last_ns is None else (last_ns - base_ns) * 1e-9
+    what = (f"damaged storage: {len(lost)} stretch(es) of messages unreadable, "
             f"kept {kept} message(s)")
-    if inner:
-        where = ", ".join(f"{a:.1f}–{b:.1f} s" for a, b in inner[:5])
-        text += (f"; {sum(b - a for a, b in inner):.1f} s of the recording missing "
-                 f"(t = {where}{' …' if len(inner) > 5 else ''})")
-    tail = [a for a, b in spans if b is None]
     if lost[-1].before_id is None:
-        text += "; everything after " + (f"t = {tail[0]:.1f} s" if tail else "the damage") + \
-            " is lost"
-    return text
+        tail = lost[-1].after_ns
+        what += "; everything after " + (f"t = {(tail - base_ns) * 1e-9:.1f} s"
+                                         if tail is not None and base_ns is not None
+                                         else "the damage") + " is lost"
+    return gap_note(storage, what, spans, 0.0 if last is not None else None, last)
 
 
-def read_mcap(storage: Path, options: ReadOptions, raw: RawLog) -> None:
-    """Fill ``raw`` from a damaged ``.mcap`` storage file read by etsid's MCAP reader."""
+def read_mcap(storage: Path, options: ReadOptions, raw: RawLog,
+              total_s: float | None = None) -> None:
+    """Fill ``raw`` from a damaged ``.mcap`` storage file read by etsid's MCAP reader
+    (``total_s``: the recording's length per metadata.yaml)."""
     from etsid.ingest.ros import mcap
 
-    sub = mcap.read(storage, options)
+    sub = mcap.read(storage, options, total_s)
     for item in fields(RawLog):
         if item.name not in ("path", "format", "warnings"):
             setattr(raw, item.name, getattr(sub, item.name))
     raw.warnings.extend(sub.warnings)
     raw.extra["storage"] = "mcap (salvaged)"
+    raw.extra["message_count"] = sum(c.count for c in raw.channels)

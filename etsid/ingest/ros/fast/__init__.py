@@ -9,6 +9,8 @@ module                  job
 :mod:`.ros1`            indexed ROS 1 bags read chunk by chunk
 :mod:`.ros2`            one-file ROS 2 bags read straight from their storage
 :mod:`.mcap`            complete MCAP files walked record by record
+:mod:`.mcap_resync`     damaged or cut MCAP files: every record that decodes, before and
+                        after the damage
 ======================  ===============================================================
 
 Every function here gives the same signals, bit for bit, as the per-message path

@@ -11,7 +11,8 @@ array for :func:`etsid.ingest.ros.fast.decode.decode_batch`.
 Only complete files (closing magic present) are read here; a cut file, or damage outside
 the chunks, raises :class:`NotFast` and the caller uses the stream reader, which reports
 the damage. A chunk that does not decompress, fails its CRC or holds broken records is
-skipped whole and reported as a :class:`LostChunk` (the chunks after it are still read).
+handed to :func:`.mcap_resync.chunk_records`, which keeps the records that still decode
+and reports the rest as a :class:`~.mcap_resync.Lost` (the chunks after it are still read).
 """
 
 from __future__ import annotations
@@ -35,16 +36,6 @@ class NotFast(Exception):
 
 MAX_CHUNK_BYTES = 1 << 30
 """A chunk claiming to decompress to more than this is damaged (checked before allocating)."""
-
-
-@dataclass
-class LostChunk:
-    """A chunk skipped because it is damaged: where, which log times, and why."""
-
-    pos: int
-    start_ns: int
-    end_ns: int
-    why: str
 
 
 class _Damaged(Exception):
@@ -168,20 +159,27 @@ def _walk(buf: bytes, start: int, end: int, top: bool) -> Iterator[Any]:
 
 
 def _chunk_records(buf: bytes, pos: int, length: int) -> Iterator[Any]:
-    """The records of the chunk at ``pos``, or one :class:`LostChunk` when it is damaged."""
-    start_ns, end_ns = struct.unpack_from("<QQ", buf, pos)
+    """The records of the chunk at ``pos``; a damaged chunk goes to the resync walker,
+    which keeps what still decodes and yields a :class:`~.mcap_resync.Lost` for the rest."""
     try:
         inner = _chunk(buf, pos, length)
         found = list(_walk(inner, 0, len(inner), False))
     except NotFast as err:
         if str(err).startswith("compression"):
             raise
-        yield LostChunk(pos - 9, start_ns, end_ns, str(err))
     except (_Damaged, struct.error, UnicodeDecodeError, ValueError, IndexError,
-            RuntimeError, MemoryError, *_zstd_error()) as err:
-        yield LostChunk(pos - 9, start_ns, end_ns, str(err) or type(err).__name__)
+            RuntimeError, MemoryError, *_zstd_error()):
+        pass
     else:
         yield from found
+        return
+    from etsid.ingest.ros.fast import mcap_resync
+
+    data = bytes(buf[pos - 9:pos + length])
+    for rec in mcap_resync.chunk_records(data, 0, len(data), mcap_resync._Context()):
+        if isinstance(rec, mcap_resync.Lost):
+            rec.pos += pos - 9
+        yield rec
 
 
 def _zstd_error() -> tuple[type[Exception], ...]:
@@ -245,7 +243,7 @@ def _top(handle: Any, end: int) -> Iterator[Any]:
         base = handle.tell() - 9
         body = head + handle.read(length)
         for rec in _walk(body, 0, len(body), True):
-            if isinstance(rec, LostChunk):
+            if hasattr(rec, "nbytes"):  # a Lost stretch: file position
                 rec.pos += base
             yield rec
         if op == _OP_FOOTER:

@@ -19,7 +19,10 @@ _MAX_US = (1 << 62) // 1000
 
 
 def _stack(*cols: Any) -> np.ndarray:
-    return np.column_stack([np.asarray(c, dtype=np.float64) for c in cols])
+    # damaged bytes (kept records of a damaged chunk) may hold values that do not convert
+    # cleanly: they become inf/NaN, which the plausibility limits drop, not a numpy warning
+    with np.errstate(invalid="ignore", over="ignore"):
+        return np.column_stack([np.asarray(c, dtype=np.float64) for c in cols])
 
 
 def _pad(values: np.ndarray, n: int, rows: int) -> np.ndarray:
