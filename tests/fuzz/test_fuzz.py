@@ -72,6 +72,7 @@ def test_damaged_ulog_leaves_no_file_open(tmp_path: Path) -> None:
     from etsid.ingest import read_raw
 
     mutant = mutants.make_mutant("ulog", 2923, tmp_path)
+    gc.collect()  # what earlier tests left behind is not this read's doing
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("error")
         warnings.simplefilter("always", ResourceWarning)  # raised in __del__: record it
@@ -80,7 +81,9 @@ def test_damaged_ulog_leaves_no_file_open(tmp_path: Path) -> None:
         except IngestError as err:
             assert mutant.path.name in str(err)
         gc.collect()
-    assert not caught, [str(w.message) for w in caught]
+    ours = [str(w.message) for w in caught
+            if not isinstance(w.message, ResourceWarning) or mutant.path.name in str(w.message)]
+    assert not ours, ours
 
 
 def test_mutants_are_reproducible(tmp_path: Path) -> None:
