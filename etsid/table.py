@@ -88,6 +88,9 @@ ATTRS_KEYS = (
     "repaired",  # list of {"reason", "count", "signal"}: samples fixed (e.g. clock steps)
     "gaps",  # list of {"start", "end", "signal"} in table seconds
     "warnings",  # human-readable notes
+    # where the log states them (absent otherwise; etsid.ingest.vehicle):
+    # "vehicle" (quadrotor, fixed wing, …), "autopilot" (PX4, ArduPilot), "firmware"
+    # (v1.11.2-dev (8583f1da), ArduPlane V3.10.0-dev (f2b4e06a)), "hardware" (board)
 )
 
 

@@ -27,6 +27,7 @@ import pandas as pd
 from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
 from etsid.ingest.plausibility import check_signals
+from etsid.ingest.vehicle import FACTS
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
 
 MAX_GRID_POINTS = 50_000_000
@@ -207,5 +208,6 @@ def build_table(
         "gaps": gaps,
         "warnings": list(raw.warnings),
         "log": {k: v for k, v in raw.extra.items() if isinstance(v, (str, int, float, list))},
+        **{k: raw.extra[k] for k in FACTS if isinstance(raw.extra.get(k), str)},
     }
     return validate(table)
