@@ -57,29 +57,39 @@ def _context(command: str) -> Any:
     # Ctrl-C reaches only this process, which stops the pool
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        with _server_path():
+        with _server_env():
             forkserver.ensure_running()
     finally:
         signal.signal(signal.SIGINT, previous)
     return ctx
 
 
-@contextlib.contextmanager
-def _server_path() -> Iterator[None]:
-    """Environment for starting the fork server: it must import this very etsid.
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+"""Thread counts of the BLAS libraries, set to 1 in the workers unless the user set them."""
 
-    Python 3.11's fork server imports its preload modules before it takes this process's
-    ``sys.path``, with the current directory first (``python -c``): run from a directory
-    holding another etsid, the workers would run that one. ``PYTHONSAFEPATH`` drops the
-    current directory and ``PYTHONPATH`` leads with the directory this etsid comes from.
+
+@contextlib.contextmanager
+def _server_env() -> Iterator[None]:
+    """Environment for starting the fork server (and so for every worker).
+
+    * It must import this very etsid: Python 3.11's fork server imports its preload modules
+      before it takes this process's ``sys.path``, with the current directory first
+      (``python -c``), so run from a directory holding another etsid the workers would run
+      that one. ``PYTHONSAFEPATH`` drops the current directory and ``PYTHONPATH`` leads
+      with the directory this etsid comes from.
+    * One BLAS thread per worker: the workers already fill the cores, and OpenBLAS's own
+      threads only wait for each other (13 % more CPU per log measured, no gain).
     """
     import etsid
 
     root = str(Path(etsid.__file__).resolve().parents[1])
-    saved = {key: os.environ.get(key) for key in ("PYTHONSAFEPATH", "PYTHONPATH")}
+    saved = {key: os.environ.get(key)
+             for key in ("PYTHONSAFEPATH", "PYTHONPATH", *BLAS_THREADS)}
     os.environ["PYTHONSAFEPATH"] = "1"
     os.environ["PYTHONPATH"] = os.pathsep.join(
         [root, *([saved["PYTHONPATH"]] if saved["PYTHONPATH"] else [])])
+    for key in BLAS_THREADS:
+        os.environ.setdefault(key, "1")
     try:
         yield
     finally:
@@ -117,7 +127,8 @@ class LocalRunner:
         self.done = done
         self.jobs = jobs
         self.max_memory_mb = max_memory_mb
-        self.pools = 0  # pools started (first one, renewals, broken-pool restarts)
+        if jobs > 1:  # start the fork server now: it imports and warms up meanwhile
+            _context(spec.command)
 
     def run(self, items: Iterable[Item], on_done: Callable[[Outcome], None],
             on_running: Callable[[int], None]) -> None:
@@ -144,7 +155,6 @@ class LocalRunner:
                    jobs: int) -> None:
         """Run logs from the front of ``pending`` in one pool until none are left, the pool
         breaks (the logs in flight go back to the front) or a worker has grown too much."""
-        self.pools += 1
         jobs = min(jobs, len(pending))
         executor = ProcessPoolExecutor(
             max_workers=jobs, mp_context=_context(self.spec.command),
