@@ -14,7 +14,9 @@ Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--re
 3. Prints throughput in logs/min, the speed-up and the CPU efficiency against ``--jobs 1``
    (efficiency = speed-up / jobs; "workers busy" = summed per-log wall time / (jobs × batch
    wall time); per-log CPU = the worker's CPU time per log, median; parent CPU = CPU time of
-   the submitting process), medians over the rounds, the peak memory per worker against
+   the submitting process, all its threads, and the cores it kept busy on average — with
+   ``--jobs 1`` that is the whole batch, and more than one core when BLAS runs threads),
+   medians over the rounds, the peak memory per worker against
    the largest log, and
    checks that every run gives the same rows bit for bit (all columns but wall time, peak
    memory, worker and finish time) and that every broken log is an error row.
@@ -134,7 +136,8 @@ def main() -> None:
                   f"{len(logs) / wall * 60:6.1f} logs/min, speed-up {speedup:4.2f}, "
                   f"efficiency {speedup / j * 100:5.1f} % of linear, workers busy "
                   f"{busy:4.1f} %; per-log CPU {frame['cpu_s'].median():.3f} s, parent CPU "
-                  f"{parent_cpu:.1f} s; peak memory per worker max "
+                  f"{parent_cpu:.1f} s ({parent_cpu / wall:.2f} cores); peak memory per "
+                  "worker max "
                   f"{frame['peak_rss_mb'].max():.0f} MB, median "
                   f"{frame['peak_rss_mb'].median():.0f} MB; load {os.getloadavg()[0]:.1f}",
                   flush=True)
