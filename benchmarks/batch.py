@@ -1,6 +1,6 @@
 """``etsid batch identify`` over a simulated fleet: throughput, CPU efficiency, determinism.
 
-Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--dask]
+Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--repeat 3] [--dask]
 
 1. Writes a fleet of ``--logs`` simulated flights (``etsid.sim.simulate`` +
    ``etsid.sim.writers.write_log``) in mixed formats — tlog, ROS 1 bag, ROS 2 bag directory
@@ -9,10 +9,15 @@ Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--da
    fleet is kept in ``--fleet`` (default: a temporary directory) and reused when it exists.
 2. Runs ``run_batch`` (what ``etsid batch identify`` calls) once per ``--jobs`` value on the
    local process pool, and with ``--dask`` on a Dask LocalCluster (``--scheduler
-   processes``) with the largest job count.
+   processes``) with the largest job count; ``--repeat`` times, the job counts back to
+   back in each round (on a shared machine, compare medians).
 3. Prints throughput in logs/min, the speed-up and the CPU efficiency against ``--jobs 1``
    (efficiency = speed-up / jobs; "workers busy" = summed per-log wall time / (jobs × batch
-   wall time)), the peak memory per worker against the largest log, and
+   wall time); per-log CPU = the worker's CPU time per log, median; parent CPU = CPU time of
+   the submitting process, all its threads, and the cores it kept busy on average — with
+   ``--jobs 1`` that is the whole batch, and more than one core when BLAS runs threads),
+   medians over the rounds, the peak memory per worker against
+   the largest log, and
    checks that every run gives the same rows bit for bit (all columns but wall time, peak
    memory, worker and finish time) and that every broken log is an error row.
 """
@@ -81,13 +86,13 @@ def _short_flight(path: Path) -> None:
     write_log(simulate("steps", duration=0.3, seed=1).table, path)
 
 
-def timed_batch(logs: list[str], out: Path, jobs: int, scheduler: str) -> float:
-    """Wall time of one batch into ``out`` (a fresh directory), s."""
+def timed_batch(logs: list[str], out: Path, jobs: int, scheduler: str) -> tuple[float, float]:
+    """Wall time and this process's CPU time of one batch into ``out`` (fresh), s."""
     shutil.rmtree(out, ignore_errors=True)
     spec = BatchSpec("identify", read_options=ReadOptions(), ident_config=IdentConfig())
-    wall = time.perf_counter()
+    wall, cpu = time.perf_counter(), time.process_time()
     run_batch(logs, spec, out, jobs=jobs, scheduler=scheduler)
-    return time.perf_counter() - wall
+    return time.perf_counter() - wall, time.process_time() - cpu
 
 
 def main() -> None:
@@ -97,6 +102,7 @@ def main() -> None:
     parser.add_argument("--broken", type=int, default=6, help="broken logs in the fleet")
     parser.add_argument("--jobs", default=None, help="comma-separated job counts "
                         "(default: 1 and every core)")
+    parser.add_argument("--repeat", type=int, default=1, help="rounds of every job count")
     parser.add_argument("--dask", action="store_true", help="also a Dask LocalCluster run")
     parser.add_argument("--fleet", type=Path, default=None, help="fleet directory (kept)")
     args = parser.parse_args()
@@ -115,22 +121,33 @@ def main() -> None:
           f"{time.perf_counter() - t0:.0f} s ({fleet})")
     runs = [(j, "local") for j in jobs] + ([(max(jobs), "processes")] if args.dask else [])
     results = {}
-    base = None
-    for j, scheduler in runs:
-        out = work / f"out-{scheduler}-{j}"
-        wall = timed_batch(logs, out, j, scheduler)
-        frame = read_results(out)
-        results[(j, scheduler)] = frame
-        if base is None and j == 1:
-            base = wall
-        speedup = base / wall if base else float("nan")
-        busy = frame["wall_s"].sum() / (j * wall) * 100
-        print(f"{scheduler:>9} jobs {j}: {wall:7.1f} s wall, "
-              f"{len(logs) / wall * 60:6.1f} logs/min, speed-up {speedup:4.2f}, "
-              f"efficiency {speedup / j * 100:5.1f} % of linear, workers busy {busy:4.1f} %; "
-              "peak memory per worker "
-              f"max {frame['peak_rss_mb'].max():.0f} MB, median "
-              f"{frame['peak_rss_mb'].median():.0f} MB")
+    walls: dict[tuple[int, str], list[float]] = {run: [] for run in runs}
+    for round_ in range(args.repeat):
+        for j, scheduler in runs:
+            out = work / f"out-{scheduler}-{j}"
+            wall, parent_cpu = timed_batch(logs, out, j, scheduler)
+            frame = read_results(out)
+            results[(j, scheduler, round_)] = frame
+            walls[(j, scheduler)].append(wall)
+            base = walls.get((1, "local"), [])
+            speedup = base[-1] / wall if base else float("nan")
+            busy = frame["wall_s"].sum() / (j * wall) * 100
+            print(f"{scheduler:>9} jobs {j}: {wall:7.1f} s wall, "
+                  f"{len(logs) / wall * 60:6.1f} logs/min, speed-up {speedup:4.2f}, "
+                  f"efficiency {speedup / j * 100:5.1f} % of linear, workers busy "
+                  f"{busy:4.1f} %; per-log CPU {frame['cpu_s'].median():.3f} s, parent CPU "
+                  f"{parent_cpu:.1f} s ({parent_cpu / wall:.2f} cores); peak memory per "
+                  "worker max "
+                  f"{frame['peak_rss_mb'].max():.0f} MB, median "
+                  f"{frame['peak_rss_mb'].median():.0f} MB; load {os.getloadavg()[0]:.1f}",
+                  flush=True)
+    if args.repeat > 1 and (1, "local") in walls:
+        base = float(np.median(walls[(1, "local")]))
+        for (j, scheduler), values in walls.items():
+            wall = float(np.median(values))
+            print(f"median of {args.repeat}: {scheduler:>9} jobs {j}: {wall:7.1f} s wall, "
+                  f"{len(logs) / wall * 60:6.1f} logs/min, speed-up {base / wall:4.2f}, "
+                  f"efficiency {base / wall / j * 100:5.1f} % of linear")
     frames = [f.drop(columns=list(VOLATILE)) for f in results.values()]
     same = all(f.equals(frames[0]) for f in frames[1:])
     print(f"rows identical bit for bit across {len(frames)} runs (all but "

@@ -91,6 +91,9 @@ ATTRS_KEYS = (
     "gaps",  # list of {"start", "end", "signal"} in table seconds
     "warnings",  # human-readable notes
     "motor_layout",  # {"x", "y" (m, FRD), "spin" (+1 CCW from above)} per motor m1…mN, if known
+    # where the log states them (absent otherwise; etsid.ingest.vehicle):
+    # "vehicle" (quadrotor, fixed wing, …), "autopilot" (PX4, ArduPilot), "firmware"
+    # (v1.11.2-dev (8583f1da), ArduPlane V3.10.0-dev (f2b4e06a)), "hardware" (board)
 )
 
 

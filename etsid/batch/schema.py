@@ -28,8 +28,10 @@ _FIELDS: list[tuple[str, pa.DataType, str]] = [
     ("run_dir", pa.string(), "this log's directory, relative to the batch directory"),
     ("duration_s", pa.float64(), "time span of the log, s"),
     ("airborne_s", pa.float64(), "time in the air, s (identify's airborne segments)"),
-    ("vehicle", pa.string(), "vehicle name where the log says"),
-    ("autopilot", pa.string(), "autopilot where the log says"),
+    ("vehicle", pa.string(), "vehicle type where the log says (quadrotor, fixed wing, …)"),
+    ("autopilot", pa.string(), "autopilot where the log says (PX4, ArduPilot, …)"),
+    ("firmware", pa.string(), "firmware version where the log says"),
+    ("hardware", pa.string(), "flight controller board where the log says"),
     ("start_time", pa.float64(), "UTC start of the log, s since 1970, where known"),
     ("rows", pa.int64(), "rows of the FlightTable"),
     ("rate_hz", pa.float64(), "grid rate of the FlightTable, Hz"),
@@ -52,12 +54,15 @@ _FIELDS: list[tuple[str, pa.DataType, str]] = [
       for y in RATE_OUTPUTS],
     *[(f"{y}_rmse_one_step", pa.float64(), f"identify: validation one-step RMSE of {y}, rad/s")
       for y in RATE_OUTPUTS],
-    ("regimes", pa.string(), "identify: regimes (JSON) where identify reports them"),
+    ("regime_count", pa.int64(), "identify: rules of the saved rule base (rules.json)"),
+    ("regimes", pa.string(), "identify: each rule's focal point in the scheduling variables "
+     "(rules.json of a scheduled rule base), rules separated by '; '"),
     ("metrics_json", pa.string(), "identify: the whole metrics.json"),
     ("gap_verdict", pa.string(), "gap: the verdict"),
     ("gap_effects", pa.string(), "gap: effect names, best first, comma-separated"),
     ("gap_json", pa.string(), "gap: the whole gap.json"),
     ("wall_s", pa.float64(), "wall time of this log, s"),
+    ("cpu_s", pa.float64(), "CPU time of the worker process during this log (all threads), s"),
     ("peak_rss_mb", pa.float64(), "peak resident memory of the worker during this log, MB"),
     ("worker", pa.string(), "host:pid that ran the log"),
     ("etsid_version", pa.string(), "etsid version of the worker"),
@@ -69,7 +74,7 @@ SCHEMA = pa.schema([pa.field(name, kind, metadata={"doc": doc}) for name, kind, 
 
 DESCRIPTIONS: dict[str, str] = {name: doc for name, _, doc in _FIELDS}
 
-VOLATILE = ("wall_s", "peak_rss_mb", "worker", "finished")
+VOLATILE = ("wall_s", "cpu_s", "peak_rss_mb", "worker", "finished")
 """Columns that differ from run to run of the same batch; every other column is the same
 bit for bit whatever the job count or scheduler."""
 

@@ -21,6 +21,7 @@ import numpy as np
 from etsid.batch.schema import RATE_OUTPUTS
 from etsid.batch.spec import BatchSpec
 from etsid.errors import BatchError
+from etsid.ingest.vehicle import FACTS
 
 GAP_UNAVAILABLE = "gap analysis is not available in this version"
 
@@ -34,16 +35,48 @@ def gap_available() -> bool:
 
 
 def _log_facts(info: dict[str, Any]) -> dict[str, Any]:
-    """Vehicle and autopilot where the log's own metadata names them."""
-    facts = {}
-    for column, keys in (("vehicle", ("vehicle", "sys_name", "vehicle_type")),
-                         ("autopilot", ("autopilot", "firmware", "ver_sw_release"))):
-        for key in keys:
-            value = info.get(key)
-            if value not in (None, ""):
-                facts[column] = str(value)
-                break
-    return facts
+    """Vehicle, autopilot, firmware and hardware where the log names them (the readers put
+    them in the table's attrs and inspect's ``extra``: :mod:`etsid.ingest.vehicle`)."""
+    return {key: str(info[key]) for key in FACTS if info.get(key) not in (None, "")}
+
+
+def _term_base(name: str) -> str:
+    return name.split("[", 1)[0]
+
+
+def regimes_fields(rules: dict[str, Any]) -> dict[str, Any]:
+    """``regime_count`` and ``regimes`` of a rules.json (schema etsid.rules/2).
+
+    ``regimes`` is each rule's focal point in the antecedent (scheduling) variables, in
+    original units, rules separated by ``; `` (``alt=0.27 m; alt=1.9 m``); a lag suffix is
+    dropped where the base names are distinct. Only a scheduled rule base has it: an
+    unscheduled one fires on every regressor (dozens of lagged values per rule).
+
+    >>> regimes_fields({"antecedents": {"scheduled": True, "names": ["alt[k-1]"],
+    ...                 "dimension": 1}, "rules": [{"focal_point": [0.2712, 3.0]},
+    ...                                            {"focal_point": [1.9, 2.0]}]})
+    {'regime_count': 2, 'regimes': 'alt=0.271 m; alt=1.9 m'}
+    """
+    rule_list = rules.get("rules") or []
+    row: dict[str, Any] = {"regime_count": len(rule_list), "regimes": None}
+    ante = rules.get("antecedents") or {}
+    names = list(ante.get("names") or [])
+    if not ante.get("scheduled") or not names or not rule_list:
+        return row
+    from etsid.table import COLUMNS
+
+    bases = [_term_base(n) for n in names]
+    labels = bases if len(set(bases)) == len(bases) else names
+    units = [COLUMNS[b].unit if b in COLUMNS and COLUMNS[b].unit not in ("", "1") else ""
+             for b in bases]
+    parts = []
+    for rule in rule_list:
+        point = rule.get("focal_point") or []
+        parts.append(", ".join(
+            f"{label}={float(value):.3g}" + (f" {unit}" if unit else "")
+            for label, unit, value in zip(labels, units, point[:len(names)], strict=False)))
+    row["regimes"] = "; ".join(parts)
+    return row
 
 
 def _table_fields(table: Any) -> dict[str, Any]:
@@ -148,8 +181,6 @@ def metrics_fields(metrics: dict[str, Any], config: dict[str, Any]) -> dict[str,
         "ndei_one_step": _mean([_get(_scored(_get(m, "validation", "one_step")), "ndei")
                                 for m in outputs.values()]),
         "airborne_s": _get(metrics, "flight", "airborne_s"),
-        "regimes": (json.dumps(metrics["regimes"], sort_keys=True)
-                    if metrics.get("regimes") is not None else None),
         "metrics_json": json.dumps(metrics, sort_keys=True),
     }
     for y in RATE_OUTPUTS:
@@ -174,6 +205,9 @@ def identify(path: Path, spec: BatchSpec, run_dir: Path) -> dict[str, Any]:
     write_run(run, run_dir)
     row = _table_fields(table)
     row.update(metrics_fields(run.metrics, run.config))
+    rules_path = run_dir / "rules.json"
+    if rules_path.is_file():  # the rule base as written, not a second computation
+        row.update(regimes_fields(json.loads(rules_path.read_text())))
     row["warnings"] = len(run.config.get("warnings") or []) + len(
         [n for n in _get(run.config, "model", "notes") or [] if str(n).startswith("warning")])
     return row

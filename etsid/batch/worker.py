@@ -37,11 +37,14 @@ Item = str | tuple[str, str]
 
 @dataclass
 class Outcome:
-    """What one log gave: its row, or ``row=None`` when ``--resume`` skipped it."""
+    """What one log gave: its row, or ``row=None`` when ``--resume`` skipped it; a pool
+    worker adds its process id and resident memory after the log (MB)."""
 
     item: Item
     key: str | None
     row: dict[str, Any] | None
+    pid: int | None = None
+    rss_mb: float | None = None
 
 
 @contextlib.contextmanager
@@ -152,6 +155,7 @@ def run_log(item: Item, spec: BatchSpec, out: str | Path,
     out = Path(out)
     digest = spec.digest()
     start = time.perf_counter()
+    cpu = time.process_time()
     reset_peak_memory()
     row: dict[str, Any] = {"input": item[1] if isinstance(item, tuple) else item,
                            "sim_input": item[0] if isinstance(item, tuple) else None,
@@ -165,7 +169,8 @@ def run_log(item: Item, spec: BatchSpec, out: str | Path,
             row["error"] = row["error"].replace(row["_local"], str(item))
     row.pop("_local", None)
     key = row.pop("_key", None)
-    row.update(wall_s=time.perf_counter() - start, peak_rss_mb=peak_memory_mb(),
+    row.update(wall_s=time.perf_counter() - start, cpu_s=time.process_time() - cpu,
+               peak_rss_mb=peak_memory_mb(),
                worker=f"{socket.gethostname()}:{os.getpid()}", etsid_version=__version__,
                finished=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"))
     return Outcome(item, key, row)
@@ -222,6 +227,9 @@ def run_pooled(item: Item) -> Outcome:
     _STATE["running"] = _STATE.get("count", 0) + 1
     _STATE["count"] = _STATE["running"]
     try:
-        return run_log(item, _STATE["spec"], _STATE["out"], _STATE["done"])
+        outcome = run_log(item, _STATE["spec"], _STATE["out"], _STATE["done"])
     finally:
         _STATE["running"] = None
+    outcome.pid = os.getpid()
+    outcome.rss_mb = _rss_mb()
+    return outcome

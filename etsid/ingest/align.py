@@ -27,6 +27,7 @@ import pandas as pd
 from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
 from etsid.ingest.plausibility import check_signals
+from etsid.ingest.vehicle import FACTS
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
 
 MAX_GRID_POINTS = 50_000_000
@@ -207,6 +208,7 @@ def build_table(
         "gaps": gaps,
         "warnings": list(raw.warnings),
         "log": {k: v for k, v in raw.extra.items() if isinstance(v, (str, int, float, list))},
+        **{k: raw.extra[k] for k in FACTS if isinstance(raw.extra.get(k), str)},
     }
     layout = raw.extra.get("motor_layout")
     if isinstance(layout, dict) and "m1" in cleaned and cleaned["m1"].topic == layout.get("topic"):

@@ -53,6 +53,7 @@ from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
+from etsid.ingest.vehicle import banner_facts, decode_text, first_banner
 from etsid.progress import progress
 
 DEG = np.pi / 180.0
@@ -331,9 +332,35 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
                                   -1))
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(msgs)
+    raw.extra.update(_facts(reader, data, path))
     _catalogue(raw, reader, data, msgs)
     _damage(raw, reader, data, noise, [d.t for d in msgs.values()])
     return raw
+
+
+BOARD_LINE = re.compile(r"^(\S+)\s+[0-9A-Fa-f]{8}\s+[0-9A-Fa-f]{8}\s+[0-9A-Fa-f]{8}$")
+"""The MSG line with the board name and its unique id (``PX4v4 00360029 30365103 …``)."""
+
+
+def _facts(reader: object, data: np.ndarray, path: Path) -> dict[str, str]:
+    """Firmware, autopilot and vehicle from the firmware banner (``VER.FWS`` or the first
+    banner ``MSG``), the board from the MSG line with its id (:mod:`etsid.ingest.vehicle`)."""
+    scratch = RawLog(path=path, format="bin")  # notes of these decodes are not the log's
+    facts: dict[str, str] = {}
+    ver = _decode(reader, data, "VER", scratch)
+    if ver is not None and "FWS" in (ver.rec.dtype.names or ()) and ver.rec.size:
+        facts = banner_facts(decode_text(ver.rec["FWS"][-1]))
+    msg = _decode(reader, data, "MSG", scratch)
+    lines = ([decode_text(m) for m in msg.rec["Message"]]
+             if msg is not None and "Message" in (msg.rec.dtype.names or ()) else [])
+    if not facts:
+        facts, _ = first_banner(lines)
+    for line in lines:
+        board = BOARD_LINE.match(line)
+        if board:
+            facts["hardware"] = board.group(1)
+            break
+    return dict(sorted(facts.items()))
 
 
 def _catalogue(raw: RawLog, reader: object, data: np.ndarray,

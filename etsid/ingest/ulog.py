@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import re
 from pathlib import Path
 
 import numba
@@ -51,6 +52,7 @@ from etsid.frames import quat_to_euler
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
+from etsid.ingest.vehicle import mav_type_name, px4_version
 from etsid.progress import progress
 
 TOPICS = (
@@ -287,6 +289,31 @@ def _parse(path: Path, names: list[str]) -> object:
         raise IngestError(f"{path}: not a readable ULog file ({first})") from err
 
 
+def ulog_facts(ulog: object) -> dict[str, str]:
+    """Vehicle, autopilot, firmware and hardware as the ULog's info messages and the
+    ``MAV_TYPE`` parameter state them (:mod:`etsid.ingest.vehicle`)."""
+    info = getattr(ulog, "msg_info_dict", {}) or {}
+    params = getattr(ulog, "initial_parameters", {}) or {}
+    facts: dict[str, str] = {}
+    name = info.get("sys_name")
+    if isinstance(name, str) and name.strip():
+        facts["autopilot"] = name.strip()
+    release = info.get("ver_sw_release")
+    version = px4_version(release) if isinstance(release, int) else None
+    git = info.get("ver_sw")
+    git = git[:8] if isinstance(git, str) and re.fullmatch(r"[0-9a-fA-F]{7,}", git) else None
+    if version or git:
+        facts["firmware"] = " ".join(filter(None, (version, f"({git})" if git else None)))
+    hardware = info.get("ver_hw")
+    if isinstance(hardware, str) and hardware.strip():
+        facts["hardware"] = hardware.strip()
+    mav_type = params.get("MAV_TYPE")
+    vehicle = mav_type_name(mav_type) if isinstance(mav_type, (int, float)) else None
+    if vehicle:
+        facts["vehicle"] = vehicle
+    return facts
+
+
 def read(path: Path, options: ReadOptions) -> RawLog:
     """Read a PX4 ULog into a :class:`RawLog` (see the module docstring)."""
     extra_topics = [o.topic for o in options.field_requests() if o.topic not in TOPICS]
@@ -330,6 +357,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                     float(t[-1]) if t.size else None,
                                     columns.get(d.name, []) if d.multi_id == 0 else [], note))
     raw.extra["topics_parsed"] = len(TOPICS) + len(extra_topics)
+    raw.extra.update(ulog_facts(ulog))
     cut = truncated_bytes(path)
     if cut:
         raw.dropped.append(Issue("bytes of a truncated last message", cut, ""))

@@ -45,6 +45,11 @@ def test_one_row_per_log_with_the_schema(serial: Path, fleet_logs: list[str]) ->
     assert ok["input_sha256"].str.fullmatch("[0-9a-f]{64}").all()
     assert (ok["peak_rss_mb"] > 10).all() and (ok["wall_s"] > 0).all()
     assert (ok["airborne_s"] > 0).all()  # from identify's metrics.json flight block
+    # the simulator's tlog HEARTBEAT says hexarotor (MAV_TYPE 13) and ArduPilot; the bags
+    # and the MCAP have no topic that names the aircraft
+    facts = ok.set_index("format")[["vehicle", "autopilot"]]
+    assert facts.loc["tlog"].tolist() == ["hexarotor", "ArduPilot"]
+    assert facts.drop(index="tlog").isna().all().all()
 
 
 def test_rows_hold_what_identify_itself_gives(serial: Path, fleet: Path) -> None:
@@ -82,16 +87,43 @@ def test_two_jobs_give_the_same_rows_bit_for_bit(serial: Path, fleet_logs: list[
 
 def test_workers_are_renewed_without_losing_a_log(serial: Path, fleet_logs: list[str],
                                                  tmp_path: Path, monkeypatch) -> None:
-    """More logs than the workers may run before renewal: every log still gets its row
-    (Python 3.11's ``max_tasks_per_child`` hung here; the pool is renewed whole)."""
+    """A worker that grew past the bound gets the pool renewed: every log still gets its
+    row, the same as in one process (Python 3.11's ``max_tasks_per_child`` hung here; the
+    pool is renewed whole)."""
     from etsid.batch import local
 
-    monkeypatch.setattr(local, "TASKS_PER_CHILD", 1)  # a fresh pool every 2 logs
+    pools = []
+
+    class CountedPool(local.ProcessPoolExecutor):
+        def __init__(self, *args, **kwargs) -> None:
+            pools.append(self)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(local, "ProcessPoolExecutor", CountedPool)
+    monkeypatch.setattr(local, "RENEW_GROWTH_MB", -1.0)  # every worker "grew": renew
     summary = run_batch(fleet_logs, identify_spec(), tmp_path, jobs=2)
     assert summary.ok + summary.failed == len(fleet_logs)
+    assert len(pools) >= 2  # 5 logs, a window of 4: at least one renewal
     one = read_results(serial).drop(columns=list(VOLATILE))
     again = read_results(tmp_path).drop(columns=list(VOLATILE))
     assert one.equals(again)
+
+
+def test_a_pool_is_not_renewed_while_memory_stays_flat(fleet_logs: list[str],
+                                                      tmp_path: Path, monkeypatch) -> None:
+    from etsid.batch import local
+
+    pools = []
+
+    class CountedPool(local.ProcessPoolExecutor):
+        def __init__(self, *args, **kwargs) -> None:
+            pools.append(self)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(local, "ProcessPoolExecutor", CountedPool)
+    summary = run_batch(fleet_logs, identify_spec(), tmp_path, jobs=2)
+    assert summary.ok + summary.failed == len(fleet_logs)
+    assert len(pools) == 1
 
 
 def test_resume_skips_finished_logs_and_reruns_on_new_options(
@@ -132,3 +164,63 @@ def test_cli_batch_inspect_and_gap(fleet: Path, tmp_path: Path) -> None:
     assert row["status"] == "ok" and row["gap_verdict"] == "insufficient"
     assert json.loads(row["gap_json"])["schema"] == "etsid.gap/1"
     assert (tmp_path / "g" / row["run_dir"] / "gap.json").is_file()
+
+
+DATA = Path(__file__).parents[1] / "data"
+
+
+def test_rows_name_the_aircraft_where_the_log_does(tmp_path: Path) -> None:
+    logs = [str(DATA / n) for n in ("ardupilot_sitl_quadplane.tlog", "px4_sitl_tagged.ulg",
+                                    "arduplane_truncated.BIN")]
+    run_batch(logs, BatchSpec("inspect", read_options=ReadOptions()), tmp_path, jobs=1)
+    rows = read_results(tmp_path).set_index("input")
+    facts = ["vehicle", "autopilot", "firmware", "hardware"]
+    got = {Path(k).name: [None if v is None or v != v else v for v in r]
+           for k, r in rows[facts].iterrows()}
+    assert got == {
+        "ardupilot_sitl_quadplane.tlog": ["fixed wing", "ArduPilot",
+                                          "ArduPlane V3.10.0-dev (f2b4e06a)", None],
+        "px4_sitl_tagged.ulg": ["quadrotor", "PX4", "v1.13.0-dev (cea3da71)", "PX4_SITL"],
+        "arduplane_truncated.BIN": ["fixed wing", "ArduPilot",
+                                    "ArduPlane V3.8.2-dev (8178ab40)", "PX4v4"],
+    }
+
+
+def test_regimes_come_from_the_runs_rules_json(fleet: Path, tmp_path: Path) -> None:
+    log = str(fleet / "a.tlog")
+    run_batch([log], identify_spec(antecedent="alt[k-1]"), tmp_path, jobs=1)
+    row = read_results(tmp_path).iloc[0]
+    assert row["status"] == "ok", row["error"]
+    rules = json.loads((tmp_path / row["run_dir"] / "rules.json").read_text())
+    assert rules["antecedents"]["scheduled"] and rules["antecedents"]["names"] == ["alt[k-1]"]
+    assert row["regime_count"] == len(rules["rules"]) == row["rules_frozen"]
+    parts = row["regimes"].split("; ")
+    assert len(parts) == len(rules["rules"])
+    for part, rule in zip(parts, rules["rules"], strict=True):
+        name, value = part.removesuffix(" m").split("=")
+        assert name == "alt"
+        assert float(value) == pytest.approx(rule["focal_point"][0], rel=5e-3, abs=1e-9)
+
+
+def test_an_unscheduled_rule_base_has_a_count_and_no_regimes(fleet: Path,
+                                                             tmp_path: Path) -> None:
+    run_batch([str(fleet / "a.tlog")], identify_spec(antecedent="none"), tmp_path, jobs=1)
+    ok = read_results(tmp_path).query("status == 'ok'")
+    assert len(ok) == 1
+    assert (ok["regime_count"] == ok["rules_frozen"]).all()
+    assert ok["regimes"].isna().all()
+
+
+def test_rows_of_scheduled_runs_name_their_regimes(serial: Path) -> None:
+    """identify schedules on 1/altitude by default: every row of the fleet says where."""
+    ok = read_results(serial).query("status == 'ok'")
+    n_scheduled = 0
+    for _, row in ok.iterrows():
+        rules = json.loads((serial / row["run_dir"] / "rules.json").read_text())
+        scheduled = bool((rules.get("antecedents") or {}).get("scheduled"))
+        n_scheduled += scheduled
+        assert (row["regimes"] is not None and row["regimes"] == row["regimes"]) == scheduled
+        if scheduled:
+            assert row["regimes"].startswith("inv_alt=")
+        assert row["regime_count"] == len(rules["rules"])
+    assert n_scheduled >= 1

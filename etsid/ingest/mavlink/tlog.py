@@ -36,6 +36,13 @@ from etsid.ingest.mavlink.dtypes import (
 )
 from etsid.ingest.mavlink.scan import OK, UNKNOWN, ScanResult, gather_payloads, scan_frames
 from etsid.ingest.mavlink.signals import CLOCK_FIELDS, DECODERS
+from etsid.ingest.vehicle import (
+    ardupilot_version,
+    autopilot_name,
+    decode_text,
+    first_banner,
+    mav_type_name,
+)
 from etsid.progress import progress
 
 CHUNK = 8 << 20
@@ -219,14 +226,16 @@ def _override_signal(o: Override, rec: np.ndarray, t: np.ndarray, path: Path) ->
 def read(path: Path, options: ReadOptions) -> RawLog:
     """Read a tlog into a :class:`RawLog` (see the module docstring)."""
     wanted = _wanted_ids(options.field_requests(), path)
+    meta = {mid: name for mid, name in _meta_ids().items() if mid not in wanted}
     try:
-        stats, blocks, nframes = _scan_file(path, wanted, options.progress)
+        stats, blocks, nframes = _scan_file(path, {**wanted, **meta}, options.progress)
     except OSError as err:
         raise IngestError(f"{path}: cannot read ({err.strerror or err})") from err
     if not stats.count:
         raise IngestError(f"{path}: no valid MAVLink packets found "
                           f"({stats.skipped + stats.truncated} bytes scanned)")
     sysid, compid, frames = _choose_system(stats, options, path)
+    meta_blocks = {mid: blocks.pop(mid) for mid in meta}
     raw = RawLog(path=path, format="tlog")
     # decoded messages of the chosen component, merged in logged order for the clock
     msgs: dict[int, dict[str, np.ndarray]] = {}
@@ -280,6 +289,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         "compid": compid,
         "sysids": sorted(frames),
         "frames": nframes,
+        **_facts(msgs.get(message_ids()["HEARTBEAT"]), meta_blocks, sysid),
     })
     if sorted(s for s in frames if s != sysid):
         others = ", ".join(f"{s} ({frames[s]} frames)" for s in sorted(frames) if s != sysid)
@@ -287,6 +297,48 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     if not clock.own_clock:
         raw.warnings.append("no message with an autopilot clock: using ground-station time")
     return raw
+
+
+META_MESSAGES = ("STATUSTEXT", "AUTOPILOT_VERSION")
+"""Messages decoded only for what they say about the aircraft (:func:`_facts`)."""
+
+
+def _meta_ids() -> dict[int, str]:
+    ids = message_ids()
+    return {ids[name]: name for name in META_MESSAGES}
+
+
+def _of_system(parts: list[dict[str, np.ndarray]], sysid: int) -> np.ndarray | None:
+    recs = [p["rec"][p["sysid"] == sysid] for p in parts]
+    recs = [r for r in recs if r.size]
+    return np.concatenate(recs) if recs else None
+
+
+def _facts(heartbeat: dict[str, np.ndarray] | None,
+           meta: dict[int, list[dict[str, np.ndarray]]], sysid: int) -> dict[str, str]:
+    """Vehicle and autopilot from the chosen component's HEARTBEATs (the most frequent
+    type), firmware from its system's banner STATUSTEXT, else AUTOPILOT_VERSION."""
+    facts: dict[str, str] = {}
+    ids = message_ids()
+    texts = _of_system(meta.get(ids["STATUSTEXT"], []), sysid)
+    banner, _ = first_banner([decode_text(t) for t in texts["text"]] if texts is not None
+                             else [])
+    if heartbeat is not None and heartbeat["rec"].size:
+        rec = heartbeat["rec"]
+        pairs, counts = np.unique(np.stack([rec["type"].astype(np.int64),
+                                            rec["autopilot"].astype(np.int64)]),
+                                  axis=1, return_counts=True)
+        kind, pilot = (int(v) for v in pairs[:, int(np.argmax(counts))])
+        facts.update({k: v for k, v in (("vehicle", mav_type_name(kind)),
+                                         ("autopilot", autopilot_name(pilot))) if v})
+    for key, value in banner.items():
+        facts.setdefault(key, value)
+    version = _of_system(meta.get(ids["AUTOPILOT_VERSION"], []), sysid)
+    if "firmware" not in facts and version is not None:
+        word = ardupilot_version(int(version["flight_sw_version"][-1]))
+        if word:
+            facts["firmware"] = word
+    return dict(sorted(facts.items()))
 
 
 def _clock_issues(raw: RawLog, clock: Clock) -> None:
