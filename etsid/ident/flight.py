@@ -277,7 +277,8 @@ def starts_flying(table: pd.DataFrame, armed: np.ndarray, start: int) -> bool:
     if not armed[first].all():
         return False
     thrust = _column(table, "u_thrust")
-    if thrust is None or not np.nanmedian(thrust[first]) >= THRUST_AIR:
+    if thrust is None or not np.isfinite(thrust[first]).any() \
+            or np.nanmedian(thrust[first]) < THRUST_AIR:
         return False
     rates = [_column(table, c) for c in ("p", "q", "r")]
     moving = any(r is not None and np.isfinite(r[first]).sum() > 2
