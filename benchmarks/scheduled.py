@@ -20,9 +20,16 @@ default (benchmark, seeds never used for any choice)
     (``--antecedent none``, the previous default), the identify default (scheduled on
     ``inv_alt[k-1]``) and ARX, the frozen rule count and each rule's focal altitude.
 
+``--sample`` (diagnosis of the bundled sample, seed 7)
+    Why the README's sample (ige-oge seed 7, 120 s, ROS 1 bag at gyro 100 / sticks 50 Hz)
+    loses on q while the benchmark flights gain: the same flight as the 250 Hz table at
+    120 and 150 s and as ROS 1 bags at other gyro / stick rates; eTS default and ARX
+    free-run fit and the oracle ceiling on each (docs/identify.md, "The bundled sample").
+
     python benchmarks/scheduled.py [--seeds 3] [--duration 300 --ige-oge-only]
     python benchmarks/scheduled.py --oracle [--duration 300]
     python benchmarks/scheduled.py --study
+    python benchmarks/scheduled.py --sample
 """
 
 from __future__ import annotations
@@ -167,11 +174,18 @@ def _dc_gain(theta: np.ndarray, names: list[str], u: str, o: int) -> float:
 
 
 def _oracle_row(seed: int, duration: float) -> None:
+    print(f"| {seed} | " + _oracle(simulate("ige-oge", duration=duration, seed=seed).table)
+          + " |", flush=True)
+
+
+def _oracle(raw: pd.DataFrame) -> str:
+    """The oracle diagnosis of one flight as table cells (IGE shares, gain ratios, global
+    / switched / LPV ARX fits, ceiling)."""
     from etsid.ident.arx import ARX
     from etsid.ident.metrics import fit_percent
     from etsid.ident.simulate import envelope, free_run
 
-    table, spec, reg, split = _prepared(simulate("ige-oge", duration=duration, seed=seed).table)
+    table, spec, reg, split = _prepared(raw)
     alt = table["alt"].to_numpy()[reg.rows - 1]
     ige = alt < GE_SPLIT_M
     X, Y, n_table = reg.X, reg.Y, len(table)
@@ -202,9 +216,53 @@ def _oracle_row(seed: int, duration: float) -> None:
     def fmt(v: list[float], sign: str = "") -> str:
         return " / ".join(f"{x:{sign}.1f}" for x in v)
 
-    print(f"| {seed} | {ige[:split].mean():.2f} / {ige[split:].mean():.2f} | "
-          f"{', '.join(f'{r:.2f}' for r in ratios)} | {fmt(fits['global'])} | "
-          f"{fmt(fits['switch'])} | {fmt(fits['lpv'])} | {fmt(ceiling, '+')} |", flush=True)
+    return (f"{ige[:split].mean():.2f} / {ige[split:].mean():.2f} | "
+            f"{', '.join(f'{r:.2f}' for r in ratios)} | {fmt(fits['global'])} | "
+            f"{fmt(fits['switch'])} | {fmt(fits['lpv'])} | {fmt(ceiling, '+')}")
+
+
+SAMPLE_SEED = 7
+"""Seed of the bundled sample flight (sample_logs/regenerate.py)."""
+
+SAMPLE_CASES = [(150.0, None, None), (120.0, None, None), (120.0, 250.0, 250.0),
+                (120.0, 100.0, 100.0), (120.0, 100.0, 50.0), (150.0, 100.0, 50.0)]
+"""(length s, gyro Hz, sticks Hz) of the sample diagnosis; None: the 250 Hz table."""
+
+
+def sample_diagnosis() -> None:
+    import tempfile
+    from pathlib import Path
+
+    from etsid.ingest import read_log
+    from etsid.sim.writers import write_log
+
+    other = {"rc_out": 5.0, "target": 10.0, "range": 20.0, "velocity": 5.0, "battery": 1.0}
+    print(f"the bundled sample's flight (ige-oge seed {SAMPLE_SEED}) by length and log rates; "
+          "free-run fit % on the validation part")
+    print("| source | length s | gyro / sticks Hz | size MB | eTS p/q/r | ARX p/q/r | "
+          "Δ p/q/r | rules | IGE share learn / val | gain ratio IGE/OGE p, q, r | "
+          "global ARX | oracle switch | LPV | ceiling Δ |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    flights: dict[float, pd.DataFrame] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for duration, gyro, sticks in SAMPLE_CASES:
+            if duration not in flights:
+                flights[duration] = simulate("ige-oge", duration=duration,
+                                             seed=SAMPLE_SEED).table
+            table, source, size = flights[duration], "250 Hz table", "-"
+            if gyro is not None:
+                path = Path(tmp) / f"f{duration:g}_{gyro:g}_{sticks:g}.bag"
+                write_log(table, path, rates={"imu": gyro, "rc_in": sticks, **other})
+                table, source = read_log(path), "ROS 1 bag"
+                size = f"{path.stat().st_size / 1e6:.2f}"
+            run = identify(table, IdentConfig())
+            ets, arx = _fits(run.metrics), _fits(run.metrics, arx=True)
+            rates = "250 / 250" if gyro is None else f"{gyro:g} / {sticks:g}"
+            print(f"| {source} | {duration:g} | {rates} | {size} | "
+                  + " / ".join(f"{f:.1f}" for f in ets) + " | "
+                  + " / ".join(f"{f:.1f}" for f in arx) + " | "
+                  + " / ".join(f"{a - b:+.1f}" for a, b in zip(ets, arx, strict=True))
+                  + f" | {run.metrics['rules']['frozen']} | {_oracle(table)} |", flush=True)
 
 
 def oracle(duration: float) -> None:
@@ -222,6 +280,8 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--study", action="store_true", help="the inner-split selection study")
     ap.add_argument("--oracle", action="store_true", help="the oracle-ceiling diagnosis")
+    ap.add_argument("--sample", action="store_true",
+                    help="why the bundled sample (seed 7, 120 s bag) loses on q")
     ap.add_argument("--duration", type=float, default=150.0,
                     help="ige-oge flight length, s (--oracle and the benchmark)")
     ap.add_argument("--ige-oge-only", action="store_true",
@@ -229,6 +289,8 @@ def main() -> None:
     args = ap.parse_args()
     if args.oracle:
         oracle(args.duration)
+    elif args.sample:
+        sample_diagnosis()
     elif args.study:
         study()
     else:

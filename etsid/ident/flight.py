@@ -17,7 +17,8 @@ airborne rate dynamics must neither learn nor be judged there. ``--segments``:
     ``HEARTBEAT.base_mode``, MAVROS ``state.armed``, DataFlash ``ARM`` or ``EV``
     armed/disarmed events: see :func:`is_armed_state`), a disarmed vehicle is on the ground
     but an armed one may still sit on it, so airborne = armed **and** a rule
-    (:func:`armed_airborne`).
+    (:func:`armed_airborne`; a log that starts already flying — armed from its first
+    sample, at hover thrust, moving — has no ground level and uses the thrust rule).
     Without either, the rule of :func:`airborne_rule` on the thrust command, the altitude
     and the vertical speed. Without any of them every row counts.
 ``all``
@@ -88,6 +89,17 @@ EXCITE_WINDOW_S = 1.0
 EXCITE_STD = 0.05
 """Least standard deviation of one body rate over the window for a sample to be excited,
 rad/s (≈ 3 °/s; gyro noise and vibration in still hover are 0.002–0.02 rad/s)."""
+
+START_WINDOW_S = 1.0
+"""Window at the start of an armed stretch that tells a ground level from a flight already
+under way (:func:`starts_flying`), s."""
+
+STILL_RATE_STD = 0.01
+"""Standard deviation of a body rate, rad/s, below which a vehicle at hover thrust is
+standing still on its legs (:func:`starts_flying`): the real SITL quadplane armed at
+mid-throttle on its wheels shows 0.001–0.004 rad/s, the sample flight in its 0.25 m hover
+0.017–0.021 rad/s. A flight stiller than this keeps the arming-level rule (it may then lose
+low hovers, as before)."""
 
 ARMED_STATE_SOURCES = ("HEARTBEAT.base_mode", "ARM.ArmState", "EV.Id (armed)", ".armed")
 """``attrs["mapping"]["landed"]`` ending in one of these: the column is an armed state
@@ -207,8 +219,10 @@ def armed_airborne(table: pd.DataFrame, armed: np.ndarray) -> tuple[np.ndarray, 
     at the start of the stretch (median over its first second; a vehicle arms on the
     ground), airborne = that height test or ``|vz|`` ≥ :data:`VZ_AIR` (an armed vehicle
     may sit on the ground at mid-throttle: a plane's or an altitude-hold throttle stick).
-    A stretch without such a climb (no altitude, or a log that starts in a low hover) uses
-    :func:`airborne_rule` (thrust first). Disarmed rows are never airborne.
+    A stretch without such a climb (no altitude) uses :func:`airborne_rule` (thrust first),
+    and so does a stretch whose start is not a ground level (:func:`starts_flying`: the log
+    begins already armed, at hover thrust and moving — its low hover is not the ground).
+    Disarmed rows are never airborne.
     """
     t = np.asarray(table.index, dtype=float)
     rule, how = airborne_rule(table)
@@ -217,7 +231,9 @@ def armed_airborne(table: pd.DataFrame, armed: np.ndarray) -> tuple[np.ndarray, 
     used = set()
     for a, b in _runs(armed):
         air = rule[a:b]
-        if alt is not None:
+        if how == "rule (thrust)" and starts_flying(table, armed, a):
+            used.add("rule (thrust): log starts flying")
+        elif alt is not None:
             first = alt[a:b][t[a:b] <= t[a] + 1.0]
             ref = np.nanmedian(first) if np.isfinite(first).any() else np.nan
             with np.errstate(invalid="ignore"):
@@ -233,6 +249,43 @@ def armed_airborne(table: pd.DataFrame, armed: np.ndarray) -> tuple[np.ndarray, 
             used.add(how)
         out[a:b] = air
     return out, "armed state + " + (" / ".join(sorted(used)) or how)
+
+
+def starts_flying(table: pd.DataFrame, armed: np.ndarray, start: int) -> bool:
+    """Whether the armed stretch beginning at row ``start`` begins in flight, so that its
+    first second is no ground level.
+
+    True when all of these hold over the stretch's first second (:data:`START_WINDOW_S`):
+
+    * the arming is not in the log: no disarmed row precedes the stretch (rows before the
+      first armed-state message, NaN, do not count);
+    * the collective thrust command is at least :data:`THRUST_AIR` (median) — hover
+      thrust, not an idling spool-up;
+    * the vehicle moves: the standard deviation of at least one body rate (p, q, r) is at
+      least :data:`STILL_RATE_STD` (a vehicle standing on its legs is still);
+    * no ground contact: the ``ground_contact`` column, where the table has one, is 0.
+
+    A vehicle that arms on the ground, or sits armed at mid-throttle and still, keeps the
+    arming-level rule of :func:`armed_airborne`.
+    """
+    landed = _column(table, LANDED)
+    if landed is not None and np.any(landed[:start] >= 0.5):
+        return False
+    t = np.asarray(table.index, dtype=float)
+    first = slice(start, start + int(np.searchsorted(t[start:], t[start] + START_WINDOW_S,
+                                                     side="right")))
+    if not armed[first].all():
+        return False
+    thrust = _column(table, "u_thrust")
+    if thrust is None or not np.isfinite(thrust[first]).any() \
+            or np.nanmedian(thrust[first]) < THRUST_AIR:
+        return False
+    rates = [_column(table, c) for c in ("p", "q", "r")]
+    moving = any(r is not None and np.isfinite(r[first]).sum() > 2
+                 and np.nanstd(r[first]) >= STILL_RATE_STD for r in rates)
+    contact = _column(table, GROUND_CONTACT)
+    touching = contact is not None and bool(np.any(np.nan_to_num(contact[first]) >= 0.5))
+    return moving and not touching
 
 
 def airborne_rule(table: pd.DataFrame) -> tuple[np.ndarray, str]:
