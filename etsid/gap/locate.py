@@ -7,10 +7,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from etsid.gap.candidates import ground_ratio
 from etsid.gap.nominal import LABELS, UNITS
 from etsid.gap.signals import Flight, derivative, lowpass, true_runs
 
 N_BINS = 8
+LOWEST_FLOWN_QUANTILE = 0.01
+"""The lowest flown height is this quantile of the airborne heights (one stray sample
+does not set where the fitted law's excess is largest)."""
 MIN_ETA2 = 0.15
 """Least share of the residual variance one variable's bins must explain to name it."""
 SEGMENT_WINDOW_S = 1.0
@@ -123,15 +127,74 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
                  f"its {'low' if low_end else 'high'} end")
     else:
         where = f"between {lo:.3g} and {hi:.3g} {vunit}"
-    if name == "alt" and radius:
-        where += (f" (z/R_eff {lo / radius:.2g}–{hi / radius:.2g}, effective R = "
-                  f"{radius:.3g} m fitted)" if effective else
-                  f" (z/R {lo / radius:.2g}–{hi / radius:.2g})")
+    if name == "alt":
+        where += _zr_text(lo, hi, radius, effective)
     size = f"RMS {mean_in:.2f}" if rms_mode else f"{mean_in:+.2f}"
     text = (f"{LABELS[channel]} {size} {unit} with {VARIABLE_TEXT[name]} {where}; "
             "elsewhere within noise" if not (js[0] == 0 and js[-1] == edges.size - 2) else
             f"{LABELS[channel]} residual follows {VARIABLE_TEXT[name]} {where}")
     return Regime(channel, name, lo, hi, eta2, mean_in, text)
+
+
+def _zr_text(lo: float, hi: float, radius: float | None, effective: bool) -> str:
+    if not radius:
+        return ""
+    if effective:
+        return (f" (z/R_eff {lo / radius:.2g}–{hi / radius:.2g}, effective R = "
+                f"{radius:.3g} m fitted)")
+    return f" (z/R {lo / radius:.2g}–{hi / radius:.2g})"
+
+
+def ground_band(channel: str, resid: np.ndarray, flight: Flight, law_radius: float,
+                exponent: float, eta2: float, radius: float | None = None,
+                effective: bool = False) -> Regime:
+    """The ground-effect band from the FITTED law: the flown heights where its thrust
+    excess is at least half its largest value over the flight.
+
+    The law decreases with height, so its largest excess is at the lowest flown height
+    (:data:`LOWEST_FLOWN_QUANTILE` of the airborne heights) and the band runs from there
+    up to the height where the excess falls to half of that (or to the top of the flight).
+
+    Parameters
+    ----------
+    channel : str
+        Channel whose residual is quoted inside the band.
+    resid : ndarray
+        Residual (measured − nominal) over the whole flight, in the channel's unit.
+    flight : Flight
+        REAL, for its heights (m).
+    law_radius, exponent : float
+        The fitted law's effective radius (m) and decay exponent (:func:`ground_ratio`).
+    eta2 : float
+        Share of the residual variance the height bins explain (kept for gap.json).
+    radius : float, optional
+        Rotor radius (m) to express heights as z/R.
+    effective : bool
+        ``radius`` is the fitted effective radius, not the rotor's.
+    """
+    air = flight.airborne
+    z = flight.alt[air]
+    z_lo = float(np.quantile(z, LOWEST_FLOWN_QUANTILE))
+    z_top = float(z.max())
+    grid = np.linspace(z_lo, z_top, 2001)
+    excess = ground_ratio(grid, law_radius, exponent) - 1.0
+    peak = float(excess[0])
+    inside_law = excess >= 0.5 * peak
+    hi = float(grid[np.flatnonzero(inside_law)[-1]]) if peak > 0 else z_top
+    lo = float(z.min())
+    inside = (z >= lo) & (z <= hi)
+    e = resid[air]
+    mean_in = float(e[inside].mean())
+    unit = UNITS[channel]
+    law = (f"the fitted law's thrust excess there is at least half its peak of "
+           f"{100 * peak:.0f} % at {z_lo:.3g} m")
+    if hi >= z_top:
+        text = (f"{LABELS[channel]} residual follows height above ground over the whole range "
+                f"{lo:.3g}–{hi:.3g} m{_zr_text(lo, hi, radius, effective)}: {law}")
+    else:
+        text = (f"{LABELS[channel]} {mean_in:+.2f} {unit} with height above ground below "
+                f"{hi:.3g} m{_zr_text(lo, hi, radius, effective)}: {law}")
+    return Regime(channel, "alt", lo, hi, eta2, mean_in, text)
 
 
 def segments(resid: np.ndarray, sigma: float, flight: Flight) -> list[tuple[float, float]]:

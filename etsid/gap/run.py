@@ -19,7 +19,7 @@ import pandas as pd
 from etsid.errors import GapError
 from etsid.gap.candidates import Context
 from etsid.gap.fitting import Scorer
-from etsid.gap.locate import locate_channel, scheduling_variables, segments
+from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.nominal import (
     GYRO_CHANNELS,
     LABELS,
@@ -257,13 +257,16 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     mods = sel.chosen.fit.mods if sel.chosen else None
     effects = []
     radius = info.get("radius")
+    ground_theta = None
     if sel.chosen:
         for cand, theta, err in sel.chosen.fit.split():
             single = next((s for s in sel.ranked if s.fit.candidates == (cand,)), None)
             effects.append(effect_entry(cand, theta, err, single, sel, scorer, r_hold,
                                         res0))
-            if cand.name == "ground_effect" and radius is None:
-                radius = float(theta[0])
+            if cand.name == "ground_effect":
+                ground_theta = theta
+                if radius is None:
+                    radius = float(theta[0])
     res1 = scorer.residuals(mods)
     z_after = scorer.zscores(mods, r_hold)
     unexplained = None
@@ -304,6 +307,12 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     main = mis[0]
     effective = info.get("radius") is None
     reg = locate_channel(main, res0[main], sigma[main], real, radius, effective)
+    basis = "residual bins"
+    if ground_theta is not None:
+        # what the tool believes: the band where the fitted law's excess is ≥ half its peak
+        reg = ground_band(main, res0[main], real, float(ground_theta[0]),
+                          float(ground_theta[1]), reg.eta2, radius, effective)
+        basis = "fitted law"
     segs = segments(res0[main], sigma[main], real)
     regime = {"channel": main, "variable": reg.variable,
               "range": None if reg.variable == "none" else [reg.lo, reg.hi],
@@ -315,7 +324,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
               "radius": None if not (reg.variable == "alt" and radius) else
               {"value": radius, "unit": "m",
                "source": "fitted effective" if effective else "vehicle"},
-              "description": reg.description}
+              "basis": basis, "description": reg.description}
     data = {**base, "verdict": "mismatch",
             "reason": f"{', '.join(LABELS[c] for c in mis)} differ beyond {sim_name}'s own error",
             "mismatch": {"channels": mis,

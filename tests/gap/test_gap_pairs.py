@@ -27,6 +27,30 @@ def _effect(data: dict, name: str) -> dict:
     return data["effects"][0]
 
 
+def _true_band_top(real, n_rotors: int) -> float:
+    """Upper end (m) of the true ground-effect band: the highest 0.25 R height bin whose
+    mean true thrust excess is at least half that of the most affected bin."""
+    alt = real.truth["true_alt"].to_numpy()
+    excess = real.truth[[f"true_ge{i}" for i in range(1, n_rotors + 1)]].to_numpy().mean(
+        axis=1) - 1.0
+    keep = alt > 0.0
+    alt, excess = alt[keep], excess[keep]
+    width = 0.25 * real.vehicle["rotor"]["radius"]
+    edges = np.arange(alt.min(), alt.max() + width, width)
+    idx = np.digitize(alt, edges) - 1
+    means = np.array([excess[idx == b].mean() if np.sum(idx == b) > 0.01 * alt.size
+                      else np.nan for b in range(edges.size)])
+    return float(edges[np.flatnonzero(means >= 0.5 * np.nanmax(means))[-1]] + width)
+
+
+def _assert_band_from_fitted_law(data: dict, real, n_rotors: int) -> None:
+    reg = data["mismatch"]["regime"]
+    assert reg["variable"] == "alt"
+    assert reg["basis"] == "fitted law"
+    assert abs(reg["range"][1] - _true_band_top(real, n_rotors)) <= \
+        0.5 * real.vehicle["rotor"]["radius"], reg
+
+
 def test_ground_effect_named_located_and_sized() -> None:
     low = dict(scenario="hover-ige", duration=30.0, altitude=0.35, alt_wander=0.15)
     _sim, real, data = _pair(dict(low, seed=1, ground_effect=False),
@@ -45,6 +69,7 @@ def test_ground_effect_named_located_and_sized() -> None:
     fitted = float(np.mean(ground_ratio(alt, p["R"]["value"], p["exponent"]["value"]))) - 1.0
     assert fitted == pytest.approx(true_excess, rel=0.2)
     assert data["rmse_after"]["az"] < 0.5 * data["rmse_before"]["az"]
+    _assert_band_from_fitted_law(data, real, 6)
 
 
 def test_motor_lag_named_with_time_constant() -> None:
@@ -73,6 +98,7 @@ def test_torque_offset_named_with_angular_acceleration() -> None:
                          dict(HOVER, seed=2,
                               settings={"vehicle.torque_offset": [0.15, -0.10, 0.0]}))
     params = _effect(data, "torque_offset")["parameters"]
+    assert data["mismatch"]["regime"]["basis"] == "residual bins"
     inertia = sim.vehicle.inertia
     truth = np.linalg.solve(inertia, np.array([0.15, -0.10, 0.0]))
     fitted = np.array([params[k]["value"] for k in ("p_offset", "q_offset")])
@@ -108,6 +134,7 @@ def test_ground_effect_on_small_quad_multirotor_law() -> None:
     assert reg["range"][0] <= np.percentile(alt[alt > 0.06], 10) + 0.02
     assert reg["radius"]["source"] == "fitted effective"
     assert "z/R_eff" in reg["description"]
+    _assert_band_from_fitted_law(data, real, 4)
 
 
 def test_thrust_scale_and_delay_named_together() -> None:
