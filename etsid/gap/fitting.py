@@ -154,6 +154,38 @@ def _grid_start(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
     return best
 
 
+def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarray,
+                        hi: np.ndarray):
+    """(to_theta, to_search, step, bounds) of the local search over the concatenated
+    parameters: a candidate's own :class:`~etsid.gap.candidates.SearchMap` where it has
+    one (unbounded there; the objective clips θ to its bounds), else each parameter scaled
+    to its bounds (unit interval, step 0.05)."""
+    maps, steps, bounds = [], [], []
+    i = 0
+    for c in cands:
+        k = len(c.params)
+        sl = slice(i, i + k)
+        if c.search is not None:
+            m = c.search(ctx)
+            maps.append((sl, m.to_theta, m.to_search))
+            steps.append(m.step)
+            bounds += [(None, None)] * k
+        else:
+            a, span = lo[sl], hi[sl] - lo[sl]
+            maps.append((sl, lambda u, a=a, span=span: a + u * span,
+                         lambda t, a=a, span=span: (t - a) / span))
+            steps.append(np.full(k, 0.05))
+            bounds += [(0.0, 1.0)] * k
+        i += k
+
+    def to_theta(s: np.ndarray) -> np.ndarray:
+        return np.concatenate([fwd(s[sl]) for sl, fwd, _ in maps])
+
+    def to_search(theta: np.ndarray) -> np.ndarray:
+        return np.concatenate([inv(theta[sl]) for sl, _, inv in maps])
+    return to_theta, to_search, np.concatenate(steps), bounds
+
+
 def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
                    x0: np.ndarray | None = None) -> Fit:
     """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
@@ -178,13 +210,12 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
         if x0 is None:
             x0 = _grid_start(cands, f, _start(cands, scorer, mask), lo, hi)
         x0 = np.clip(x0, lo, hi)
-        span = hi - lo
-        u0 = (x0 - lo) / span
-        r = minimize(lambda u: f(lo + u * span), u0, method="Powell",
-                     bounds=[(0.0, 1.0)] * len(params),
+        to_theta, to_search, step, bounds = _search_coordinates(cands, scorer.ctx, lo, hi)
+        r = minimize(lambda s: f(np.clip(to_theta(s), lo, hi)), to_search(x0),
+                     method="Powell", bounds=bounds,
                      options={"xtol": 1e-3, "ftol": 1e-6, "maxfev": 200,
-                              "direc": 0.05 * np.eye(len(params))})
-        theta = lo + np.clip(r.x, 0.0, 1.0) * span
+                              "direc": np.diag(step)})
+        theta = np.clip(to_theta(r.x), lo, hi)
         if f(x0) < f(theta):  # never worse than the start (e.g. the single fits of a pair)
             theta = x0
     stderr = _stderr(f, theta, lo, hi, scorer, mask)
