@@ -458,6 +458,17 @@ class ETS:
         names = list(self.antecedent_names) if self.antecedent_names is not None else []
         return names if len(names) == na else [f"s{j + 1}" for j in range(na)]
 
+    def leading_rule(self, A: Any) -> np.ndarray:
+        """Index of the rule that fires most on each row of antecedent inputs ``A`` (raw
+        units, shape (N, na), na = ``len(self.antecedents())``), shape (N,): the smallest
+        firing exponent Σ_j ((a_j − a*_ij) / (s_j r_ij))²."""
+        state = self.export_state()
+        na = len(self.antecedents())
+        A = np.asarray(A, dtype=float).reshape(-1, na)
+        width = self.scales()[None, :na] * state.radii  # (R, na)
+        d = (A[:, None, :] - state.focal_points[None, :, :na]) / width[None, :, :]
+        return np.argmin(np.sum(d * d, axis=2), axis=1)
+
     def export_state(self) -> LearnedState:
         """The learned state as read-only views trimmed to the live rules (see
         :class:`~etsid.ets.state.LearnedState`); :meth:`restore_state` is the inverse.

@@ -157,15 +157,6 @@ def regime_metrics(alt: np.ndarray, bands: Bands, Y: np.ndarray, outputs: list[s
     return out
 
 
-def _firing_exponents(A: np.ndarray, focal: np.ndarray, radii: np.ndarray,
-                      scale: np.ndarray) -> np.ndarray:
-    """eTS firing exponents Σ_j 4 ((a_j − a*_ij) / (s_j r_ij))² (N, R); the leading rule
-    of a row has the smallest."""
-    q = scale[None, :] * radii  # (R, na)
-    d = (A[:, None, :] - focal[None, :, :]) / q[None, :, :]
-    return 4.0 * np.sum(d * d, axis=2)
-
-
 def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | None,
                t: np.ndarray, split: int, bands: Bands | None, learnt_here: bool = True
                ) -> list[dict[str, Any]]:
@@ -203,8 +194,7 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     lead = np.full(0, -1)
     rows = split if learnt_here else (0 if A is None else len(A))
     if A is not None and rows > 0 and R:
-        scale = model.scales()[:na]
-        lead = np.argmin(_firing_exponents(A[:rows], focal, state.radii, scale), axis=1)
+        lead = model.leading_rule(A[:rows])
     alt_term = next((j for j, name in enumerate(names) if _column(name) == ALTITUDE), None)
     t_freeze = float(t[split - 1]) if split > 0 else float("nan")
     out = []

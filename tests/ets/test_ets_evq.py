@@ -56,3 +56,15 @@ def test_s_range_is_fixed_and_only_for_scheduled_models() -> None:
         ETS(s_range=[[0.0, 1.0]]).run(X, y)
     with pytest.raises(ValueError, match="clustering must be one of"):
         ETS(clustering="kmeans").run(X, y, S)
+
+
+def test_leading_rule_is_the_rule_whose_focal_point_is_nearest() -> None:
+    X, y, S = _two_regimes()
+    model = ETS(radius=0.5, clustering="evq", s_range=[[0.0, 2.5]], max_rules=10,
+                adaptive_spread=False)
+    model.run(X, y, S)
+    focal = model.state_["cz"][: model.n_rules, 0]
+    lead = model.leading_rule(np.array([[0.25], [2.0]]))
+    assert lead.tolist() == [int(np.argmin(np.abs(focal - 0.25))),
+                             int(np.argmin(np.abs(focal - 2.0)))]
+    assert lead[0] != lead[1]
