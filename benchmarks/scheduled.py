@@ -17,8 +17,9 @@ Three parts, each printing the tables recorded in docs/identify.md:
 default (benchmark, seeds never used for any choice)
     ige-oge 101.. (150 s), hover-oge 201.. and hover-ige 301.. (60 s, one regime each):
     free-run fit % on the validation part of eTS with the rules on the regressors
-    (``--antecedent none``, the previous default), the identify default (scheduled on
-    ``inv_alt[k-1]``) and ARX, the frozen rule count and each rule's focal altitude.
+    (``--antecedent none``), the identify default (scheduled on ``inv_alt[k-1]``, attitude
+    states) and ARX, and the last default without attitude states (radius 0.5) with its
+    ARX; the frozen rule count and each rule's focal altitude.
 
 ``--sample`` (diagnosis of the bundled sample, seed 7)
     Why the README's sample (ige-oge seed 7, 120 s, ROS 1 bag at gyro 100 / sticks 50 Hz)
@@ -81,11 +82,15 @@ def benchmark(n_seeds: int, duration: float = 150.0, single: bool = True) -> Non
         table = simulate(scenario, duration=duration, seed=seed).table
         flat = identify(table, IdentConfig(antecedent="none"))
         sched = identify(table, IdentConfig())
+        rates_only = identify(table, IdentConfig(attitude="none", radius=0.5))
         arx = _fits(sched.metrics, arx=True)
         rows = [("eTS (rules on regressors)", _fits(flat.metrics), flat.metrics, []),
                 ("eTS default (inv_alt)", _fits(sched.metrics), sched.metrics,
                  _focal_altitudes(sched)),
-                ("ARX", arx, None, [])]
+                ("ARX", arx, None, []),
+                ("eTS inv_alt r 0.5, no attitude states (last default)",
+                 _fits(rates_only.metrics), rates_only.metrics, _focal_altitudes(rates_only)),
+                ("ARX, no attitude states", _fits(rates_only.metrics, arx=True), None, [])]
         for label, fits, m, focal in rows:
             rules = m["rules"]["frozen"] if m else "-"
             foc = ", ".join(f"{f:.2f}" for f in focal) or "-"
@@ -121,11 +126,15 @@ def _prepared(raw: pd.DataFrame) -> tuple[pd.DataFrame, Any, Any, int]:
     return table, spec, reg, split
 
 
-STUDY = [("alt[k-1],u_thrust[k-1]", 0.3, "potential")] + [
-    (ante, radius, "evq")
+STUDY = [("alt[k-1],u_thrust[k-1]", 0.3, "potential", "none")] + [
+    (ante, radius, "evq", "none")
     for ante in ("alt[k-1]", "inv_alt[k-1]", "alt[k-1],u_thrust[k-1]",
                  "inv_alt[k-1],u_thrust[k-1]")
-    for radius in (0.3, 0.5, 0.7, 1.0)] + [("inv_alt[k-1]", 0.5, "potential")]
+    for radius in (0.3, 0.5, 0.7, 1.0)] + [("inv_alt[k-1]", 0.5, "potential", "none")] + [
+    ("inv_alt[k-1]", radius, "evq", "auto") for radius in (0.3, 0.5, 0.7, 1.0)]
+"""(antecedent, radius, clustering, attitude states) of the selection study; the rows with
+attitude states (``roll[k-1],pitch[k-1]``, integrated in free run) came in a second round,
+scored on the same inner split."""
 
 
 def study() -> None:
@@ -138,15 +147,15 @@ def study() -> None:
         _, _, reg, split = _prepared(table)
         t_val = float(reg.t[split])
         inner.append(table[table.index < t_val])
-    print("| antecedent | radius | clustering | Δp mean (min) | Δq mean (min) | "
-          "Δr mean (min) | rules | focal altitudes m (seed 1) |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| antecedent | radius | clustering | attitude states | Δp mean (min) | Δq mean (min) "
+          "| Δr mean (min) | rules | focal altitudes m (seed 1) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     best = None
-    for ante, radius, clustering in STUDY:
+    for ante, radius, clustering, attitude in STUDY:
         deltas, rules, focal = [], [], []
         for k, table in enumerate(inner):
             run = identify(table, IdentConfig(antecedent=ante, radius=radius,
-                                              clustering=clustering))
+                                              clustering=clustering, attitude=attitude))
             deltas.append([a - b for a, b in zip(_fits(run.metrics),
                                                  _fits(run.metrics, arx=True), strict=True)])
             rules.append(run.metrics["rules"]["frozen"])
@@ -156,14 +165,14 @@ def study() -> None:
         mean, low = a.mean(0), a.min(0)
         score = min(mean[0], mean[1])
         if best is None or score > best[0]:
-            best = (score, ante, radius, clustering)
-        print(f"| {ante} | {radius:g} | {clustering} | "
+            best = (score, ante, radius, clustering, attitude)
+        print(f"| {ante} | {radius:g} | {clustering} | {attitude} | "
               + " | ".join(f"{m:+.2f} ({lo:+.1f})" for m, lo in zip(mean, low, strict=True))
               + f" | {'/'.join(map(str, rules))} | "
               + (", ".join(f"{f:.2f}" for f in focal) or "-") + " |", flush=True)
     assert best is not None
     print(f"\nselected (max of min(mean Δp, mean Δq)): {best[1]} radius {best[2]:g} "
-          f"{best[3]} ({best[0]:+.2f})")
+          f"{best[3]}, attitude states {best[4]} ({best[0]:+.2f})")
 
 
 def _dc_gain(theta: np.ndarray, names: list[str], u: str, o: int) -> float:

@@ -19,6 +19,7 @@ from etsid.errors import IdentError
 from etsid.ets.params import CLUSTERINGS, RLS_KINDS, VARIANTS
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
+from etsid.ident.defaults import ATTITUDE_MODES
 from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
 from etsid.ident.ranges import NORMALISE_MODES
 from etsid.ident.resample import DEFAULT_RATE_HZ
@@ -91,6 +92,12 @@ def _table_rate(table: object) -> float | None:
                    'coordinate) or "alt[k-1],u_thrust[k-1]"; auto = inv_alt[k-1] for the '
                    'default rate model when the log has altitude, else none; none = the '
                    'rules fire on the regressors.')
+@click.option("--attitude-states", "attitude", type=click.Choice(list(ATTITUDE_MODES)),
+              default=IdentConfig.attitude, show_default=True,
+              help="Default rate model: auto = add roll[k-1],pitch[k-1] when the attitude "
+                   "loop closes around the inputs (sticks, attitude setpoints) and the log "
+                   "has the angles; in free run they are integrated from the simulated "
+                   "rates. none = rates and commands only.")
 @click.option("--output-lags", type=click.IntRange(1, 50), default=IdentConfig.output_lags,
               show_default=True, help="Default rate model: lags of each rate, samples.")
 @click.option("--input-lags", type=click.IntRange(1, 50), default=IdentConfig.input_lags,
@@ -150,7 +157,7 @@ def _table_rate(table: object) -> float | None:
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
-                 antecedent: str | None, output_lags: int, input_lags: int,
+                 antecedent: str | None, attitude: str, output_lags: int, input_lags: int,
                  radius: float | None, clustering: str | None, omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
@@ -183,7 +190,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
                          inputs=inputs, normalise=normalise, segments=segments,
-                         antecedent=antecedent, clustering=clustering)
+                         antecedent=antecedent, clustering=clustering, attitude=attitude)
     try:
         run = identify(table, config, source=log, show_progress=wanted(quiet))
     except IdentError as err:

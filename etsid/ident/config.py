@@ -37,7 +37,7 @@ IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
     (docs/identify.md), on 36 regressors with fixed learning-part ranges.
 """
 
-IDENT_SCHEDULED_ETS = replace(IDENT_ETS, radius=0.5, clustering="evq")
+IDENT_SCHEDULED_ETS = replace(IDENT_ETS, radius=0.3, clustering="evq")
 """eTS parameters of a scheduled ``etsid identify`` model (rules firing on ``--antecedent``
 terms, by default :data:`etsid.ident.defaults.SCHEDULE`): :data:`IDENT_ETS` except
 
@@ -90,6 +90,10 @@ class IdentConfig:
         ``"inv_alt[k-1]"`` or ``"alt[k-1],u_thrust[k-1]"``); ``"none"`` or None: the rules
         fire on the regressors; ``"auto"`` (default): :data:`etsid.ident.defaults.SCHEDULE`
         for the default rate model of a table with altitude data, else none.
+    attitude
+        Attitude states of the default rate model: ``auto`` (``roll[k-1],pitch[k-1]`` when
+        the attitude loop closes around the inputs, :data:`etsid.ident.defaults.ATTITUDE_TERMS`)
+        or ``none``.
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).
@@ -118,6 +122,7 @@ class IdentConfig:
     normalise: str = "learn"
     segments: str = "auto"
     antecedent: str | None = "auto"
+    attitude: str = "auto"
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""

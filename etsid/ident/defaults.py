@@ -6,6 +6,10 @@ lags, documented in docs/identify.md):
 - each rate at k−1 … k−``OUTPUT_LAGS`` (autoregression; several lags let the model average
   gyro noise instead of copying it),
 - each loop command at k−1 … k−``INPUT_LAGS``,
+- ``roll[k-1]`` and ``pitch[k-1]`` when the inputs are sticks or attitude setpoints and the
+  log has the attitude (:data:`ATTITUDE_TERMS`): the attitude loop closes around those
+  inputs, so the rate response depends on the angle reached; in free run the angles are
+  integrated from the simulated rates (:mod:`etsid.ident.simulate`),
 
 at the identification rate (:data:`etsid.ident.resample.DEFAULT_RATE_HZ`, 50 Hz): with 4
 output and 6 input lags the model sees 80 ms of rate and 120 ms of command history (lag
@@ -57,6 +61,13 @@ ground-effect coordinate) and every rule keeps a full local ARX consequent on th
 regressors. Chosen by the scheduling study of docs/identify.md (altitude, 1/altitude,
 1/altitude², with and without ``u_thrust``, on an inner split of the learning part)."""
 
+ATTITUDE_TERMS = "roll[k-1],pitch[k-1]"
+"""Attitude states of the rate model when the attitude loop closes around its inputs
+(``attitude="auto"``); chosen by the attitude study of docs/identify.md."""
+
+ATTITUDE_MODES = ("auto", "none")
+"""``attitude`` settings of :func:`default_model` (``--attitude-states``)."""
+
 FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),
     ("rate setpoints", ("sp_p", "sp_q", "sp_r"), ()),
@@ -76,6 +87,7 @@ class DefaultModel:
     sources: dict[str, str]
     kind: str = "unknown"
     reason: str = ""
+    attitude: bool = False
 
     @property
     def note(self) -> str:
@@ -157,8 +169,17 @@ def _layout_note(family: str | None) -> str:
             "; no motor layout: the raw motor outputs" if family == "motor outputs" else "")
 
 
+def _closes_attitude(table: pd.DataFrame, family: str, kind: str) -> bool:
+    """Does the attitude loop close around the inputs (sticks of a stabilised mode, or
+    attitude setpoints) and does the table have the angles?"""
+    around = family == "attitude setpoints" or (family == "loop commands"
+                                                and kind in ("sticks", "unknown"))
+    return around and _has(table, "roll") and _has(table, "pitch")
+
+
 def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
-                  input_lags: int = INPUT_LAGS, inputs: str = "auto") -> DefaultModel:
+                  input_lags: int = INPUT_LAGS, inputs: str = "auto",
+                  attitude: str = "auto") -> DefaultModel:
     """Pick the default MIMO rate model for ``table``.
 
     Parameters
@@ -171,6 +192,9 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
         Lags, samples.
     inputs
         One of :data:`etsid.ident.inputs.MODES`.
+    attitude
+        ``auto``: add :data:`ATTITUDE_TERMS` when the attitude loop closes around the inputs
+        and the table has ``roll pitch``; ``none``: never.
 
     Raises
     ------
@@ -197,12 +221,18 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
              for y in RATE_COLUMNS]
     terms += [f"{u}[k-1..k-{input_lags}]" if input_lags > 1 else f"{u}[k-1]"
               for u in inputs_used]
+    kind = {"rate setpoints": "setpoints", "attitude setpoints": "attitude",
+            "motor commands": "motors", "motor outputs": "motors"}.get(family) or _u_kind(table)
+    if attitude not in ATTITUDE_MODES:
+        raise IdentError(f"--attitude-states {attitude!r}: choose one of "
+                         f"{', '.join(ATTITUDE_MODES)}")
+    with_attitude = attitude == "auto" and _closes_attitude(table, family, kind)
+    if with_attitude:
+        terms.append(ATTITUDE_TERMS)
     spec = RegressorSpec.parse(",".join(terms), RATE_COLUMNS)
     mapping = dict(table.attrs.get("mapping") or {})
     sources = {c: str(mapping[c]) for c in inputs_used if c in mapping}
     if family == "motor commands":
         motors = motor_columns(table)
         sources = dict.fromkeys(inputs_used, f"mixer inverse of {motors[0]}…{motors[-1]}")
-    kind = {"rate setpoints": "setpoints", "attitude setpoints": "attitude",
-            "motor commands": "motors", "motor outputs": "motors"}.get(family) or _u_kind(table)
-    return DefaultModel(spec, inputs_used, family, sources, kind, reason)
+    return DefaultModel(spec, inputs_used, family, sources, kind, reason, with_attitude)

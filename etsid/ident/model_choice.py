@@ -10,7 +10,7 @@ import pandas as pd
 
 from etsid.errors import IdentError
 from etsid.ident.config import IdentConfig
-from etsid.ident.defaults import default_model
+from etsid.ident.defaults import ATTITUDE_TERMS, default_model
 from etsid.ident.regressors import RegressorSpec
 
 
@@ -50,7 +50,8 @@ def choose_model(table: pd.DataFrame, config: IdentConfig) -> ChosenModel:
         spec = RegressorSpec.parse(config.regressors, config.outputs, antecedent)
         return ChosenModel(spec, [], {"family": "user", "columns": [
             c for c in spec.columns if c not in spec.outputs]})
-    chosen = default_model(table, config.output_lags, config.input_lags, config.inputs)
+    chosen = default_model(table, config.output_lags, config.input_lags, config.inputs,
+                           config.attitude)
     spec = chosen.spec
     if config.regressors or antecedent:
         spec = RegressorSpec.parse(config.regressors or spec.text, spec.outputs, antecedent)
@@ -61,6 +62,10 @@ def choose_model(table: pd.DataFrame, config: IdentConfig) -> ChosenModel:
     if isinstance(selection, dict):
         info["selection"] = selection
     notes = [chosen.note]
+    if chosen.attitude:
+        notes.append(f"attitude states {ATTITUDE_TERMS}: the attitude loop closes around "
+                     "the inputs; integrated from the simulated rates in free run "
+                     "(--attitude-states none to leave them out)")
     if antecedent and config.antecedent and config.antecedent.strip().lower() == "auto":
         notes.append(f"rules fire on {antecedent} (altitude in the log: scheduled on the "
                      "ground-effect coordinate; --antecedent none for rules on the "

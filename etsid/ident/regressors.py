@@ -220,6 +220,10 @@ class Regression:
         Segment of each usable row (None: one segment).
     S : ndarray, shape (N, na), optional
         Scheduling inputs of the antecedents (None: the rules fire on ``X``).
+    kinematics : ndarray, shape (n_table, 6), optional
+        Time (s), measured ``roll pitch`` (rad) and ``p q r`` (rad/s) of every table row,
+        when the model's attitude terms are integrated in free run (:func:`attitude_map`);
+        the initial conditions of that integration.
     """
 
     X: np.ndarray
@@ -229,6 +233,7 @@ class Regression:
     skipped: dict[str, int] = field(default_factory=dict)
     segment: np.ndarray | None = None
     S: np.ndarray | None = None
+    kinematics: np.ndarray | None = None
 
     @property
     def n_skipped(self) -> int:
@@ -306,8 +311,13 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
                          f"{skipped['missing']} with NaN in a needed column")
     rows = idx[use]
     t = np.asarray(table.index, dtype=float)[rows]
+    kinematics = None
+    if attitude_map(spec):
+        kinematics = np.column_stack([np.asarray(table.index, dtype=float)]
+                                     + [table[c].to_numpy(dtype=float)
+                                        for c in (*ATTITUDE_STATES, *RATES)])
     return Regression(X[use], Y[use], rows, t, skipped, seg[use],
-                      None if S is None else S[use])
+                      None if S is None else S[use], kinematics)
 
 
 def feedback_map(spec: RegressorSpec) -> list[tuple[int, int, int]]:
@@ -315,3 +325,21 @@ def feedback_map(spec: RegressorSpec) -> list[tuple[int, int, int]]:
     lagged output, to be replaced by the model's own past predictions."""
     out = list(spec.outputs)
     return [(i, out.index(t.name), t.lag) for i, t in enumerate(spec.terms) if t.name in out]
+
+
+ATTITUDE_STATES = ("roll", "pitch")
+"""Attitude columns (rad) that a model of the body rates ``p q r`` carries as states: in free
+run their lagged terms are not measured but integrated from the simulated rates (ZYX Euler
+kinematics), like the lagged outputs are fed back (:func:`attitude_map`)."""
+
+RATES = ("p", "q", "r")
+
+
+def attitude_map(spec: RegressorSpec) -> list[tuple[int, int, int]]:
+    """For free-run simulation: ``(term index, angle index in ATTITUDE_STATES, lag)`` of every
+    attitude term of a model whose outputs include ``p q r`` (empty otherwise: attitude
+    terms of other models are exogenous inputs, taken from the table)."""
+    if not set(RATES) <= set(spec.outputs):
+        return []
+    return [(i, ATTITUDE_STATES.index(t.name), t.lag) for i, t in enumerate(spec.terms)
+            if t.name in ATTITUDE_STATES and t.lag >= 1]

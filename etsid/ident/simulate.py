@@ -6,6 +6,12 @@ history had to be rebuilt from the log) they take the measured value — the sim
 initial conditions. Each segment (airborne stretch, or stretch between gaps) is therefore
 its own simulation.
 
+**Attitude states.** A model of ``p q r`` with ``roll``/``pitch`` terms (the attitude loop
+closes around the sticks, so the rate response depends on the angle) carries the angles as
+states: in free run they are integrated from the simulated rates with the ZYX Euler
+kinematics (trapezoid rule over each row's time step, from the measured angles at the start
+of each simulation), never read from the log.
+
 **Divergence.** A simulation that leaves the measured envelope by far is stopped: with
 ``lo``/``hi`` the least and greatest measured value of an output over the usable rows and
 ``w = hi − lo``, the simulation of a segment *diverges* at the first row where any output
@@ -31,12 +37,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from etsid.ident.regressors import Regression, RegressorSpec, feedback_map
+from etsid.ident.regressors import Regression, RegressorSpec, attitude_map, feedback_map
 
 DIVERGE_FACTOR = 2.0
 """A free-run value more than this many measured ranges outside the measured envelope of
 its output means the simulation diverged."""
 
+
+ATTITUDE_AXES = ("p", "q")
+"""The rate that drives each of ``roll``, ``pitch`` near level flight (linearisation)."""
 
 UNSTABLE_RADIUS = 1.0 + 1e-6
 """Spectral radius of the linearised free-run recursion above which the frozen model is
@@ -55,6 +64,7 @@ def linear_stability(predict_one: Callable[[np.ndarray], np.ndarray], spec: Regr
         outputs or with a non-finite operating point.
     """
     links = feedback_map(spec)
+    angles = attitude_map(spec)
     m = len(spec.outputs)
     empty = {"spectral_radius": None, "growth_per_s": None, "doubling_time_s": None,
              "unstable": False}
@@ -62,17 +72,32 @@ def linear_stability(predict_one: Callable[[np.ndarray], np.ndarray], spec: Regr
     if not links or not np.all(np.isfinite(x0)):
         return empty
     depth = max(lag for _, _, lag in links)
-    a = np.zeros((m * depth, m * depth))
-    for j, o, lag in links:
+    n_ang = len(ATTITUDE_AXES)
+    depth_a = max((lag for _, _, lag in angles), default=0)
+    size = m * depth + n_ang * depth_a
+    a = np.zeros((size, size))
+    columns = [(j, (lag - 1) * m + o) for j, o, lag in links] + [
+        (j, m * depth + (lag - 1) * n_ang + k) for j, k, lag in angles]
+    for j, col in columns:
         h = 1e-4 * max(1.0, abs(x0[j]))
         up, down = x0.copy(), x0.copy()
         up[j] += h
         down[j] -= h
         deriv = (np.asarray(predict_one(up), float).reshape(m)
                  - np.asarray(predict_one(down), float).reshape(m)) / (2 * h)
-        a[:m, (lag - 1) * m + o] += deriv
+        a[:m, col] += deriv
     for k in range(1, depth):
         a[k * m:(k + 1) * m, (k - 1) * m:k * m] = np.eye(m)
+    if depth_a:  # angle(k+1) = angle(k) + dt·rate(k+1), small-angle kinematics
+        base, dt = m * depth, 1.0 / rate_hz
+        out = list(spec.outputs)
+        for k, rate in enumerate(ATTITUDE_AXES):
+            row = base + k
+            a[row] = dt * a[out.index(rate)]
+            a[row, row] += 1.0
+        for k in range(1, depth_a):
+            a[base + k * n_ang:base + (k + 1) * n_ang,
+              base + (k - 1) * n_ang:base + k * n_ang] = np.eye(n_ang)
     if not np.all(np.isfinite(a)):
         return empty
     rho = float(np.max(np.abs(np.linalg.eigvals(a))))
@@ -123,8 +148,11 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
         divergence to the end of its segment.
     """
     links = feedback_map(spec)
+    angles = attitude_map(spec) if reg.kinematics is not None else []
+    rate_idx = [list(spec.outputs).index(c) for c in ("p", "q", "r")] if angles else []
     m = len(spec.outputs)
     sim = np.full((n_table, m), np.nan)
+    att = np.full((n_table, 2), np.nan)
     out = np.full((len(reg.X) - start, m), np.nan)
     x = np.empty(reg.X.shape[1])
     seg = reg.segment if reg.segment is not None else np.zeros(len(reg.X), dtype=np.int64)
@@ -140,6 +168,10 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
             value = sim[row - lag, o]
             if np.isfinite(value):
                 x[j] = value
+        for j, k, lag in angles:
+            value = att[row - lag, k]
+            if np.isfinite(value):
+                x[j] = value
         y = np.asarray(predict_one(x) if reg.S is None else predict_one(x, reg.S[i]),
                        dtype=float).reshape(m)
         if bounds is not None and (not np.all(np.isfinite(y)) or np.any(y < bounds[0])
@@ -151,5 +183,25 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
         y = np.where(np.isfinite(y), y, np.nan)
         sim[row] = y
         out[i - start] = y
+        if angles and row >= 1:
+            att[row] = _integrate_attitude(reg.kinematics, att, sim, row, y[rate_idx],
+                                           rate_idx)
     return out
+
+
+def _integrate_attitude(kin: np.ndarray, att: np.ndarray, sim: np.ndarray, row: int,
+                        rates: np.ndarray, rate_idx: list[int]) -> np.ndarray:
+    """Roll and pitch (rad) at table row ``row`` from those at ``row − 1`` (simulated, else
+    measured) and the body rates of both rows (simulated, else measured): trapezoid rule on
+    the ZYX Euler kinematics."""
+    prev = att[row - 1] if np.all(np.isfinite(att[row - 1])) else kin[row - 1, 1:3]
+    before = sim[row - 1, rate_idx]
+    if not np.all(np.isfinite(before)):
+        before = kin[row - 1, 3:6]
+    p, q, r = 0.5 * (before + rates)
+    roll, pitch = prev
+    dt = kin[row, 0] - kin[row - 1, 0]
+    d_roll = p + (q * np.sin(roll) + r * np.cos(roll)) * np.tan(pitch)
+    d_pitch = q * np.cos(roll) - r * np.sin(roll)
+    return np.array([roll + dt * d_roll, pitch + dt * d_pitch])
 
