@@ -166,8 +166,8 @@ def main() -> None:
     if args.skip_quality:
         return
     seeds = [int(s) for s in args.seeds.split(",")]
-    label = ("defaults (50 Hz, lags 4/6, rules on inv_alt[k-1] radius 0.5 evq, "
-             "--normalise learn)")
+    label = ("defaults (50 Hz, lags 4/6 + roll, pitch states, rules on inv_alt[k-1] "
+             "radius 0.3 evq, --normalise learn)")
     quality("hover-ige", seeds, IdentConfig(), label)
     quality("forward-flight", seeds, IdentConfig(), label)
     quality("hover-ige", seeds, IdentConfig(normalise="running"),
