@@ -10,7 +10,9 @@ its own simulation.
 closes around the sticks, so the rate response depends on the angle) carries the angles as
 states: in free run they are integrated from the simulated rates with the ZYX Euler
 kinematics (trapezoid rule over each row's time step, from the measured angles at the start
-of each simulation), never read from the log.
+of each simulation), never read from the log. The gyro bias the log's attitude estimator
+removed is removed from the integrated rates too (:func:`kinematic_bias`, measured on the
+rows before the simulation starts), else the angles would drift by bias × time.
 
 **Divergence.** A simulation that leaves the measured envelope by far is stopped: with
 ``lo``/``hi`` the least and greatest measured value of an output over the usable rows and
@@ -153,6 +155,8 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
     m = len(spec.outputs)
     sim = np.full((n_table, m), np.nan)
     att = np.full((n_table, 2), np.nan)
+    bias = (kinematic_bias(reg.kinematics, int(reg.rows[start])) if angles and start < len(reg.X)
+            else np.zeros(2))
     out = np.full((len(reg.X) - start, m), np.nan)
     x = np.empty(reg.X.shape[1])
     seg = reg.segment if reg.segment is not None else np.zeros(len(reg.X), dtype=np.int64)
@@ -185,15 +189,48 @@ def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
         out[i - start] = y
         if angles and row >= 1:
             att[row] = _integrate_attitude(reg.kinematics, att, sim, row, y[rate_idx],
-                                           rate_idx)
+                                           rate_idx, bias)
+    return out
+
+
+MIN_BIAS_PAIRS = 50
+"""Fewest consecutive row pairs :func:`kinematic_bias` needs; with fewer it returns 0."""
+
+
+def kinematic_bias(kin: np.ndarray, upto: int) -> np.ndarray:
+    """Mean (rad/s) of the Euler-kinematic angle rates computed from the gyro minus the
+    measured angles' rate of change, for roll and pitch, over table rows before ``upto``.
+
+    Pairs of rows further apart than 1.5 median steps (gaps) or with a NaN are skipped.
+    This is the gyro bias as the log's attitude estimator saw it; zeros with fewer than
+    :data:`MIN_BIAS_PAIRS` pairs (``etsid predict`` from the first row, for example).
+    """
+    k = kin[:max(int(upto), 0)]
+    if len(k) <= MIN_BIAS_PAIRS:
+        return np.zeros(2)
+    dt = np.diff(k[:, 0])
+    roll, pitch = k[:, 1], k[:, 2]
+    p, q, r = k[:, 3], k[:, 4], k[:, 5]
+    d_roll = p + (q * np.sin(roll) + r * np.cos(roll)) * np.tan(pitch)
+    d_pitch = q * np.cos(roll) - r * np.sin(roll)
+    out = np.zeros(2)
+    step = np.nanmedian(dt) if np.any(np.isfinite(dt)) else np.nan
+    for j, (rate, angle) in enumerate(((d_roll, roll), (d_pitch, pitch))):
+        change = np.angle(np.exp(1j * np.diff(angle)))  # wrapped to ±π
+        with np.errstate(invalid="ignore", divide="ignore"):
+            res = 0.5 * (rate[1:] + rate[:-1]) - change / dt
+        ok = np.isfinite(res) & (dt > 0) & (dt <= 1.5 * step)
+        if ok.sum() >= MIN_BIAS_PAIRS:
+            out[j] = float(np.mean(res[ok]))
     return out
 
 
 def _integrate_attitude(kin: np.ndarray, att: np.ndarray, sim: np.ndarray, row: int,
-                        rates: np.ndarray, rate_idx: list[int]) -> np.ndarray:
+                        rates: np.ndarray, rate_idx: list[int], bias: np.ndarray
+                        ) -> np.ndarray:
     """Roll and pitch (rad) at table row ``row`` from those at ``row − 1`` (simulated, else
     measured) and the body rates of both rows (simulated, else measured): trapezoid rule on
-    the ZYX Euler kinematics."""
+    the ZYX Euler kinematics, less the gyro ``bias`` (rad/s, :func:`kinematic_bias`)."""
     prev = att[row - 1] if np.all(np.isfinite(att[row - 1])) else kin[row - 1, 1:3]
     before = sim[row - 1, rate_idx]
     if not np.all(np.isfinite(before)):
@@ -201,7 +238,7 @@ def _integrate_attitude(kin: np.ndarray, att: np.ndarray, sim: np.ndarray, row: 
     p, q, r = 0.5 * (before + rates)
     roll, pitch = prev
     dt = kin[row, 0] - kin[row - 1, 0]
-    d_roll = p + (q * np.sin(roll) + r * np.cos(roll)) * np.tan(pitch)
-    d_pitch = q * np.cos(roll) - r * np.sin(roll)
+    d_roll = p + (q * np.sin(roll) + r * np.cos(roll)) * np.tan(pitch) - bias[0]
+    d_pitch = q * np.cos(roll) - r * np.sin(roll) - bias[1]
     return np.array([roll + dt * d_roll, pitch + dt * d_pitch])
 

@@ -13,7 +13,7 @@ from etsid.errors import IdentError
 from etsid.ident import IdentConfig, identify
 from etsid.ident.defaults import ATTITUDE_TERMS, default_model
 from etsid.ident.regressors import RegressorSpec, attitude_map, build
-from etsid.ident.simulate import free_run, linear_stability
+from etsid.ident.simulate import MIN_BIAS_PAIRS, free_run, kinematic_bias, linear_stability
 from etsid.sim import simulate
 
 DT = 0.02  # s, 50 Hz
@@ -129,3 +129,31 @@ def test_attitude_states_raise_free_run_fit_on_a_simulated_flight() -> None:
     assert terms["auto"][-2:] == ["roll[k-1]", "pitch[k-1]"]
     assert "roll[k-1]" not in terms["none"]
     assert all(a > b + 0.5 for a, b in zip(fit["auto"], fit["none"], strict=True)), fit
+
+
+def test_kinematic_bias_recovers_a_gyro_bias_and_the_free_run_removes_it() -> None:
+    truth = _truth(n=600, seed=3)
+    bias = 0.02  # rad/s on the roll gyro; the logged roll (an estimator's) has none
+    logged = truth.copy()
+    logged["p"] += bias
+    spec = RegressorSpec.parse(SPEC, ["p", "q", "r"])
+    reg = build(logged, spec)
+    assert reg.kinematics is not None
+    start = 300
+    est = kinematic_bias(reg.kinematics, int(reg.rows[start]))
+    np.testing.assert_allclose(est, [bias, 0.0], atol=1e-9)
+    # a gap (a missing second) is skipped, too few rows give no correction
+    gappy = reg.kinematics.copy()
+    gappy[150:, 0] += 1.0
+    np.testing.assert_allclose(kinematic_bias(gappy, 300), [bias, 0.0], atol=1e-9)
+    np.testing.assert_array_equal(kinematic_bias(reg.kinematics, MIN_BIAS_PAIRS), [0.0, 0.0])
+    # the true model fed biased rates: p(k) = … + A·bias-shifted lags; predict the logged p
+    theta = _theta()
+    shift = (1.0 - A) * bias  # keeps the logged p = true p + bias a fixed point of the model
+
+    def model(x: np.ndarray) -> np.ndarray:
+        return theta @ x + np.array([shift, 0.0, 0.0])
+
+    sim = free_run(model, reg, spec, start, len(logged))
+    np.testing.assert_allclose(sim[:, 0], logged["p"].to_numpy()[reg.rows[start:]],
+                               atol=1e-9)
