@@ -22,10 +22,10 @@ default (benchmark, seeds never used for any choice)
     ARX; the frozen rule count and each rule's focal altitude.
 
 ``--sample`` (diagnosis of the bundled sample, seed 7)
-    Why the README's sample (ige-oge seed 7, 120 s, ROS 1 bag at gyro 100 / sticks 50 Hz)
-    loses on q while the benchmark flights gain: the same flight as the 250 Hz table at
-    120 and 150 s and as ROS 1 bags at other gyro / stick rates; eTS default and ARX
-    free-run fit and the oracle ceiling on each (docs/identify.md, "The bundled sample").
+    What the README's sample (ige-oge seed 7, 120 s, ROS 1 bag at gyro 100 / sticks 50 Hz)
+    gains against the benchmark flights: the same flight as the 250 Hz table at 120 and
+    150 s and as ROS 1 bags at other gyro / stick rates; eTS default and ARX free-run fit and
+    the oracle ceiling on each (docs/identify.md, "The bundled sample").
 
     python benchmarks/scheduled.py [--seeds 3] [--duration 300 --ige-oge-only]
     python benchmarks/scheduled.py --oracle [--duration 300]
@@ -290,7 +290,7 @@ def main() -> None:
     ap.add_argument("--study", action="store_true", help="the inner-split selection study")
     ap.add_argument("--oracle", action="store_true", help="the oracle-ceiling diagnosis")
     ap.add_argument("--sample", action="store_true",
-                    help="why the bundled sample (seed 7, 120 s bag) loses on q")
+                    help="the bundled sample's flight (seed 7) by length and log rates")
     ap.add_argument("--duration", type=float, default=150.0,
                     help="ige-oge flight length, s (--oracle and the benchmark)")
     ap.add_argument("--ige-oge-only", action="store_true",
