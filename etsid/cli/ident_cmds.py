@@ -94,10 +94,11 @@ def _table_rate(table: object) -> float | None:
                    'rules fire on the regressors.')
 @click.option("--attitude-states", "attitude", type=click.Choice(list(ATTITUDE_MODES)),
               default=IdentConfig.attitude, show_default=True,
-              help="Default rate model: auto = add roll[k-1],pitch[k-1] when the attitude "
-                   "loop closes around the inputs (sticks, attitude setpoints) and the log "
-                   "has the angles; in free run they are integrated from the simulated "
-                   "rates. none = rates and commands only.")
+              help="Default rate model: roll[k-1],pitch[k-1] as states (integrated from the "
+                   "simulated rates in free run) when the attitude loop closes around the "
+                   "inputs (sticks, attitude setpoints) and the log has the angles. auto = "
+                   "kept if ARX free-run on an inner split of the learning part is better "
+                   "with them; on = always; none = never.")
 @click.option("--output-lags", type=click.IntRange(1, 50), default=IdentConfig.output_lags,
               show_default=True, help="Default rate model: lags of each rate, samples.")
 @click.option("--input-lags", type=click.IntRange(1, 50), default=IdentConfig.input_lags,

@@ -91,9 +91,10 @@ class IdentConfig:
         fire on the regressors; ``"auto"`` (default): :data:`etsid.ident.defaults.SCHEDULE`
         for the default rate model of a table with altitude data, else none.
     attitude
-        Attitude states of the default rate model: ``auto`` (``roll[k-1],pitch[k-1]`` when
-        the attitude loop closes around the inputs, :data:`etsid.ident.defaults.ATTITUDE_TERMS`)
-        or ``none``.
+        Attitude states of the default rate model (``roll[k-1],pitch[k-1]`` where the attitude
+        loop closes around the inputs, :data:`etsid.ident.defaults.ATTITUDE_TERMS`): ``auto``
+        (kept when an inner split of the learning part says they help,
+        :mod:`etsid.ident.attitude_check`), ``on`` (always) or ``none``.
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).

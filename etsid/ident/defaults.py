@@ -65,8 +65,11 @@ ATTITUDE_TERMS = "roll[k-1],pitch[k-1]"
 """Attitude states of the rate model when the attitude loop closes around its inputs
 (``attitude="auto"``); chosen by the attitude study of docs/identify.md."""
 
-ATTITUDE_MODES = ("auto", "none")
-"""``attitude`` settings of :func:`default_model` (``--attitude-states``)."""
+ATTITUDE_MODES = ("auto", "on", "none")
+"""``attitude`` settings of :func:`default_model` (``--attitude-states``): ``auto`` and ``on``
+add :data:`ATTITUDE_TERMS` where the attitude loop closes around the inputs (``auto`` then
+lets identify's inner split of the learning part keep or drop them,
+:mod:`etsid.ident.attitude_check`), ``none`` never does."""
 
 FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),
@@ -193,8 +196,8 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
     inputs
         One of :data:`etsid.ident.inputs.MODES`.
     attitude
-        ``auto``: add :data:`ATTITUDE_TERMS` when the attitude loop closes around the inputs
-        and the table has ``roll pitch``; ``none``: never.
+        ``auto`` or ``on``: add :data:`ATTITUDE_TERMS` when the attitude loop closes around
+        the inputs and the table has ``roll pitch``; ``none``: never.
 
     Raises
     ------
@@ -226,7 +229,7 @@ def default_model(table: pd.DataFrame, output_lags: int = OUTPUT_LAGS,
     if attitude not in ATTITUDE_MODES:
         raise IdentError(f"--attitude-states {attitude!r}: choose one of "
                          f"{', '.join(ATTITUDE_MODES)}")
-    with_attitude = attitude == "auto" and _closes_attitude(table, family, kind)
+    with_attitude = attitude != "none" and _closes_attitude(table, family, kind)
     if with_attitude:
         terms.append(ATTITUDE_TERMS)
     spec = RegressorSpec.parse(",".join(terms), RATE_COLUMNS)

@@ -26,11 +26,14 @@ class ChosenModel:
         One line each, printed and stored in config.json ``model.notes``.
     inputs
         config.json ``model.inputs``: the input family, its columns and sources.
+    attitude
+        The spec carries the default model's attitude states.
     """
 
     spec: RegressorSpec
     notes: list[str] = field(default_factory=list)
     inputs: dict[str, Any] = field(default_factory=dict)
+    attitude: bool = False
 
 
 def choose_model(table: pd.DataFrame, config: IdentConfig) -> ChosenModel:
@@ -70,4 +73,4 @@ def choose_model(table: pd.DataFrame, config: IdentConfig) -> ChosenModel:
         notes.append(f"rules fire on {antecedent} (altitude in the log: scheduled on the "
                      "ground-effect coordinate; --antecedent none for rules on the "
                      "regressors)")
-    return ChosenModel(spec, notes, info)
+    return ChosenModel(spec, notes, info, chosen.attitude and not config.regressors)

@@ -23,6 +23,7 @@ import pandas as pd
 
 from etsid.errors import IdentError
 from etsid.ets import ETS
+from etsid.ident.attitude_check import check_attitude_states
 from etsid.ident.checks import (
     data_warnings,
     excitation_warnings,
@@ -117,10 +118,20 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         refuse_coarse(float(table.attrs["decimation"]["rate_hz"]),
                       str((table.attrs.get("mapping") or {}).get("p", "p")))
     reg = build(table, spec)
+    excited = (excited_mask(table, spec.outputs)[reg.rows] if rate_model
+               else np.ones(len(reg.X), dtype=bool))
+    attitude = None
+    if chosen.attitude and config.attitude == "auto":
+        attitude = check_attitude_states(reg, spec, split_excited(excited, config.validate),
+                                         excited, len(table), config.validate)
+        chosen.notes = [attitude.note if note.startswith("attitude states") else note
+                        for note in chosen.notes]
+        if not attitude.keep:
+            spec = attitude.spec
+            reg = build(table, spec)
+            excited = excited_mask(table, spec.outputs)[reg.rows]
     n = len(reg.X)
     dt = 1.0 / float(table.attrs["decimation"]["rate_hz"])
-    excited = (excited_mask(table, spec.outputs)[reg.rows] if rate_model
-               else np.ones(n, dtype=bool))
     chosen.notes.append(_flight_note(selection, excited, dt))
     chosen.notes.extend(data_warnings(table, n, reg.X.shape[1], rate_model=rate_model))
     split = split_excited(excited, config.validate)
@@ -164,7 +175,8 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     run_config = {
         **run_header("identify", table, source),
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,
-                  "sample_rate": rate_info(table)},
+                  "sample_rate": rate_info(table),
+                  **({"attitude_states": attitude.to_dict()} if attitude else {})},
         "parameters": asdict(config),
         "ets": {**config.ets_params(bool(spec.antecedent)), "normalise": config.normalise},
         "skipped": reg.skipped,

@@ -108,6 +108,7 @@ def test_default_model_adds_the_angles_only_around_an_attitude_loop() -> None:
     with_att = default_model(_stick_table("roll", "pitch"))
     assert [str(t) for t in with_att.spec.terms[-2:]] == terms and with_att.attitude
     assert not default_model(_stick_table("roll", "pitch"), attitude="none").attitude
+    assert default_model(_stick_table("roll", "pitch"), attitude="on").attitude
     assert not default_model(_stick_table()).attitude  # no angles in the log
     torque = _stick_table("roll", "pitch")
     torque.attrs["input_selection"] = {"kind": "torque"}
@@ -119,9 +120,14 @@ def test_default_model_adds_the_angles_only_around_an_attitude_loop() -> None:
         default_model(_stick_table("roll", "pitch"), attitude="maybe")
 
 
-def test_attitude_states_raise_free_run_fit_on_a_simulated_flight() -> None:
-    # hover out of ground effect, seed 9 (used for no choice): sticks command the angle
-    table = simulate("hover-oge", duration=60.0, seed=9).table
+@pytest.fixture(scope="module")
+def hover() -> pd.DataFrame:
+    """Hover out of ground effect, seed 9 (used for no choice): sticks command the angle."""
+    return simulate("hover-oge", duration=60.0, seed=9).table
+
+
+def test_attitude_states_raise_free_run_fit_on_a_simulated_flight(hover) -> None:
+    table = hover
     runs = {att: identify(table, IdentConfig(attitude=att)) for att in ("none", "auto")}
     fit = {att: [run.metrics["outputs"][y]["validation"]["free_run"]["fit"] for y in "pq"]
            for att, run in runs.items()}
@@ -157,3 +163,22 @@ def test_kinematic_bias_recovers_a_gyro_bias_and_the_free_run_removes_it() -> No
     sim = free_run(model, reg, spec, start, len(logged))
     np.testing.assert_allclose(sim[:, 0], logged["p"].to_numpy()[reg.rows[start:]],
                                atol=1e-9)
+
+
+def test_inner_split_keeps_true_angles_and_drops_angles_that_do_not_match_the_rates(
+        hover) -> None:
+    kept = identify(hover, IdentConfig()).config["model"]
+    assert kept["attitude_states"]["kept"]
+    assert kept["regressors"].split(",")[-2:] == ["roll[k-1]", "pitch[k-1]"]
+    fits = kept["attitude_states"]["inner_free_run_fit"]
+    assert min(fits["with"].values()) > max(fits["without"].values())
+    # angles logged 1 s late: learnt against the late angle, integrated without the delay
+    late = hover.copy()
+    for column in ("roll", "pitch"):
+        late[column] = np.roll(late[column].to_numpy(), 250)
+    dropped = identify(late, IdentConfig()).config["model"]
+    assert not dropped["attitude_states"]["kept"]
+    assert "roll[k-1]" not in dropped["regressors"].split(",")
+    assert any(n.startswith("attitude states") and "left out" in n for n in dropped["notes"])
+    forced = identify(late, IdentConfig(attitude="on")).config["model"]
+    assert "attitude_states" not in forced and "roll[k-1]" in forced["regressors"]
