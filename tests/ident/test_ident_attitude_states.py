@@ -182,3 +182,22 @@ def test_inner_split_keeps_true_angles_and_drops_angles_that_do_not_match_the_ra
     assert any(n.startswith("attitude states") and "left out" in n for n in dropped["notes"])
     forced = identify(late, IdentConfig(attitude="on")).config["model"]
     assert "attitude_states" not in forced and "roll[k-1]" in forced["regressors"]
+
+
+def test_predict_on_another_flight_integrates_the_angles(hover, tmp_path) -> None:
+    from etsid.ident import predict, write_run
+
+    run = identify(hover, IdentConfig())
+    write_run(run, tmp_path / "A")
+    other = simulate("hover-oge", duration=40.0, seed=10).table
+    t0 = 25.0
+    clean = predict(other, tmp_path / "A" / "rules.json", sim_from=t0)
+    wrong = other.copy()
+    after = wrong.index > t0
+    wrong.loc[after, ["roll", "pitch"]] += 0.3  # a log whose angles are wrong after t0
+    misled = predict(wrong, tmp_path / "A" / "rules.json", sim_from=t0)
+    sim = clean.predictions[["p_sim", "q_sim"]].to_numpy()
+    assert np.isfinite(sim[clean.predictions["t"].to_numpy() > t0 + 1]).all()
+    np.testing.assert_allclose(misled.predictions[["p_sim", "q_sim"]].to_numpy(), sim,
+                               atol=1e-12, equal_nan=True)
+    assert clean.metrics["outputs"]["p"]["validation"]["free_run"]["fit"] > 80.0
