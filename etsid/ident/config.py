@@ -41,10 +41,10 @@ IDENT_SCHEDULED_ETS = replace(IDENT_ETS, radius=0.3, clustering="evq")
 """eTS parameters of a scheduled ``etsid identify`` model (rules firing on ``--antecedent``
 terms, by default :data:`etsid.ident.defaults.SCHEDULE`): :data:`IDENT_ETS` except
 
-``radius`` 0.5
+``radius`` 0.3
     A fraction of the scheduling range (``inv_alt``: 0 … 5 m⁻¹, so the zone of a rule spans
-    about 2.5 m⁻¹); chosen on an inner split of the learning part (scheduling study in
-    docs/identify.md).
+    about 1.5 m⁻¹); chosen on an inner split of the learning part (scheduling study in
+    docs/identify.md, second round, with the attitude states; 0.5 in the first round).
 ``clustering`` "evq"
     Rules are born where no rule covers the scheduling vector and their focal points follow
     the mean of the samples they win, so they sit at the regimes flown (the potential of
