@@ -309,6 +309,8 @@ def learn_kernel(
     Pi,
     Cl,
     Cg,
+    sh,
+    Cs,
     r0,
     fp,
     ip,
@@ -331,6 +333,11 @@ def learn_kernel(
     global RLS forgets only while trace(C) <= Ω R (n + 1). A direction the data never
     excite therefore stops growing once the trace reaches the bound (every entry stays
     below Ω (n + 1) / f). With f = 1 the guard is skipped: the arithmetic is unchanged.
+
+    Shared outputs (``sh[o] = 1``, local RLS only): their consequent is one linear model
+    common to every rule, learnt by plain RLS (weight 1, covariance ``Cs``, the same
+    forgetting and wind-up guard as a rule) and written into every rule's column, so the
+    fuzzy blend returns it unchanged; births copy it (the blend of identical columns).
 
     Speed (docs/performance.md): all work arrays are allocated once per call; 1/s, 1/s^2 and
     the firing coefficients 4/(s r)^2 are recomputed only when a range widens, a rule is
@@ -389,6 +396,13 @@ def learn_kernel(
     scat0 = np.empty(na)
     g = np.empty(rmax * n1 if is_global else n1)
     phi = np.empty(rmax * n1 if is_global else 1)
+    n_shared = 0
+    for o in range(m):
+        n_shared += sh[o]
+    gs = np.empty(n1)
+    ths = np.empty((n1, m))
+    p_none = np.zeros((1, n1, 0))
+    cs3 = Cs.reshape((1, n1, n1)) if n_shared > 0 else np.zeros((1, 1, 1))
 
     _refresh_scales(lo, hi, s, w2, isx, n, xo)
     for i in range(si[1]):
@@ -483,6 +497,9 @@ def learn_kernel(
             _from_soa(R, Pi, Cl, PiT, CT, is_global)
             reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
                           is_global)
+            if n_shared > 0:
+                reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], 1, p_none,
+                              cs3, Cg, False)
             _to_soa(R, Pi, Cl, PiT, CT, is_global)
         # 3. running mean / variance of z (Welford)
         k += 1
@@ -716,6 +733,36 @@ def learn_kernel(
                     for i in range(R):
                         PiT[a, o, i] += gT[a, i] * eo
         else:
+            if n_shared > 0:
+                # shared outputs: plain RLS on the common consequent (rule 0's column)
+                for a in range(n1):
+                    acc = 0.0
+                    for b in range(n1):
+                        acc += Cs[a, b] * xe[b]
+                    gs[a] = acc
+                fs = forget
+                if forget != 1.0:
+                    tr = 0.0
+                    for a in range(n1):
+                        tr += Cs[a, a]
+                    if tr > cbound:
+                        fs = 1.0
+                den = fs
+                for a in range(n1):
+                    den += xe[a] * gs[a]
+                iden = 1.0 / den
+                for o in range(m):
+                    if sh[o] == 1:
+                        eo = z[na + o]
+                        for a in range(n1):
+                            eo -= xe[a] * PiT[a, o, 0]
+                        for a in range(n1):
+                            ths[a, o] = PiT[a, o, 0] + gs[a] * iden * eo
+                ifs = 1.0 / fs
+                for a in range(n1):
+                    ga = gs[a]
+                    for b in range(n1):
+                        Cs[a, b] = (Cs[a, b] - (ga * gs[b]) * iden) * ifs
             # every rule at once, rules in the inner (contiguous) loop; a rule with
             # lambda = 0 gets f_i = 1 and gain 0, i.e. exactly no change
             for i in range(RL):
@@ -766,6 +813,12 @@ def learn_kernel(
                 for o in range(m):
                     for i in range(RL):
                         PiT[a, o, i] += gT[a, i] * yrT[o, i]
+            if n_shared > 0:
+                for a in range(n1):
+                    for o in range(m):
+                        if sh[o] == 1:
+                            for i in range(R):
+                                PiT[a, o, i] = ths[a, o]
         # 8. eTS+ quality: remove rules of low utility or tiny support
         if variant == 1:
             i = R - 1

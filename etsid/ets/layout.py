@@ -25,6 +25,9 @@ kept in birth order; removing a rule shifts the later ones down):
 ``Pi``      float64[Rmax, n+1, m]: consequents on x_e = [1, (x - lo) / s]
 ``Cl``      float64[Rmax, n+1, n+1]: local RLS covariances (unused shape for global RLS)
 ``Cg``      float64[Rmax(n+1), Rmax(n+1)]: global RLS covariance (unused shape for local)
+``sh``      int8[m]: 1 for a shared output, whose consequent is one linear model common to
+            every rule, learnt by plain RLS (the rules' antecedents do not act on it)
+``Cs``      float64[n+1, n+1]: covariance of the shared outputs' RLS (unused without them)
 """
 
 from __future__ import annotations
@@ -66,5 +69,5 @@ RADIUS_FLOOR = 0.01
 #: names of the state arrays, in the order the learning kernel takes them
 STATE_ARRAYS = (
     "si", "lo", "hi", "fixed", "mean", "m2", "ids", "cz", "rad", "scat", "pot",
-    "birth", "support", "lamsum", "tsum", "Pi", "Cl", "Cg",
+    "birth", "support", "lamsum", "tsum", "Pi", "Cl", "Cg", "sh", "Cs",
 )  # fmt: skip

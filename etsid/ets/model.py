@@ -148,6 +148,7 @@ class ETS:
         input_names: Sequence[str] | None = None,
         output_names: Sequence[str] | None = None,
         antecedent_names: Sequence[str] | None = None,
+        shared_outputs: Sequence[int] = (),
     ) -> None:
         self.radius = radius
         self.omega = omega
@@ -168,6 +169,7 @@ class ETS:
         self.input_names = input_names
         self.output_names = output_names
         self.antecedent_names = antecedent_names
+        self.shared_outputs = shared_outputs
 
     # ------------------------------------------------------------------ parameters
     def get_params(self) -> dict[str, Any]:
@@ -230,6 +232,14 @@ class ETS:
                 raise ValueError(f"{name} must be {width} finite [low, high] pairs, got {rng_!r}")
             lo[sl], hi[sl], fixed[sl] = a[:, 0], a[:, 1], 1
         glob = self.rls == "global"
+        shared = np.zeros(m, dtype=np.int8)
+        for o in self.shared_outputs:
+            if isinstance(o, bool) or not isinstance(o, int | np.integer) or not 0 <= o < m:
+                raise ValueError(f"shared_outputs must be output indices 0..{m - 1}, "
+                                 f"got {list(self.shared_outputs)!r}")
+            shared[o] = 1
+        if shared.any() and glob:
+            raise ValueError("shared_outputs need local RLS (rls='local')")
         pg = rmax * (n + 1) if glob else 1
         self.n_inputs_ = n
         self.n_outputs_ = m
@@ -256,6 +266,8 @@ class ETS:
             "Pi": np.zeros((rmax, n + 1, m)),
             "Cl": np.zeros((1, 1, 1) if glob else (rmax, n + 1, n + 1)),
             "Cg": np.zeros((pg, pg)),
+            "sh": shared,
+            "Cs": (float(self.omega) * np.eye(n + 1) if shared.any() else np.zeros((1, 1))),
         }
         self.recorder_ = HistoryRecorder()
 
@@ -502,6 +514,7 @@ class ETS:
             covariances=None if glob else view(st["Cl"][:R]),
             global_covariance=view(st["Cg"][:p, :p]) if glob else None,
             scheduled=bool(self.scheduled_), n_antecedents=int(self.n_antecedents_),
+            shared_covariance=view(st["Cs"]) if st["sh"].any() else None,
         )
 
     def restore_state(self, state: LearnedState) -> ETS:
@@ -546,6 +559,14 @@ class ETS:
             if arr.shape != (p, p):
                 raise ValueError(f"global_covariance has shape {arr.shape}, expected {(p, p)}")
             st["Cg"][:p, :p] = arr
+        if st["sh"].any():
+            if state.shared_covariance is None:
+                raise ValueError("shared outputs need shared_covariance")
+            arr = np.asarray(state.shared_covariance)
+            if arr.shape != st["Cs"].shape:
+                raise ValueError(f"shared_covariance has shape {arr.shape}, "
+                                 f"expected {st['Cs'].shape}")
+            st["Cs"][...] = arr
         st["si"][:] = (state.samples, R, state.next_rule_id)
         self.y_1d_ = bool(state.y_1d)
         return self

@@ -110,6 +110,7 @@ class ReferenceETS:
     k: int = 0
     next_id: int = 0
     Cg: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    shared_outputs: tuple[int, ...] = ()
     events: list[tuple[int, str, int]] = field(default_factory=list)
     history: list[tuple[int, float, float, float]] = field(default_factory=list)
 
@@ -126,6 +127,9 @@ class ReferenceETS:
         self.hi = np.zeros(d) if self.hi is None else np.array(self.hi, dtype=float)
         self.fixed = np.zeros(d, bool) if self.fixed is None else np.array(self.fixed, bool)
         self.data: list[np.ndarray] = []
+        # shared outputs: one consequent common to every rule, plain RLS on Cs
+        self.sh = np.array(sorted(self.shared_outputs), dtype=int)
+        self.Cs = self.omega * np.eye(self.n + 1)
 
     # normalisation ----------------------------------------------------------------
     def _s(self) -> np.ndarray:
@@ -192,6 +196,9 @@ class ReferenceETS:
                 Tb = np.kron(np.eye(len(self.rules)), T)
                 self.Cg = Tb.T @ self.Cg @ Tb
                 self.Cg = 0.5 * (self.Cg + self.Cg.T)
+            if self.sh.size:
+                self.Cs = T.T @ self.Cs @ T
+                self.Cs = 0.5 * (self.Cs + self.Cs.T)
         self.k += 1
         self.data.append(z)
         k = self.k
@@ -260,6 +267,13 @@ class ReferenceETS:
             for i, r in enumerate(self.rules):
                 r.Pi = theta[i * (n + 1) : (i + 1) * (n + 1)]
         else:
+            if self.sh.size:  # shared outputs: plain RLS on the common consequent
+                theta = self.rules[0].Pi[:, self.sh]
+                fs = f if _trace(self.Cs) <= self.omega * (n + 1) else 1.0
+                g = self.Cs @ xe
+                den = fs + xe @ g
+                self.Cs = (self.Cs - np.outer(g, g) / den) / fs
+                theta = theta + np.outer(g / den, y[self.sh] - xe @ theta)
             for li, r in zip(lam, self.rules, strict=True):
                 # wind-up guard: forget only while trace(C_i) <= Ω (n + 1)
                 bounded = _trace(r.C) <= self.omega * (n + 1)
@@ -268,6 +282,8 @@ class ReferenceETS:
                 den = fi + li * xe @ g
                 r.C = (r.C - (li / den) * np.outer(g, g)) / fi
                 r.Pi = r.Pi + (li / den) * np.outer(g, y - xe @ r.Pi)
+                if self.sh.size:
+                    r.Pi[:, self.sh] = theta
         if self.variant == "ets+":
             for i in range(len(self.rules) - 1, -1, -1):
                 if len(self.rules) <= 1:

@@ -64,6 +64,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
         v = params[key]
         params[key] = None if v is None else _listify(np.asarray(v, dtype=float))
     params["radius"] = _listify(params["radius"])
+    params["shared_outputs"] = [int(o) for o in params["shared_outputs"]]
     raw = model.consequents_raw()
     age, utility = state.age(), state.utility()
     rules = []
@@ -111,6 +112,8 @@ def model_to_dict(model: Any) -> dict[str, Any]:
             "m2": state.m2.tolist(),
             "global_covariance": None if state.global_covariance is None
             else state.global_covariance.tolist(),
+            "shared_covariance": None if state.shared_covariance is None
+            else state.shared_covariance.tolist(),
         },
         "rules": rules,
     }
@@ -235,6 +238,13 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
                                     "learner/global_covariance", source)
     if data["y_1d"] and m != 1:
         raise _fail("y_1d is true but the model has several outputs", source)
+    shared_covariance = None
+    if params.get("shared_outputs"):
+        if lrn.get("shared_covariance") is None:
+            raise _fail("learner/shared_covariance is required with params/shared_outputs",
+                        source)
+        shared_covariance = _matrix(lrn["shared_covariance"], (n + 1, n + 1),
+                                    "learner/shared_covariance", source)
 
     def stack(rows: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
         return np.array(rows) if rows else np.zeros((0, *shape))
@@ -253,6 +263,7 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
         consequents=stack(consequents, (n + 1, m)),
         covariances=None if glob else stack(covariances, (n + 1, n + 1)),
         global_covariance=global_covariance, scheduled=scheduled, n_antecedents=na,
+        shared_covariance=shared_covariance,
     )
     try:
         model.restore_state(state)

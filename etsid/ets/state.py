@@ -61,6 +61,9 @@ class LearnedState:
         z = [s; y; x], d = na + m + n, and radii / scatter have na columns.
     n_antecedents
         na (equals n when not scheduled; 0 means "same as n_inputs").
+    shared_covariance : (n+1, n+1) or None
+        RLS covariance of the shared outputs (``ETS(shared_outputs=…)``: one consequent
+        common to every rule); None without shared outputs.
     """
 
     n_inputs: int
@@ -87,6 +90,7 @@ class LearnedState:
     global_covariance: np.ndarray | None
     scheduled: bool = False
     n_antecedents: int = 0
+    shared_covariance: np.ndarray | None = None
 
     @property
     def n_rules(self) -> int:

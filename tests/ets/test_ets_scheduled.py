@@ -34,6 +34,8 @@ CONFIGS = [
     dict(variant="ets+", clustering="evq"),
     dict(variant="ets", clustering="evq", max_rules=3),
     dict(variant="ets+", clustering="evq", adaptive_spread=True, rls="global"),
+    dict(variant="ets+", clustering="evq", shared_outputs=(1,)),
+    dict(variant="ets+", shared_outputs=(0,), forgetting=0.98, adaptive_spread=True),
 ]
 
 
@@ -138,3 +140,50 @@ def test_version_1_rule_base_still_loads(tmp_path) -> None:
         ETS.from_dict({k: v for k, v in data.items() if k != "antecedents"})
     with pytest.raises(ModelError, match="rule base"):
         ETS.from_dict(v1 | {"antecedents": data["antecedents"]})
+
+
+def _shared_case(n_samples: int = 3000, seed: int = 4
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Output 0 steps its gain with the regime of s; output 1 is one linear model."""
+    X, y, S = _regimes(n_samples, seed)
+    rng = np.random.default_rng(seed + 1)
+    y2 = X @ np.array([0.5, -1.0, 0.3]) + 0.1 + 0.01 * rng.normal(size=n_samples)
+    return X, np.c_[y, y2], S
+
+
+def test_a_shared_output_is_one_linear_model_learnt_by_plain_rls() -> None:
+    X, Y, S = _shared_case()
+    ranges = dict(x_range=np.c_[X.min(0), X.max(0)], y_range=np.c_[Y.min(0), Y.max(0)],
+                  s_range=np.c_[S.min(0), S.max(0)])
+    model = ETS(radius=0.3, clustering="evq", forgetting=1.0, shared_outputs=(1,), **ranges)
+    model.run(X, Y, S)
+    assert model.n_rules >= 2  # the rules still split output 0 by regime
+    raw = model.consequents_raw()  # (R, n+1, m) in original units
+    np.testing.assert_array_equal(np.ptp(raw[:, :, 1], axis=0), 0.0)
+    # plain RLS from a prior omega·I equals ridge least squares with weight 1/omega
+    Xe = np.c_[np.ones(len(X)), (X - ranges["x_range"][:, 0]) / np.ptp(ranges["x_range"], 1)]
+    theta = np.linalg.solve(Xe.T @ Xe + np.eye(4) / model.omega, Xe.T @ Y[:, 1])
+    np.testing.assert_allclose(model.state_["Pi"][0, :, 1], theta, rtol=1e-6, atol=1e-9)
+    # unshared, the same output gets one local model per rule, not one for all
+    split = ETS(radius=0.3, clustering="evq", forgetting=1.0, **ranges)
+    split.run(X, Y, S)
+    assert np.ptp(split.consequents_raw()[:, :, 1], axis=0).max() > 1e-3
+
+
+def test_shared_outputs_round_trip_and_refusals(tmp_path) -> None:
+    X, Y, S = _shared_case(800)
+    model = ETS(radius=0.3, clustering="evq", shared_outputs=(1,))
+    model.run(X[:600], Y[:600], S[:600])
+    model.save(tmp_path / "m.json")
+    back = ETS.load(tmp_path / "m.json")
+    assert back.shared_outputs == [1]
+    back.run(X[600:], Y[600:], S[600:])
+    model.run(X[600:], Y[600:], S[600:])
+    R = model.n_rules
+    assert back.n_rules == R
+    np.testing.assert_array_equal(back.state_["Pi"][:R], model.state_["Pi"][:R])
+    np.testing.assert_array_equal(back.state_["Cs"], model.state_["Cs"])
+    with pytest.raises(ValueError, match="local RLS"):
+        ETS(rls="global", shared_outputs=(0,)).run(X, Y, S)
+    with pytest.raises(ValueError, match="output indices"):
+        ETS(shared_outputs=(2,)).run(X, Y, S)
