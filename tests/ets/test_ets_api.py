@@ -31,7 +31,7 @@ def test_init_stores_parameters_only() -> None:
 def test_defaults_come_from_params_and_the_reference_shares_them() -> None:
     params = ETS().get_params()
     per_data = {"x_range", "y_range", "s_range", "input_names", "output_names",
-                "antecedent_names"}
+                "antecedent_names", "shared_outputs"}
     assert set(params) == {*PARAM_NAMES, *per_data}
     assert {k: params[k] for k in PARAM_NAMES} == DEFAULTS.to_dict()
     X, Y = _data(300)
