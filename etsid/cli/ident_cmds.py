@@ -92,6 +92,11 @@ def _table_rate(table: object) -> float | None:
                    'coordinate) or "alt[k-1],u_thrust[k-1]"; auto = inv_alt[k-1] for the '
                    'default rate model when the log has altitude, else none; none = the '
                    'rules fire on the regressors.')
+@click.option("--unscheduled", metavar="none|COLS", default=IdentConfig.unscheduled,
+              show_default=True,
+              help="Outputs of a scheduled model whose consequent is one linear model "
+                   "shared by every rule (the antecedent does not act on them), e.g. r: for "
+                   "an output whose physics does not change with the scheduling variable.")
 @click.option("--attitude-states", "attitude", type=click.Choice(list(ATTITUDE_MODES)),
               default=IdentConfig.attitude, show_default=True,
               help="Default rate model: roll[k-1],pitch[k-1] as states (integrated from the "
@@ -158,7 +163,8 @@ def _table_rate(table: object) -> float | None:
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
-                 antecedent: str | None, attitude: str, output_lags: int, input_lags: int,
+                 antecedent: str | None, unscheduled: str, attitude: str, output_lags: int,
+                 input_lags: int,
                  radius: float | None, clustering: str | None, omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, normalise: str,
                  validate: float,
@@ -191,7 +197,8 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          omega=omega, variant=variant, max_rules=max_rules, rls=rls,
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
                          inputs=inputs, normalise=normalise, segments=segments,
-                         antecedent=antecedent, clustering=clustering, attitude=attitude)
+                         antecedent=antecedent, clustering=clustering, attitude=attitude,
+                         unscheduled=unscheduled)
     try:
         run = identify(table, config, source=log, show_progress=wanted(quiet))
     except IdentError as err:

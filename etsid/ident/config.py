@@ -95,6 +95,11 @@ class IdentConfig:
         loop closes around the inputs, :data:`etsid.ident.defaults.ATTITUDE_TERMS`): ``auto``
         (kept when an inner split of the learning part says they help,
         :mod:`etsid.ident.attitude_check`), ``on`` (always) or ``none``.
+    unscheduled
+        Outputs of a scheduled model whose consequent is one linear model shared by every
+        rule (``ETS(shared_outputs=…)``: the antecedent does not act on them): ``none``
+        (default; the study of docs/identify.md did not select ``r`` on the inner split) or
+        output names such as ``"r"``.
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).
@@ -124,6 +129,7 @@ class IdentConfig:
     segments: str = "auto"
     antecedent: str | None = "auto"
     attitude: str = "auto"
+    unscheduled: str = "none"
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""
@@ -143,6 +149,27 @@ class IdentConfig:
             if out[key] is None:
                 out[key] = getattr(base, key)
         return out
+
+    def shared_outputs(self, outputs: tuple[str, ...], scheduled: bool) -> list[int]:
+        """Indices of the outputs left unscheduled (see ``unscheduled``).
+
+        Raises
+        ------
+        IdentError
+            A name that is not an output, or unscheduled outputs on a model whose rules fire
+            on the regressors.
+        """
+        text = (self.unscheduled or "none").strip()
+        if text.lower() == "none":
+            return []
+        if not scheduled:
+            raise IdentError("--unscheduled needs rules that fire on --antecedent terms")
+        names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+        bad = [n for n in names if n not in outputs]
+        if bad or not names:
+            raise IdentError(f"--unscheduled {text!r}: {', '.join(bad) or 'no name'} is not an "
+                             f"output (outputs: {', '.join(outputs)})")
+        return [list(outputs).index(n) for n in names]
 
     def antecedent_for(self, table: Any) -> str | None:
         """The antecedent spec for ``table``: ``"auto"`` resolved (module docstring of

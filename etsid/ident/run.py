@@ -76,9 +76,11 @@ def _flight_note(selection: FlightSelection, excited: np.ndarray, dt: float) -> 
 def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | None = None,
                y_range: np.ndarray | None = None, s_range: np.ndarray | None = None) -> ETS:
     try:
+        shared = config.shared_outputs(spec.outputs, bool(spec.antecedent))
         return ETS(**config.ets_params(bool(spec.antecedent)), input_names=spec.input_names,
                    output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
-                   s_range=s_range, antecedent_names=spec.antecedent_names)
+                   s_range=s_range, antecedent_names=spec.antecedent_names,
+                   shared_outputs=shared)
     except (ValueError, TypeError) as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
 
