@@ -187,3 +187,20 @@ def test_shared_outputs_round_trip_and_refusals(tmp_path) -> None:
         ETS(rls="global", shared_outputs=(0,)).run(X, Y, S)
     with pytest.raises(ValueError, match="output indices"):
         ETS(shared_outputs=(2,)).run(X, Y, S)
+
+
+def test_shared_outputs_in_a_damaged_rule_base_are_refused_in_one_line() -> None:
+    X, Y, S = _shared_case(300)
+    model = ETS(radius=0.3, clustering="evq", shared_outputs=(1,))
+    model.run(X, Y, S)
+    good = model.to_dict()
+    for damage, match in (
+        (lambda d: d["params"].__setitem__("shared_outputs", [2]), "output indices"),
+        (lambda d: d["params"].__setitem__("shared_outputs", [1, 1]), "non-unique"),
+        (lambda d: d["learner"].__setitem__("shared_covariance", None), "shared_covariance"),
+        (lambda d: d["learner"].__setitem__("shared_covariance", [[1.0]]), "shape"),
+    ):
+        data = json.loads(json.dumps(good))
+        damage(data)
+        with pytest.raises(ModelError, match=match):
+            ETS.from_dict(data)
