@@ -40,6 +40,8 @@ OGE_FROM_ZR = 4.0
 METRE_EDGES = (0.5, 1.0)
 """Altitude band edges, m, when the rotor radius is not known."""
 ALTITUDE = "alt"
+THRUST = "u_thrust"
+"""Thrust command column (0 … 1) of the rule table's thrust column."""
 #: the commanded input of each body rate in the default rate model
 RATE_INPUTS = {"p": "u_roll", "q": "u_pitch", "r": "u_yaw"}
 AXIS_WORDS = {"p": "roll", "q": "pitch", "r": "yaw"}
@@ -158,8 +160,8 @@ def regime_metrics(alt: np.ndarray, bands: Bands, Y: np.ndarray, outputs: list[s
 
 
 def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | None,
-               t: np.ndarray, split: int, bands: Bands | None, learnt_here: bool = True
-               ) -> list[dict[str, Any]]:
+               t: np.ndarray, split: int, bands: Bands | None, learnt_here: bool = True,
+               thrust: np.ndarray | None = None) -> list[dict[str, Any]]:
     """One entry per rule of the frozen rule base ``rules`` (a rules.json dict).
 
     Parameters
@@ -176,12 +178,15 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     learnt_here
         False for a rule base applied to another flight (``etsid predict``): the rules lead
         over every row and their birth times (steps of the learning flight) are not given.
+    thrust
+        Thrust command ``u_thrust`` (0 … 1) of every row, or None.
 
     Each entry: ``rule`` (1-based, as ``etsid rules`` prints), ``id``, ``focal`` (antecedent
     name → focal value, raw units), ``alt_m`` and ``alt_source`` (the focal altitude when
     altitude is an antecedent, else the median altitude of the learning rows the rule
-    leads), ``share`` (fraction of the learning rows it leads), ``support``, ``born_t``
-    (s), ``lifetime_s`` (from birth to the freeze), ``regime``.
+    leads), ``thrust`` and ``thrust_source`` (the same for the thrust command),
+    ``share`` (fraction of the learning rows it leads), ``support``, ``born_t`` (s),
+    ``lifetime_s`` (from birth to the freeze), ``regime``.
     """
     from etsid.ets import ETS
 
@@ -196,6 +201,7 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     if A is not None and rows > 0 and R:
         lead = model.leading_rule(A[:rows])
     alt_term = next((j for j, name in enumerate(names) if _column(name) == ALTITUDE), None)
+    thrust_term = next((j for j, name in enumerate(names) if _column(name) == THRUST), None)
     t_freeze = float(t[split - 1]) if split > 0 else float("nan")
     out = []
     for i in range(R):
@@ -206,6 +212,12 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
             alt_m, source = float(np.nanmedian(alt[:rows][mine])), "led rows"
         else:
             alt_m, source = None, None
+        if thrust_term is not None:
+            thrust_v, thrust_source = float(focal[i, thrust_term]), "focal"
+        elif thrust is not None and mine.any() and np.isfinite(thrust[:rows][mine]).any():
+            thrust_v, thrust_source = float(np.nanmedian(thrust[:rows][mine])), "led rows"
+        else:
+            thrust_v, thrust_source = None, None
         birth = int(state.births[i])  # 1-based sample counter
         born_t = float(t[min(max(birth - 1, 0), len(t) - 1)]) if len(t) and learnt_here \
             else None
@@ -215,6 +227,7 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
             if na <= 4 else {},
             "n_antecedents": na,
             "alt_m": alt_m, "alt_source": source,
+            "thrust": thrust_v, "thrust_source": thrust_source,
             "share": float(np.mean(mine)) if lead.size else None,
             "support": int(state.support[i]),
             "born_t": born_t,
@@ -352,12 +365,14 @@ def _first_antecedent(table: list[dict[str, Any]]) -> tuple[str | None, str]:
 def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
                    attrs: dict[str, Any], A: np.ndarray | None, t: np.ndarray, Y: np.ndarray,
                    outputs: list[str], cols: dict[str, np.ndarray], split: int,
-                   learnt_here: bool = True) -> dict[str, Any]:
+                   learnt_here: bool = True, thrust: np.ndarray | None = None
+                   ) -> dict[str, Any]:
     """metrics.json ``regimes``: bands, scores per band, the rule → regime table, the input
     gains per rule and the sentence (see the module docstring).
 
     ``alt`` (m, one per regression row) None: no altitude in the log, so no bands (the
-    rule table and the sentence are still given)."""
+    rule table and the sentence are still given). ``thrust`` (``u_thrust`` per regression
+    row, or None) fills the rule table's thrust column."""
     bands = bands_for(rotor_radius(attrs)) if alt is not None and np.isfinite(alt).any() \
         else None
     out: dict[str, Any] = {"basis": None, "rotor_radius_m": None, "bands": [],
@@ -373,7 +388,7 @@ def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
         out["note"] = "no altitude in the log: no regimes"
     if rules and rules.get("rules"):
         out["rules"] = rule_table(rules, A, alt if bands is not None else None, t, split,
-                                  bands, learnt_here)
+                                  bands, learnt_here, thrust)
         out["gains"] = input_gains(rules)
         out["gain_kind"] = ("the coefficient of the input's shortest lag in the rule's "
                             "consequent (the response one sample after a unit command)")

@@ -11,8 +11,8 @@ from etsid.report.tables import fmt, text_table
 REGIME_HEAD = ["regime", "range", "learn / val samples", "output", "eTS 1-step RMSE",
                "ARX 1-step RMSE", "eTS free-run RMSE", "ARX free-run RMSE",
                "eTS free-run fit %", "ARX free-run fit %"]
-RULE_HEAD = ["rule", "focal point", "alt (m)", "z/R", "leads %", "support", "born (s)",
-             "lifetime (s)", "regime"]
+RULE_HEAD = ["rule", "focal point", "alt (m)", "z/R", "thrust", "leads %", "support",
+             "born (s)", "lifetime (s)", "regime"]
 
 
 def regimes_of(run: Run) -> dict[str, Any] | None:
@@ -62,9 +62,12 @@ def rule_rows(run: Run) -> tuple[list[str], list[list[str]]]:
         alt_text = "–" if alt is None else f"{alt:.2f}" + (
             "" if rule.get("alt_source") == "focal" else " (median)")
         share = rule.get("share")
+        thrust = rule.get("thrust")
+        thrust_text = "–" if thrust is None else f"{thrust:.3f}" + (
+            "" if rule.get("thrust_source") == "focal" else " (median)")
         rows.append([
             str(rule["rule"]), _focal_text(rule), alt_text,
-            f"{alt / radius:.2g}" if alt is not None and radius else "–",
+            f"{alt / radius:.2g}" if alt is not None and radius else "–", thrust_text,
             "–" if share is None else f"{100 * share:.0f}",
             str(rule.get("support", "–")), fmt(rule.get("born_t"), 4),
             fmt(rule.get("lifetime_s"), 4), rule.get("regime") or "–",
@@ -80,7 +83,8 @@ def regime_notes(run: Run) -> list[str]:
         notes.append(f"Regimes: {block['note']}.")
     notes.append("Rule table: the frozen rule base (rules.json). Focal point in the antecedent "
                  "variables; alt is the focal altitude when altitude is an antecedent, else "
-                 "the median altitude of the learning samples the rule leads; leads % = share "
+                 "the median altitude of the learning samples the rule leads; thrust likewise "
+                 "for the thrust command u_thrust (0…1); leads % = share "
                  "of the learning samples where it fires strongest; lifetime = from birth to "
                  "the freeze.")
     if block.get("gain_kind"):

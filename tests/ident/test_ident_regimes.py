@@ -153,3 +153,19 @@ def test_predict_scores_regimes_of_another_flight(tmp_path) -> None:
     assert per["in ground effect"]["n_validation"] + per["out of ground effect"][
         "n_validation"] == other.metrics["validation"]["n_validation"]
     assert per["in ground effect"]["outputs"]["y"]["free_run"]["fit"] > 90.0
+
+
+def test_rule_table_gives_each_rules_thrust_command() -> None:
+    # thrust 0.45 on the low dwells and 0.55 on the high ones: each rule's median is its own
+    table = _table()
+    table["u_thrust"] = np.where(table["alt"] < 1.0, 0.45, 0.55)
+    run = identify(table, IdentConfig(**BASE, antecedent="alt[k-1]"))
+    rules = run.metrics["regimes"]["rules"]
+    low = min(rules, key=lambda r: r["alt_m"])
+    high = max(rules, key=lambda r: r["alt_m"])
+    assert (low["thrust"], high["thrust"]) == (pytest.approx(0.45), pytest.approx(0.55))
+    assert low["thrust_source"] == "led rows"
+    scheduled = identify(table, IdentConfig(**BASE, antecedent="alt[k-1],u_thrust[k-1]"))
+    assert all(r["thrust_source"] == "focal" for r in scheduled.metrics["regimes"]["rules"])
+    plain = identify(_table(), IdentConfig(**BASE, antecedent="alt[k-1]"))
+    assert all(r["thrust"] is None for r in plain.metrics["regimes"]["rules"])
