@@ -2,9 +2,9 @@
 
 Run:  python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
 
-1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6, rules scheduled on
-   ``inv_alt[k-1]`` (radius 0.5, evq) since the simulated log has altitude, ranges
-   from the learning part) on a
+1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6 and the roll/pitch
+   states with their inner-split check, rules scheduled on ``inv_alt[k-1]`` (radius 0.3,
+   evq) since the simulated log has altitude, ranges from the learning part) on a
    ``--duration`` s simulated hover-ige flight at 250 Hz. One warm-up run on a short flight
    first (numba compilation / cache load is start-up, not timed). Reports table samples/s
    (250 Hz rows in) and identification samples/s (50 Hz rows learned), CPU and wall time.
@@ -18,8 +18,11 @@ Run:  python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
    ARX, validation one-step RMSE, free-run fit, rules; means over seeds), rules on the
    regressors (``--antecedent none``, the model that study chose the radius for).
 
-Regime scheduling (the ige-oge targets of issue 11, the oracle ceiling and the study that
-chose ``--antecedent auto``) is ``benchmarks/scheduled.py``.
+5. ``--targets``: the ige-oge targets of issue 11 (``benchmarks/scheduled.py --seeds 4``:
+   eTS against ARX free-run on held-out seeds, rules and their focal altitudes).
+
+Regime scheduling (the oracle ceiling and the study that chose ``--antecedent auto``) is
+``benchmarks/scheduled.py``.
 """
 
 from __future__ import annotations
@@ -151,11 +154,21 @@ def main() -> None:
     parser.add_argument("--skip-quality", action="store_true")
     parser.add_argument("--lag-study", action="store_true",
                         help="only the ARX lag study on seeds 1, 2, 3")
+    parser.add_argument("--targets", action="store_true",
+                        help="only the ige-oge targets of issue 11 (benchmarks/scheduled.py)")
     parser.add_argument("--normalise-study", action="store_true",
                         help="only the --normalise / radius study on --seeds")
     args = parser.parse_args()
     if args.lag_study:
         lag_study([1, 2, 3])
+        return
+    if args.targets:
+        import sys
+
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        from scheduled import benchmark
+
+        benchmark(4)
         return
     if args.normalise_study:
         normalise_study([int(s) for s in args.seeds.split(",")])
