@@ -585,11 +585,15 @@ class ETS:
         return model_to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> ETS:
-        """Rebuild a model from :meth:`to_dict` output; raises ModelError if invalid."""
+    def from_dict(cls, data: dict[str, Any], trusted: bool = False) -> ETS:
+        """Rebuild a model from :meth:`to_dict` output; raises ModelError if invalid.
+
+        ``trusted``: ``data`` was made by :meth:`to_dict` in this process (or already read
+        and validated from a file): the JSON-Schema check, whose cost grows with the size of
+        the rule base, is skipped; the shape and consistency checks are kept."""
         from etsid.ets.serialize import model_from_dict
 
-        return model_from_dict(cls, data)
+        return model_from_dict(cls, data, trusted=trusted)
 
     def save(self, path: str | Path, **extra: Any) -> None:
         """Write the rule base to ``path`` (JSON); ``extra`` adds e.g. ``regressors=...``."""

@@ -175,16 +175,20 @@ def check_caps(data: Any, source: str) -> None:
                         f"±{MAX_ABS_NUMBER:.0e}", source)
 
 
-def model_from_dict(cls: type, data: Any, source: str = "rule base") -> Any:
-    """Validate ``data`` against the schema and rebuild the model; ModelError if invalid."""
-    check_caps(data, source)
-    try:
-        jsonschema.validate(data, schema())
-    except jsonschema.ValidationError as err:
-        where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise _fail(
-            f"not a valid {SCHEMA_NAME} rule base at {where}: {err.message}", source
-        ) from err
+def model_from_dict(cls: type, data: Any, source: str = "rule base",
+                    trusted: bool = False) -> Any:
+    """Validate ``data`` against the schema and rebuild the model; ModelError if invalid.
+    ``trusted`` (a dict made in this process, or one already validated) skips the cap and
+    schema checks; the shape and consistency checks below always run."""
+    if not trusted:
+        check_caps(data, source)
+        try:
+            jsonschema.validate(data, schema())
+        except jsonschema.ValidationError as err:
+            where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
+            raise _fail(
+                f"not a valid {SCHEMA_NAME} rule base at {where}: {err.message}", source
+            ) from err
     params = dict(data["params"])
     n, m = len(data["inputs"]), len(data["outputs"])
     ante = data.get("antecedents") or {"scheduled": False}

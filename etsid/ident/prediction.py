@@ -114,7 +114,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     reg = build(table, spec)
     n = len(reg.X)
     split = 0 if sim_from is None else int(np.searchsorted(reg.t, sim_from, side="left"))
-    frozen = ETS.from_dict(data)
+    frozen = ETS.from_dict(data, trusted=True)  # validated by load_rules
     if learn:
         yhat, _ = learn_online(model, reg, -1, show_progress, "predict")
     else:

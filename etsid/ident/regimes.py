@@ -190,7 +190,7 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     """
     from etsid.ets import ETS
 
-    model = ETS.from_dict(rules)
+    model = ETS.from_dict(rules, trusted=True)  # made or validated by identify/predict
     state = model.export_state()
     names = model.antecedents()
     na = len(names)
@@ -257,7 +257,7 @@ def input_gains(rules: dict[str, Any]) -> list[dict[str, Any]]:
     """
     from etsid.ets import ETS
 
-    model = ETS.from_dict(rules)
+    model = ETS.from_dict(rules, trusted=True)  # made or validated by identify/predict
     inputs, outputs = model.names()
     cons = model.consequents_raw()  # (R, n + 1, m)
     columns = [_column(x) for x in inputs]

@@ -149,7 +149,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         raise IdentError(f"bad eTS parameter: {err}") from err
     if split == n:
         frozen_dict = model.to_dict()
-    frozen = ETS.from_dict(frozen_dict) if frozen_dict is not None else None
+    frozen = ETS.from_dict(frozen_dict, trusted=True) if frozen_dict is not None else None
     cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
     history, consequents = history_frames(model, reg)
     sigma = noise_std(table, spec.outputs)

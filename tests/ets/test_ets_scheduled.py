@@ -204,3 +204,20 @@ def test_shared_outputs_in_a_damaged_rule_base_are_refused_in_one_line() -> None
         damage(data)
         with pytest.raises(ModelError, match=match):
             ETS.from_dict(data)
+
+
+def test_a_trusted_dict_skips_the_schema_but_not_the_shape_checks() -> None:
+    X, y, S = _regimes(300)
+    model = ETS(radius=0.3, clustering="evq")
+    model.run(X, y, S)
+    good = model.to_dict()
+    back = ETS.from_dict(good, trusted=True)
+    np.testing.assert_array_equal(back.predict(X, S), model.predict(X, S))
+    schema_only = json.loads(json.dumps(good))
+    schema_only["params"]["variant"] = "ets++"  # caught by the schema only
+    with pytest.raises(ModelError, match="params/variant"):
+        ETS.from_dict(schema_only)
+    shape = json.loads(json.dumps(good))
+    shape["rules"][0]["consequent"] = [[0.0]]
+    with pytest.raises(ModelError, match="shape"):
+        ETS.from_dict(shape, trusted=True)
