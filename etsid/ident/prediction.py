@@ -24,7 +24,7 @@ from etsid.ident.evaluate import (
 from etsid.ident.flight import EXCITE_STD, apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
 from etsid.ident.motors import MOTOR_COMMANDS, add_motor_commands
-from etsid.ident.regimes import ALTITUDE, THRUST, regime_summary
+from etsid.ident.regimes import regime_summary_of
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header, sha256
@@ -137,14 +137,8 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "sample_rate": rate_info(table),
         "flight": selection.to_dict(),
     }
-    alt = (table[ALTITUDE].to_numpy(dtype=float)[reg.rows] if ALTITUDE in table.columns
-           else None)
-    thrust = (table[THRUST].to_numpy(dtype=float)[reg.rows] if THRUST in table.columns
-              else None)
-    metrics["regimes"] = regime_summary(data, alt, table.attrs,
-                                        reg.X if reg.S is None else reg.S, reg.t, reg.Y,
-                                        list(spec.outputs), cols, split, learnt_here=False,
-                                        thrust=thrust)
+    metrics["regimes"] = regime_summary_of(data, table, reg, list(spec.outputs), cols, split,
+                                           learnt_here=False)
     run_config = {
         **run_header("predict", table, source),
         "rules": {"path": str(path), "sha256": sha256(path if path.is_file()

@@ -362,6 +362,21 @@ def _first_antecedent(table: list[dict[str, Any]]) -> tuple[str | None, str]:
     return key, key
 
 
+def regime_summary_of(rules: dict[str, Any] | None, table: Any, reg: Any, outputs: list[str],
+                      cols: dict[str, np.ndarray], split: int, learnt_here: bool = True
+                      ) -> dict[str, Any]:
+    """:func:`regime_summary` for a run: altitude, thrust command and antecedent inputs
+    taken from ``table`` (the identification table) at the rows of ``reg`` (its
+    :class:`etsid.ident.regressors.Regression`)."""
+    def at_rows(column: str) -> np.ndarray | None:
+        return (table[column].to_numpy(dtype=float)[reg.rows] if column in table.columns
+                else None)
+
+    return regime_summary(rules, at_rows(ALTITUDE), table.attrs,
+                          reg.X if reg.S is None else reg.S, reg.t, reg.Y, outputs, cols,
+                          split, learnt_here, at_rows(THRUST))
+
+
 def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
                    attrs: dict[str, Any], A: np.ndarray | None, t: np.ndarray, Y: np.ndarray,
                    outputs: list[str], cols: dict[str, np.ndarray], split: int,

@@ -51,7 +51,7 @@ from etsid.ident.learn import history_frames, learn_online
 from etsid.ident.model_choice import choose_model
 from etsid.ident.motors import add_motor_commands
 from etsid.ident.ranges import fixed_ranges, schedule_range
-from etsid.ident.regimes import ALTITUDE, THRUST, regime_summary
+from etsid.ident.regimes import regime_summary_of
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header
@@ -169,13 +169,8 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "sample_rate": rate_info(table),
     }
     chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
-    alt = (table[ALTITUDE].to_numpy(dtype=float)[reg.rows] if ALTITUDE in table.columns
-           else None)
-    thrust = (table[THRUST].to_numpy(dtype=float)[reg.rows] if THRUST in table.columns
-              else None)
-    metrics["regimes"] = regime_summary(frozen_dict, alt, table.attrs,
-                                        reg.X if reg.S is None else reg.S, reg.t, reg.Y,
-                                        list(spec.outputs), cols, split, thrust=thrust)
+    metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
+                                           split)
     run_config = {
         **run_header("identify", table, source),
         "model": {**spec.to_dict(), "inputs": chosen.inputs, "notes": chosen.notes,
