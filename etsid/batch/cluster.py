@@ -2,7 +2,10 @@
 
 Nothing here schedules: every log is one ``client.submit`` of
 :func:`etsid.batch.worker.run_log` and Dask places it. The batch's fixed arguments (options,
-the resume keys) are scattered to the workers once. Run directories are written by the
+the resume keys) are two tasks every log depends on, sent once and recomputed if the worker
+holding them dies. A log whose worker dies on every try Dask allows
+(``distributed.scheduler.allowed-failures``) becomes a "worker process died" row, as in the
+local pool. Run directories are written by the
 workers, so ``--out`` must be a path every worker sees (a shared file system); the result
 rows come back to this process, which writes ``DIR/results/``. Inputs are local paths the
 workers see, or fsspec URLs (``s3://…``) they fetch themselves.
@@ -18,7 +21,7 @@ from typing import Any
 
 from etsid.batch import tasks
 from etsid.batch.spec import BatchSpec
-from etsid.batch.worker import Item, Outcome, error_fields, run_log
+from etsid.batch.worker import Item, Outcome, WorkerDied, failed_outcome, run_log
 from etsid.errors import BatchError
 
 
@@ -51,6 +54,11 @@ def _client(address: str | None, jobs: int) -> tuple[Any, Any]:
         raise BatchError(f"cannot reach the Dask scheduler at {address} ({err})") from err
 
 
+def hold(value: Any) -> Any:
+    """The task that keeps a batch argument in the cluster (its value is its argument)."""
+    return value
+
+
 class DaskRunner:
     """Runs logs on Dask workers and reports each :class:`Outcome` as it finishes."""
 
@@ -66,6 +74,7 @@ class DaskRunner:
             on_running: Callable[[int], None]) -> None:
         """Run every item; Ctrl-C cancels what is left and re-raises."""
         from dask.distributed import as_completed
+        from distributed import KilledWorker
 
         items = list(items)
         client, cluster = _client(self.address, self.jobs)
@@ -73,7 +82,10 @@ class DaskRunner:
         try:
             workers = max(1, len(client.scheduler_info().get("workers", {})))
             client.run(tasks.warm, self.spec.command)
-            spec, done = client.scatter([self.spec, self.done], broadcast=True)
+            # tasks, not scattered data: a worker that dies takes its copy with it, and
+            # the scheduler recomputes a lost task's value where scattered data is gone
+            spec = client.submit(hold, self.spec, pure=False)
+            done = client.submit(hold, self.done, pure=False)
             futures = [client.submit(run_log, item, spec, str(self.out), done, pure=False)
                        for item in items]
             owner = {f.key: item for f, item in zip(futures, items, strict=True)}
@@ -83,12 +95,10 @@ class DaskRunner:
                 left -= 1
                 try:
                     outcome = future.result()
-                except Exception as err:  # the worker died (KilledWorker) or lost the task
-                    item = owner[future.key]
-                    row = {"input": item[1] if isinstance(item, tuple) else item,
-                           "sim_input": item[0] if isinstance(item, tuple) else None,
-                           "options_digest": self.spec.digest(), **error_fields(err)}
-                    outcome = Outcome(item, None, row)
+                except KilledWorker:  # its worker died on every retry Dask allowed
+                    outcome = failed_outcome(owner[future.key], self.spec, WorkerDied())
+                except Exception as err:  # the scheduler lost the task, or a worker error
+                    outcome = failed_outcome(owner[future.key], self.spec, err)
                 on_done(outcome)
         except BaseException:
             client.cancel(futures)

@@ -30,7 +30,15 @@ from typing import Any
 
 from etsid.batch import tasks
 from etsid.batch.spec import BatchSpec
-from etsid.batch.worker import Item, Outcome, error_fields, init_worker, run_log, run_pooled
+from etsid.batch.worker import (
+    Item,
+    Outcome,
+    WorkerDied,
+    failed_outcome,
+    init_worker,
+    run_log,
+    run_pooled,
+)
 
 WINDOW = 2
 """Logs submitted per worker at a time (the one running and the next)."""
@@ -39,10 +47,6 @@ RENEW_GROWTH_MB = 256.0
 """A worker whose resident memory after a log exceeds its resident memory after its first
 log by more than this (MB) gets the pool renewed: memory one log leaves behind never
 accumulates over the fleet."""
-
-WORKER_DIED = ("worker process died while reading this log (killed by the system, "
-               "probably out of memory, or crashed)")
-
 
 def _context(command: str) -> Any:
     """The forkserver context (spawn where there is none), preloaded with etsid's modules
@@ -100,15 +104,6 @@ def _server_env() -> Iterator[None]:
                 os.environ[key] = value
 
 
-def _died(item: Item, spec: BatchSpec) -> Outcome:
-    row = {"input": item[1] if isinstance(item, tuple) else item,
-           "sim_input": item[0] if isinstance(item, tuple) else None,
-           "options_digest": spec.digest(), **error_fields(RuntimeError(WORKER_DIED))}
-    row["error"] = WORKER_DIED
-    row["error_kind"] = "WorkerDied"
-    return Outcome(item, None, row)
-
-
 class LocalRunner:
     """Runs logs and reports each :class:`Outcome` to ``on_done`` as it finishes.
 
@@ -148,7 +143,7 @@ class LocalRunner:
                 alone = deque([item])
                 self._pool_pass(alone, breaks, on_done, on_running, 1)
                 if alone:
-                    on_done(_died(item, self.spec))
+                    on_done(failed_outcome(item, self.spec, WorkerDied()))
 
     def _pool_pass(self, pending: deque[Item], breaks: Counter[Item],
                    on_done: Callable[[Outcome], None], on_running: Callable[[int], None],

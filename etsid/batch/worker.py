@@ -97,9 +97,20 @@ def one_line(err: BaseException) -> str:
     return text.splitlines()[0] if text else type(err).__name__
 
 
+class WorkerDied(Exception):
+    """The process running a log died (killed by the system, or crashed) every time the log
+    was tried: the local pool after running it alone, Dask after its retries."""
+
+    def __str__(self) -> str:
+        return ("worker process died while reading this log (killed by the system, "
+                "probably out of memory, or crashed)")
+
+
 def error_fields(err: BaseException) -> dict[str, Any]:
     """``status``/``error``/``error_kind`` of a failed log."""
-    if isinstance(err, MemoryError):
+    if isinstance(err, WorkerDied):
+        text = str(err)
+    elif isinstance(err, MemoryError):
         text = one_line(err) if str(err).startswith("out of memory") else (
             "out of memory (give the worker more memory)")
     elif isinstance(err, EtsidError):
@@ -107,6 +118,15 @@ def error_fields(err: BaseException) -> dict[str, Any]:
     else:
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
     return {"status": "error", "error": text, "error_kind": type(err).__name__}
+
+
+def failed_outcome(item: Item, spec: BatchSpec, err: BaseException) -> Outcome:
+    """The row of a log whose worker could not return one (it died, or the scheduler lost
+    the task): no hash, since the parent never opens a log."""
+    row = {"input": item[1] if isinstance(item, tuple) else item,
+           "sim_input": item[0] if isinstance(item, tuple) else None,
+           "options_digest": spec.digest(), **error_fields(err)}
+    return Outcome(item, None, row)
 
 
 def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[str],

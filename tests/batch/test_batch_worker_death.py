@@ -1,0 +1,132 @@
+"""A worker process that dies (SIGKILL, as the kernel's OOM killer sends it) costs the batch
+one row at most: the culprit's, and only when it kills every worker it is given to.
+
+The deaths are real: a ``sitecustomize`` on the workers' ``PYTHONPATH`` makes the worker
+that picks up ``poison.bag`` kill itself, up to a set number of times. The batch runs in a
+subprocess, so its fork server (or Dask cluster) starts with that environment.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import etsid
+from etsid.batch import VOLATILE, BatchSpec, read_results, run_batch
+from etsid.batch.worker import WorkerDied
+from etsid.ingest import ReadOptions
+
+ROOT = Path(etsid.__file__).resolve().parents[1]
+
+HOOK = """
+import os
+import signal
+
+if os.environ.get("ETSID_TEST_DEATHS"):
+    import etsid.batch.worker as _worker
+
+    _run_log = _worker.run_log
+
+    def run_log(item, *args, **kwargs):
+        deaths = os.environ["ETSID_TEST_DEATHS"]
+        if "poison" in str(item) and len(os.listdir(deaths)) < int(os.environ["ETSID_TEST_MAX"]):
+            open(os.path.join(deaths, str(os.getpid())), "w").close()
+            os.kill(os.getpid(), signal.SIGKILL)
+        return _run_log(item, *args, **kwargs)
+
+    _worker.run_log = run_log
+"""
+
+SCRIPT = """
+import json, sys
+from etsid.batch import BatchSpec, run_batch
+from etsid.ingest import ReadOptions
+if __name__ == "__main__":
+    summary = run_batch(json.loads(sys.argv[1]), BatchSpec("inspect", read_options=ReadOptions()),
+                        sys.argv[2], jobs=2, scheduler=sys.argv[3])
+    print(summary.ok, summary.failed)
+"""
+
+
+@pytest.fixture
+def logs(fleet: Path, tmp_path: Path) -> list[str]:
+    """``poison.bag`` first (a good log: only the hook kills it), then three others."""
+    root = tmp_path / "logs"
+    root.mkdir()
+    shutil.copy(fleet / "sub" / "b.bag", root / "poison.bag")
+    shutil.copy(fleet / "a.tlog", root / "a.tlog")
+    shutil.copytree(fleet / "sub" / "c", root / "c")
+    shutil.copy(fleet / "d.mcap", root / "d.mcap")
+    return [str(root / name) for name in ("poison.bag", "a.tlog", "c", "d.mcap")]
+
+
+def _run_with_deaths(logs: list[str], out: Path, max_deaths: int, scheduler: str,
+                     extra_env: dict[str, str] | None = None) -> tuple[int, str]:
+    """Run the batch with the hook armed; the number of worker deaths and stdout."""
+    hook_dir = out.parent / f"{out.name}-hook"
+    deaths = out.parent / f"{out.name}-deaths"
+    hook_dir.mkdir()
+    deaths.mkdir()
+    (hook_dir / "sitecustomize.py").write_text(HOOK)
+    script = hook_dir / "run.py"
+    script.write_text(SCRIPT)
+    env = {**os.environ, **(extra_env or {}),
+           "PYTHONPATH": os.pathsep.join([str(hook_dir), str(ROOT)]),
+           "ETSID_TEST_DEATHS": str(deaths), "ETSID_TEST_MAX": str(max_deaths)}
+    done = subprocess.run([sys.executable, str(script), json.dumps(logs), str(out), scheduler],
+                          env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return len(os.listdir(deaths)), done.stdout
+
+
+def _rows(out: Path) -> dict[str, dict]:
+    table = read_results(out).drop(columns=[*VOLATILE, "run_dir"])
+    return {Path(row["input"]).name: row for row in table.to_dict("records")}
+
+
+def _same(a: dict, b: dict) -> bool:
+    return all(a[key] == b[key] or (a[key] != a[key] and b[key] != b[key]) for key in a)
+
+
+def test_a_worker_killed_once_costs_no_row(logs: list[str], tmp_path: Path) -> None:
+    clean = tmp_path / "clean"
+    run_batch(logs, BatchSpec("inspect", read_options=ReadOptions()), clean, jobs=1)
+    deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 1, "local")
+    assert deaths == 1
+    assert stdout.split() == ["4", "0"]
+    expected, got = _rows(clean), _rows(tmp_path / "killed")
+    assert set(got) == {"poison.bag", "a.tlog", "c", "d.mcap"}
+    assert all(_same(expected[name], got[name]) for name in expected)
+
+
+def test_a_log_that_kills_every_worker_is_the_only_error_row(logs: list[str],
+                                                            tmp_path: Path) -> None:
+    deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 99, "local")
+    # two pools broken with it in flight, then one worker of its own
+    assert deaths == 3
+    assert stdout.split() == ["3", "1"]
+    rows = _rows(tmp_path / "killed")
+    assert rows["poison.bag"]["error"] == str(WorkerDied())
+    assert rows["poison.bag"]["error_kind"] == "WorkerDied"
+    assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
+
+
+def test_dask_gives_the_same_row_after_its_retries(logs: list[str], tmp_path: Path) -> None:
+    pytest.importorskip("dask.distributed")
+    env = {"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1",
+           "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0"}
+    deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 99, "processes", env)
+    # the first try and the one retry allowed; the logs after it lose nothing (they did
+    # when the batch arguments were scattered data, which died with the workers)
+    assert deaths == 2
+    assert stdout.split() == ["3", "1"]
+    rows = _rows(tmp_path / "killed")
+    assert rows["poison.bag"]["error"] == str(WorkerDied())
+    assert rows["poison.bag"]["error_kind"] == "WorkerDied"
+    assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
