@@ -94,6 +94,14 @@ def _same(a: dict, b: dict) -> bool:
     return all(a[key] == b[key] or (a[key] != a[key] and b[key] != b[key]) for key in a)
 
 
+def _assert_only_the_poison_failed(stdout: str, out: Path) -> None:
+    assert stdout.split() == ["3", "1"]  # ok, failed
+    rows = _rows(out)
+    assert rows["poison.bag"]["error"] == str(WorkerDied())
+    assert rows["poison.bag"]["error_kind"] == "WorkerDied"
+    assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
+
+
 def test_a_worker_killed_once_costs_no_row(logs: list[str], tmp_path: Path) -> None:
     clean = tmp_path / "clean"
     run_batch(logs, BatchSpec("inspect", read_options=ReadOptions()), clean, jobs=1)
@@ -110,11 +118,7 @@ def test_a_log_that_kills_every_worker_is_the_only_error_row(logs: list[str],
     deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 99, "local")
     # two pools broken with it in flight, then one worker of its own
     assert deaths == 3
-    assert stdout.split() == ["3", "1"]
-    rows = _rows(tmp_path / "killed")
-    assert rows["poison.bag"]["error"] == str(WorkerDied())
-    assert rows["poison.bag"]["error_kind"] == "WorkerDied"
-    assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
+    _assert_only_the_poison_failed(stdout, tmp_path / "killed")
 
 
 def test_dask_gives_the_same_row_after_its_retries(logs: list[str], tmp_path: Path) -> None:
@@ -125,8 +129,4 @@ def test_dask_gives_the_same_row_after_its_retries(logs: list[str], tmp_path: Pa
     # the first try and the one retry allowed; the logs after it lose nothing (they did
     # when the batch arguments were scattered data, which died with the workers)
     assert deaths == 2
-    assert stdout.split() == ["3", "1"]
-    rows = _rows(tmp_path / "killed")
-    assert rows["poison.bag"]["error"] == str(WorkerDied())
-    assert rows["poison.bag"]["error_kind"] == "WorkerDied"
-    assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
+    _assert_only_the_poison_failed(stdout, tmp_path / "killed")
