@@ -8,12 +8,17 @@ Three parts, each printing the tables recorded in docs/identify.md:
     fit of the "oracle" regime-switched ARX (the measured altitude picks the model) and of
     an LPV ARX (regressors x and x·(0.25/alt)²) against global ARX on the validation part.
     That gain is the ceiling for any scheduled model with these regressors.
+``--oracle --integrators`` (diagnosis, seeds 1–3)
+    Would a state for the rate PID's integrator raise the ceiling? The same global and
+    switched ARX with the running integrals of the sticks and the angles as extra
+    regressors (integrated in free run).
 ``--study`` (selection, seeds 1–3, ige-oge 150 s)
     The scheduled default of ``etsid identify``: antecedent × radius × clustering scored on
     an INNER split — identify run on the learning part only (the rows before the outer
     validation part), so its own last 30 % is the inner validation; the outer validation
     part is never looked at. Criterion, fixed before the runs: the larger of
-    min(mean Δfit p, mean Δfit q) over the seeds, Δ = eTS − ARX free-run fit.
+    min(mean Δfit p, mean Δfit q) over the seeds, Δ = eTS − ARX free-run fit. A third
+    round changes one eTS or identify parameter at a time from the selected default.
 default (benchmark, seeds never used for any choice)
     ige-oge 101.. (150 s), hover-oge 201.. and hover-ige 301.. (60 s, one regime each):
     free-run fit % on the validation part of eTS with the rules on the regressors
@@ -28,7 +33,7 @@ default (benchmark, seeds never used for any choice)
     the oracle ceiling on each (docs/identify.md, "The bundled sample").
 
     python benchmarks/scheduled.py [--seeds 3] [--duration 300 --ige-oge-only]
-    python benchmarks/scheduled.py --oracle [--duration 300]
+    python benchmarks/scheduled.py --oracle [--duration 300] [--integrators]
     python benchmarks/scheduled.py --study
     python benchmarks/scheduled.py --sample
 """
@@ -137,42 +142,72 @@ attitude states (``roll[k-1],pitch[k-1]``, integrated in free run) came in a sec
 scored on the same inner split."""
 
 
-def study() -> None:
-    print(f"scheduling study: ige-oge 150 s, seeds {list(STUDY_SEEDS)}; identify on the "
-          "learning part only (inner validation = its last 30 %); Δ = eTS − ARX free-run "
-          "fit, points")
+def _inner_tables() -> list[pd.DataFrame]:
+    """The learning part of each study flight (the rows before the outer validation part)."""
     inner = []
     for seed in STUDY_SEEDS:
         table = simulate("ige-oge", duration=150.0, seed=seed).table
         _, _, reg, split = _prepared(table)
-        t_val = float(reg.t[split])
-        inner.append(table[table.index < t_val])
+        inner.append(table[table.index < float(reg.t[split])])
+    return inner
+
+
+def _inner_scores(inner: list[pd.DataFrame], config: IdentConfig
+                  ) -> tuple[np.ndarray, list[int], list[float]]:
+    """Δ = eTS − ARX free-run fit (seeds × p q r) on the inner split, the frozen rule
+    counts and the first seed's focal altitudes."""
+    deltas, rules, focal = [], [], []
+    for k, table in enumerate(inner):
+        run = identify(table, config)
+        deltas.append([a - b for a, b in zip(_fits(run.metrics),
+                                             _fits(run.metrics, arx=True), strict=True)])
+        rules.append(run.metrics["rules"]["frozen"])
+        if k == 0:
+            focal = _focal_altitudes(run)
+    return np.array(deltas), rules, focal
+
+
+def _cells(deltas: np.ndarray) -> str:
+    return " | ".join(f"{m:+.2f} ({lo:+.1f})"
+                      for m, lo in zip(deltas.mean(0), deltas.min(0), strict=True))
+
+
+STUDY_PARAMS: list[dict[str, Any]] = [
+    {"radius": 0.2}, {"radius": 0.25}, {"radius": 0.4}, {"rls": "global"},
+    {"adaptive_spread": True}, {"variant": "ets"}, {"utility_threshold": 0.02},
+    {"omega": 1e4}, {"omega": 1e6}, {"forgetting": 0.9999}, {"normalise": "apriori"},
+    {"normalise": "running"}]
+"""Third round: one eTS or identify parameter changed from the selected default."""
+
+
+def study() -> None:
+    print(f"scheduling study: ige-oge 150 s, seeds {list(STUDY_SEEDS)}; identify on the "
+          "learning part only (inner validation = its last 30 %); Δ = eTS − ARX free-run "
+          "fit, points")
+    inner = _inner_tables()
     print("| antecedent | radius | clustering | attitude states | Δp mean (min) | Δq mean (min) "
           "| Δr mean (min) | rules | focal altitudes m (seed 1) |")
     print("|---|---|---|---|---|---|---|---|---|")
     best = None
     for ante, radius, clustering, attitude in STUDY:
-        deltas, rules, focal = [], [], []
-        for k, table in enumerate(inner):
-            run = identify(table, IdentConfig(antecedent=ante, radius=radius,
-                                              clustering=clustering, attitude=attitude))
-            deltas.append([a - b for a, b in zip(_fits(run.metrics),
-                                                 _fits(run.metrics, arx=True), strict=True)])
-            rules.append(run.metrics["rules"]["frozen"])
-            if k == 0:
-                focal = _focal_altitudes(run)
-        a = np.array(deltas)
-        mean, low = a.mean(0), a.min(0)
-        score = min(mean[0], mean[1])
+        deltas, rules, focal = _inner_scores(inner, IdentConfig(
+            antecedent=ante, radius=radius, clustering=clustering, attitude=attitude))
+        score = min(deltas.mean(0)[0], deltas.mean(0)[1])
         if best is None or score > best[0]:
             best = (score, ante, radius, clustering, attitude)
-        print(f"| {ante} | {radius:g} | {clustering} | {attitude} | "
-              + " | ".join(f"{m:+.2f} ({lo:+.1f})" for m, lo in zip(mean, low, strict=True))
-              + f" | {'/'.join(map(str, rules))} | "
+        print(f"| {ante} | {radius:g} | {clustering} | {attitude} | {_cells(deltas)} | "
+              f"{'/'.join(map(str, rules))} | "
               + (", ".join(f"{f:.2f}" for f in focal) or "-") + " |", flush=True)
     assert best is not None
     print(f"\nselected (max of min(mean Δp, mean Δq)): {best[1]} radius {best[2]:g} "
           f"{best[3]}, attitude states {best[4]} ({best[0]:+.2f})")
+    print("\nthird round: one parameter changed from the identify default, same inner split")
+    print("| change | Δp mean (min) | Δq mean (min) | Δr mean (min) | rules |")
+    print("|---|---|---|---|---|")
+    for change in [{}, *STUDY_PARAMS]:
+        deltas, rules, _ = _inner_scores(inner, IdentConfig(**change))
+        label = ", ".join(f"{k}={v}" for k, v in change.items()) or "(the default)"
+        print(f"| {label} | {_cells(deltas)} | {'/'.join(map(str, rules))} |", flush=True)
 
 
 def _dc_gain(theta: np.ndarray, names: list[str], u: str, o: int) -> float:
@@ -228,6 +263,91 @@ def _oracle(raw: pd.DataFrame) -> str:
     return (f"{ige[:split].mean():.2f} / {ige[split:].mean():.2f} | "
             f"{', '.join(f'{r:.2f}' for r in ratios)} | {fmt(fits['global'])} | "
             f"{fmt(fits['switch'])} | {fmt(fits['lpv'])} | {fmt(ceiling, '+')}")
+
+
+INTEGRAL_COLUMNS = ("u_roll", "u_pitch", "roll", "pitch")
+"""Columns whose running integrals stand in for the rate PID's integrators."""
+
+
+class _Integrating:
+    """An ARX's ``predict_one`` for :func:`free_run` that, when ``integrate``, overwrites the
+    two angle-integral regressors with their running values: from the measured value at
+    the simulation's start on, ∫angle grows by dt × the model's own angle of each row."""
+
+    def __init__(self, pick: Any, integrate: bool, start: int, extra: np.ndarray,
+                 dt: np.ndarray, rows: np.ndarray, angle_cols: list[int], n_base: int) -> None:
+        self.pick, self.integrate, self.start, self.i = pick, integrate, start, start
+        self.integral = extra[start, 2:].copy()
+        self.dt, self.rows, self.angle_cols, self.n_base = dt, rows, angle_cols, n_base
+        self.angle = np.zeros(2)
+
+    def __call__(self, x: np.ndarray, s: np.ndarray) -> np.ndarray:
+        if self.integrate:
+            if self.i > self.start:  # ∫angle up to row k-1 adds the angle of row k-2
+                self.integral += self.dt[int(self.rows[self.i - 1]) - 1] * self.angle
+            x = x.copy()
+            x[self.n_base + 2:self.n_base + 4] = self.integral
+            self.angle = x[self.angle_cols].copy()
+        self.i += 1
+        return self.pick(s).predict_one(x)
+
+
+def _integrator_fits(raw: pd.DataFrame) -> dict[str, list[list[float]]]:
+    """Free-run fit % (p q r) of global and oracle-switched ARX on the validation part,
+    without and with the integrals of the sticks and of the angles from the table start as
+    extra regressors: the rate PID's integrator is ki·∫(angle_kp·(tilt·u − angle) − rate)
+    dt, a linear combination of ∫u, ∫angle and the angle. In free run ∫u is known and ∫angle
+    goes on from its measured value, integrating the model's own (integrated) angles."""
+    from etsid.ident.arx import ARX
+    from etsid.ident.metrics import fit_percent
+    from etsid.ident.simulate import envelope, free_run
+
+    table, spec, reg, split = _prepared(raw)
+    t = np.asarray(table.index, dtype=float)
+    dt = np.diff(t, prepend=t[0])
+    before = reg.rows - 1  # the regressors of row k are read at k-1
+    extra = np.column_stack([np.cumsum(table[c].to_numpy() * dt)[before]
+                             for c in INTEGRAL_COLUMNS])
+    names = [str(term) for term in spec.terms]
+    angle_cols = [names.index("roll[k-1]"), names.index("pitch[k-1]")]
+    n_base = reg.X.shape[1]
+    ige = table["alt"].to_numpy()[before] < GE_SPLIT_M
+    reg.S = ige[:, None].astype(float)
+    base_X, Y, bounds = reg.X, reg.Y, envelope(reg.Y)
+    out: dict[str, list[list[float]]] = {}
+    for label, X in (("without", base_X), ("with", np.column_stack([base_X, extra]))):
+        learn = slice(0, split)
+        glob = ARX.fit(X[learn], Y[learn])
+        ins = ARX.fit(X[learn][ige[learn]], Y[learn][ige[learn]])
+        outs = ARX.fit(X[learn][~ige[learn]], Y[learn][~ige[learn]])
+        reg.X = X
+
+        integrate = label == "with"
+        runs = {"global": _Integrating(lambda s, m=glob: m, integrate, split, extra, dt,
+                                       reg.rows, angle_cols, n_base),
+                "switch": _Integrating(lambda s, a=ins, b=outs: a if s[0] else b, integrate,
+                                       split, extra, dt, reg.rows, angle_cols, n_base)}
+        for key, predict in runs.items():
+            sim = free_run(predict, reg, spec, split, len(table), bounds)
+            out[f"{key} {label}"] = [fit_percent(Y[split:, o], sim[:, o]) for o in range(3)]
+        reg.X = base_X
+    return out
+
+
+def integrator_diagnosis(duration: float) -> None:
+    print(f"rate-integrator states: ige-oge {duration:g} s, seeds {list(STUDY_SEEDS)}; "
+          "free-run fit % p / q / r on the validation part")
+    print("| seed | global ARX | oracle switch | ceiling Δ | global ARX + ∫ | "
+          "oracle switch + ∫ | ceiling Δ + ∫ |")
+    print("|---|---|---|---|---|---|---|")
+    for seed in STUDY_SEEDS:
+        f = _integrator_fits(simulate("ige-oge", duration=duration, seed=seed).table)
+        cells = []
+        for label in ("without", "with"):
+            g, w = f[f"global {label}"], f[f"switch {label}"]
+            cells += [" / ".join(f"{v:.1f}" for v in g), " / ".join(f"{v:.1f}" for v in w),
+                      " / ".join(f"{b - a:+.1f}" for a, b in zip(g, w, strict=True))]
+        print(f"| {seed} | " + " | ".join(cells) + " |", flush=True)
 
 
 SAMPLE_SEED = 7
@@ -289,6 +409,8 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--study", action="store_true", help="the inner-split selection study")
     ap.add_argument("--oracle", action="store_true", help="the oracle-ceiling diagnosis")
+    ap.add_argument("--integrators", action="store_true",
+                    help="with --oracle: does a state for the rate PID's integrator raise it?")
     ap.add_argument("--sample", action="store_true",
                     help="the bundled sample's flight (seed 7) by length and log rates")
     ap.add_argument("--duration", type=float, default=150.0,
@@ -296,7 +418,9 @@ def main() -> None:
     ap.add_argument("--ige-oge-only", action="store_true",
                     help="benchmark: skip the single-regime flights")
     args = ap.parse_args()
-    if args.oracle:
+    if args.oracle and args.integrators:
+        integrator_diagnosis(args.duration)
+    elif args.oracle:
         oracle(args.duration)
     elif args.sample:
         sample_diagnosis()
