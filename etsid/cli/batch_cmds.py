@@ -20,6 +20,7 @@ from etsid.batch import (
     read_pairs,
     run_batch,
 )
+from etsid.batch.local import RENEW_GROWTH_MB
 from etsid.cli.ident_cmds import identify_cmd
 from etsid.cli.ingest_cmds import ingest as ingest_cmd
 from etsid.cli.ingest_cmds import inspect as inspect_cmd
@@ -35,8 +36,10 @@ def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
     func = click.option("--max-memory", "max_memory_mb", type=click.FloatRange(100),
                         default=None, metavar="MB",
                         help="Memory limit of each local worker process, MB: a log whose "
-                             "worker grows past it becomes an error row (default: no "
-                             "limit; each worker is renewed every 50 logs anyway).")(func)
+                             "worker grows past it becomes an error row and the worker goes "
+                             "on (default: no limit; the pool is renewed anyway when a "
+                             f"worker has grown by {RENEW_GROWTH_MB:g} MB since its first "
+                             "log).")(func)
     func = click.option("--resume", is_flag=True,
                         help="Skip every log that has a result for the same input (SHA-256) "
                              "and options.")(func)

@@ -1,9 +1,12 @@
-"""A worker process that dies (SIGKILL, as the kernel's OOM killer sends it) costs the batch
-one row at most: the culprit's, and only when it kills every worker it is given to.
+"""Workers that die or outgrow their memory cost the batch one row at most: the culprit's.
 
-The deaths are real: a ``sitecustomize`` on the workers' ``PYTHONPATH`` makes the worker
-that picks up ``poison.bag`` kill itself, up to a set number of times. The batch runs in a
-subprocess, so its fork server (or Dask cluster) starts with that environment.
+A worker that dies (SIGKILL, as the kernel's OOM killer sends it) is replaced, and the log
+it was running is retried; only a log that kills every worker it is given to gets the row
+"worker process died". A log that passes ``--max-memory`` gets an out-of-memory row and the
+worker goes on. Both are real: a ``sitecustomize`` on the workers' ``PYTHONPATH`` makes the
+worker that reads ``poison.bag`` kill itself (up to a set number of times) or allocate memory
+until it is stopped. The batch runs in a subprocess, so its fork server (or Dask cluster)
+starts with that environment.
 """
 
 from __future__ import annotations
@@ -28,19 +31,24 @@ HOOK = """
 import os
 import signal
 
-if os.environ.get("ETSID_TEST_DEATHS"):
-    import etsid.batch.worker as _worker
+if os.environ.get("ETSID_TEST_POISON"):
+    from etsid.batch import tasks
 
-    _run_log = _worker.run_log
+    _inspect = tasks.RUNNERS["inspect"]
 
-    def run_log(item, *args, **kwargs):
-        deaths = os.environ["ETSID_TEST_DEATHS"]
-        if "poison" in str(item) and len(os.listdir(deaths)) < int(os.environ["ETSID_TEST_MAX"]):
-            open(os.path.join(deaths, str(os.getpid())), "w").close()
-            os.kill(os.getpid(), signal.SIGKILL)
-        return _run_log(item, *args, **kwargs)
+    def inspect(path, *args, **kwargs):
+        if "poison" in str(path):
+            if os.environ["ETSID_TEST_POISON"] == "hog":
+                hoard = [b"x" * 2**26 for _ in range(24)]  # 1.5 GB, 64 MB at a time
+                del hoard
+            else:
+                deaths = os.environ["ETSID_TEST_DEATHS"]
+                if len(os.listdir(deaths)) < int(os.environ["ETSID_TEST_MAX"]):
+                    open(os.path.join(deaths, str(os.getpid())), "w").close()
+                    os.kill(os.getpid(), signal.SIGKILL)
+        return _inspect(path, *args, **kwargs)
 
-    _worker.run_log = run_log
+    tasks.RUNNERS["inspect"] = inspect
 """
 
 SCRIPT = """
@@ -49,7 +57,8 @@ from etsid.batch import BatchSpec, run_batch
 from etsid.ingest import ReadOptions
 if __name__ == "__main__":
     summary = run_batch(json.loads(sys.argv[1]), BatchSpec("inspect", read_options=ReadOptions()),
-                        sys.argv[2], jobs=2, scheduler=sys.argv[3])
+                        sys.argv[2], jobs=2, scheduler=sys.argv[3],
+                        max_memory_mb=float(sys.argv[4]) if len(sys.argv) > 4 else None)
     print(summary.ok, summary.failed)
 """
 
@@ -66,9 +75,12 @@ def logs(fleet: Path, tmp_path: Path) -> list[str]:
     return [str(root / name) for name in ("poison.bag", "a.tlog", "c", "d.mcap")]
 
 
-def _run_with_deaths(logs: list[str], out: Path, max_deaths: int, scheduler: str,
-                     extra_env: dict[str, str] | None = None) -> tuple[int, str]:
-    """Run the batch with the hook armed; the number of worker deaths and stdout."""
+def _run_poisoned(logs: list[str], out: Path, scheduler: str, max_deaths: int = 0,
+                  max_memory_mb: float | None = None,
+                  extra_env: dict[str, str] | None = None) -> tuple[int, str]:
+    """Run the batch with the hook armed: ``poison.bag`` kills its worker up to
+    ``max_deaths`` times, or with ``max_memory_mb`` hogs memory. The number of worker deaths
+    and the script's stdout (ok and failed counts)."""
     hook_dir = out.parent / f"{out.name}-hook"
     deaths = out.parent / f"{out.name}-deaths"
     hook_dir.mkdir()
@@ -78,9 +90,12 @@ def _run_with_deaths(logs: list[str], out: Path, max_deaths: int, scheduler: str
     script.write_text(SCRIPT)
     env = {**os.environ, **(extra_env or {}),
            "PYTHONPATH": os.pathsep.join([str(hook_dir), str(ROOT)]),
+           "ETSID_TEST_POISON": "hog" if max_memory_mb else "kill",
            "ETSID_TEST_DEATHS": str(deaths), "ETSID_TEST_MAX": str(max_deaths)}
-    done = subprocess.run([sys.executable, str(script), json.dumps(logs), str(out), scheduler],
-                          env=env, capture_output=True, text=True, timeout=600)
+    args = [json.dumps(logs), str(out), scheduler, *([str(max_memory_mb)] if max_memory_mb
+                                                     else [])]
+    done = subprocess.run([sys.executable, str(script), *args], env=env, capture_output=True,
+                          text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     return len(os.listdir(deaths)), done.stdout
 
@@ -105,7 +120,7 @@ def _assert_only_the_poison_failed(stdout: str, out: Path) -> None:
 def test_a_worker_killed_once_costs_no_row(logs: list[str], tmp_path: Path) -> None:
     clean = tmp_path / "clean"
     run_batch(logs, BatchSpec("inspect", read_options=ReadOptions()), clean, jobs=1)
-    deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 1, "local")
+    deaths, stdout = _run_poisoned(logs, tmp_path / "killed", "local", max_deaths=1)
     assert deaths == 1
     assert stdout.split() == ["4", "0"]
     expected, got = _rows(clean), _rows(tmp_path / "killed")
@@ -115,7 +130,7 @@ def test_a_worker_killed_once_costs_no_row(logs: list[str], tmp_path: Path) -> N
 
 def test_a_log_that_kills_every_worker_is_the_only_error_row(logs: list[str],
                                                             tmp_path: Path) -> None:
-    deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 99, "local")
+    deaths, stdout = _run_poisoned(logs, tmp_path / "killed", "local", max_deaths=99)
     # two pools broken with it in flight, then one worker of its own
     assert deaths == 3
     _assert_only_the_poison_failed(stdout, tmp_path / "killed")
@@ -125,8 +140,26 @@ def test_dask_gives_the_same_row_after_its_retries(logs: list[str], tmp_path: Pa
     pytest.importorskip("dask.distributed")
     env = {"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1",
            "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0"}
-    deaths, stdout = _run_with_deaths(logs, tmp_path / "killed", 99, "processes", env)
+    deaths, stdout = _run_poisoned(logs, tmp_path / "killed", "processes", max_deaths=99,
+                                   extra_env=env)
     # the first try and the one retry allowed; the logs after it lose nothing (they did
     # when the batch arguments were scattered data, which died with the workers)
     assert deaths == 2
     _assert_only_the_poison_failed(stdout, tmp_path / "killed")
+
+
+def test_a_log_over_max_memory_is_an_error_row_and_its_worker_goes_on(
+        logs: list[str], tmp_path: Path) -> None:
+    """``--max-memory 600``: the workers idle at about 150 MB, the poison would take 1.5 GB
+    more; it is stopped on the way with a MemoryError, and no worker dies."""
+    deaths, stdout = _run_poisoned(logs, tmp_path / "hog", "local", max_memory_mb=600.0)
+    assert deaths == 0
+    assert stdout.split() == ["3", "1"]
+    rows = _rows(tmp_path / "hog")
+    assert rows["poison.bag"]["error"] == ("out of memory: the log needed more than "
+                                           "--max-memory 600 MB")
+    assert rows["poison.bag"]["error_kind"] == "MemoryError"
+    assert len(rows["poison.bag"]["input_sha256"]) == 64  # the worker got as far as hashing
+    peak = read_results(tmp_path / "hog").set_index("input")["peak_rss_mb"]
+    assert 600.0 < peak[logs[0]] < 1200.0  # stopped past the limit, well before 1.5 GB more
+    assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
