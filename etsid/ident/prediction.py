@@ -24,7 +24,7 @@ from etsid.ident.evaluate import (
 from etsid.ident.flight import EXCITE_STD, apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
 from etsid.ident.motors import MOTOR_COMMANDS, add_motor_commands
-from etsid.ident.regimes import regime_summary_of
+from etsid.ident.regimes import regime_summary_of, rotor_radius
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header, sha256
@@ -51,6 +51,10 @@ def load_rules(path: str | Path) -> tuple[ETS, RegressorSpec, dict[str, Any]]:
     if not isinstance(data, dict) or not isinstance(data.get("regressors"), dict):
         raise IdentError(f"{path}: the rule base has no 'regressors' spec; "
                          "it was not written by etsid identify")
+    radius = data["regressors"].get("rotor_radius_m")
+    if radius is not None and rotor_radius({"rotor_radius_m": radius}) is None:
+        raise IdentError(f"{path}: regressors/rotor_radius_m must be a rotor radius in m "
+                         f"(a positive number), got {radius!r}")
     rate = data["regressors"].get("sample_rate_hz")
     if rate is not None and (isinstance(rate, bool) or not isinstance(rate, (int, float))
                              or not 0 < rate <= MAX_SAMPLE_RATE_HZ):
@@ -137,15 +141,21 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "sample_rate": rate_info(table),
         "flight": selection.to_dict(),
     }
+    notes = motion_warnings(metrics["outputs"], EXCITE_STD)
+    radius = None  # the table's own rotor radius (--vehicle, the simulator) comes first
+    if rotor_radius(table.attrs) is None and (radius := data["regressors"].get(
+            "rotor_radius_m")) is not None:
+        notes.insert(0, f"rotor radius {radius:g} m from the rule base (the vehicle it was "
+                        "identified on) for the regime bands in z/R; --vehicle for another")
     metrics["regimes"] = regime_summary_of(data, table, reg, list(spec.outputs), cols, split,
-                                           learnt_here=False)
+                                           learnt_here=False, rotor_radius_m=radius)
     run_config = {
         **run_header("predict", table, source),
         "rules": {"path": str(path), "sha256": sha256(path if path.is_file()
                                                       else path / "rules.json")},
         "model": {**spec.to_dict(), "inputs": {"columns": [
             c for c in spec.columns if c not in spec.outputs]},
-                  "notes": motion_warnings(metrics["outputs"], EXCITE_STD)},
+                  "notes": notes},
         "parameters": {"learn": learn, "sim_from": sim_from, "segments": segments},
         "ets": {**{k: data["params"].get(k) for k in ("radius", "omega", "variant")},
                 "fixed_ranges": data["params"].get("x_range") is not None}
@@ -153,5 +163,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
     }
+    learnt = rules_json(model.to_dict(), spec, data["regressors"].get("decimation"),
+                        radius or rotor_radius(table.attrs)) if learn else None
     return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
-               history, consequents, data, rules_json(model.to_dict(), spec) if learn else None)
+               history, consequents, data, learnt)

@@ -363,16 +363,19 @@ def _first_antecedent(table: list[dict[str, Any]]) -> tuple[str | None, str]:
 
 
 def regime_summary_of(rules: dict[str, Any] | None, table: Any, reg: Any, outputs: list[str],
-                      cols: dict[str, np.ndarray], split: int, learnt_here: bool = True
-                      ) -> dict[str, Any]:
+                      cols: dict[str, np.ndarray], split: int, learnt_here: bool = True,
+                      rotor_radius_m: float | None = None) -> dict[str, Any]:
     """:func:`regime_summary` for a run: altitude, thrust command and antecedent inputs
     taken from ``table`` (the identification table) at the rows of ``reg`` (its
-    :class:`etsid.ident.regressors.Regression`)."""
+    :class:`etsid.ident.regressors.Regression`); ``rotor_radius_m`` (m) stands in for the
+    table's own when given."""
     def at_rows(column: str) -> np.ndarray | None:
         return (table[column].to_numpy(dtype=float)[reg.rows] if column in table.columns
                 else None)
 
-    return regime_summary(rules, at_rows(ALTITUDE), table.attrs,
+    attrs = table.attrs if rotor_radius_m is None else {**table.attrs,
+                                                        "rotor_radius_m": rotor_radius_m}
+    return regime_summary(rules, at_rows(ALTITUDE), attrs,
                           reg.X if reg.S is None else reg.S, reg.t, reg.Y, outputs, cols,
                           split, learnt_here, at_rows(THRUST))
 

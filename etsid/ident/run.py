@@ -51,7 +51,7 @@ from etsid.ident.learn import history_frames, learn_online
 from etsid.ident.model_choice import choose_model
 from etsid.ident.motors import add_motor_commands
 from etsid.ident.ranges import fixed_ranges, schedule_range
-from etsid.ident.regimes import regime_summary_of
+from etsid.ident.regimes import regime_summary_of, rotor_radius
 from etsid.ident.regressors import RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header
@@ -181,6 +181,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
     }
+    radius = rotor_radius(table.attrs)
     return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
-               history, consequents, rules_json(frozen_dict, spec, rate),
-               rules_json(model.to_dict(), spec, rate))
+               history, consequents, rules_json(frozen_dict, spec, rate, radius),
+               rules_json(model.to_dict(), spec, rate, radius))

@@ -116,11 +116,15 @@ def _input_info(table: pd.DataFrame, source: str | Path | None) -> dict[str, Any
 
 
 def rules_json(data: dict[str, Any] | None, spec: RegressorSpec,
-               rate: dict[str, Any] | None = None) -> dict[str, Any]:
+               rate: dict[str, Any] | None = None,
+               rotor_radius_m: float | None = None) -> dict[str, Any]:
     """rules.json: the rule base ``data`` (``ETS.to_dict``) with the regressor spec and
-    the identification rate that :func:`etsid.ident.predict` needs to apply it."""
+    the identification rate that :func:`etsid.ident.predict` needs to apply it, and the
+    rotor radius (m) of the vehicle it was learnt on when known (its regime bands in z/R)."""
     out = dict(data or {})
     out["regressors"] = spec.to_dict()
+    if rotor_radius_m:
+        out["regressors"]["rotor_radius_m"] = float(rotor_radius_m)
     if rate and rate.get("rate_hz"):
         # predict decimates another table to the same rate before applying the rules
         out["regressors"]["sample_rate_hz"] = rate["rate_hz"]

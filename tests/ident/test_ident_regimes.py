@@ -155,6 +155,38 @@ def test_predict_scores_regimes_of_another_flight(tmp_path) -> None:
     assert per["in ground effect"]["outputs"]["y"]["free_run"]["fit"] > 90.0
 
 
+def test_the_rule_base_carries_the_rotor_radius_to_predict(tmp_path) -> None:
+    """A log read from a file knows no rotor radius: predict takes the one the rules were
+    learnt with (and says so), --vehicle's (the table's own) wins, a damaged one is refused."""
+    import json
+
+    from etsid.errors import IdentError
+
+    run = identify(_table(radius=0.2), IdentConfig(**BASE, antecedent="alt[k-1]"))
+    assert run.rules["regressors"]["rotor_radius_m"] == 0.2
+    path = tmp_path / "rules.json"
+    path.write_text(json.dumps(run.rules))
+    # z/R bands of R = 0.2 m: in ground effect below 0.4 m, out above 0.8 m
+    other = predict(_table(1200, seed=5, radius=None), path, segments="all", learn=True)
+    block = other.metrics["regimes"]
+    assert block["basis"] == "z/R" and block["rotor_radius_m"] == 0.2
+    assert block["bands"][0]["alt_below_m"] == pytest.approx(0.4)
+    assert other.config["model"]["notes"][0].startswith("rotor radius 0.2 m from the rule base")
+    assert other.rules_final["regressors"]["rotor_radius_m"] == 0.2
+    assert (other.rules_final["regressors"]["sample_rate_hz"]
+            == run.rules["regressors"].get("sample_rate_hz"))
+    own = predict(_table(1200, seed=5, radius=0.165), path, segments="all")
+    assert own.metrics["regimes"]["rotor_radius_m"] == 0.165
+    assert not any("rule base" in n for n in own.config["model"]["notes"])
+    without = identify(_table(radius=None), IdentConfig(**BASE, antecedent="alt[k-1]"))
+    assert "rotor_radius_m" not in without.rules["regressors"]
+    for bad in (-0.1, "0.2", 0, True):
+        damaged = dict(run.rules, regressors={**run.rules["regressors"], "rotor_radius_m": bad})
+        path.write_text(json.dumps(damaged))
+        with pytest.raises(IdentError, match="regressors/rotor_radius_m must be a rotor radius"):
+            predict(_table(1200, seed=5, radius=None), path, segments="all")
+
+
 def test_rule_table_gives_each_rules_thrust_command() -> None:
     # thrust 0.45 on the low dwells and 0.55 on the high ones: each rule's median is its own
     table = _table()
