@@ -44,8 +44,9 @@ def _local_key(path: Path) -> str:
     return os.path.normpath(os.path.abspath(path))
 
 
-def _walk_local(root: Path, exclude: Path | None) -> list[str]:
-    """Logs below ``root``: files with a log extension and ROS 2 bag directories."""
+def _walk_local(root: Path, exclude: Path | None, tables: list[str]) -> list[str]:
+    """Logs below ``root``: files with a log extension and ROS 2 bag directories; the saved
+    tables met on the way are appended to ``tables``."""
     found: list[str] = []
     for dirpath, dirnames, filenames in os.walk(root):
         here = Path(dirpath)
@@ -61,11 +62,14 @@ def _walk_local(root: Path, exclude: Path | None) -> list[str]:
         dirnames.sort()
         found.extend(str(here / name) for name in sorted(filenames)
                      if Path(name).suffix.lower() in LOG_SUFFIXES)
+        tables.extend(str(here / name) for name in sorted(filenames)
+                      if Path(name).suffix.lower() in TABLE_SUFFIXES)
     return found
 
 
-def _walk_url(url: str) -> list[str]:
-    """Logs below a directory URL (needs fsspec); a bag directory is one input."""
+def _walk_url(url: str, tables: list[str]) -> list[str]:
+    """Logs below a directory URL (needs fsspec); a bag directory is one input; the saved
+    tables met on the way are appended to ``tables``."""
     fs, root = _url_fs(url)
     if not fs.isdir(root):
         return [url]
@@ -77,6 +81,8 @@ def _walk_url(url: str) -> list[str]:
         if Path(f).suffix.lower() in LOG_SUFFIXES and not any(
                 f.startswith(b.rstrip("/") + "/") for b in bags):
             found.append(f"{protocol}://{f}")
+        elif Path(f).suffix.lower() in TABLE_SUFFIXES:
+            tables.append(f"{protocol}://{f}")
     return sorted(found)
 
 
@@ -108,7 +114,8 @@ def _read_list(path: Path) -> list[str]:
     return items
 
 
-def find_inputs(items: Iterable[str | Path], exclude: Path | None = None) -> list[str]:
+def find_inputs(items: Iterable[str | Path], exclude: Path | None = None,
+                unsearched: list[str] | None = None) -> list[str]:
     """Expand INPUTS into the logs of a batch, in a stable order, each once.
 
     Parameters
@@ -117,6 +124,9 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None) -> lis
         Files, directories, list files or fsspec URLs, as given on the command line.
     exclude
         A directory never searched (the batch's own ``--out``).
+    unsearched
+        When given, the saved tables (``.parquet``, ``.csv``) found in the directories
+        searched are appended to it: they are inputs only when named.
 
     Notes
     -----
@@ -125,6 +135,7 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None) -> lis
     """
     seen: set[str] = set()
     out: list[str] = []
+    tables = unsearched if unsearched is not None else []
 
     def add(item: str) -> None:
         key = item if is_url(item) else _local_key(Path(item))
@@ -135,15 +146,15 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None) -> lis
     for raw in items:
         item = str(raw)
         if is_url(item):
-            for found in _walk_url(item):
+            for found in _walk_url(item, tables):
                 add(found)
             continue
         path = Path(item)
         if path.is_dir():
-            for found in _walk_local(path, exclude):
+            for found in _walk_local(path, exclude, tables):
                 add(found)
         elif path.is_file() and path.suffix.lower() in LIST_SUFFIXES:
-            for listed in find_inputs(_read_list(path), exclude):
+            for listed in find_inputs(_read_list(path), exclude, tables):
                 add(listed)
         else:
             add(item)

@@ -25,6 +25,7 @@ from etsid.cli.ident_cmds import identify_cmd
 from etsid.cli.ingest_cmds import ingest as ingest_cmd
 from etsid.cli.ingest_cmds import inspect as inspect_cmd
 from etsid.cli.options import read_options
+from etsid.errors import BatchError
 from etsid.progress import wanted
 
 _NOT_BATCH = {"log", "out", "as_json", "quiet"}
@@ -70,9 +71,27 @@ def _echo_summary(summary: BatchSummary, command: str) -> None:
                    err=True)
     skipped = f", {summary.skipped} skipped (--resume)" if summary.skipped else ""
     rate = summary.total / summary.wall_s * 60 if summary.wall_s > 0 else float("nan")
-    click.echo(f"{summary.total} logs: {summary.ok} ok, {summary.failed} failed{skipped} in "
+    logs = "log" if summary.total == 1 else "logs"
+    click.echo(f"{summary.total} {logs}: {summary.ok} ok, {summary.failed} failed{skipped} in "
                f"{summary.wall_s:.1f} s ({rate:.1f} logs/min); results in "
                f"{summary.out}/results/; next: etsid report {summary.out}")
+
+
+def _find(logs: tuple[str, ...], out: Path) -> list[str]:
+    """The logs of LOGS; saved tables met in its directories are not run, and said so."""
+    tables: list[str] = []
+    items = find_inputs(logs, exclude=out, unsearched=tables)
+    if tables:
+        first = tables[0].replace("\\", "/")
+        folder, suffix = first.rsplit("/", 1)[0], Path(first).suffix
+        what = (f"{len(tables)} saved table{'s' if len(tables) > 1 else ''} "
+                f"({', '.join(sorted({Path(t).suffix for t in tables}))})")
+        hint = f"saved tables run only when named, e.g. {folder}/*{suffix}"
+        if not items:
+            raise BatchError(f"no logs to run: the directories hold {what} and no log; "
+                             f"{hint}")
+        click.echo(f"note: {what} in the directories not run: {hint}", err=True)
+    return items
 
 
 def _run(items: list[Any], spec: BatchSpec, out: Path, jobs: int | None, scheduler: str,
@@ -111,7 +130,7 @@ def batch_inspect(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler:
                   **kw: Any) -> None:
     """etsid inspect on every log of INPUTS."""
     spec = _read_spec("inspect", kw)
-    _run(find_inputs(logs, exclude=out), spec, out, jobs, scheduler, resume,
+    _run(_find(logs, out), spec, out, jobs, scheduler, resume,
          max_memory_mb, quiet)
 
 
@@ -124,7 +143,7 @@ def batch_ingest(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: 
     """etsid ingest on every log of INPUTS (RUN_DIR/table.parquet per log)."""
     spec = _read_spec("ingest", kw)
     spec.rate_hz, spec.start, spec.end = kw["rate_hz"], kw["start"], kw["end"]
-    _run(find_inputs(logs, exclude=out), spec, out, jobs, scheduler, resume,
+    _run(_find(logs, out), spec, out, jobs, scheduler, resume,
          max_memory_mb, quiet)
 
 
@@ -143,7 +162,7 @@ def batch_identify(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler
     kw["outputs"] = [s.strip() for s in outputs.split(",") if s.strip()] if outputs else None
     names = {f.name for f in fields(IdentConfig)}
     spec.ident_config = IdentConfig(**{k: v for k, v in kw.items() if k in names})
-    _run(find_inputs(logs, exclude=out), spec, out, jobs, scheduler, resume,
+    _run(_find(logs, out), spec, out, jobs, scheduler, resume,
          max_memory_mb, quiet)
 
 
@@ -156,7 +175,7 @@ def batch_gap(pairs: tuple[Path, ...], out: Path, jobs: int | None, scheduler: s
               resume: bool, max_memory_mb: float | None, quiet: bool,
               vehicle: str | None, **kw: Any) -> None:
     """Sim-vs-real gap analysis of every SIM,REAL pair in the PAIRS CSV files."""
-    from etsid.batch import GAP_UNAVAILABLE, BatchError, gap_available
+    from etsid.batch import GAP_UNAVAILABLE, gap_available
 
     if not gap_available():
         raise BatchError(GAP_UNAVAILABLE)

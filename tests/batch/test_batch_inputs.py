@@ -42,6 +42,41 @@ def test_out_directory_is_not_searched(fleet: Path, tmp_path: Path) -> None:
     assert find_inputs([root], exclude=out) == [str(root / "x.tlog")]
 
 
+def test_saved_tables_in_a_directory_are_not_run_and_are_said(fleet: Path,
+                                                              tmp_path: Path) -> None:
+    """A folder of results is full of Parquet files that are not flights, so tables are
+    taken only when named; the ones a directory holds are counted, never dropped silently."""
+    from click.testing import CliRunner
+
+    from etsid.cli import cli
+
+    root = tmp_path / "logs"
+    (root / "tables").mkdir(parents=True)
+    (root / "x.tlog").write_bytes((fleet / "a.tlog").read_bytes())
+    (root / "tables" / "t1.parquet").write_bytes(b"PAR1")
+    (root / "tables" / "t2.csv").write_text("t,p\n")
+    tables: list[str] = []
+    assert find_inputs([root], unsearched=tables) == [str(root / "x.tlog")]
+    assert tables == [str(root / "tables" / "t1.parquet"), str(root / "tables" / "t2.csv")]
+    named = root / "tables" / "t1.parquet"
+    assert find_inputs([named]) == [str(named)]
+
+    runner = CliRunner()
+    only = runner.invoke(cli, ["batch", "inspect", str(root / "tables"),
+                               "-o", str(tmp_path / "b1"), "-j", "1", "-q"])
+    assert only.exit_code != 0
+    error = only.output.strip().splitlines()
+    assert len(error) == 1 and "Traceback" not in only.output
+    assert error[0] == (f"etsid: error: no logs to run: the directories hold 2 saved tables "
+                        f"(.csv, .parquet) and no log; saved tables run only when named, "
+                        f"e.g. {root / 'tables'}/*.parquet")
+    both = runner.invoke(cli, ["batch", "inspect", str(root), "-o", str(tmp_path / "b2"),
+                               "-j", "1", "-q"])
+    assert both.exit_code == 0, both.output
+    assert "note: 2 saved tables (.csv, .parquet) in the directories not run" in both.output
+    assert "1 log: 1 ok, 0 failed" in both.output
+
+
 def test_pairs_csv(tmp_path: Path) -> None:
     csv = tmp_path / "pairs.csv"
     csv.write_text("sim,real\nsim/a.tlog, real/a.ulg\n\n/abs/b.bag,s3://bucket/b.ulg\n")
