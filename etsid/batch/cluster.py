@@ -73,8 +73,7 @@ class DaskRunner:
     def run(self, items: Iterable[Item], on_done: Callable[[Outcome], None],
             on_running: Callable[[int], None]) -> None:
         """Run every item; Ctrl-C cancels what is left and re-raises."""
-        from dask.distributed import as_completed
-        from distributed import KilledWorker
+        from dask.distributed import KilledWorker, as_completed
 
         items = list(items)
         client, cluster = _client(self.address, self.jobs)
