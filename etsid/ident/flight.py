@@ -101,6 +101,19 @@ mid-throttle on its wheels shows 0.001–0.004 rad/s, the sample flight in its 0
 0.017–0.021 rad/s. A flight stiller than this keeps the arming-level rule (it may then lose
 low hovers, as before)."""
 
+ON_BACK_AZ = 4.9
+"""Least body-z specific force, m/s² (FRD: upright hover reads −9.8), of a vehicle lying on
+its back: rotor thrust only ever pulls along −z, and in a flip or a fall the reading stays
+≤ 0, so a push from the top side (+z) of half a g is a contact force: the vehicle is on the
+ground upside down (:func:`upset_rows`)."""
+
+ON_BACK_HOLD_S = 1.0
+"""Seconds the on-its-back reading must hold (a bump in flight lasts far less)."""
+
+UPSET_LOOKBACK_S = 3.0
+"""Seconds before the vehicle comes to rest on its back that count as the upset (the loss of
+control, the tumble and the fall; 2.5 s on the real ArduCopter flip flight), s."""
+
 ARMED_STATE_SOURCES = ("HEARTBEAT.base_mode", "ARM.ArmState", "EV.Id (armed)", ".armed")
 """``attrs["mapping"]["landed"]`` ending in one of these: the column is an armed state
 (1 disarmed, 0 armed), not a land detector."""
@@ -313,6 +326,25 @@ def airborne_rule(table: pd.DataFrame) -> tuple[np.ndarray, str]:
     return air, "rule (altitude, vertical speed)"
 
 
+def upset_rows(table: pd.DataFrame) -> tuple[np.ndarray, float | None]:
+    """Rows of an upset: from :data:`UPSET_LOOKBACK_S` before the first time the vehicle
+    rests on its back (``az`` ≥ :data:`ON_BACK_AZ` for :data:`ON_BACK_HOLD_S`) to the end of
+    that stretch; the time it came to rest (None: no upset, or no ``az``)."""
+    t = np.asarray(table.index, dtype=float)
+    out = np.zeros(len(t), dtype=bool)
+    az = _column(table, "az")
+    if az is None or len(t) < 2:
+        return out, None
+    dt = float(np.median(np.diff(t)))
+    with np.errstate(invalid="ignore"):
+        back = np.nan_to_num(az, nan=0.0) >= ON_BACK_AZ
+    for a, b in _runs(back):
+        if _duration(t, a, b, dt) >= ON_BACK_HOLD_S:
+            out[(t >= t[a] - UPSET_LOOKBACK_S) & (t <= t[b - 1])] = True
+            return out, float(t[a])
+    return out, None
+
+
 def parse_windows(text: str) -> list[tuple[float, float]]:
     """``"T0:T1,T0:T1"`` → windows, s.
 
@@ -356,6 +388,10 @@ def select_flight(table: pd.DataFrame, mode: str = "auto") -> FlightSelection:
                 raw_air, method = armed_airborne(table, np.nan_to_num(landed, nan=1.0) < 0.5)
         else:
             raw_air, method = airborne_rule(table)
+        upset, rest_t = upset_rows(table)
+        if rest_t is not None:
+            raw_air = raw_air & ~upset
+            method += f", upset cut (on its back from {rest_t:.1f} s)"
         # a detector's blips are filled before its touch-down stages are cut
         keep = clean_mask(raw_air, t, blip_s=0.0 if method.startswith("land detector")
                           else GROUND_BLIP_S)

@@ -11,7 +11,7 @@ Columns, units and priorities (lower wins):
 ============ ============================================================================
 column       candidates (priority)
 ============ ============================================================================
-p q r        RATE R/P/Y deg/s (0), IMU GyrX… rad/s (2), IMU2 (3), IMU3 (4); RATE is
+p q r        RATE R/P/Y deg/s, cdeg/s in 3.x (0), IMU GyrX… rad/s (2), IMU2 (3), IMU3 (4); RATE is
              ~10 Hz in most logs: the ingest rule "rate beats priority"
              (:func:`etsid.ingest.mapping.prefer_rate`) then takes IMU
 roll…        ATT Roll/Pitch/Yaw deg (0; Yaw 0…360 wrapped to ±180)
@@ -21,7 +21,8 @@ u_*          RCIN C1… via ``rc_map`` (0); RATE ROut/POut/YOut, AOut (5: contro
 sp_*         RATE RDes/PDes/YDes deg/s (0)
 m1…m8        RCOU C1…C8, RC range (1000–2000 µs) → 0…1 (0)
 alt          RFND Dist (m; old logs' Dist1 in cm, decided from FMTU units or the field's
-             integer type), downward (Orient 25) when the field exists (0)
+             integer type), downward (Orient 25) when the field exists (0);
+             CTUN BarAlt/BAlt m (1), BARO Alt m (2): barometric height above arming
 vbat         BAT Volt (0)
 landed       EV Id (ArduPilot ``LogEvent``): with land-complete events in the log, a land
              detector (0): LAND_COMPLETE 18, DISARMED 11, ARMED 10, AUTO_ARMED 15 → 1
@@ -30,6 +31,9 @@ landed       EV Id (ArduPilot ``LogEvent``): with land-complete events in the lo
              (2, armed state: 0 → 1, 1 → 0). Events are sparse: the state is sampled at
              :data:`EVENT_STATE_HZ` from the first event to the end of the log (held).
 ============ ============================================================================
+
+Older generations (3.x: untimed EV, GPS time of week, RATE units, RCOU ``Ch1…``):
+:mod:`etsid.ingest.dataflash_legacy`.
 
 Instanced messages (``I``, ``Instance``, ``Inst`` fields) keep instance 0. Time is
 ``TimeUS`` (µs since boot; ``TimeMS`` in old logs). ``start_time`` comes from the first
@@ -52,13 +56,20 @@ import numpy as np
 from etsid.errors import IngestError
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
+from etsid.ingest.dataflash_legacy import (
+    BOOT_TIME_FIELDS,
+    baro_altitude,
+    file_times,
+    out_scales,
+    rate_scale,
+)
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
 from etsid.ingest.vehicle import banner_facts, decode_text, first_banner
 from etsid.progress import progress
 
 DEG = np.pi / 180.0
 NEEDED = ("ATT", "RATE", "IMU", "IMU2", "IMU3", "RCIN", "RCOU", "BAT", "RFND", "GPS", "EV",
-          "ARM")
+          "ARM", "CTUN", "BARO")
 EV_ARMED, EV_DISARMED, EV_AUTO_ARMED = 10, 11, 15
 EV_LAND_COMPLETE, EV_NOT_LANDED = 18, 28
 """ArduPilot ``LogEvent`` ids (AP_Logger), the ones that say armed or landed."""
@@ -173,10 +184,14 @@ def _decode(reader: object, data: np.ndarray, name: str, raw: RawLog) -> _Decode
         for i, n in enumerate(rec.dtype.names):
             mult = fmt.msg_mults[i] if i < len(fmt.msg_mults) else None
             out[n] = rec[n] * mult if mult is not None and not rec.dtype[n].shape else rec[n]
-    if "TimeUS" in out.dtype.names:
+    if BOOT_TIME_FIELDS.get(name) in out.dtype.names:  # 3.x GPS: TimeMS is GPS time
+        t = out[BOOT_TIME_FIELDS[name]] * 1e-3
+    elif "TimeUS" in out.dtype.names:
         t = out["TimeUS"] * 1e-6
     elif "TimeMS" in out.dtype.names:
         t = out["TimeMS"] * 1e-3
+    elif out.size == offs.size and (untimed := file_times(reader, data, offs)) is not None:
+        t = untimed  # 3.x EV/ERR: no time field (etsid.ingest.dataflash_legacy)
     else:
         return None
     late = int(np.count_nonzero(t < np.maximum.accumulate(t))) if t.size else 0
@@ -206,10 +221,17 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
             out.append(Signal("sp_yaw", d.t, np.angle(np.exp(1j * d.f("DesYaw", DEG))),
                               "ATT.DesYaw", 0))
     if (d := msgs.get("RATE")) is not None:
-        out += _xyz(d, ("R", "P", "Y"), ("p", "q", "r"), DEG, 0)
-        out += _xyz(d, ("RDes", "PDes", "YDes"), ("sp_p", "sp_q", "sp_r"), DEG, 0)
-        out += _xyz(d, ("ROut", "POut", "YOut", "AOut"),
-                    ("u_roll", "u_pitch", "u_yaw", "u_thrust"), 1.0, 5)
+        imu = msgs.get("IMU")
+        unit = (rate_scale(d.t, d.f("R"), imu.t, imu.f("GyrX"))[0]
+                if d.has("R") and imu is not None and imu.has("GyrX") else DEG)
+        out += _xyz(d, ("R", "P", "Y"), ("p", "q", "r"), unit, 0)
+        out += _xyz(d, ("RDes", "PDes", "YDes"), ("sp_p", "sp_q", "sp_r"), unit, 0)
+        outs = [f for f in ("ROut", "POut", "YOut", "AOut") if d.has(f)]
+        scale = out_scales({f: d.f(f) for f in outs})
+        for f, c in zip(("ROut", "POut", "YOut", "AOut"),
+                        ("u_roll", "u_pitch", "u_yaw", "u_thrust"), strict=True):
+            if f in scale:
+                out.append(Signal(c, d.t, d.f(f, scale[f]), f"RATE.{f}", 5))
     for k, name in enumerate(("IMU", "IMU2", "IMU3")):
         if (d := msgs.get(name)) is not None:
             out += _xyz(d, ("GyrX", "GyrY", "GyrZ"), ("p", "q", "r"), 1.0, 2 + k)
@@ -221,13 +243,16 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
                 out.append(Signal(column, d.t, v, f"RCIN.C{ch}", 0))
     if (d := msgs.get("RCOU")) is not None:
         for i in range(1, 9):
-            if d.has(f"C{i}") and (d.rec[f"C{i}"] != 0).any():
-                v = motor_from_pwm(d.rec[f"C{i}"], f"RCOU.C{i}", options, repaired)
-                out.append(Signal(f"m{i}", d.t, v, f"RCOU.C{i}", 0))
+            f = f"C{i}" if d.has(f"C{i}") else f"Ch{i}"  # 3.x: Ch1…
+            if d.has(f) and (d.rec[f] != 0).any():
+                v = motor_from_pwm(d.rec[f], f"RCOU.{f}", options, repaired)
+                out.append(Signal(f"m{i}", d.t, v, f"RCOU.{f}", 0))
     if (d := msgs.get("BAT")) is not None and d.has("Volt"):
         out.append(Signal("vbat", d.t, d.f("Volt"), "BAT.Volt", 0))
     if (d := msgs.get("RFND")) is not None:
         out += _rangefinder(d)
+    for name, d, field, prio in baro_altitude(msgs.get("CTUN"), msgs.get("BARO")):
+        out.append(Signal("alt", d.t, d.f(field), f"{name}.{field}", prio))
     return out + _landed(msgs)
 
 
