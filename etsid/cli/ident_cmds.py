@@ -256,16 +256,26 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
 
 @click.command("rules")
 @click.argument("path", type=click.Path(path_type=Path))
+@click.option("--full", is_flag=True, help="Every term of every consequent, as stored.")
 @click.option("--json", "as_json", is_flag=True, help="Print the raw rules.json.")
-def rules_cmd(path: Path, as_json: bool) -> None:
-    """Print the rule base in PATH (rules.json or a RUN_DIR) as readable IF … THEN … rules."""
+def rules_cmd(path: Path, full: bool, as_json: bool) -> None:
+    """Print the rule base in PATH (rules.json or a RUN_DIR) as readable IF … THEN … rules.
+
+    By default each rule's focal point in physical units and, per output, the terms that
+    dominate its consequent with their share; --full prints every term.
+    """
     data = _control_rules(path)  # a control run's rule base has no regressor spec
     if data is None:
         _, _, data = load_rules(path)
     if as_json:
         click.echo(json.dumps(data, indent=1))
         return
-    click.echo(rules_text(data))
+    if full:
+        click.echo(rules_text(data))
+        return
+    from etsid.report.rulebook import readable
+
+    click.echo(readable(data))
 
 
 def _control_rules(path: Path) -> dict | None:
