@@ -25,7 +25,8 @@ Real-world quirks handled:
 * a one-file ROS 2 bag from which rosbags reads fewer messages than metadata.yaml lists
   (or none) is read from its storage file by etsid's salvage readers, and the read that
   keeps more messages wins;
-* a topic whose messages cannot be decoded is skipped, counted and noted.
+* a message that cannot be decoded is skipped and counted (topic, count, time range);
+  the other messages of its topic are kept.
 """
 
 from __future__ import annotations
@@ -97,17 +98,14 @@ class _LazyTypestore:
         return typestore(ros1=self.ros1).fielddefs
 
 
-def _slow_one(conv: Converter, broken: dict[str, str], deser: Any, topic: TopicData,
-              typename: str, data: bytes, log_ns: int) -> None:
-    """Per-message path: deserialise with rosbags, convert one message."""
-    if topic.topic in broken:
-        conv.count(topic, log_ns)
-        return
+def _slow_one(conv: Converter, deser: Any, topic: TopicData, typename: str, data: bytes,
+              log_ns: int) -> None:
+    """Per-message path: deserialise with rosbags, convert one message (one that does not
+    decode is skipped and counted, never its topic)."""
     try:
         msg = deser(data, typename)
     except _errors() as err:
-        broken[topic.topic] = _first_line(err)
-        conv.count(topic, log_ns)
+        conv.undecodable(topic, log_ns, err)
         return
     conv.add(topic, msg, log_ns)
 
@@ -126,10 +124,9 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
                  else reader.typestore.deserialize_cdr)
         fielddefs = reader.typestore.fielddefs
         topics = {c.id: conv.topic(c.topic, c.msgtype) for c in reader.connections}
-        broken: dict[str, str] = {}
 
         def slow(topic: TopicData, typename: Any, data: bytes, log_ns: int) -> None:
-            _slow_one(conv, broken, deser, topic, typename, data, log_ns)
+            _slow_one(conv, deser, topic, typename, data, log_ns)
 
         batcher = Batcher(conv, slow)
         done_fast = _read_ros2_fast(reader, paths, options, deser) if reader.is2 else None
@@ -137,12 +134,12 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
         total = sum(_size(p) for p in paths)
         with progress(total, f"reading {paths[0].name}", options.progress) as bar:
             if done_fast is not None:
-                conv, broken = done_fast
+                conv = done_fast
                 bar.update(total)
             try:
                 for conn, log_ns, data in (() if done_fast is not None else reader.messages()):
                     topic = topics[conn.id]
-                    if not topic.decode or topic.topic in broken:
+                    if not topic.decode:
                         conv.count(topic, log_ns)
                         continue
                     batcher.push(topic, (fielddefs, conn.msgtype, reader.is2), conn.msgtype,
@@ -155,14 +152,13 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
                 raw.warnings.append(f"{raw.path}: reading stopped early ({_first_line(err)}); "
                                     "kept the messages read before that")
             batcher.flush_all()
-        _note_broken(conv, broken, raw)
         raw.extra["storage"] = "rosbag1" if not reader.is2 else _storage_name(paths[0])
         raw.extra["message_count"] = sum(c.msgcount for c in reader.connections)
     return conv
 
 
 def _read_ros2_fast(reader: Any, paths: list[Path], options: ReadOptions,
-                    deser: Any) -> tuple[Converter, dict[str, str]] | None:
+                    deser: Any) -> Converter | None:
     """A one-file ROS 2 bag through :mod:`etsid.ingest.ros.fast.ros2`; None when the
     rosbags iteration must be used."""
     storage = fast_ros2.storage_file(paths)
@@ -177,17 +173,15 @@ def _read_ros2_fast(reader: Any, paths: list[Path], options: ReadOptions,
         return None
     conv = Converter(options)
     conv.base_ns = int(reader.start_time)
-    broken: dict[str, str] = {}
 
     def slow(topic: TopicData, typename: str, data: bytes, log_ns: int) -> None:
-        _slow_one(conv, broken, deser, topic, typename, data, log_ns)
+        _slow_one(conv, deser, topic, typename, data, log_ns)
 
     try:
-        fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow,
-                           broken)
+        fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow)
     except (fast_ros2.NotFast, fast_mcap.NotFast, OSError):
         return None
-    return conv, broken
+    return conv
 
 
 def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter | None:
@@ -215,12 +209,11 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
                 if not conn.definition:
                     raise NotFast("connection without definition")
                 store.register(get_types_from_msg(conn.definition, typename))
-        broken: dict[str, str] = {}
         done = 0
         with progress(path.stat().st_size, f"reading {path.name}", options.progress) as bar:
             for conn, log_ns, arr, bodies in bag.messages():
                 topic, typename = topics[conn.id]
-                if not topic.decode or topic.topic in broken:
+                if not topic.decode:
                     conv.count_many(topic, log_ns)
                     continue
                 if arr is not None and fast.decode_batch(
@@ -229,7 +222,7 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
                 else:
                     datas = bodies if arr is None else [row.tobytes() for row in arr]
                     for data, t in zip(datas, log_ns.tolist(), strict=True):
-                        _slow_one(conv, broken, store.deserialize_ros1, topic, typename, data, t)
+                        _slow_one(conv, store.deserialize_ros1, topic, typename, data, t)
                         done += len(data)
                 if done > 1 << 20:
                     bar.update(done)
@@ -238,7 +231,6 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
         return None
     finally:
         bag.close()
-    _note_broken(conv, broken, raw)
     _note_lost(bag.lost, conv, raw)
     raw.extra["storage"] = "rosbag1"
     raw.extra["message_count"] = sum(c.count for c in bag.connections.values())
@@ -283,15 +275,6 @@ def _storage_name(path: Path) -> str:
         files = [p.suffix for p in path.iterdir()]
         return "mcap" if ".mcap" in files else "sqlite3"
     return "mcap" if path.suffix.lower() == ".mcap" else "sqlite3"
-
-
-def _note_broken(conv: Converter, broken: dict[str, str], raw: RawLog) -> None:
-    for name, why in broken.items():
-        topic = conv.topics[name]
-        topic.spec, topic.requests = None, []
-        topic.note = f"undecodable, skipped ({why})"
-        raw.warnings.append(f"{name}: {topic.count} message(s) could not be decoded "
-                            f"and were skipped ({why})")
 
 
 def _read_ros2(path: Path, options: ReadOptions, raw: RawLog) -> None:

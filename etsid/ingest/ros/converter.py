@@ -43,6 +43,10 @@ class TopicData:
         self.failed = 0
         self.error = ""
         self.zero_stamp = 0
+        self.undecodable = 0
+        """Messages whose bytes did not decode (skipped one by one, never the topic)."""
+        self.bad_ns: tuple[int, int] | None = None
+        self.bad_why = ""
         self.req_t: list[array[float]] = [array("d") for _ in requests]
         self.req_v: list[array[float]] = [array("d") for _ in requests]
 
@@ -78,6 +82,16 @@ class Converter:
         if data.first_ns is None:
             data.first_ns = log_ns
         data.last_ns = log_ns
+
+    def undecodable(self, data: TopicData, log_ns: int, err: BaseException) -> None:
+        """Count a message whose bytes did not decode: it alone is skipped."""
+        self.count(data, log_ns)
+        data.undecodable += 1
+        if data.bad_ns is None:
+            data.bad_ns = (log_ns, log_ns)
+            data.bad_why = _one_line(err)
+        else:
+            data.bad_ns = (min(data.bad_ns[0], log_ns), max(data.bad_ns[1], log_ns))
 
     def add(self, data: TopicData, msg: Any, log_ns: int) -> None:
         """Take the numbers needed from one decoded message received at ``log_ns``."""
@@ -183,6 +197,8 @@ class Converter:
                 note = f"{data.failed} message(s) lacked the expected fields ({data.error})"
                 raw.dropped.append(Issue("message lacks expected fields", data.failed,
                                          data.topic))
+            if data.undecodable:
+                note = self._note_undecodable(data, raw, base)
             if data.bad_stamp:
                 raw.repaired.append(Issue("header.stamp zero or implausible, used record time",
                                           data.bad_stamp, data.topic))
@@ -193,6 +209,19 @@ class Converter:
                 t_first=None if data.first_ns is None else (data.first_ns - base) * 1e-9,
                 t_last=None if data.last_ns is None else (data.last_ns - base) * 1e-9,
                 columns=sorted({s.column for s in signals}, key=_column_order), note=note))
+
+    @staticmethod
+    def _note_undecodable(data: TopicData, raw: RawLog, base: int) -> str:
+        """Warning and dropped count for the messages of ``data`` that did not decode;
+        returns the channel note."""
+        assert data.bad_ns is not None
+        a, b = ((t - base) * 1e-9 for t in data.bad_ns)
+        when = f"t = {a:.1f} s" if a == b else f"t = {a:.1f}–{b:.1f} s"
+        text = (f"{data.undecodable} of {data.count} message(s) could not be decoded and "
+                f"were skipped ({when}; {data.bad_why})")
+        raw.warnings.append(f"{data.topic}: {text}")
+        raw.dropped.append(Issue("message undecodable", data.undecodable, data.topic))
+        return text
 
     def _signals(self, data: TopicData, raw: RawLog, shift: float) -> list[Signal]:
         out: list[Signal] = []
@@ -210,6 +239,13 @@ class Converter:
                                   np.frombuffer(vv, dtype=float), f"{data.topic}.{req.field}",
                                   priority=-1))
         return out
+
+
+def _one_line(err: BaseException) -> str:
+    """What a decoder raised, in one short line."""
+    text = " ".join(str(a) for a in err.args) if err.args else ""
+    text = text.strip().splitlines()[0] if text.strip() else ""
+    return f"{type(err).__name__}: {text[:120]}" if text else type(err).__name__
 
 
 def _column_order(name: str) -> int:

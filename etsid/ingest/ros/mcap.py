@@ -15,8 +15,9 @@ storage file gives the same signals as its bag directory). JSON messages use the
 names of the ROS message they stand for; MAVLink messages as JSON (schema name
 ``mavlink.ATTITUDE`` …) are understood too.
 
-A channel that cannot be decoded (unknown encoding, broken schema, bad bytes) does not
-abort the file: it is skipped, counted, and named in the warnings and its channel note.
+A channel that cannot be decoded (unknown encoding, broken schema) does not abort the
+file: it is skipped, counted, and named in the warnings and its channel note. A message
+whose bytes do not decode is skipped alone and counted (topic, count, time range).
 Service-event channels are listed, not decoded.
 """
 
@@ -337,13 +338,14 @@ def _broken(conv: Converter, topic: TopicData, broken: dict[str, str], err: Exce
 
 def _slow(conv: Converter, topic: TopicData, state: Any, data: bytes, log_ns: int,
           broken: dict[str, str]) -> None:
-    """Per-message path: decode one message and convert it."""
+    """Per-message path: decode one message and convert it (one that does not decode is
+    skipped and counted, never its channel)."""
     if topic.topic in broken:
         conv.count(topic, log_ns)
         return
     try:
         msg = state[2](data)
-    except Exception as err:  # any decoder failure disables this channel only
-        _broken(conv, topic, broken, err, log_ns)
+    except Exception as err:  # any decoder failure on these bytes: this message only
+        conv.undecodable(topic, log_ns, err)
         return
     conv.add(topic, msg, log_ns)

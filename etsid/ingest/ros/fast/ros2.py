@@ -68,9 +68,8 @@ class _Order:
 
 
 def _take(conv: Converter, topic: TopicData, typename: str, fielddefs: dict[str, Any],
-          arr: np.ndarray | None, bodies: list[bytes], log_ns: np.ndarray, slow: Slow,
-          broken: dict[str, str]) -> None:
-    if not topic.decode or topic.topic in broken:
+          arr: np.ndarray | None, bodies: list[bytes], log_ns: np.ndarray, slow: Slow) -> None:
+    if not topic.decode:
         conv.count_many(topic, log_ns)
         return
     if arr is not None and fast.decode_batch(conv, topic, fielddefs, typename, arr,
@@ -83,7 +82,7 @@ def _take(conv: Converter, topic: TopicData, typename: str, fielddefs: dict[str,
 
 
 def read(storage: Path, conv: Converter, connections: list[Any], fielddefs: dict[str, Any],
-         slow: Slow, broken: dict[str, str]) -> None:
+         slow: Slow) -> None:
     """Convert every message of ``storage`` into ``conv`` (whose ``base_ns`` is set).
 
     Raises
@@ -103,7 +102,7 @@ def read(storage: Path, conv: Converter, connections: list[Any], fielddefs: dict
         order.check(name, log_ns)
         counts[name] += len(log_ns)
         _take(conv, topics[name], by_topic[name].msgtype, fielddefs, arr, bodies, log_ns,
-              slow, broken)
+              slow)
     order.done()
     if any(counts[c.topic] != c.msgcount for c in connections):
         raise NotFast("storage and metadata disagree on message counts")
