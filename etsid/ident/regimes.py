@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from etsid.ident.gain_ci import coefficient_se, ratio_interval, sign_interval
 from etsid.ident.metrics import scores
 
 IGE_BELOW_ZR = 2.0
@@ -45,8 +46,6 @@ THRUST = "u_thrust"
 #: the commanded input of each body rate in the default rate model
 RATE_INPUTS = {"p": "u_roll", "q": "u_pitch", "r": "u_yaw"}
 AXIS_WORDS = {"p": "roll", "q": "pitch", "r": "yaw"}
-SAME = 1.02
-"""Gain ratios within this factor of 1 read "about the same"."""
 
 
 @dataclass(frozen=True)
@@ -124,9 +123,33 @@ def _column(term: str) -> str:
     return re.sub(r"\[.*$", "", term)
 
 
+MIN_REGIME_S = 5.0
+"""Least validation time in a band, s, for its fit % to be informative."""
+STILL_STD = 0.05
+"""Least standard deviation of a body rate in a band's validation rows, rad/s, for its
+fit % to be informative (the excitation threshold of :mod:`etsid.ident.flight`)."""
+BODY_RATES = ("p", "q", "r")
+
+
+def _informative(y: np.ndarray, name: str, seconds: float) -> tuple[bool, str | None]:
+    """Whether a band's scores of output ``name`` mean something, and why not."""
+    if seconds < MIN_REGIME_S:
+        return False, f"too few samples ({seconds:.1f} s < {MIN_REGIME_S:g} s)"
+    std = float(np.nanstd(y)) if np.isfinite(y).any() else 0.0
+    if name in BODY_RATES and std < STILL_STD:
+        return False, f"too still (std {std:.3g} rad/s < {STILL_STD:g})"
+    return True, None
+
+
 def regime_metrics(alt: np.ndarray, bands: Bands, Y: np.ndarray, outputs: list[str],
-                   cols: dict[str, np.ndarray], split: int) -> list[dict[str, Any]]:
+                   cols: dict[str, np.ndarray], split: int, t: np.ndarray | None = None
+                   ) -> list[dict[str, Any]]:
     """Scores per altitude band on the validation rows (``split`` onwards).
+
+    A band with less than :data:`MIN_REGIME_S` of validation data, or whose body rate moves
+    less than :data:`STILL_STD` there, gets ``informative`` false, a ``reason``, and its
+    fit % (and VAF, NDEI) as None, the number kept as ``fit_raw``: a fit of −408 % on 3 s
+    of near-still data says nothing about the model.
 
     Parameters
     ----------
@@ -148,13 +171,25 @@ def regime_metrics(alt: np.ndarray, bands: Bands, Y: np.ndarray, outputs: list[s
         entry: dict[str, Any] = {"name": name, "label": bands.labels[b],
                                  "n_learn": int(np.count_nonzero((band == b) & learn)),
                                  "n_validation": int(np.count_nonzero(rows)), "outputs": {}}
+        dt = float(np.median(np.diff(t))) if t is not None and len(t) > 1 else 0.0
         if rows.any():
             for o, y in enumerate(outputs):
-                entry["outputs"][y] = {
+                block: dict[str, Any] = {
                     key: scores(Y[rows, o], cols[col][rows, o])
                     for key, col in (("one_step", "y_val"), ("free_run", "y_sim"),
                                      ("arx_one_step", "y_arx_val"),
                                      ("arx_free_run", "y_arx_sim"))}
+                seconds = np.count_nonzero(rows) * dt if dt else float("inf")
+                ok, reason = _informative(Y[rows, o], y, seconds)
+                if not ok:
+                    for key in list(block):
+                        sc = dict(block[key])
+                        sc["fit_raw"] = sc.get("fit")
+                        for field in ("fit", "vaf", "ndei"):
+                            sc[field] = None
+                        block[key] = sc
+                block["informative"], block["reason"] = ok, reason
+                entry["outputs"][y] = block
         out.append(entry)
     return out
 
@@ -291,27 +326,60 @@ def _ratio(low: float, high: float) -> float | None:
     return low / high
 
 
+MIN_ROWS_PER_PARAM = 10
+"""A rule takes part in the sentence when it leads at least this many learning rows per
+consequent parameter (the same 10 per parameter as the learning part's warning)."""
+
+
+def _supported(table: list[dict[str, Any]], min_rows: int, n_learn: int
+               ) -> list[dict[str, Any]]:
+    return [r for r in table
+            if r.get("share") is not None and r["share"] * n_learn >= min_rows]
+
+
+def _interval_text(ci: tuple[float, float]) -> str:
+    return f"95 % interval {ci[0]:.2f}–{ci[1]:.2f}×"
+
+
 def learnt_sentence(table: list[dict[str, Any]], gains: list[dict[str, Any]],
-                    bands: Bands | None) -> str:
-    """One plain sentence of what the rule base learnt (see the module docstring)."""
+                    bands: Bands | None, se: dict[tuple[str, str], list[float]] | None = None,
+                    min_rows: int = 0, n_learn: int = 0) -> tuple[str, dict[str, Any]]:
+    """One plain sentence of what the rule base learnt (see the module docstring), and its
+    facts for metrics.json (``learnt``: whether a regime difference is claimed, ``ratio``,
+    ``ratio_ci``, ``rules_compared``, ``reason``).
+
+    Only rules leading ≥ ``min_rows`` of the ``n_learn`` learning rows are compared; a
+    difference is claimed only when the 95 % interval of the gain ratio (``se``: standard
+    error per (output, input) and rule, :mod:`etsid.ident.gain_ci`) excludes 1; a change of
+    sign is flagged as physically implausible, not reported."""
     pairs = _pairs(gains)
+    facts: dict[str, Any] = {"learnt": False, "ratio": None, "ratio_ci": None,
+                             "rules_compared": None, "reason": None}
     if not table:
-        return "The rule base holds no rules."
+        return "The rule base holds no rules.", {**facts, "reason": "no rules"}
     if len(table) == 1 or not pairs:
         if not pairs:
-            return "One rule: the model found one regime (no input to compare)."
+            return ("One rule: the model found one regime (no input to compare).",
+                    {**facts, "reason": "one rule"})
         g = pairs[0]
         what = "flight" if bands is not None else "record"
         return (f"One rule: the model found one regime — a single linear model over the whole "
                 f"{what} ({_words(g)} {g['per_rule'][0]:.3g} per unit {g['input']} one step "
-                "after it).")
-    placed = [r for r in table if r["alt_m"] is not None]
+                "after it).", {**facts, "reason": "one rule"})
+    strong = _supported(table, min_rows, n_learn) if min_rows else table
+    if len(strong) < 2:
+        only = (f"only rule {strong[0]['rule']} leads" if strong else "no rule leads")
+        return (f"{len(table)} rules, but {only} enough learning samples (≥ {min_rows}, "
+                f"{MIN_ROWS_PER_PARAM} per consequent parameter) to be compared: no regime "
+                "difference learnt.", {**facts, "reason": "too little support"})
+    placed = [r for r in strong if r["alt_m"] is not None]
     if len(placed) < 2:
-        key, what = _first_antecedent(table)
+        key, what = _first_antecedent(strong)
         if key is None:
             return (f"{len(table)} rules, but neither altitude nor a scheduling variable to "
-                    "place them by: the rules cannot be compared by regime.")
-        order = sorted(table, key=lambda r: r["focal"][key])
+                    "place them by: the rules cannot be compared by regime.",
+                    {**facts, "reason": "no placement"})
+        order = sorted(strong, key=lambda r: r["focal"][key])
         lo, hi = order[0], order[-1]
         where_lo = f"at {what} {lo['focal'][key]:.3g} (rule {lo['rule']})"
         where_hi = f"at {what} {hi['focal'][key]:.3g} (rule {hi['rule']})"
@@ -320,27 +388,49 @@ def learnt_sentence(table: list[dict[str, Any]], gains: list[dict[str, Any]],
         lo, hi = order[0], order[-1]
         where_lo, where_hi = _place(lo, bands), _place(hi, bands)
     i, j = lo["rule"] - 1, hi["rule"] - 1
-    parts = []
-    for k, g in enumerate(pairs):
-        ratio = _ratio(g["per_rule"][i], g["per_rule"][j])
-        if k == 0:
-            if ratio is None:
-                parts.append(f"{_words(g).capitalize()} per unit {g['input']} changes sign "
-                             f"between {where_lo} and {where_hi}")
-            else:
-                factor = ratio if ratio >= 1 else 1.0 / ratio
-                size = (f"about the same (×{ratio:.2f})" if factor < SAME
-                        else f"{factor:.2f}× {'larger' if ratio >= 1 else 'smaller'}")
-                than = "as" if factor < SAME else "than"
-                parts.append(f"{_words(g).capitalize()} per unit {g['input']} is {size} "
-                             f"{where_lo} {than} {where_hi}")
+    facts["rules_compared"] = [lo["rule"], hi["rule"]]
+    count = f"{len(table)} rules, {len(strong)} with enough support"
+    results = []
+    for g in pairs:
+        a, b = g["per_rule"][i], g["per_rule"][j]
+        errs = (se or {}).get((g["output"], g["input"]))
+        ci = ratio_interval(a, errs[i], b, errs[j]) if errs is not None else None
+        flip = a * b < 0 and (errs is None or (sign_interval(a, errs[i])
+                                                and sign_interval(b, errs[j])))
+        results.append((g, _ratio(a, b), ci, flip))
+    g, ratio, ci, flip = results[0]
+    subject = f"{_words(g)} per unit {g['input']}"
+    if flip or ratio is None:
+        facts["reason"] = "sign change (implausible)"
+        return (f"Not learnt: the {subject} has opposite signs {where_lo} and {where_hi} — "
+                "physically implausible for a control effectiveness, so no regime difference "
+                f"is reported ({count}).", facts)
+    facts["ratio"], facts["ratio_ci"] = ratio, list(ci) if ci else None
+    others, flat = [], []
+    for g2, r2, ci2, flip2 in results[1:]:
+        name = AXIS_WORDS.get(g2["output"], g2["output"])
+        if flip2 or r2 is None:
+            others.append(f"{name} changes sign (implausible)")
+        elif ci2 is not None and (ci2[0] > 1 or ci2[1] < 1):
+            others.append(f"{name} {r2:.2f}× ({ci2[0]:.2f}–{ci2[1]:.2f})")
         else:
-            name = AXIS_WORDS.get(g["output"], g["output"])
-            parts.append(f"{name} {ratio:.2f}×" if ratio is not None
-                         else f"{name} changes sign")
-    tail = f" ({len(table)} rules; low/high ratios: {', '.join(parts[1:])})" \
-        if len(parts) > 1 else f" ({len(table)} rules)"
-    return parts[0] + tail + "."
+            flat.append(name)
+    if flat:
+        others.append(f"{' and '.join(flat)} no difference beyond "
+                      f"{'its' if len(flat) == 1 else 'their'} interval"
+                      f"{'' if len(flat) == 1 else 's'}")
+    tail = f"{count}; low/high: {', '.join(others)}" if others else count
+    if ci is None or not (ci[0] > 1 or ci[1] < 1):
+        facts["reason"] = ("no interval" if ci is None else "within the interval")
+        interval = f" ({_interval_text(ci)}, which includes 1; {tail})" if ci else \
+            f" (no interval; {tail})"
+        return (f"No regime difference learnt: the {subject} {where_lo} is ×{ratio:.2f} the "
+                f"one {where_hi}{interval}.", facts)
+    facts["learnt"] = True
+    factor = ratio if ratio >= 1 else 1.0 / ratio
+    size = f"{factor:.2f}× {'larger' if ratio >= 1 else 'smaller'}"
+    return (f"{subject[0].upper()}{subject[1:]} is {size} {where_lo} than {where_hi} "
+            f"(ratio {ratio:.2f}, {_interval_text(ci)}; {tail}).", facts)
 
 
 def _words(gain: dict[str, Any]) -> str:
@@ -377,27 +467,29 @@ def regime_summary_of(rules: dict[str, Any] | None, table: Any, reg: Any, output
                                                         "rotor_radius_m": rotor_radius_m}
     return regime_summary(rules, at_rows(ALTITUDE), attrs,
                           reg.X if reg.S is None else reg.S, reg.t, reg.Y, outputs, cols,
-                          split, learnt_here, at_rows(THRUST))
+                          split, learnt_here, at_rows(THRUST), X=reg.X)
 
 
 def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
                    attrs: dict[str, Any], A: np.ndarray | None, t: np.ndarray, Y: np.ndarray,
                    outputs: list[str], cols: dict[str, np.ndarray], split: int,
-                   learnt_here: bool = True, thrust: np.ndarray | None = None
-                   ) -> dict[str, Any]:
+                   learnt_here: bool = True, thrust: np.ndarray | None = None,
+                   X: np.ndarray | None = None) -> dict[str, Any]:
     """metrics.json ``regimes``: bands, scores per band, the rule → regime table, the input
     gains per rule and the sentence (see the module docstring).
 
     ``alt`` (m, one per regression row) None: no altitude in the log, so no bands (the
     rule table and the sentence are still given). ``thrust`` (``u_thrust`` per regression
-    row, or None) fills the rule table's thrust column."""
+    row, or None) fills the rule table's thrust column. ``X`` (the regressors) gives the
+    consequents' standard errors for the sentence's interval. The sentence describes what a
+    run learnt: a rule base applied to another flight (``learnt_here`` False) gets none."""
     bands = bands_for(rotor_radius(attrs)) if alt is not None and np.isfinite(alt).any() \
         else None
     out: dict[str, Any] = {"basis": None, "rotor_radius_m": None, "bands": [],
                            "per_regime": [], "rules": [], "gains": [], "sentence": None}
     if bands is not None:
         out.update(bands.to_dict())
-        out["per_regime"] = regime_metrics(alt, bands, Y, outputs, cols, split)
+        out["per_regime"] = regime_metrics(alt, bands, Y, outputs, cols, split, t)
         out["note"] = ("bands by altitude over rotor radius z/R (rotor radius "
                        f"{bands.rotor_radius_m:g} m)" if bands.basis == "z/R" else
                        "rotor radius unknown: bands are altitudes in metres, not ground-"
@@ -410,5 +502,33 @@ def regime_summary(rules: dict[str, Any] | None, alt: np.ndarray | None,
         out["gains"] = input_gains(rules)
         out["gain_kind"] = ("the coefficient of the input's shortest lag in the rule's "
                             "consequent (the response one sample after a unit command)")
-        out["sentence"] = learnt_sentence(out["rules"], out["gains"], bands)
+        if learnt_here:
+            out["sentence"], out["sentence_facts"] = _sentence(rules, out, bands, A, X, Y,
+                                                               split)
     return out
+
+
+def _sentence(rules: dict[str, Any], out: dict[str, Any], bands: Bands | None,
+              A: np.ndarray | None, X: np.ndarray | None, Y: np.ndarray, split: int
+              ) -> tuple[str, dict[str, Any]]:
+    """The learnt sentence with the support threshold and the gains' standard errors."""
+    se = None
+    n_params = None
+    if X is not None and A is not None and split > 0 and len(out["rules"]) > 1:
+        from etsid.ets import ETS
+
+        lead = ETS.from_dict(rules, trusted=True).leading_rule(A[:split])
+        errs = coefficient_se(rules, X[:split], Y[:split], lead)
+        n_params = X.shape[1] + 1
+        if errs is not None:
+            se = {}
+            inputs = [g["term"] for g in out["gains"]]
+            names = list(rules.get("inputs") or [])
+            outs = list(rules.get("outputs") or [])
+            for g, term in zip(out["gains"], inputs, strict=True):
+                if term in names and g["output"] in outs:
+                    se[(g["output"], g["input"])] = [
+                        float(v) for v in errs[:, names.index(term) + 1,
+                                               outs.index(g["output"])]]
+    min_rows = MIN_ROWS_PER_PARAM * n_params if n_params else 0
+    return learnt_sentence(out["rules"], out["gains"], bands, se, min_rows, split)
