@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import base64
-import html
 import json
 import shutil
 import tempfile
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,10 +17,18 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from etsid.errors import IdentError, ReportError
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
+from etsid.report.page import HINT, esc, html_page, make_shared_dir, table_html
 from etsid.report.regimes import regimes_html, regimes_markdown
 from etsid.report.tables import metrics_rows, rules_text
 
 FORMATS = ("png", "svg", "pdf")
+
+Say = Callable[[str], None]
+"""Where a report says what it is doing (the CLI: a line on stderr)."""
+
+
+def quiet(_: str) -> None:
+    """A :data:`Say` that says nothing."""
 
 
 @dataclass
@@ -40,7 +48,7 @@ def save_figure(fig: Any, path: Path) -> Path:
     return path
 
 
-def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
+def make_report(run_dir: str | Path, fmt: str = "png", say: Say = quiet) -> Report:
     """Write RUN_DIR/report/: one figure per entry of :data:`FIGURES`, index.html, report.md.
 
     Parameters
@@ -52,6 +60,8 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     fmt
         Figure format: png, svg or pdf. The HTML embeds PNG or SVG; for PDF it also
         writes PNG copies to embed.
+    say
+        Called with a line before each step that can take seconds.
 
     Raises
     ------
@@ -64,14 +74,14 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     if (Path(run_dir) / "gap.json").is_file():  # a directory written by `etsid gap`
         from etsid.report.gap import make_gap_report
 
-        return make_gap_report(run_dir, fmt)
+        return make_gap_report(run_dir, fmt, say)
     from etsid.report.control import is_control_run, make_control_report
     from etsid.report.fleet import is_batch_dir, make_fleet_report
 
     if is_batch_dir(run_dir):  # a directory written by etsid batch: the fleet report
-        return make_fleet_report(run_dir, fmt)
+        return make_fleet_report(run_dir, fmt, say)
     if is_control_run(run_dir):  # written by ``etsid control``
-        return make_control_report(run_dir, fmt)
+        return make_control_report(run_dir, fmt, say)
     try:
         run = read_run(run_dir)
     except IdentError as err:
@@ -79,11 +89,12 @@ def make_report(run_dir: str | Path, fmt: str = "png") -> Report:
     out = Path(run_dir) / "report"
     try:
         staging = Path(tempfile.mkdtemp(prefix=".report-", dir=Path(run_dir)))
+        make_shared_dir(staging)
     except OSError as err:
         raise ReportError(f"{run_dir}: cannot write a report there "
                           f"({err.strerror or err})") from err
     try:
-        report = _write(run, staging, fmt)
+        report = _write(run, staging, fmt, say)
         _replace(staging, out)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
@@ -110,10 +121,11 @@ def _replace(staging: Path, out: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _write(run: Run, out: Path, fmt: str) -> Report:
+def _write(run: Run, out: Path, fmt: str, say: Say = quiet) -> Report:
     """Every figure, index.html and report.md of ``run`` into ``out``."""
     report = Report(out)
     embedded: dict[str, tuple[str, str]] = {}
+    say(f"report: drawing {len(FIGURES)} static figures ({fmt}) …")
     for name, (builder, caption) in FIGURES.items():
         fig = _build(builder, run, caption)
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
@@ -128,10 +140,37 @@ def _write(run: Run, out: Path, fmt: str) -> Report:
             embedded[name] = ("image/png", base64.b64encode(png.read_bytes()).decode())
     rules = rules_text(run)
     report.html = out / "index.html"
-    report.html.write_text(render_html(run, embedded, rules))
+    report.html.write_text(render_html(run, embedded, rules, interactive_parts(run, say)))
     report.markdown = out / "report.md"
     report.markdown.write_text(render_markdown(run, report.figures, rules))
     return report
+
+
+def interactive_parts(run: Run, say: Say = quiet) -> tuple[str, dict[str, str], list[str]]:
+    """(head, {section: div}, notes) of the interactive plots of ``run``."""
+    from etsid.report import interactive as ia
+    from etsid.report.overview import read_flight
+    from etsid.report.run_plots import (
+        online_plots,
+        overview_plots,
+        structure_plots,
+        validation_plots,
+    )
+
+    source = (run.config.get("input") or {}).get("path")
+    say(f"report: reading {source} again for the flight overview …" if source else
+        "report: building the interactive plots …")
+    flight = read_flight(run)
+    say("report: building the interactive plots …")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = ia.shared_range(run.predictions["t"].to_numpy(dtype=float))
+        groups = {"overview": overview_plots(run, flight, whole),
+                  "validation": validation_plots(run),
+                  "online": online_plots(run, whole),
+                  "structure": structure_plots(run, whole)}
+    head, divs = ia.embed({k: ia.column(*v) for k, v in groups.items() if v})
+    return head, divs, flight.notes
 
 
 def _build(builder: Any, run: Run, caption: str) -> Any:
@@ -181,40 +220,104 @@ def summary_lines(run: Run) -> list[str]:
     return lines
 
 
-def render_html(run: Run, images: dict[str, tuple[str, str]], rules: str) -> str:
-    """A self-contained HTML page (images as data URIs, no external resources)."""
-    esc = html.escape
+def headline(run: Run) -> str:
+    """One sentence of the held-out free-run fits, eTS against ARX, per output."""
+    parts = []
+    for y, m in (run.metrics.get("outputs") or {}).items():
+        ets = (((m or {}).get("validation") or {}).get("free_run") or {}).get("fit")
+        arx = (((((m or {}).get("arx") or {}).get("validation") or {}).get("free_run"))
+               or {}).get("fit")
+        if isinstance(ets, float) and isinstance(arx, float):
+            parts.append(f"{y} {ets:.1f} vs {arx:.1f} %")
+    if not parts:
+        return ""
+    return ("Held-out free-run fit, eTS vs ARX (same regressors): " + ", ".join(parts)
+            + ". The error panels under each rate show where the two differ.")
+
+
+def rules_section(run: Run) -> list[str]:
+    """The consequents as a flight engineer reads them: per rule (numbered as in the
+    tables) its focal point in physical units and the dominant terms of each output."""
+    from etsid.errors import EtsidError
+    from etsid.report.rulebook import physical, summarize
+
+    try:
+        summaries = summarize(run.rules)
+    except (EtsidError, ValueError, KeyError, TypeError) as err:
+        return [f"<p>Rule base not readable: {esc(err)}</p>"]
+    if not summaries:
+        return []
+    regimes = {int(r["rule"]): r.get("regime") or "" for r in
+               ((run.metrics.get("regimes") or {}).get("rules") or [])}
+    outputs = list(summaries[0].terms)
+    head = ["rule", "focal point", "regime",
+            *(f"{y}: dominant terms (share)" for y in outputs)]
+    rows = []
+    for rule in summaries:
+        focal = ", ".join(physical(n, v) for n, v in list(rule.focal.items())[:3])
+        rows.append([f"Rule {rule.number}", focal, regimes.get(rule.number, ""),
+                     *("; ".join(f"{t.coefficient:+.3g}·{t.name} ({100 * t.share:.0f} %)"
+                                 for t in rule.terms[y][:4]) for y in outputs)])
+    return ['<h2 id="rules">Rules: where they fire and what dominates them</h2>',
+            "<p>Share = |θ| × the input's learnt range over the sum of all terms: the part "
+            "of the output's swing a term can cause. All rules are listed, numbered as in "
+            "the tables above and in <code>etsid rules</code>.</p>",
+            table_html(head, rows, text_columns=range(1, len(head)))]
+
+
+def render_html(run: Run, images: dict[str, tuple[str, str]], rules: str,
+                interactive: tuple[str, dict[str, str], list[str]] | None = None) -> str:
+    """A self-contained HTML page: interactive plots (Bokeh, inlined), tables, the static
+    figures as data URIs; nothing is fetched from the network."""
+    head_js, divs, notes = interactive or ("", {}, [])
     head, rows = metrics_rows(run)
-    parts = [
-        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{esc(_title(run))}</title>",
-        "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em;"
-        "color:#222}table{border-collapse:collapse;font-size:90%}"
-        "td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
-        "th{background:#eee}td:first-child,th:first-child{text-align:left}"
-        "img{max-width:100%}pre{background:#f6f6f6;padding:.6em;overflow-x:auto;"
-        "font-size:85%}figcaption{font-size:90%;color:#444}</style></head><body>",
-        f"<h1>{esc(_title(run))}</h1>",
-        "<ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary_lines(run)) + "</ul>",
-        "<h2>Metrics</h2>",
-        "<p>RMSE in the output's unit; NDEI = RMSE / std(y); VAF and fit (NRMSE, as "
-        "MATLAB's compare) in %. σ is the sensor noise when the data knows it (the floor "
-        "of a one-step RMSE).</p>",
-        "<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr>",
-        *("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>" for row in rows),
-        "</table>",
-        *regimes_html(run),
+    lead = headline(run)
+    body = [f'<p class="lead">{esc(lead)}</p>' if lead else "",
+            "<ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary_lines(run)) + "</ul>",
+            f'<p class="hint">{esc(HINT)}</p>' if divs else ""]
+    sections = [
+        ("overview", "Flight overview",
+         "Altitude shaded by the leading rule, thrust command, sticks and the rule that "
+         "leads; the yellow band is the held-out validation part, the dashed line the "
+         "moment the model was frozen."),
+        ("validation", "Held-out part: eTS against ARX in free run",
+         "Measured (black, on top), eTS frozen one-step (thin blue), eTS free run (red "
+         "dashed), ARX free run (green dashed); under each rate the free-run errors."),
+        ("online", "Whole flight: online one-step prediction (predict, then learn)", ""),
+        ("structure", "Rule-base evolution", ""),
     ]
+    for key, title, text in sections[:2]:
+        body += _section(key, title, text, divs)
+    body += [*(f"<p>{esc(n)}</p>" for n in notes),
+             '<h2 id="metrics">Metrics</h2>',
+             "<p>RMSE in the output's unit; NDEI = RMSE / std(y); VAF and fit (NRMSE, as "
+             "MATLAB's compare) in %. σ is the sensor noise when the data knows it (the floor "
+             "of a one-step RMSE).</p>", table_html(head, rows),
+             *regimes_html(run), *rules_section(run)]
+    for key, title, text in sections[2:]:
+        body += _section(key, title, text, divs)
+    body.append('<h2 id="figures">Figures for papers</h2><p>The same content as static '
+                "figures; the files lie beside this page.</p><details><summary>show the "
+                "static figures</summary>")
     for name, (_, caption) in FIGURES.items():
         if name in images:
             mime, data = images[name]
-            parts.append(f'<figure id="{name}"><img alt="{esc(name)}" '
-                         f'src="data:{mime};base64,{data}"><figcaption>{esc(caption)}'
-                         "</figcaption></figure>")
-    parts += ["<h2>Rule base (rules.json)</h2>", f"<pre>{esc(rules)}</pre>",
-              "<h2>Configuration and provenance (config.json)</h2>",
-              f"<pre>{esc(json.dumps(run.config, indent=2))}</pre>", "</body></html>"]
-    return "\n".join(parts) + "\n"
+            body.append(f'<figure id="{name}"><img alt="{esc(name)}" '
+                        f'src="data:{mime};base64,{data}"><figcaption>{esc(caption)}'
+                        "</figcaption></figure>")
+    body += ["</details>",
+             "<details><summary>Rule base, every term (rules.json)</summary>"
+             f"<pre>{esc(rules)}</pre></details>",
+             "<details><summary>Configuration and provenance (config.json)</summary>"
+             f"<pre>{esc(json.dumps(run.config, indent=2))}</pre></details>"]
+    return html_page(_title(run), body, head_js)
+
+
+def _section(key: str, title: str, text: str, divs: dict[str, str]) -> list[str]:
+    if key not in divs:
+        return []
+    return [f'<h2 id="{key}">{esc(title)}</h2>', f"<p>{esc(text)}</p>" if text else "",
+            divs[key]]
 
 
 def render_markdown(run: Run, figures: dict[str, Path], rules: str) -> str:
