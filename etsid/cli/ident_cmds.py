@@ -51,11 +51,30 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     for note in run.config.get("model", {}).get("notes") or []:
         click.echo(note)
     click.echo(summary_table(run))
+    compared = _structure_text(run.metrics.get("structure"))
+    if compared:
+        click.echo(compared)
     regimes = regime_text(run)
     if regimes:
         click.echo(regimes)
     click.echo(f"wrote {out}/ (predictions.parquet, metrics.json, rules.json, …); "
                f"next: etsid report {out}")
+
+
+def _structure_text(block: dict | None) -> str:
+    """One line per output: validation one-step RMSE of every candidate structure, ARX and
+    no-change persistence (metrics.json ``structure.validation``)."""
+    table = (block or {}).get("validation") or {}
+    if not table:
+        return ""
+    models = list(table)
+    outputs = list(next(iter(table.values())))
+    lines = ["val 1-step RMSE by structure (chosen: " + str(block.get("chosen")) + "): "
+             + ", ".join(models)]
+    for y in outputs:
+        values = [table[m][y].get("one_step_rmse") for m in models]
+        lines.append(f"  {y}: " + " / ".join("–" if v is None else f"{v:.4g}" for v in values))
+    return "\n".join(lines)
 
 
 def _rotor_radius(vehicle: str) -> float:
@@ -97,6 +116,12 @@ def _table_rate(table: object) -> float | None:
               help="Outputs of a scheduled model whose consequent is one linear model "
                    "shared by every rule (the antecedent does not act on them), e.g. r: for "
                    "an output whose physics does not change with the scheduling variable.")
+@click.option("--structure", type=click.Choice(["auto", "scheduled", "unscheduled", "arx"]),
+              default=IdentConfig.structure, show_default=True,
+              help="Default rate model: auto = chosen on an inner split of the learning part "
+                   "between scheduled eTS (rules on --antecedent), unscheduled eTS (rules on "
+                   "the regressors) and one rule (ARX): the simplest within 0.5 points of "
+                   "the best mean free-run fit. An explicit --antecedent is kept as given.")
 @click.option("--attitude-states", "attitude", type=click.Choice(list(ATTITUDE_MODES)),
               default=IdentConfig.attitude, show_default=True,
               help="Default rate model: roll[k-1],pitch[k-1] as states (integrated from the "
@@ -163,7 +188,8 @@ def _table_rate(table: object) -> float | None:
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | None,
-                 antecedent: str | None, unscheduled: str, attitude: str, output_lags: int,
+                 antecedent: str | None, unscheduled: str, structure: str, attitude: str,
+                 output_lags: int,
                  input_lags: int,
                  radius: float | None, clustering: str | None, omega: float, variant: str,
                  max_rules: int, rls: str, forgetting: float, normalise: str,
@@ -198,7 +224,7 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
                          forgetting=forgetting, validate=validate, ident_rate=ident_rate,
                          inputs=inputs, normalise=normalise, segments=segments,
                          antecedent=antecedent, clustering=clustering, attitude=attitude,
-                         unscheduled=unscheduled)
+                         unscheduled=unscheduled, structure=structure)
     try:
         run = identify(table, config, source=log, show_progress=wanted(quiet))
     except IdentError as err:

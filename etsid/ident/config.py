@@ -100,6 +100,10 @@ class IdentConfig:
         rule (``ETS(shared_outputs=…)``: the antecedent does not act on them): ``none``
         (default; the study of docs/identify.md did not select ``r`` on the inner split) or
         output names such as ``"r"``.
+    structure
+        Model structure of the default rate model: ``auto`` (chosen on an inner split of
+        the learning part between scheduled eTS, unscheduled eTS and one rule = ARX,
+        :mod:`etsid.ident.structure`), ``scheduled``, ``unscheduled`` or ``arx``.
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).
@@ -130,6 +134,7 @@ class IdentConfig:
     antecedent: str | None = "auto"
     attitude: str = "auto"
     unscheduled: str = "none"
+    structure: str = "auto"
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""

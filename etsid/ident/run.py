@@ -52,9 +52,17 @@ from etsid.ident.model_choice import choose_model
 from etsid.ident.motors import add_motor_commands
 from etsid.ident.ranges import fixed_ranges, schedule_range
 from etsid.ident.regimes import regime_summary_of, rotor_radius
-from etsid.ident.regressors import RegressorSpec, build
+from etsid.ident.regressors import Regression, RegressorSpec, build
 from etsid.ident.resample import decimate
 from etsid.ident.rundir import Run, jsonable, rules_json, run_header
+from etsid.ident.structure import (
+    ORDER,
+    StructureChoice,
+    behind_lines,
+    candidate,
+    choose_structure,
+    validation_table,
+)
 
 
 def _rate_note(work: pd.DataFrame) -> str:
@@ -83,6 +91,25 @@ def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | N
                    shared_outputs=shared)
     except (ValueError, TypeError) as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
+
+
+def _structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
+               excited: np.ndarray, table: pd.DataFrame) -> StructureChoice:
+    """The structure to learn: chosen on the inner split (``--structure auto``) or forced."""
+    mode = (config.structure or "auto").strip().lower()
+    if mode not in ("auto", *ORDER):
+        raise IdentError(f"--structure {config.structure!r}: use auto, "
+                         f"{', '.join(ORDER[::-1])}")
+    if mode == "auto" and (config.antecedent or "auto").strip().lower() != "auto":
+        mode = "scheduled" if spec.antecedent else "unscheduled"  # the user's own choice
+    if mode == "auto":
+        return choose_structure(reg, spec, config, excited,
+                                split_excited(excited, config.validate), len(table))
+    if mode == "scheduled" and not spec.antecedent:
+        raise IdentError("--structure scheduled needs an antecedent (altitude in the log, "
+                         "or --antecedent TERMS)")
+    c_spec, c_config = candidate(mode, spec, config)
+    return StructureChoice(mode, c_spec, c_config, f"structure: {mode} (--structure)")
 
 
 def identify(table: pd.DataFrame, config: IdentConfig | None = None,
@@ -132,6 +159,15 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
             spec = attitude.spec
             reg = build(table, spec)
             excited = excited_mask(table, spec.outputs)[reg.rows]
+    choice = None
+    if rate_model:
+        choice = _structure(reg, spec, config, excited, table)
+        if choice.spec != spec:
+            spec, config = choice.spec, choice.config
+            reg = build(table, spec)
+            excited = excited_mask(table, spec.outputs)[reg.rows]
+            chosen.notes = [n for n in chosen.notes if not n.startswith("rules fire on")]
+        chosen.notes.append(choice.note)
     n = len(reg.X)
     dt = 1.0 / float(table.attrs["decimation"]["rate_hz"])
     chosen.notes.append(_flight_note(selection, excited, dt))
@@ -169,6 +205,12 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "sample_rate": rate_info(table),
     }
     chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
+    if choice is not None and frozen is not None and split < n:
+        metrics["structure"] = {**choice.to_dict(), "validation": validation_table(
+            reg, spec, config, choice.chosen, split, len(table), cols)}
+        chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
+                                         float(np.count_nonzero(excited[:split]) * dt),
+                                         1.0 / dt, reg.X.shape[1] + 1))
     metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
                                            split)
     run_config = {

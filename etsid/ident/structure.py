@@ -1,0 +1,221 @@
+"""Which model structure a flight supports, decided on the learning part; and how the
+chosen eTS stands against the baselines on the validation part.
+
+Candidates of the default rate model (``--structure auto``):
+
+``scheduled``
+    eTS with rules firing on ``--antecedent`` (default ``inv_alt[k-1]``; only when the log
+    has altitude) — the model that can learn a regime change.
+``unscheduled``
+    eTS with rules on the regressors (radius 2, potential clustering: the pre-scheduling
+    default).
+``arx``
+    eTS capped at one rule: one local linear model learnt by recursive least squares, i.e.
+    ARX.
+
+The learning part's last ``validate`` share of excited rows is an inner validation (as
+:mod:`etsid.ident.attitude_check`); each candidate learns online on the rows before it and
+is frozen and simulated over it. Criterion, fixed before any run: the mean free-run fit %
+over the body-rate outputs that move in the inner validation (std ≥ 0.05 rad/s); the
+simplest candidate (``arx`` < ``unscheduled`` < ``scheduled``) within :data:`MARGIN`
+points of the best is chosen, so a structure must earn its rules. The validation part is
+never looked at. On the validation part every candidate is scored and the chosen one is
+compared with ARX and no-change persistence (:func:`behind_lines`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from etsid.ets import ETS
+from etsid.ident.checks import split_excited
+from etsid.ident.config import IdentConfig
+from etsid.ident.metrics import fit_percent, rmse
+from etsid.ident.ranges import fixed_ranges, schedule_range
+from etsid.ident.regressors import Regression, RegressorSpec
+from etsid.ident.simulate import envelope, free_run
+
+ORDER = ("arx", "unscheduled", "scheduled")
+"""Candidates, simplest first."""
+MARGIN = 0.5
+"""Points of mean inner free-run fit a more complex structure must gain to be chosen."""
+MIN_INNER_ROWS = 50
+"""Fewest inner-validation rows for a decision; fewer keep the requested structure."""
+MOVING_STD = 0.05
+"""Least std of an output in the inner validation to take part in the criterion, rad/s."""
+BEHIND = 1.02
+"""eTS one-step RMSE above this multiple of ARX's counts as behind it."""
+NOISE_FLOOR = 0.85
+"""ARX one-step RMSE at least this share of persistence's: nothing much to predict."""
+
+
+@dataclass
+class StructureChoice:
+    """The structure chosen and the evidence."""
+
+    chosen: str
+    spec: RegressorSpec
+    config: IdentConfig
+    note: str
+    inner: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready record (metrics.json ``structure``)."""
+        return {"chosen": self.chosen, "inner_free_run_fit": self.inner, "note": self.note,
+                "margin_points": MARGIN}
+
+
+def candidate(name: str, spec: RegressorSpec, config: IdentConfig
+              ) -> tuple[RegressorSpec, IdentConfig]:
+    """Spec and config of candidate ``name``."""
+    if name == "scheduled":
+        return spec, config
+    lean = replace(spec, antecedent=())
+    loose = replace(config, antecedent="none", unscheduled="none")
+    return lean, (replace(loose, max_rules=1) if name == "arx" else loose)
+
+
+def _regression(reg: Regression, spec: RegressorSpec, end: int) -> Regression:
+    return Regression(reg.X[:end], reg.Y[:end], reg.rows[:end], reg.t[:end], {},
+                      None if reg.segment is None else reg.segment[:end],
+                      reg.S[:end] if spec.antecedent and reg.S is not None else None,
+                      reg.kinematics)
+
+
+def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) -> ETS:
+    """An eTS of ``spec``/``config`` learnt online on rows ``[0, upto)`` with learning-part
+    ranges of those rows."""
+    scheduled = bool(spec.antecedent)
+    x_range, y_range = fixed_ranges(reg, spec, upto, config.normalise)
+    model = ETS(**config.ets_params(scheduled), input_names=spec.input_names,
+                output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
+                s_range=schedule_range(reg, spec, upto, config.normalise)
+                if scheduled else None,
+                antecedent_names=spec.antecedent_names,
+                shared_outputs=config.shared_outputs(spec.outputs, scheduled))
+    model.run(reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
+    return model
+
+
+def scores_on(model: ETS, reg: Regression, spec: RegressorSpec, start: int, n_table: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """One-step and free-run predictions of ``model`` over rows ``start …`` of ``reg``."""
+    S = reg.S[start:] if spec.antecedent else None
+    one = np.asarray(model.predict(reg.X[start:], S)).reshape(len(reg.X) - start, -1)
+    sim = free_run(model.predict_one, reg, spec, start, n_table, envelope(reg.Y))
+    return one, sim
+
+
+def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
+                     excited: np.ndarray, split: int, n_table: int) -> StructureChoice:
+    """Choose the structure on the inner split of the learning part (module docstring)."""
+    names = [n for n in ORDER if n != "scheduled" or spec.antecedent]
+    inner = split_excited(excited[:split], config.validate or 0.3) if split > 0 else 0
+    n_params = reg.X.shape[1] + 1
+    requested = "scheduled" if spec.antecedent else "unscheduled"
+    if split - inner < MIN_INNER_ROWS or inner < 2 * n_params:
+        return StructureChoice(requested, spec, config,
+                               f"structure: {requested} eTS, unchecked (learning part too "
+                               "short for an inner split)")
+    fits: dict[str, dict[str, float]] = {}
+    for name in names:
+        c_spec, c_config = candidate(name, spec, config)
+        sub = _regression(reg, c_spec, split)
+        model = train(sub, c_spec, c_config, inner)
+        _, sim = scores_on(model, sub, c_spec, inner, n_table)
+        fits[name] = {y: fit_percent(sub.Y[inner:, o], sim[:, o])
+                      for o, y in enumerate(spec.outputs)}
+    moving = [o for o, y in enumerate(spec.outputs)
+              if np.nanstd(reg.Y[inner:split, o]) >= MOVING_STD] or list(range(len(spec.outputs)))
+
+    def mean(name: str) -> float:
+        values = [fits[name][spec.outputs[o]] for o in moving]
+        return float(np.mean(values)) if all(np.isfinite(values)) else -np.inf
+
+    best = max(mean(n) for n in names)
+    chosen = next(n for n in names if mean(n) >= best - MARGIN)
+    c_spec, c_config = candidate(chosen, spec, config)
+    text = ", ".join(f"{n} {mean(n):.1f}" for n in names)
+    note = (f"structure: {chosen} eTS" if chosen != "arx" else "structure: one rule (ARX)") + \
+        (f" chosen on an inner split of the learning part (mean free-run fit % of "
+         f"{'/'.join(spec.outputs[o] for o in moving)}: {text}; the simplest within "
+         f"{MARGIN:g} points of the best; --structure to force)")
+    return StructureChoice(chosen, c_spec, c_config, note, fits)
+
+
+def validation_table(reg: Regression, spec: RegressorSpec, config: IdentConfig,
+                     chosen: str, split: int, n_table: int, cols: dict[str, np.ndarray]
+                     ) -> dict[str, dict[str, dict[str, float | None]]]:
+    """Validation one-step RMSE and free-run fit % per output of every candidate (the
+    chosen one from ``cols``), ARX (batch LS) and persistence: ``{model: {y: {...}}}``."""
+    out: dict[str, dict[str, dict[str, float | None]]] = {}
+    names = [n for n in ORDER if n != "scheduled" or spec.antecedent or chosen == "scheduled"]
+    base_spec = spec
+    for name in names:
+        if name == chosen:
+            one, sim = cols["y_val"][split:], cols["y_sim"][split:]
+        else:
+            c_spec, c_config = candidate(name, base_spec, config)
+            if name == "scheduled" and not base_spec.antecedent:
+                continue
+            sub = _regression(reg, c_spec, len(reg.X))
+            one, sim = scores_on(train(sub, c_spec, c_config, split), sub, c_spec, split,
+                                 n_table)
+        out[f"eTS {name}" if name != "arx" else "eTS one rule"] = _block(reg, split, one, sim,
+                                                                        spec)
+    out["ARX"] = _block(reg, split, cols["y_arx_val"][split:], cols["y_arx_sim"][split:], spec)
+    out["no-change"] = _block(reg, split, cols["y_persist"][split:], None, spec)
+    return out
+
+
+def _block(reg: Regression, split: int, one: np.ndarray, sim: np.ndarray | None,
+           spec: RegressorSpec) -> dict[str, dict[str, float | None]]:
+    def clean(v: float) -> float | None:
+        return float(v) if np.isfinite(v) else None
+
+    return {y: {"one_step_rmse": clean(rmse(reg.Y[split:, o], one[:, o])),
+                "free_run_fit": clean(fit_percent(reg.Y[split:, o], sim[:, o]))
+                if sim is not None else None}
+            for o, y in enumerate(spec.outputs)}
+
+
+def behind_lines(outputs: dict[str, Any], rules: int, excited_learn_s: float,
+                 rate_hz: float, n_params: int) -> list[str]:
+    """One line per informative output where the chosen eTS's validation one-step RMSE is
+    above :data:`BEHIND` × ARX's or above persistence's, with the likely reason."""
+    lines = []
+    for y, block in outputs.items():
+        one = (block.get("validation") or {}).get("one_step") or {}
+        arx = ((block.get("arx") or {}).get("validation") or {}).get("one_step") or {}
+        pers = (block.get("persistence") or {}).get("validation") or {}
+        e, a, p = one.get("rmse"), arx.get("rmse"), pers.get("rmse")
+        if e is None or one.get("informative") is False:
+            continue
+        behind = []
+        if a is not None and e > BEHIND * a:
+            behind.append(f"ARX {a:.4g} ({e / a:.2f}×)")
+        if p is not None and e > p:
+            behind.append(f"no-change {p:.4g} ({e / p:.2f}×)")
+        if not behind:
+            continue
+        std = one.get("signal_std")
+        if excited_learn_s * rate_hz < 10 * n_params:
+            why = (f"too little excitation: {excited_learn_s:.1f} s of excited learning data "
+                   f"for {n_params} parameters per rule and output")
+        elif std is not None and std < 2 * MOVING_STD:
+            why = f"too little excitation in the validation part (std {std:.3g})"
+        elif a is not None and p is not None and a >= NOISE_FLOOR * p:
+            why = (f"noise floor: ARX is only {a / p:.2f}× no-change, the rest is noise or "
+                   "input the log does not carry at this rate")
+        elif rules > 1:
+            why = (f"one regime only: {rules} rules split the learning data without a "
+                   "physics difference (variance)")
+        else:
+            why = ("one regime only: one rule learnt recursively (RLS prior and start-up) "
+                   "where batch least squares fits better")
+        lines.append(f"warning: {y}: eTS validation one-step RMSE {e:.4g} is behind "
+                     f"{' and '.join(behind)}; likely reason: {why}")
+    return lines
