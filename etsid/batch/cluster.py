@@ -1,28 +1,48 @@
 """Run a batch on Dask distributed: an existing cluster, or a LocalCluster on this machine.
 
 Nothing here schedules: every log is one ``client.submit`` of
-:func:`etsid.batch.worker.run_log` and Dask places it. The batch's fixed arguments (options,
-the resume keys) are two tasks every log depends on, sent once and recomputed if the worker
-holding them dies. A log whose worker dies on every try Dask allows
-(``distributed.scheduler.allowed-failures``) becomes a "worker process died" row, as in the
-local pool. Run directories are written by the
-workers, so ``--out`` must be a path every worker sees (a shared file system); the result
-rows come back to this process, which writes ``DIR/results/``. Inputs are local paths the
-workers see, or fsspec URLs (``s3://…``) they fetch themselves.
+:func:`etsid.batch.worker.run_and_write` and Dask places it. The batch's fixed arguments
+(options, the resume keys) are two tasks every log depends on, sent once and recomputed if
+the worker holding them dies. Each worker is warmed once (imports, numba kernels, one BLAS
+thread) by a worker plugin, which Dask also runs on a worker that joins or is restarted. A
+worker writes the log's run directory and its result row itself and sends back only the
+status, so ``--out`` must be a path every worker sees (a shared file system). A log whose
+worker dies on every try Dask allows (``distributed.scheduler.allowed-failures``) becomes a
+"worker process died" row, written here, as in the local pool. Inputs are local paths the
+workers see, or URLs they fetch themselves.
+
+The LocalCluster of ``--scheduler processes`` listens on 127.0.0.1 only, serves no
+dashboard unless asked (``--dashboard``), and forks its workers from the fork server of
+the local pool, which has imported etsid and Dask and loaded the numba kernels once.
 
 Needs ``dask[distributed]`` (``pip install "etsid[cluster]"``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import contextlib
+import os
+import time
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from etsid.batch import tasks
 from etsid.batch.spec import BatchSpec
-from etsid.batch.worker import Item, Outcome, WorkerDied, failed_outcome, run_log
+from etsid.batch.worker import Item, Outcome, WorkerDied, failed_outcome, run_and_write
 from etsid.errors import BatchError
+
+LOCAL_HOST = "127.0.0.1"
+"""Where the LocalCluster's scheduler and workers listen."""
+
+LOCAL_CONFIG = {
+    "distributed.worker.multiprocessing-method": "forkserver",
+    # the statistical profiler samples every thread every 10 ms: CPU a log pays for
+    "distributed.worker.profile.enabled": False,
+}
+"""Dask configuration of the LocalCluster (its workers inherit it)."""
+
+REPORT_ENV = "ETSID_DASK_REPORT"
+"""Environment variable: a file name for Dask's performance report (HTML) of the batch."""
 
 
 def scheduler_address(scheduler: str) -> str | None:
@@ -38,19 +58,32 @@ def scheduler_address(scheduler: str) -> str | None:
     return scheduler
 
 
-def _client(address: str | None, jobs: int) -> tuple[Any, Any]:
+def _local_cluster(jobs: int, command: str, dashboard: str | None) -> Any:
+    import dask
+    from dask.distributed import LocalCluster
+
+    from etsid.batch.local import worker_context
+
+    with dask.config.set(LOCAL_CONFIG):
+        worker_context(command, preload=("distributed",))  # the fork server, warm
+        return LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
+                            host=LOCAL_HOST, dashboard_address=dashboard,
+                            worker_dashboard_address=None)
+
+
+def _client(address: str | None, jobs: int, command: str,
+            dashboard: str | None) -> tuple[Any, Any]:
     try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError as err:
+        from dask.distributed import Client
+    except ImportError as err:  # pragma: no cover - a test dependency
         raise BatchError('--scheduler processes/dask:// needs Dask distributed: '
                          'pip install "etsid[cluster]"') from err
     if address is None:
-        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
-                               dashboard_address=":0")
+        cluster = _local_cluster(jobs, command, dashboard)
         return Client(cluster), cluster
     try:
         return Client(address, timeout="20s"), None
-    except (OSError, TimeoutError) as err:
+    except (OSError, TimeoutError, ValueError) as err:
         raise BatchError(f"cannot reach the Dask scheduler at {address} ({err})") from err
 
 
@@ -59,46 +92,80 @@ def hold(value: Any) -> Any:
     return value
 
 
+@contextlib.contextmanager
+def _diagnostics() -> Iterator[None]:
+    """Dask's performance report of the batch when ``ETSID_DASK_REPORT`` names a file."""
+    target = os.environ.get(REPORT_ENV)
+    if not target:
+        yield
+        return
+    from dask.distributed import performance_report
+
+    with performance_report(filename=target):
+        yield
+
+
 class DaskRunner:
-    """Runs logs on Dask workers and reports each :class:`Outcome` as it finishes."""
+    """Runs logs on Dask workers and reports each :class:`Outcome` as it finishes.
+
+    ``timings`` records the phases (s): cluster start, warming the workers, submitting,
+    and the wait for the results.
+    """
 
     def __init__(self, spec: BatchSpec, out: Path, done: frozenset[str], jobs: int,
-                 address: str | None) -> None:
+                 address: str | None, dashboard: str | None = None) -> None:
         self.spec = spec
         self.out = out
         self.done = done
         self.jobs = jobs
         self.address = address
+        self.dashboard = dashboard
+        self.timings: dict[str, float] = {}
 
     def run(self, items: Iterable[Item], on_done: Callable[[Outcome], None],
             on_running: Callable[[int], None]) -> None:
         """Run every item; Ctrl-C cancels what is left and re-raises."""
         from dask.distributed import KilledWorker, as_completed
 
+        from etsid.batch.dask_plugin import WarmWorker
+
         items = list(items)
-        client, cluster = _client(self.address, self.jobs)
+        start = time.perf_counter()
+        client, cluster = _client(self.address, self.jobs, self.spec.command, self.dashboard)
+        self.timings["cluster_s"] = time.perf_counter() - start
         futures: list[Any] = []
         try:
-            workers = max(1, len(client.scheduler_info().get("workers", {})))
-            client.run(tasks.warm, self.spec.command)
-            # tasks, not scattered data: a worker that dies takes its copy with it, and
-            # the scheduler recomputes a lost task's value where scattered data is gone
-            spec = client.submit(hold, self.spec, pure=False)
-            done = client.submit(hold, self.done, pure=False)
-            futures = [client.submit(run_log, item, spec, str(self.out), done, pure=False)
-                       for item in items]
-            owner = {f.key: item for f, item in zip(futures, items, strict=True)}
-            left = len(futures)
-            for future in as_completed(futures):
-                on_running(min(workers, left))
-                left -= 1
-                try:
-                    outcome = future.result()
-                except KilledWorker:  # its worker died on every retry Dask allowed
-                    outcome = failed_outcome(owner[future.key], self.spec, WorkerDied())
-                except Exception as err:  # the scheduler lost the task, or a worker error
-                    outcome = failed_outcome(owner[future.key], self.spec, err)
-                on_done(outcome)
+            with _diagnostics():
+                mark = time.perf_counter()
+                client.register_plugin(WarmWorker(self.spec.command))
+                self.timings["warm_s"] = time.perf_counter() - mark
+                workers = max(1, len(client.scheduler_info().get("workers", {})))
+                mark = time.perf_counter()
+                # tasks, not scattered data: a worker that dies takes its copy with it, and
+                # the scheduler recomputes a lost task's value where scattered data is gone
+                spec = client.submit(hold, self.spec, pure=False)
+                done = client.submit(hold, self.done, pure=False)
+                futures = [client.submit(run_and_write, item, spec, str(self.out), done,
+                                         pure=False) for item in items]
+                owner = {f.key: item for f, item in zip(futures, items, strict=True)}
+                self.timings["submit_s"] = time.perf_counter() - mark
+                mark = time.perf_counter()
+                left = len(futures)
+                for future in as_completed(futures):
+                    on_running(min(workers, left))
+                    left -= 1
+                    try:
+                        outcome = future.result()
+                    except KilledWorker:  # its worker died on every retry Dask allowed
+                        outcome = failed_outcome(owner.pop(future.key), self.spec,
+                                                 WorkerDied())
+                    except BatchError:  # the worker could not write (a full disk)
+                        raise
+                    except Exception as err:  # the scheduler lost the task
+                        outcome = failed_outcome(owner.pop(future.key), self.spec, err)
+                    on_done(outcome)
+                    future.release()
+                self.timings["results_s"] = time.perf_counter() - mark
         except BaseException:
             client.cancel(futures)
             raise

@@ -1,7 +1,8 @@
 """What a batch runs over: log files found in directories, list files and fsspec URLs.
 
-An input is a local path or an fsspec URL (``s3://…``, ``gcs://…``, ``file://…``); the
-reader always gets a local path (a URL is copied to a temporary file by the worker, see
+An input is a local path or an fsspec URL (``file://…``, and ``s3://…``, ``gcs://…``, …
+when their protocol is allowed); the reader always gets a local path (a URL other than
+``file://`` is copied to a private temporary folder by the worker, see
 :mod:`etsid.batch.fetch`).
 
 * a file with a log or saved-table extension is one log;
@@ -19,6 +20,13 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
+from etsid.batch.fetch import (
+    BAG_METADATA,
+    DEFAULT_PROTOCOLS,
+    check_url,
+    is_url,
+    url_fs,
+)
 from etsid.errors import BatchError
 
 LOG_SUFFIXES = (".tlog", ".bin", ".ulg", ".bag", ".db3", ".mcap")
@@ -31,13 +39,7 @@ Parquet files that are not flight tables)."""
 LIST_SUFFIXES = (".txt", ".list", ".lst")
 """Files that list inputs, one per line."""
 
-BAG_METADATA = "metadata.yaml"
-
-
-def is_url(text: str) -> bool:
-    """True for an fsspec URL (``scheme://…``), False for a local path."""
-    scheme, sep, _ = text.partition("://")
-    return bool(sep) and scheme.isidentifier() and len(scheme) > 1
+__all__ = ["BAG_METADATA", "find_inputs", "is_url", "read_pairs", "run_name"]
 
 
 def _local_key(path: Path) -> str:
@@ -69,12 +71,18 @@ def _walk_local(root: Path, exclude: Path | None, tables: list[str]) -> list[str
 
 def _walk_url(url: str, tables: list[str]) -> list[str]:
     """Logs below a directory URL (needs fsspec); a bag directory is one input; the saved
-    tables met on the way are appended to ``tables``."""
-    fs, root = _url_fs(url)
-    if not fs.isdir(root):
-        return [url]
+    tables met on the way are appended to ``tables``. ``url`` is normalised and of an
+    allowed scheme (:func:`etsid.batch.fetch.check_url`)."""
+    fs, root = url_fs(url)
     protocol = url.split("://", 1)[0]
-    files = sorted(fs.find(root))
+    try:
+        if not fs.isdir(root):
+            return [url]
+        files = sorted(fs.find(root))
+    except Exception as err:  # any fsspec back end: network, permission
+        raise BatchError(f"{url}: cannot list this URL ({type(err).__name__}: "
+                         f"{str(err).strip().splitlines()[0] if str(err).strip() else ''})"
+                         ) from err
     bags = sorted({str(Path(f).parent) for f in files if Path(f).name == BAG_METADATA})
     found = [f"{protocol}://{b}" for b in bags]
     for f in files:
@@ -84,17 +92,6 @@ def _walk_url(url: str, tables: list[str]) -> list[str]:
         elif Path(f).suffix.lower() in TABLE_SUFFIXES:
             tables.append(f"{protocol}://{f}")
     return sorted(found)
-
-
-def _url_fs(url: str):  # type: ignore[no-untyped-def]
-    try:
-        import fsspec
-    except ImportError as err:
-        raise BatchError(f"{url}: URLs need fsspec (pip install \"etsid[cluster]\")") from err
-    try:
-        return fsspec.core.url_to_fs(url)
-    except (ImportError, ValueError) as err:
-        raise BatchError(f"{url}: cannot open this URL ({err})") from err
 
 
 def _read_list(path: Path) -> list[str]:
@@ -115,7 +112,8 @@ def _read_list(path: Path) -> list[str]:
 
 
 def find_inputs(items: Iterable[str | Path], exclude: Path | None = None,
-                unsearched: list[str] | None = None) -> list[str]:
+                unsearched: list[str] | None = None,
+                protocols: tuple[str, ...] = DEFAULT_PROTOCOLS) -> list[str]:
     """Expand INPUTS into the logs of a batch, in a stable order, each once.
 
     Parameters
@@ -127,6 +125,9 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None,
     unsearched
         When given, the saved tables (``.parquet``, ``.csv``) found in the directories
         searched are appended to it: they are inputs only when named.
+    protocols
+        URL schemes that may be opened (``--protocol``): a URL of another scheme is not
+        opened here and becomes an error row (:func:`etsid.batch.fetch.check_url`).
 
     Notes
     -----
@@ -146,7 +147,12 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None,
     for raw in items:
         item = str(raw)
         if is_url(item):
-            for found in _walk_url(item, tables):
+            try:
+                url = check_url(item, protocols)
+            except BatchError:
+                add(item)  # never opened: the worker's error row says why
+                continue
+            for found in _walk_url(url, tables):
                 add(found)
             continue
         path = Path(item)
@@ -154,7 +160,7 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None,
             for found in _walk_local(path, exclude, tables):
                 add(found)
         elif path.is_file() and path.suffix.lower() in LIST_SUFFIXES:
-            for listed in find_inputs(_read_list(path), exclude, tables):
+            for listed in find_inputs(_read_list(path), exclude, tables, protocols):
                 add(listed)
         else:
             add(item)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -47,34 +48,107 @@ def row_name(key: str | None, options_digest: str, item: str) -> str:
     return f"{(key or 'nohash')[:32]}-{options_digest[:12]}-{path_digest}.parquet"
 
 
-def write_row(out: str | Path, command: str, row: dict[str, Any], key: str | None) -> Path:
-    """Write one result row as its own Parquet file (atomic rename); returns the file."""
-    directory = partition_dir(out, command)
-    directory.mkdir(parents=True, exist_ok=True)
-    item = f"{row.get('sim_input') or ''},{row['input']}"
-    path = directory / row_name(key, row["options_digest"], item)
-    tmp = directory / f".{path.name}.{os.getpid()}.tmp"
-    pq.write_table(to_table([row]), tmp)
-    os.replace(tmp, path)
+def _unique_tmp(directory: Path, name: str) -> Path:
+    """A fresh hidden temporary file beside ``name`` (unique across processes and hosts)."""
+    handle, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=directory)
+    os.close(handle)
+    return Path(tmp)
+
+
+def write_table_atomic(table: pa.Table, path: Path, what: str) -> Path:
+    """Write ``table`` to ``path`` whole: a unique temporary file, then a rename; on any
+    error (a full disk) the temporary file is removed and a one-line :class:`BatchError`
+    says what could not be written."""
+    tmp: Path | None = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = _unique_tmp(path.parent, path.name)
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+    except OSError as err:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
+        raise BatchError(f"{path.parent}: cannot write {what} "
+                         f"({err.strerror or err})") from err
+    except BaseException:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
+        raise
     return path
 
 
-def done_keys(out: str | Path, command: str, options_digest: str) -> frozenset[str]:
-    """Input hashes that already have a result row for ``options_digest`` (for --resume)."""
+def write_row(out: str | Path, command: str, row: dict[str, Any], key: str | None) -> Path:
+    """Write one result row as its own Parquet file (atomic rename); returns the file.
+
+    Raises
+    ------
+    BatchError
+        The row could not be written (nothing partial is left).
+    """
     directory = partition_dir(out, command)
-    if not directory.is_dir():
+    item = f"{row.get('sim_input') or ''},{row['input']}"
+    path = directory / row_name(key, row["options_digest"], item)
+    return write_table_atomic(to_table([row]), path, "a result row")
+
+
+def result_key(input_sha256: str | None, sim_sha256: str | None) -> str | None:
+    """The resume key of a row: the input hash, or for a pair the hash of both hashes."""
+    if not input_sha256:
+        return None
+    if sim_sha256:
+        return hashlib.sha256(f"{sim_sha256}:{input_sha256}".encode()).hexdigest()
+    return input_sha256
+
+
+def _dataset(root: Path) -> ds.Dataset:
+    partitioning = ds.partitioning(pa.schema([("command", pa.string())]), flavor="hive")
+    schema = pa.schema([pa.field("command", pa.string()), *SCHEMA])
+    files = sorted(str(p) for p in root.glob("command=*/*.parquet"))
+    return ds.dataset(files, format="parquet", partitioning=partitioning, schema=schema,
+                      partition_base_dir=str(root))
+
+
+def done_keys(out: str | Path, command: str, options_digest: str,
+              retry_failed: bool = True) -> frozenset[str]:
+    """Result keys (32 hex digits) that ``--resume`` skips for ``options_digest``: the logs
+    with an ``ok`` row, and with ``retry_failed=False`` (``--skip-failed``) those with an
+    error row too. A log whose worker died has no hash and always runs again."""
+    root = results_dir(out)
+    if not partition_dir(out, command).is_dir():
         return frozenset()
-    keys = set()
-    tail = f"-{options_digest[:12]}-"
-    for path in directory.glob("*.parquet"):
-        sha, sep, _ = path.name.partition(tail)
-        if sep and sha != "nohash":
-            keys.add(sha)
-    return frozenset(keys)
+    wanted = (ds.field("command") == command) & (ds.field("options_digest") == options_digest)
+    table = _dataset(root).to_table(columns=["input_sha256", "sim_sha256", "status",
+                                             "finished"], filter=wanted)
+    latest: dict[str, tuple[str, str]] = {}
+    for sha, sim, status, finished in zip(*(table.column(i).to_pylist() for i in range(4)),
+                                          strict=True):
+        key = result_key(sha, sim)
+        if key is not None and (key[:32] not in latest
+                                or (finished or "") >= latest[key[:32]][1]):
+            latest[key[:32]] = (status, finished or "")
+    return frozenset(key for key, (status, _) in latest.items()
+                     if status == "ok" or not retry_failed)
+
+
+ROW_IDENTITY = ("command", "options_digest", "sim_input", "input")
+"""Columns that name one log's row: where a log has several (a failed log run again by
+``--resume`` next to its old row in a compacted file), the latest ``finished`` is kept."""
+
+
+def latest_rows(frame: pd.DataFrame) -> pd.DataFrame:
+    """One row per log (:data:`ROW_IDENTITY`): the one finished last."""
+    if frame.empty:
+        return frame
+    ident = [c for c in ROW_IDENTITY if c in frame.columns]
+    order = frame.assign(_order=frame["finished"].fillna("")).sort_values(
+        "_order", kind="stable")
+    keep = ~order.duplicated(subset=ident, keep="last")
+    return order[keep].drop(columns="_order").sort_index()
 
 
 def read_results(out: str | Path, command: str | None = None) -> pd.DataFrame:
-    """The results dataset of a batch directory as one frame, sorted by command and input.
+    """The results dataset of a batch directory as one frame, one row per log (the latest),
+    sorted by command and input.
 
     Raises
     ------
@@ -84,11 +158,7 @@ def read_results(out: str | Path, command: str | None = None) -> pd.DataFrame:
     root = results_dir(out)
     if not root.is_dir():
         raise BatchError(f"{out}: not a batch directory (no results/; run `etsid batch`)")
-    partitioning = ds.partitioning(pa.schema([("command", pa.string())]), flavor="hive")
-    schema = pa.schema([pa.field("command", pa.string()), *SCHEMA])
-    dataset = ds.dataset(str(root), format="parquet", partitioning=partitioning,
-                         schema=schema)
-    table = dataset.to_table(filter=None if command is None
-                             else ds.field("command") == command)
-    frame = table.to_pandas()
+    table = _dataset(root).to_table(filter=None if command is None
+                                    else ds.field("command") == command)
+    frame = latest_rows(table.to_pandas())
     return frame.sort_values(["command", "input"], kind="stable").reset_index(drop=True)

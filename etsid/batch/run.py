@@ -7,9 +7,11 @@ finishes. ``DIR/batch.json`` records the command, the options and how the batch 
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import json
 import os
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,7 +50,7 @@ def default_jobs() -> int:
 
 
 def _runner(spec: BatchSpec, out: Path, done: frozenset[str], jobs: int, scheduler: str,
-            max_memory_mb: float | None) -> Any:
+            max_memory_mb: float | None, dashboard: str | None) -> Any:
     if scheduler == "local":
         from etsid.batch.local import LocalRunner
 
@@ -58,19 +60,29 @@ def _runner(spec: BatchSpec, out: Path, done: frozenset[str], jobs: int, schedul
     if scheduler != "processes" and "://" not in scheduler:
         raise BatchError(f"--scheduler {scheduler!r}: use local, processes or "
                          "dask://HOST:PORT")
-    return DaskRunner(spec, out, done, jobs, scheduler_address(scheduler))
+    return DaskRunner(spec, out, done, jobs, scheduler_address(scheduler), dashboard)
 
 
 def _write_meta(out: Path, data: dict[str, Any]) -> None:
+    """``DIR/batch.json``, whole (a unique temporary file, then a rename)."""
     path = out / "batch.json"
-    tmp = out / ".batch.json.tmp"
-    tmp.write_text(json.dumps(data, indent=1, default=str) + "\n")
-    os.replace(tmp, path)
+    tmp: Path | None = None
+    try:
+        handle, name = tempfile.mkstemp(prefix=".batch.json.", suffix=".tmp", dir=out)
+        tmp = Path(name)
+        with os.fdopen(handle, "w") as stream:
+            stream.write(json.dumps(data, indent=1, default=str) + "\n")
+        os.replace(tmp, path)
+    except OSError as err:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
+        raise BatchError(f"{path}: cannot write ({err.strerror or err})") from err
 
 
 def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | None = None,
               scheduler: str = "local", resume: bool = False, show_progress: bool = False,
-              max_memory_mb: float | None = None) -> BatchSummary:
+              max_memory_mb: float | None = None, retry_failed: bool = True,
+              dashboard: str | None = None) -> BatchSummary:
     """Run ``spec.command`` on every item and write a result row per item.
 
     Parameters
@@ -86,12 +98,18 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         ``local`` (a process pool here), ``processes`` (a Dask LocalCluster here) or a
         Dask scheduler address ``dask://HOST:PORT``.
     resume
-        Skip every log with a row for the same input hash and options.
+        Skip every log with an ``ok`` row for the same input hash and options.
+    retry_failed
+        With ``resume``, run the logs with an error row again (False: skip them too,
+        ``--skip-failed``).
     show_progress
         Progress bar over logs on stderr.
     max_memory_mb
         Memory (RSS) limit of each local pool worker, MB (None: no limit); a log that
         passes it becomes a MemoryError row.
+    dashboard
+        ``--scheduler processes``: address of Dask's dashboard (default
+        :data:`etsid.batch.cluster.DASHBOARD`, this machine only).
 
     Raises
     ------
@@ -113,13 +131,14 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         raise BatchError(f"{out}: cannot create the batch directory ({err.strerror})") from err
     jobs = max(1, jobs or default_jobs())
     digest = spec.digest()
-    done = done_keys(out, spec.command, digest) if resume else frozenset()
-    runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb)
+    done = done_keys(out, spec.command, digest, retry_failed) if resume else frozenset()
+    runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb, dashboard)
     summary = BatchSummary(out, total=len(items))
     meta: dict[str, Any] = {
         "schema": "etsid.batch/1", "command": spec.command, "options_digest": digest,
         "options": spec.options(), "inputs": len(items), "jobs": jobs,
         "scheduler": scheduler, "resume": resume,
+        "retry_failed": retry_failed,
         "started": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
     }
     _write_meta(out, meta)
@@ -141,7 +160,8 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
             if outcome.row is None:
                 summary.skipped += 1
             else:
-                write_row(out, spec.command, outcome.row, outcome.key)
+                if not outcome.written:
+                    write_row(out, spec.command, outcome.row, outcome.key)
                 if outcome.row["status"] == "ok":
                     summary.ok += 1
                 else:
@@ -151,9 +171,11 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
 
         try:
             runner.run(items, on_done, on_running)
-        except KeyboardInterrupt:
-            meta.update(ended="interrupted", **_counts(summary, start))
-            _write_meta(out, meta)
+        except BaseException as err:
+            meta.update(ended="interrupted" if isinstance(err, KeyboardInterrupt)
+                        else "failed", **_counts(summary, start))
+            with contextlib.suppress(BatchError):  # a full disk: the error says so
+                _write_meta(out, meta)
             raise
     summary.wall_s = time.perf_counter() - start
     meta.update(ended="finished", **_counts(summary, start))

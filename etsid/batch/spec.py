@@ -8,6 +8,8 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
+from etsid.batch.fetch import DEFAULT_PROTOCOLS
+
 COMMANDS = ("inspect", "ingest", "identify", "gap")
 """Batch commands; each runs the single command of the same name on every log."""
 
@@ -30,6 +32,9 @@ class BatchSpec:
     extra
         Further options that change results and belong in the digest (e.g. the content
         hash of a ``--mapping`` file, gap options).
+    protocols
+        URL schemes the workers may open (``file`` and those named by ``--protocol``);
+        not in the digest: it decides what may be read, not what a log gives.
     """
 
     command: str
@@ -39,6 +44,7 @@ class BatchSpec:
     start: float | None = None
     end: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    protocols: tuple[str, ...] = DEFAULT_PROTOCOLS
 
     def options(self) -> dict[str, Any]:
         """Every option that changes a log's result, as plain JSON types."""

@@ -12,23 +12,22 @@ import datetime as dt
 import hashlib
 import os
 import resource
-import shutil
 import signal
 import socket
-import tempfile
 import threading
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from etsid import __version__
 from etsid.batch import tasks
-from etsid.batch.inputs import is_url, run_name
-from etsid.batch.results import RUNS
+from etsid.batch.fetch import local_copy
+from etsid.batch.inputs import run_name
+from etsid.batch.lifeline import die_with_parent
+from etsid.batch.results import RUNS, write_row
 from etsid.batch.spec import BatchSpec
-from etsid.errors import BatchError, EtsidError
+from etsid.errors import EtsidError
 from etsid.ident.rundir import sha256
 
 Item = str | tuple[str, str]
@@ -38,41 +37,16 @@ Item = str | tuple[str, str]
 @dataclass
 class Outcome:
     """What one log gave: its row, or ``row=None`` when ``--resume`` skipped it; a pool
-    worker adds its process id and resident memory after the log (MB)."""
+    worker adds its process id and resident memory after the log (MB). ``written``: the
+    worker wrote the row file itself (Dask), and ``row`` keeps only the fields the
+    summary needs."""
 
     item: Item
     key: str | None
     row: dict[str, Any] | None
     pid: int | None = None
     rss_mb: float | None = None
-
-
-@contextlib.contextmanager
-def local_copy(item: str) -> Iterator[Path]:
-    """A local path for ``item``: the path itself, or a URL copied to a temporary directory
-    (a bag directory URL recursively), removed afterwards."""
-    if not is_url(item):
-        path = Path(item)
-        if not path.exists():
-            raise BatchError(f"{item}: no such file or directory")
-        yield path
-        return
-    from etsid.batch.inputs import _url_fs
-
-    fs, remote = _url_fs(item)
-    tmp = Path(tempfile.mkdtemp(prefix="etsid-batch-"))
-    try:
-        local = tmp / (remote.rstrip("/").rsplit("/", 1)[-1] or "log")
-        try:
-            if fs.isdir(remote):
-                fs.get(remote.rstrip("/") + "/", str(local), recursive=True)
-            else:
-                fs.get(remote, str(local))
-        except (OSError, ValueError) as err:
-            raise BatchError(f"{item}: cannot fetch ({err})") from err
-        yield local
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    written: bool = False
 
 
 def reset_peak_memory() -> None:
@@ -135,8 +109,8 @@ def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[st
     error row); False when the log is in ``done`` (skipped)."""
     with contextlib.ExitStack() as stack:
         if isinstance(item, tuple):
-            sim = stack.enter_context(local_copy(item[0]))
-            real = stack.enter_context(local_copy(item[1]))
+            sim = stack.enter_context(local_copy(item[0], spec.protocols))
+            real = stack.enter_context(local_copy(item[1], spec.protocols))
             row.update(sim_sha256=sha256(sim), input_sha256=sha256(real))
             key = hashlib.sha256(f"{row['sim_sha256']}:{row['input_sha256']}".encode())
             row["_key"] = key.hexdigest()
@@ -146,7 +120,7 @@ def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[st
             row["run_dir"] = run_dir.relative_to(out).as_posix()
             row.update(tasks.gap(sim, real, spec, run_dir))
             return True
-        path = stack.enter_context(local_copy(item))
+        path = stack.enter_context(local_copy(item, spec.protocols))
         row["_local"] = str(path)
         row["input_sha256"] = row["_key"] = sha256(path)
         if row["_key"][:32] in done:
@@ -196,6 +170,28 @@ def run_log(item: Item, spec: BatchSpec, out: str | Path,
     return Outcome(item, key, row)
 
 
+SUMMARY_FIELDS = ("input", "sim_input", "status", "error", "error_kind")
+"""Row fields a Dask worker sends back once it has written the row itself."""
+
+
+def run_and_write(item: Item, spec: BatchSpec, out: str | Path,
+                  done: frozenset[str] = frozenset()) -> Outcome:
+    """:func:`run_log`, then the row written here (a Dask worker): only the fields of
+    :data:`SUMMARY_FIELDS` go back to the client.
+
+    Raises
+    ------
+    BatchError
+        The row could not be written (a full disk): the batch stops.
+    """
+    outcome = run_log(item, spec, out, done)
+    if outcome.row is not None:
+        write_row(out, spec.command, outcome.row, outcome.key)
+        outcome.row = {name: outcome.row.get(name) for name in SUMMARY_FIELDS}
+        outcome.written = True
+    return outcome
+
+
 # -- process-pool workers: the batch's fixed arguments are set once per process ----------
 
 _STATE: dict[str, Any] = {}
@@ -231,9 +227,11 @@ def _watch_memory(limit_mb: float, period_s: float = 0.05) -> None:
 
 def init_worker(spec: BatchSpec, out: str, done: frozenset[str],
                 max_memory_mb: float | None) -> None:
-    """Initializer of a pool process: ignore Ctrl-C (the parent stops the pool), watch the
-    memory when asked, import the command's modules, keep the batch arguments."""
+    """Initializer of a pool process: ignore Ctrl-C (the parent stops the pool), die with
+    the parent, watch the memory when asked, import the command's modules, keep the batch
+    arguments."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent()  # the fork server (or, spawned, the batch process)
     for name in tasks.PRELOAD:
         __import__(name)
     _STATE.update(spec=spec, out=out, done=done, max_memory_mb=max_memory_mb)

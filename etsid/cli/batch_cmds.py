@@ -34,6 +34,14 @@ _NOT_BATCH = {"log", "out", "as_json", "quiet"}
 
 def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
     func = click.option("--quiet", "-q", is_flag=True, help="No progress bar.")(func)
+    func = click.option("--dashboard", default=None, metavar="HOST:PORT",
+                        help="--scheduler processes: serve Dask's dashboard at this "
+                             "address (default: 127.0.0.1:8787, this machine only; "
+                             "0.0.0.0:8787 opens it to the network).")(func)
+    func = click.option("--protocol", "protocols", multiple=True, metavar="NAME",
+                        help="Also open URLs of this fsspec protocol (repeatable, e.g. "
+                             "--protocol s3); file:// is always allowed, any other URL "
+                             "is an error row without being opened.")(func)
     func = click.option("--max-memory", "max_memory_mb", type=click.FloatRange(100),
                         default=None, metavar="MB",
                         help="Memory limit of each local worker process, MB: a log whose "
@@ -41,14 +49,17 @@ def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
                              "on (default: no limit; the pool is renewed anyway when a "
                              f"worker has grown by {RENEW_GROWTH_MB:g} MB since its first "
                              "log).")(func)
+    func = click.option("--skip-failed", is_flag=True,
+                        help="With --resume, also skip the logs whose earlier run failed "
+                             "(by default they run again).")(func)
     func = click.option("--resume", is_flag=True,
-                        help="Skip every log that has a result for the same input (SHA-256) "
-                             "and options.")(func)
+                        help="Skip every log that has a successful result for the same "
+                             "input (SHA-256) and options; failed logs run again.")(func)
     func = click.option("--scheduler", default="local", show_default=True,
                         metavar="local|processes|dask://HOST:PORT",
                         help="local: a process pool here; processes: a Dask LocalCluster "
-                             "here; dask://HOST:PORT: an existing Dask cluster "
-                             "(processes and dask:// need etsid[cluster]).")(func)
+                             "here; dask://HOST:PORT (or tcp://, tls://): an existing Dask "
+                             "cluster (processes and dask:// need etsid[cluster]).")(func)
     func = click.option("--jobs", "-j", type=click.IntRange(1), default=None,
                         help="Worker processes (default: every core).")(func)
     func = click.option("-o", "--out", required=True,
@@ -56,6 +67,11 @@ def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
                         help="Batch directory: runs/ (one directory per log), results/ "
                              "(the Parquet dataset), batch.json.")(func)
     return func
+
+
+_BATCH = ("out", "jobs", "scheduler", "resume", "skip_failed", "max_memory_mb", "protocols",
+          "dashboard", "quiet")
+"""Parameters of :func:`_batch_options`."""
 
 
 def _borrowed(command: click.Command) -> list[click.Parameter]:
@@ -77,10 +93,10 @@ def _echo_summary(summary: BatchSummary, command: str) -> None:
                f"{summary.out}/results/; next: etsid report {summary.out}")
 
 
-def _find(logs: tuple[str, ...], out: Path) -> list[str]:
+def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[str]:
     """The logs of LOGS; saved tables met in its directories are not run, and said so."""
     tables: list[str] = []
-    items = find_inputs(logs, exclude=out, unsearched=tables)
+    items = find_inputs(logs, exclude=out, unsearched=tables, protocols=protocols)
     if tables:
         first = tables[0].replace("\\", "/")
         folder, suffix = first.rsplit("/", 1)[0], Path(first).suffix
@@ -94,11 +110,23 @@ def _find(logs: tuple[str, ...], out: Path) -> list[str]:
     return items
 
 
-def _run(items: list[Any], spec: BatchSpec, out: Path, jobs: int | None, scheduler: str,
-         resume: bool, max_memory_mb: float | None, quiet: bool) -> None:
-    summary = run_batch(items, spec, out, jobs=jobs, scheduler=scheduler, resume=resume,
-                        show_progress=wanted(quiet), max_memory_mb=max_memory_mb)
+def _run(items: list[Any] | None, logs: tuple[str, ...], spec: BatchSpec,
+         batch: dict[str, Any]) -> None:
+    """Run ``spec`` over ``items`` (or the logs found in ``logs``) with the batch options."""
+    spec.protocols = ("file", *batch["protocols"])
+    if items is None:
+        items = _find(logs, batch["out"], spec.protocols)
+    summary = run_batch(items, spec, batch["out"], jobs=batch["jobs"],
+                        scheduler=batch["scheduler"], resume=batch["resume"],
+                        show_progress=wanted(batch["quiet"]),
+                        max_memory_mb=batch["max_memory_mb"],
+                        retry_failed=not batch["skip_failed"], dashboard=batch["dashboard"])
     _echo_summary(summary, spec.command)
+
+
+def _split(kw: dict[str, Any]) -> dict[str, Any]:
+    """The batch options, taken out of ``kw`` (what is left: the single command's)."""
+    return {name: kw.pop(name) for name in _BATCH}
 
 
 def _read_spec(command: str, kw: dict[str, Any]) -> BatchSpec:
@@ -125,45 +153,38 @@ def batch() -> None:
 @batch.command("inspect")
 @_INPUTS
 @_batch_options
-def batch_inspect(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: str,
-                  resume: bool, max_memory_mb: float | None, quiet: bool,
-                  **kw: Any) -> None:
+def batch_inspect(logs: tuple[str, ...], **kw: Any) -> None:
     """etsid inspect on every log of INPUTS."""
-    spec = _read_spec("inspect", kw)
-    _run(_find(logs, out), spec, out, jobs, scheduler, resume,
-         max_memory_mb, quiet)
+    options = _split(kw)
+    _run(None, logs, _read_spec("inspect", kw), options)
 
 
 @batch.command("ingest")
 @_INPUTS
 @_batch_options
-def batch_ingest(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: str,
-                 resume: bool, max_memory_mb: float | None, quiet: bool,
-                 **kw: Any) -> None:
+def batch_ingest(logs: tuple[str, ...], **kw: Any) -> None:
     """etsid ingest on every log of INPUTS (RUN_DIR/table.parquet per log)."""
+    options = _split(kw)
     spec = _read_spec("ingest", kw)
     spec.rate_hz, spec.start, spec.end = kw["rate_hz"], kw["start"], kw["end"]
-    _run(_find(logs, out), spec, out, jobs, scheduler, resume,
-         max_memory_mb, quiet)
+    _run(None, logs, spec, options)
 
 
 @batch.command("identify")
 @_INPUTS
 @_batch_options
-def batch_identify(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler: str,
-                   resume: bool, max_memory_mb: float | None, quiet: bool,
-                   **kw: Any) -> None:
+def batch_identify(logs: tuple[str, ...], **kw: Any) -> None:
     """etsid identify on every log of INPUTS (a RUN_DIR per log)."""
     from etsid.ident import IdentConfig
 
+    options = _split(kw)
     spec = _read_spec("identify", kw)
     spec.rate_hz = kw.pop("rate_hz")
     outputs = kw.pop("outputs")
     kw["outputs"] = [s.strip() for s in outputs.split(",") if s.strip()] if outputs else None
     names = {f.name for f in fields(IdentConfig)}
     spec.ident_config = IdentConfig(**{k: v for k, v in kw.items() if k in names})
-    _run(_find(logs, out), spec, out, jobs, scheduler, resume,
-         max_memory_mb, quiet)
+    _run(None, logs, spec, options)
 
 
 @batch.command("gap")
@@ -171,18 +192,17 @@ def batch_identify(logs: tuple[str, ...], out: Path, jobs: int | None, scheduler
 @_batch_options
 @click.option("--vehicle", default=None,
               help="Vehicle TOML file or packaged name for every pair (as etsid gap).")
-def batch_gap(pairs: tuple[Path, ...], out: Path, jobs: int | None, scheduler: str,
-              resume: bool, max_memory_mb: float | None, quiet: bool,
-              vehicle: str | None, **kw: Any) -> None:
+def batch_gap(pairs: tuple[Path, ...], vehicle: str | None, **kw: Any) -> None:
     """Sim-vs-real gap analysis of every SIM,REAL pair in the PAIRS CSV files."""
     from etsid.batch import GAP_UNAVAILABLE, gap_available
 
     if not gap_available():
         raise BatchError(GAP_UNAVAILABLE)
+    options = _split(kw)
     spec = _read_spec("gap", kw)
     if vehicle is not None:
         spec.extra["vehicle"] = vehicle
-    _run(list(read_pairs(pairs)), spec, out, jobs, scheduler, resume, max_memory_mb, quiet)
+    _run(list(read_pairs(pairs)), (), spec, options)
 
 
 for _command, _single in ((batch_inspect, inspect_cmd), (batch_ingest, ingest_cmd),

@@ -14,6 +14,8 @@ import html
 import json
 import os
 import re
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -53,10 +55,12 @@ def is_batch_dir(path: str | Path) -> bool:
 
 def load_fleet(path: str | Path) -> tuple[dict[str, Any], pd.DataFrame]:
     """``batch.json`` and the rows of its command and options, sorted by input."""
+    from etsid.batch.results import read_results
+
     path = Path(path)
     try:
         meta = json.loads((path / "batch.json").read_text())
-        frame = pd.read_parquet(path / "results")
+        frame = read_results(path)
     except (OSError, ValueError) as err:
         raise EtsidError(f"{path}: unreadable batch directory ({err})") from err
     if "command" in frame.columns:
@@ -122,19 +126,31 @@ def fig_distributions(frame: pd.DataFrame) -> Figure | None:
     return fig
 
 
+def run_dir_inside(batch_dir: Path, run_dir: str | None) -> Path | None:
+    """``DIR/run_dir`` when it lies inside ``DIR/runs/`` (None otherwise): a results
+    dataset is data, and a crafted ``run_dir`` (``../victim``, an absolute path, a link
+    out) must not make the report read or write outside the batch directory."""
+    if not run_dir or not isinstance(run_dir, str):
+        return None
+    runs = (batch_dir / "runs").resolve()
+    target = (batch_dir / run_dir).resolve()
+    return target if target.is_relative_to(runs) and target != runs else None
+
+
 def _run_report(batch_dir: Path, run_dir: str | None, command: str) -> str | None:
     """Relative link from DIR/report/ to a run's own report (written when missing)."""
-    if not run_dir or command != "identify":
+    inside = run_dir_inside(batch_dir, run_dir)
+    if inside is None or command != "identify":
         return None
-    target = batch_dir / run_dir / "report" / "index.html"
+    target = inside / "report" / "index.html"
     if not target.exists():
         from etsid.report.build import make_report
 
         try:
-            make_report(batch_dir / run_dir)
+            make_report(inside)
         except EtsidError:
             return None
-    return os.path.relpath(target, batch_dir / "report")
+    return os.path.relpath(target, batch_dir.resolve() / "report")
 
 
 def _fmt(value: Any) -> str:
@@ -194,21 +210,52 @@ def summary_lines(meta: dict[str, Any], frame: pd.DataFrame) -> list[str]:
     return lines
 
 
-def make_fleet_report(batch_dir: str | Path, fmt: str = "png") -> Report:
+def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None) -> Report:
     """Write ``DIR/report/``: index.html, report.md and the distributions figure.
+
+    The report is written into a staging folder beside it and put in place whole: an
+    interrupted report leaves the previous one (or none), never half of one.
 
     Raises
     ------
     EtsidError
         Not a batch directory, or unreadable results.
     """
+    from etsid.report.build import _replace
+
     batch_dir = Path(batch_dir)
     if not is_batch_dir(batch_dir):
         raise EtsidError(f"{batch_dir}: not a batch directory (no batch.json and results/)")
     meta, frame = load_fleet(batch_dir)
-    command = str(meta.get("command"))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=".report-", dir=batch_dir))
+    except OSError as err:
+        raise EtsidError(f"{batch_dir}: cannot write a report there "
+                         f"({err.strerror or err})") from err
+    try:
+        report = _write_fleet(batch_dir, meta, frame, staging, fmt)
+        staging.chmod(0o777 & ~_umask())
+        _replace(staging, batch_dir / "report")
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
     out = batch_dir / "report"
-    out.mkdir(exist_ok=True)
+    report.directory = out
+    report.figures = {name: out / path.name for name, path in report.figures.items()}
+    report.html, report.markdown = out / "index.html", out / "report.md"
+    return report
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out: Path,
+                 fmt: str) -> Report:
+    """Every part of the fleet report into ``out``."""
+    command = str(meta.get("command"))
     report = Report(out)
     fig = fig_distributions(frame)
     image = None

@@ -126,18 +126,30 @@ def test_a_pool_is_not_renewed_while_memory_stays_flat(fleet_logs: list[str],
     assert len(pools) == 1
 
 
-def test_resume_skips_finished_logs_and_reruns_on_new_options(
+def test_resume_skips_finished_logs_retries_failed_and_reruns_on_new_options(
         fleet_logs: list[str], tmp_path: Path) -> None:
-    logs = fleet_logs[:2]
+    logs = fleet_logs[:2]  # a.tlog (ok) and broken.tlog (an error row)
     spec = identify_spec()
     run_batch(logs, spec, tmp_path, jobs=1)
     rows = sorted((tmp_path / "results" / "command=identify").glob("*.parquet"))
-    stamps = [p.stat().st_mtime_ns for p in rows]
+    stamps = {p: p.stat().st_mtime_ns for p in rows}
+    status = read_results(tmp_path).set_index("input")["status"]
+    assert status.to_dict() == {logs[0]: "ok", logs[1]: "error"}
+    # the failed log runs again (its row replaced, still one); the ok one is skipped
     again = run_batch(logs, spec, tmp_path, jobs=1, resume=True)
-    assert (again.skipped, again.ok, again.failed) == (2, 0, 0)
-    assert [p.stat().st_mtime_ns for p in rows] == stamps
+    assert (again.skipped, again.ok, again.failed) == (1, 0, 1)
+    after = sorted((tmp_path / "results" / "command=identify").glob("*.parquet"))
+    assert after == rows and len(read_results(tmp_path)) == 2
+    ok_row = next(p for p in rows if read_results(tmp_path).set_index("input").loc[
+        logs[0], "input_sha256"][:32] in p.name)
+    assert ok_row.stat().st_mtime_ns == stamps[ok_row]
+    assert any(p.stat().st_mtime_ns != stamps[p] for p in rows if p != ok_row)
+    # --skip-failed: neither runs
+    skip = run_batch(logs, spec, tmp_path, jobs=1, resume=True, retry_failed=False)
+    assert (skip.skipped, skip.ok, skip.failed) == (2, 0, 0)
     # a third log is new; the first two stay skipped
-    more = run_batch(fleet_logs[:3], spec, tmp_path, jobs=1, resume=True)
+    more = run_batch(fleet_logs[:3], spec, tmp_path, jobs=1, resume=True,
+                     retry_failed=False)
     assert (more.skipped, more.ok + more.failed) == (2, 1)
     # other options: every log runs again, into rows of their own
     changed = run_batch(logs, identify_spec(radius=1.5), tmp_path, jobs=1, resume=True)
