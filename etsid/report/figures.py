@@ -112,8 +112,9 @@ def fig_rates(run: Run) -> Figure:
             tg, mg, hg = with_gaps(t, meas, hat)
             t0, t1 = zoom_window(t, meas)
             for col, ax in enumerate(axes[row]):
-                ax.plot(tg, mg, color=COLORS["measured"], label="measured")
-                ax.plot(tg, hg, color=COLORS["one_step"], label="eTS one-step", alpha=0.85)
+                ax.plot(tg, mg, color=COLORS["measured"], label="measured", lw=1.3, zorder=3)
+                ax.plot(tg, hg, color=COLORS["one_step"], label="eTS one-step", lw=0.7,
+                        alpha=0.9, zorder=2)
                 ax.set_ylabel(label_of(run, y))
                 if col == 1:
                     ax.set_xlim(t0, t1)
@@ -172,59 +173,70 @@ def fig_structure(run: Run) -> Figure:
             ax_p.text(0.5, 0.5, "no learning in this run (rules frozen)",
                       transform=ax_p.transAxes, ha="center")
         ax_p.set_ylabel("potential (–)")
-        ax_p.set_ylim(0, 1.02)
+        _potential_limits(ax_p, hist)
         ax_p.legend(loc="lower right", ncols=3, markerscale=4)
-        ax_p.set_title("(d) cluster potential", loc="left")
+        ax_p.set_title("(a) cluster potential", loc="left")
         ax_r.set_ylabel("number of rules")
         ax_r.yaxis.set_major_locator(MaxNLocator(integer=True))
         ax_r.set_xlabel("time t (s)")
-        ax_r.set_title("(e) rule-base size, with structural events", loc="left")
+        ax_r.set_title("(b) rule-base size, with structural events", loc="left")
         ax_r.legend(loc="lower right", ncols=4)
     return fig
 
 
-def _top_rules(cons: pd.DataFrame, count: int) -> list[int]:
-    life = cons.groupby("rule_id")["step"].nunique().sort_values(ascending=False)
-    return [int(r) for r in life.index[:count]]
+def _potential_limits(ax: Axes, hist: pd.DataFrame) -> None:
+    """Y limits around the potentials drawn (they often all lie between 0.7 and 1)."""
+    cols = [c for c in ("potential", "focal_max", "focal_min") if c in hist]
+    values = hist[cols].to_numpy(dtype=float).ravel() if cols and len(hist) else np.zeros(0)
+    values = values[np.isfinite(values)]
+    if values.size:
+        lo, hi = float(np.percentile(values, 0.5)), float(values.max())
+        pad = 0.05 * (hi - lo) if hi > lo else 0.05
+        ax.set_ylim(max(0.0, lo - pad), min(1.02, hi + pad))
+    else:
+        ax.set_ylim(0, 1.02)
 
 
-def fig_consequents(run: Run, n_rules: int = 3) -> Figure:
-    """Evolution of the consequent parameters θ of the longest-lived rules (Fig. 1.11).
+def fig_consequents(run: Run, top: int = 4) -> Figure:
+    """The consequents as their dominant terms: per output, the ``top`` terms of each rule
+    by share (|θ| × the input's learnt range over the sum of all terms; see
+    :mod:`etsid.report.rulebook`), signed like θ; every rule, numbered as in the tables."""
+    from etsid.errors import EtsidError
+    from etsid.report.rulebook import summarize
 
-    One row per output, one column per rule; each line is one regressor's coefficient
-    (row 0 of the consequent, the intercept, included), in the data's original units.
-    """
-    cons = run.consequents
-    outputs = outputs_of(run)
-    rules = _top_rules(cons, n_rules) if len(cons) else []
-    ncol = max(1, len(rules))
+    try:
+        summaries = summarize(run.rules)
+    except (EtsidError, TypeError) as err:
+        raise ValueError(f"rule base not readable ({err})") from err
+    if not summaries:
+        raise ValueError("the rule base has no rules")
+    outputs = list(summaries[0].terms)
+    regimes = {int(r["rule"]): r.get("regime") or "" for r in
+               (((run.metrics.get("regimes") or {}) if isinstance(run.metrics, dict) else {})
+                .get("rules") or [])}
+    cmap = matplotlib.colormaps["tab10"]
     with style():
-        fig = Figure(figsize=(WIDTH, 1.8 * len(outputs) + 0.6), layout="constrained")
-        axes = fig.subplots(len(outputs), ncol, squeeze=False, sharex=True)
-        terms = list(dict.fromkeys(cons["term"])) if len(cons) else []
-        cmap = matplotlib.colormaps["tab20"]
-        for row, y in enumerate(outputs):
-            for col in range(ncol):
-                ax = axes[row, col]
-                if not rules:
-                    ax.text(0.5, 0.5, "no consequent snapshots", transform=ax.transAxes,
-                            ha="center")
-                    continue
-                rid = rules[col]
-                part = cons[(cons["rule_id"] == rid) & (cons["output"] == y)]
-                for j, term in enumerate(terms):
-                    series = part[part["term"] == term]
-                    label = "θ₀ (intercept)" if term == "1" else f"θ {term}"
-                    ax.plot(series["t"].to_numpy(), series["value"].to_numpy(),
-                            color=cmap(j % 20), label=label, marker=".", ms=2)
-                ax.set_title(f"rule {rid}, output {y}", loc="left")
-                if col == 0:
-                    ax.set_ylabel(f"θ of {y} (original units)")
-        for ax in axes[-1]:
-            ax.set_xlabel("time t (s)")
-        if rules:
-            handles, labels = axes[0, 0].get_legend_handles_labels()
-            fig.legend(handles, labels, loc="outside right center", fontsize=6.5)
+        fig = Figure(figsize=(WIDTH, 2.0 * len(outputs) + 0.6), layout="constrained")
+        axes = fig.subplots(len(outputs), 1, squeeze=False)[:, 0]
+        for ax, y in zip(axes, outputs, strict=True):
+            names = list(dict.fromkeys(t.name for rule in summaries
+                                       for t in rule.terms[y][:top]))
+            width = 0.8 / len(summaries)
+            x = np.arange(len(names))
+            for k, rule in enumerate(summaries):
+                signed = {t.name: 100 * t.share * np.sign(t.coefficient)
+                          for t in rule.terms[y]}
+                label = f"Rule {rule.number}" + (f" ({regimes[rule.number]})"
+                                                 if regimes.get(rule.number) else "")
+                ax.bar(x - 0.4 + (k + 0.5) * width, [signed.get(n, 0.0) for n in names],
+                       width, color=cmap(k % 10), label=label)
+            ax.axhline(0, color="k", lw=0.6)
+            ax.set_xticks(x, names, rotation=30, ha="right")
+            ax.set_ylabel(f"share in {y} (%, sign of θ)")
+            ax.set_title(f"output {y}: dominant consequent terms", loc="left")
+        handles, labels = axes[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside upper center",
+                   ncols=min(4, len(summaries)), fontsize=7)
     return fig
 
 
@@ -309,34 +321,53 @@ def _keep_measured_range(ax: Axes, measured: np.ndarray) -> None:
 
 
 def fig_validation(run: Run) -> Figure:
-    """Validation part: measured, frozen one-step, free-run simulation, ARX free-run."""
+    """Validation part: measured (on top) against eTS frozen one-step, eTS free run and ARX
+    free run; under each output the free-run errors of eTS and ARX."""
     pred = run.predictions
     outputs = outputs_of(run)
     val = pred[pred["part"] == "validation"] if "part" in pred else pred.iloc[0:0]
     with style():
-        fig = Figure(figsize=(WIDTH, 1.8 * len(outputs) + 0.4), layout="constrained")
-        axes = fig.subplots(len(outputs), 1, squeeze=False, sharex=True)[:, 0]
+        fig = Figure(figsize=(WIDTH, 2.6 * len(outputs) + 0.4), layout="constrained")
+        grid = fig.subplots(2 * len(outputs), 1, squeeze=False, sharex=True,
+                            gridspec_kw={"height_ratios": [2, 1] * len(outputs)})[:, 0]
         t = val["t"].to_numpy()
-        for ax, y in zip(axes, outputs, strict=True):
+        for row, y in enumerate(outputs):
+            ax, ax_e = grid[2 * row], grid[2 * row + 1]
+            ax.set_ylabel(label_of(run, y))
+            ax_e.set_ylabel(f"error ({unit_of(run, y)})")
             if not len(val):
                 ax.text(0.5, 0.5, "no validation part (--validate 0)", transform=ax.transAxes,
                         ha="center")
-                ax.set_ylabel(label_of(run, y))
                 continue
-            series = [(y, "measured", COLORS["measured"], 1.0),
-                      (f"{y}_val", "eTS one-step (frozen)", COLORS["one_step"], 0.9),
-                      (f"{y}_sim", "eTS free-run", COLORS["free_run"], 0.9),
-                      (f"{y}_arx_sim", "ARX free-run", COLORS["arx"], 0.8)]
-            cols = [val[c].to_numpy() if c in val else np.full(len(t), np.nan)
+            series = [(f"{y}_val", "eTS one-step (frozen)", COLORS["one_step"], 0.6, "-"),
+                      (f"{y}_arx_sim", "ARX free-run", COLORS["arx"], 0.8, "--"),
+                      (f"{y}_sim", "eTS free-run", COLORS["free_run"], 0.8, "--"),
+                      (y, "measured", "k", 1.3, "-")]
+            cols = [val[c].to_numpy(dtype=float) if c in val else np.full(len(t), np.nan)
                     for c, *_ in series]
             tg, *gs = with_gaps(t, *cols)
-            for (_, label, color, alpha), g in zip(series, gs, strict=True):
-                ax.plot(tg, g, color=color, label=label, alpha=alpha)
-            _keep_measured_range(ax, cols[0])
+            for z, ((_, label, color, lw, ls), g) in enumerate(zip(series, gs, strict=True)):
+                ax.plot(tg, g, color=color, label=label, lw=lw, ls=ls, zorder=2 + z)
+            _keep_measured_range(ax, cols[-1])
+            for col, label, color in ((1, "ARX", COLORS["arx"]),
+                                      (2, "eTS", COLORS["free_run"])):
+                err = gs[-1] - gs[col]
+                finite = err[np.isfinite(err)]
+                if finite.size:
+                    rmse = float(np.sqrt(np.mean(finite**2)))
+                    ax_e.plot(tg, err, color=color, lw=0.7,
+                              label=f"{label} free-run error, RMSE {rmse:.3g}")
+            ax_e.axhline(0, color="k", lw=0.5)
+            if ax_e.lines:
+                ax_e.legend(loc="upper right", ncols=2)
             block = (((run.metrics["outputs"][y] or {}).get("validation") or {})
                      .get("free_run") or {})
+            arx = (((((run.metrics["outputs"][y] or {}).get("arx") or {}).get("validation")
+                     or {}).get("free_run")) or {})
             fr = block.get("fit")
-            title = f"free-run fit {fr:.1f} %" if fr is not None else ""
+            title = f"free-run fit eTS {fr:.1f} %" if fr is not None else ""
+            if title and arx.get("fit") is not None:
+                title += f" vs ARX {arx['fit']:.1f} %"
             if block.get("informative") is False:
                 title = (f"too little motion (std {block['signal_std']:.2g}): free-run fit "
                          f"{fr:.1f} % not informative" if fr is not None else "")
@@ -347,9 +378,8 @@ def fig_validation(run: Run) -> Figure:
                          + (f" (fit {fr:.1f} % before)" if fr is not None else ""))
             if title:
                 ax.set_title(title, loc="left")
-            ax.set_ylabel(label_of(run, y))
-        axes[0].legend(loc="upper right", ncols=4)
-        axes[-1].set_xlabel("time t (s)")
+        grid[0].legend(loc="upper right", ncols=4)
+        grid[-1].set_xlabel("time t (s)")
     return fig
 
 
@@ -359,12 +389,13 @@ FIGURES = {
     "structure": (fig_structure, "Potential of each sample against the focal potentials, "
                                  "and the number of rules with births, replacements and "
                                  "removals."),
-    "consequents": (fig_consequents, "Evolution of the consequent parameters θ of the "
-                                     "longest-lived rules."),
+    "consequents": (fig_consequents, "Dominant consequent terms of every rule (share of "
+                                     "the output's swing, signed like θ), rules numbered "
+                                     "as in the tables."),
     "residuals": (fig_residuals, "Residual histogram and autocorrelation with the 95 % "
                                  "band of white noise."),
-    "validation": (fig_validation, "Validation part: frozen one-step prediction and "
-                                   "free-run simulation against the measurement, with the "
-                                   "ARX baseline."),
+    "validation": (fig_validation, "Validation part: measured (black, on top) against the "
+                                   "frozen one-step prediction and the free runs of eTS and "
+                                   "ARX; under each output the free-run errors."),
 }
 """Report figures: name → (builder, caption)."""

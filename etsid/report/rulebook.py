@@ -80,8 +80,7 @@ def summarize(rules: dict[str, Any]) -> list[RuleSummary]:
     inputs, outputs = model.names()
     antecedents = model.antecedents()
     cons = model.consequents_raw()  # (R, n + 1, m), row 0 the intercept
-    ranges = np.asarray(model.x_range, dtype=float).reshape(len(inputs), 2)
-    swing = np.abs(ranges[:, 1] - ranges[:, 0])
+    swing = _input_swing(model, state, len(inputs))
     out = []
     for i in range(state.n_rules):
         terms = {}
@@ -97,6 +96,18 @@ def summarize(rules: dict[str, Any]) -> list[RuleSummary]:
             int(state.support[i]), {y: float(cons[i, 0, o]) for o, y in enumerate(outputs)},
             terms))
     return out
+
+
+def _input_swing(model: Any, state: Any, n: int) -> np.ndarray:
+    """max − min of each regressor: the fixed ranges the model was given, else the ones it
+    learnt (z = [scheduling inputs,] regressors, outputs)."""
+    if model.x_range is not None:
+        ranges = np.asarray(model.x_range, dtype=float).reshape(n, 2)
+        return np.abs(ranges[:, 1] - ranges[:, 0])
+    offset = state.n_antecedents if state.scheduled else 0
+    low = np.asarray(state.low, dtype=float)[offset:offset + n]
+    high = np.asarray(state.high, dtype=float)[offset:offset + n]
+    return np.nan_to_num(np.abs(high - low))
 
 
 def _term_text(term: Term) -> str:
