@@ -14,20 +14,21 @@ index. The notes give the messages kept and the seconds missing
 
 from __future__ import annotations
 
-import bz2
+import mmap
 import struct
 from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
+from etsid.ingest import mapped
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.damage import cut_note, gap_note
+from etsid.ingest.inflate import MAX_CHUNK_BYTES, inflate
 from etsid.ingest.ros.converter import Converter
 
 MAGIC = b"#ROSBAG V2.0\n"
 _OP_MSG, _OP_HEADER, _OP_INDEX, _OP_CHUNK, _OP_CHUNK_INFO, _OP_CONN = 2, 3, 4, 5, 6, 7
 _MAX_HEADER = 1 << 16
-FEED_BYTES = 4096
 
 
 def _fields(buf: bytes | memoryview, op: bool = True) -> dict[str, bytes] | None:
@@ -68,10 +69,10 @@ def _record_at(view: memoryview, pos: int) -> tuple[dict[str, bytes], memoryview
 
 def _resync(view: memoryview, start: int, ops: tuple[int, ...]) -> int | None:
     """Start of the next well-formed record from ``start`` whose op is in ``ops``."""
-    data = view.obj if isinstance(view.obj, bytes) else bytes(view)
+    data = view.obj if isinstance(view.obj, (bytes, mmap.mmap)) else bytes(view)
     pos = start
     while True:
-        i = data.find(b"\x04\x00\x00\x00op=", pos)
+        i = mapped.find(data, b"\x04\x00\x00\x00op=", pos)
         if i < 0:
             return None
         if i + 7 < len(data) and data[i + 7] in ops:
@@ -82,27 +83,17 @@ def _resync(view: memoryview, start: int, ops: tuple[int, ...]) -> int | None:
         pos = i + 1
 
 
-def _decompress(kind: str, data: bytes | memoryview) -> tuple[bytes, bool]:
-    """As much of a (possibly cut or damaged) chunk as decompresses, and whether all of
-    it did."""
-    if kind == "none":
-        return bytes(data), True
-    if kind == "bz2":
-        dec: Any = bz2.BZ2Decompressor()
-    elif kind == "lz4":
-        import lz4.frame
-
-        dec = lz4.frame.LZ4FrameDecompressor()
-    else:
-        raise IngestError(f"unknown chunk compression {kind!r}")
-    out = bytearray()
-    raw = bytes(data)
-    try:
-        for at in range(0, len(raw), FEED_BYTES):
-            out += dec.decompress(raw[at:at + FEED_BYTES])
-    except (OSError, EOFError, ValueError, RuntimeError):
-        return bytes(out), False
-    return bytes(out), True
+def _decompress(kind: str, data: bytes | memoryview, declared: int | None) -> tuple[bytes, bool]:
+    """As much of a (possibly cut or damaged) chunk as decompresses, bounded by its
+    declared size (:func:`etsid.ingest.inflate.inflate`), and whether all of it did."""
+    if kind not in ("none", "bz2", "lz4"):
+        raise IngestError(f"unknown chunk compression {kind[:20]!r}")
+    if declared is None:  # a header without its size: at most the limit
+        declared = MAX_CHUNK_BYTES
+        got = inflate(kind, data, declared)
+        return got.data, got.error.startswith("chunk decompresses to ")
+    got = inflate(kind, data, declared)
+    return got.data, not got.error
 
 
 class _Span:
@@ -218,10 +209,19 @@ class _Scan:
 
 def scan(path: Path, options: ReadOptions, raw: RawLog) -> Converter:
     """Read a ROS 1 bag without its index, keeping every complete message."""
-    data = path.read_bytes()
-    if not data.startswith(MAGIC):
-        raise IngestError(f"{path}: not a ROS 1 bag (bad magic line)")
-    view = memoryview(data)
+    with path.open("rb") as handle:
+        if handle.read(len(MAGIC)) != MAGIC:
+            raise IngestError(f"{path}: not a ROS 1 bag (bad magic line)")
+        with mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as data:
+            view = memoryview(data)
+            try:
+                return _scan(path, view, options, raw)
+            finally:
+                view.release()
+
+
+def _scan(path: Path, view: memoryview, options: ReadOptions, raw: RawLog) -> Converter:
+    data = view
     state = _Scan(options)
     index_pos = None
     used = pos = len(MAGIC)
@@ -240,7 +240,7 @@ def scan(path: Path, options: ReadOptions, raw: RawLog) -> Converter:
         op = header["op"][0]
         if op == _OP_CHUNK:
             kind = header.get("compression", b"none").decode("latin-1")
-            inner, whole = _decompress(kind, body)
+            inner, whole = _decompress(kind, body, _size(header))
             state.chunk(inner, pos, partial=not whole)
             if not whole:  # the rest of the chunk does not decompress
                 state.bad.append(pos)
@@ -289,7 +289,7 @@ def _notes(path: Path, raw: RawLog, state: _Scan, used: int, tail: int,
         + f"; {tail} byte(s) at the end could not be read", span.messages, first, last))
 
 
-def _partial_chunk(view: memoryview, pos: int) -> tuple[str, memoryview] | None:
+def _partial_chunk(view: memoryview, pos: int) -> tuple[str, memoryview, int | None] | None:
     if pos + 4 > len(view):
         return None
     (hlen,) = struct.unpack_from("<I", view, pos)
@@ -298,4 +298,11 @@ def _partial_chunk(view: memoryview, pos: int) -> tuple[str, memoryview] | None:
     header = _fields(view[pos + 4:pos + 4 + hlen])
     if header is None or header["op"][:1] != bytes((_OP_CHUNK,)):
         return None
-    return header.get("compression", b"none").decode("latin-1"), view[pos + 8 + hlen:]
+    return (header.get("compression", b"none").decode("latin-1"), view[pos + 8 + hlen:],
+            _size(header))
+
+
+def _size(header: dict[str, bytes]) -> int | None:
+    """The decompressed size a chunk header declares (None when it lacks one)."""
+    value = header.get("size", b"")
+    return struct.unpack("<I", value)[0] if len(value) == 4 else None

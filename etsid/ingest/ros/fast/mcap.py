@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from etsid.ingest.inflate import Inflated, inflate, too_large
+
 MAGIC = b"\x89MCAP0\r\n"
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
 _RECORD = struct.Struct("<BQ")
@@ -34,12 +36,13 @@ class NotFast(Exception):
     """The file needs the stream reader (cut short, damaged, unknown compression)."""
 
 
-MAX_CHUNK_BYTES = 1 << 30
-"""A chunk claiming to decompress to more than this is damaged (checked before allocating)."""
-
-
 class _Damaged(Exception):
-    """A chunk's bytes are broken (bad compression, CRC, length or inner record)."""
+    """A chunk's bytes are broken (bad compression, CRC, length or inner record);
+    ``inflated``: what its one decompression gave (None when it was not decompressed)."""
+
+    def __init__(self, why: str, inflated: Inflated | None = None) -> None:
+        super().__init__(why)
+        self.inflated = inflated
 
 
 @dataclass
@@ -139,6 +142,8 @@ def _walk(buf: bytes, start: int, end: int, top: bool) -> Iterator[Any]:
             if length < 22:
                 raise NotFast("short message record")
             run.append(pos)
+        elif op == 0:  # no record has opcode 0: zeroed bytes (walked by the resync)
+            raise NotFast("opcode 0")
         elif op in (_OP_SCHEMA, _OP_CHANNEL, _OP_HEADER, _OP_CHUNK, _OP_FOOTER):
             if run:
                 yield _messages(buf, run)
@@ -160,15 +165,19 @@ def _walk(buf: bytes, start: int, end: int, top: bool) -> Iterator[Any]:
 
 def _chunk_records(buf: bytes, pos: int, length: int) -> Iterator[Any]:
     """The records of the chunk at ``pos``; a damaged chunk goes to the resync walker,
-    which keeps what still decodes and yields a :class:`~.mcap_resync.Lost` for the rest."""
+    which keeps what still decodes (from the one decompression already made) and yields a
+    :class:`~.mcap_resync.Lost` for the rest."""
+    tried: Inflated | None = None
     try:
         inner = _chunk(buf, pos, length)
+        tried = Inflated(inner)
         found = list(_walk(inner, 0, len(inner), False))
+    except _Damaged as err:
+        tried = err.inflated
     except NotFast as err:
         if str(err).startswith("compression"):
             raise
-    except (_Damaged, struct.error, UnicodeDecodeError, ValueError, IndexError,
-            RuntimeError, MemoryError, *_zstd_error()):
+    except (struct.error, UnicodeDecodeError, ValueError, IndexError, MemoryError):
         pass
     else:
         yield from found
@@ -176,44 +185,40 @@ def _chunk_records(buf: bytes, pos: int, length: int) -> Iterator[Any]:
     from etsid.ingest.ros.fast import mcap_resync
 
     data = bytes(buf[pos - 9:pos + length])
-    for rec in mcap_resync.chunk_records(data, 0, len(data), mcap_resync._Context()):
+    for rec in mcap_resync.chunk_records(data, 0, len(data), mcap_resync._Context(), tried):
         if isinstance(rec, mcap_resync.Lost):
             rec.pos += pos - 9
         yield rec
 
 
-def _zstd_error() -> tuple[type[Exception], ...]:
-    import zstandard
-
-    return (zstandard.ZstdError,)
-
-
 def _chunk(buf: bytes, pos: int, length: int) -> bytes:
+    """The decompressed records of the chunk whose body starts at ``pos``.
+
+    Raises
+    ------
+    _Damaged
+        Lengths, decompression (bounded: :func:`etsid.ingest.inflate.inflate`) or CRC
+        wrong; it carries what decompressed.
+    NotFast
+        An unknown compression.
+    """
     import zlib
 
     size, crc = struct.unpack_from("<QI", buf, pos + 16)
     kind, at = _string(buf, pos + 28)
     (n,) = struct.unpack_from("<Q", buf, at)
-    if at + 8 + n > pos + length or size > MAX_CHUNK_BYTES:
+    if at + 8 + n > pos + length:
         raise _Damaged("corrupt chunk length")
-    data = buf[at + 8:at + 8 + n]
-    if kind == "":
-        out = bytes(data)
-    elif kind == "zstd":
-        import zstandard
-
-        out = zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    elif kind == "lz4":
-        import lz4.frame
-
-        out = lz4.frame.decompress(data)
-    else:
+    if kind not in ("", "zstd", "lz4"):
         raise NotFast(f"compression {kind!r}")
-    if len(out) != size:
-        raise _Damaged(f"chunk decompresses to {len(out)} bytes, not {size}")
-    if crc and zlib.crc32(out) != crc:
-        raise _Damaged("chunk CRC mismatch")
-    return out
+    if too_large(size):
+        raise _Damaged(too_large(size), Inflated(b"", too_large(size)))
+    got = inflate(kind, buf[at + 8:at + 8 + n], size)
+    if got.error:
+        raise _Damaged(got.error, got)
+    if crc and zlib.crc32(got.data) != crc:
+        raise _Damaged("chunk CRC mismatch", Inflated(got.data, "chunk CRC mismatch"))
+    return got.data
 
 
 def _top(handle: Any, end: int) -> Iterator[Any]:

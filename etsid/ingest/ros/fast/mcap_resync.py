@@ -29,6 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from etsid.ingest import mapped
+from etsid.ingest.inflate import MAX_CHUNK_BYTES, Inflated, inflate, too_large
 from etsid.ingest.ros.fast import mcap as strict
 
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
@@ -36,8 +38,6 @@ _OP_CHUNK_INDEX = 8
 _KNOWN_OPS = frozenset(range(1, 16))
 _RECORD = struct.Struct("<BQ")
 _COMPRESSIONS = ("", "zstd", "lz4")
-FEED_BYTES = 4096
-"""Compressed bytes fed to a streaming decompressor at a time (salvage of a broken chunk)."""
 
 
 @dataclass
@@ -165,32 +165,12 @@ def walk(buf: bytes, ctx: _Context, partial: bool) -> Iterator[Any]:
         yield strict._messages(buf, run)
 
 
-def _partial_decompress(kind: str, data: bytes) -> bytes:
-    """As much of a (cut or damaged) compressed stream as decompresses."""
-    if kind == "":
-        return bytes(data)
-    out = bytearray()
-    try:
-        if kind == "zstd":
-            import zstandard
-
-            dec: Any = zstandard.ZstdDecompressor().decompressobj()
-        else:
-            import lz4.frame
-
-            dec = lz4.frame.LZ4FrameDecompressor()
-        for at in range(0, len(data), FEED_BYTES):
-            out += dec.decompress(data[at:at + FEED_BYTES])
-            if len(out) > strict.MAX_CHUNK_BYTES:
-                break
-    except Exception:
-        pass
-    return bytes(out)
-
-
-def chunk_records(buf: bytes, pos: int, end: int, ctx: _Context) -> Iterator[Any]:
+def chunk_records(buf: bytes, pos: int, end: int, ctx: _Context,
+                  tried: Inflated | None = None) -> Iterator[Any]:
     """Records of the chunk whose record starts at ``pos`` (opcode byte), its bytes ending
-    at ``end`` (the declared end, or where the file or the damage cuts it)."""
+    at ``end`` (the declared end, or where the file or the damage cuts it). ``tried``:
+    what the strict reader's decompression of this chunk gave (each chunk is decompressed
+    once, bounded by :func:`etsid.ingest.inflate.inflate`)."""
     body = pos + 9
     try:
         start_ns, end_ns, size, _ = struct.unpack_from("<QQQI", buf, body)
@@ -200,40 +180,42 @@ def chunk_records(buf: bytes, pos: int, end: int, ctx: _Context) -> Iterator[Any
         yield Lost(pos, end - pos, "chunk header unreadable")
         return
     ctx.lo_ns, ctx.hi_ns = (start_ns, end_ns) if start_ns <= end_ns else (None, None)
-    data = buf[at + 8:min(at + 8 + n, end)]
-    complete = at + 8 + n <= end
-    inner = None
-    why = "chunk cut short"
-    if complete and kind in _COMPRESSIONS and size <= strict.MAX_CHUNK_BYTES:
-        try:
-            inner = strict._chunk(buf, body, end - body)
-        except Exception as err:
-            why = str(err) or type(err).__name__
-    if inner is not None:
-        found = list(walk(inner, ctx, partial=False))
-        yield from found
-        return
     if kind not in _COMPRESSIONS:
         yield Lost(pos, end - pos, f"unknown chunk compression {kind[:20]!r}", start_ns, end_ns)
         return
-    part = _partial_decompress(kind, data)
-    if kind and ("CRC" in why or "decompresses to" in why):
+    if too_large(size):
+        yield Lost(pos, end - pos, too_large(size), start_ns, end_ns)
+        return
+    complete = at + 8 + n <= end
+    if tried is None and complete:
+        try:
+            tried = Inflated(strict._chunk(buf, body, end - body))
+        except strict._Damaged as err:
+            tried = err.inflated
+    if tried is None:  # cut chunk (or a corrupt length): its readable start
+        tried = inflate(kind, buf[at + 8:min(at + 8 + n, end)], size)
+        tried.error = tried.error or "chunk cut short"
+    why = tried.error if complete else "chunk cut short"
+    if not why:
+        yield from list(walk(tried.data, ctx, partial=False))
+        return
+    garbled = "CRC" in why or "decompresses to" in why
+    if kind and garbled:
         # a compressed stream that decompresses to the wrong bytes is garbled from the
         # damage onwards, and where that starts is not known: the chunk is skipped whole
         yield Lost(pos, end - pos, why, start_ns, end_ns)
         return
-    if "CRC" in why or "decompresses to" in why:
-        # decompressed, but the bytes are not what was written: keep records only where
+    if garbled:
+        # stored, but the bytes are not what was written: keep records only where
         # the damage shows (a break in the record structure); an intact-looking chunk with
         # a bad checksum cannot be located and is skipped whole
-        found = list(walk(part, ctx, partial=False))
+        found = list(walk(tried.data, ctx, partial=False))
         if not any(isinstance(r, Lost) for r in found):
             yield Lost(pos, end - pos, why, start_ns, end_ns)
             return
         yield from found
         return
-    found = list(walk(part, ctx, partial=True))
-    yield from found
+    yield from list(walk(tried.data, ctx, partial=True))
     if complete:
         yield Lost(pos, end - pos, f"{why}; kept the records that decompressed",
                    start_ns, end_ns)
@@ -252,7 +234,7 @@ def _plausible_chunk(buf: Any, pos: int, size: int, cut: bool = False) -> int | 
             return None
         start_ns, end_ns, usize, _ = struct.unpack_from("<QQQI", buf, pos + 9)
         (klen,) = struct.unpack_from("<I", buf, pos + 37)
-        if start_ns > end_ns or usize > strict.MAX_CHUNK_BYTES or klen > 4:
+        if start_ns > end_ns or usize > MAX_CHUNK_BYTES or klen > 4:
             return None
         if bytes(buf[pos + 41:pos + 41 + klen]).decode("ascii") not in _COMPRESSIONS:
             return None
@@ -299,9 +281,9 @@ def _resync_top(buf: Any, start: int, size: int, index: list[int], ctx: _Context
     chunk = message = start - 1  # next candidate of each kind (found lazily, once each)
     while pos < limit:
         if chunk != -1 and chunk < pos:
-            chunk = buf.find(b"\x06", pos, limit)
+            chunk = mapped.find(buf, b"\x06", pos, limit)
         if message != -1 and message < pos:
-            message = buf.find(b"\x05", pos, limit) if ctx.channels else -1
+            message = mapped.find(buf, b"\x05", pos, limit) if ctx.channels else -1
         cands = [c for c in (chunk, message) if c >= 0]
         if not cands:
             break
