@@ -1,6 +1,8 @@
 """Fuzz etsid's ingest and rule-base loading with seeded mutants and print the tally.
 
     python benchmarks/fuzz.py --mutants 3000 --jobs 2
+    python benchmarks/fuzz.py --structure
+
 
 Every mutant of every sample log (tests/fuzz/mutants.py: truncation, byte flips, a zeroed
 4 KiB page, a duplicated stretch, appended garbage, damaged ROS 2 metadata) is read with
@@ -8,11 +10,17 @@ Every mutant of every sample log (tests/fuzz/mutants.py: truncation, byte flips,
 within ``--timeout`` seconds is killed and counted. Prints the tally per format and every
 run that is not "read ok" or "clean error" with its seed (add the seed to
 tests/fuzz/test_fuzz.py to keep it fixed).
+
+``--structure`` runs instead the structure-aware cases of tests/fuzz/structure.py
+(decompression bombs, one bad message, damaged DataFlash FMT records, recursive ULog
+formats, huge counts, FIFOs and devices, terminal escapes), one at a time, each bounded to
+30 s and 1 GB, and prints one line per case.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import tempfile
 import time
@@ -22,6 +30,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fuzz"))
 
 import mutants
+import structure
 
 
 def main() -> None:
@@ -35,7 +44,13 @@ def main() -> None:
     parser.add_argument("--rules", type=int, default=0,
                         help="also this many seeded byte mutations of a rules.json (plus the "
                              "fixed hostile variants), through `etsid rules` and `predict`")
+    parser.add_argument("--structure", action="store_true",
+                        help="run the structure-aware cases instead (tests/fuzz/structure.py)")
+    parser.add_argument("--cases", default="", help="with --structure: these cases only")
     args = parser.parse_args()
+    if args.structure:
+        structure_tally(args.cases.split(",") if args.cases else [])
+        return
     formats = args.formats.split(",")
     todo = [(formats[i % len(formats)], args.first_seed + i) for i in range(args.mutants)]
     tally: dict[str, Counter] = {f: Counter() for f in formats}
@@ -73,6 +88,23 @@ def main() -> None:
     if finite:
         print(f"time per mutant: median {finite[len(finite) // 2]:.2f} s, "
               f"max {finite[-1]:.1f} s; peak worker RSS {max(p for p in peaks if p == p):.0f} MiB")
+
+
+def structure_tally(names: list[str]) -> None:
+    """Run the structure-aware cases one at a time and print a line per case."""
+    cases = [c for c in structure.CASES if not names or c.name in names]
+    failed = 0
+    print(f"{'case':<24}{'verdict':>8}{'s':>7}{'MB':>7}  detail")
+    with tempfile.TemporaryDirectory() as tmp:
+        for case in cases:
+            verdict = structure.run_case(case, Path(tmp) / case.name)
+            failed += not verdict.ok
+            print(f"{case.name:<24}{'ok' if verdict.ok else 'FAIL':>8}{verdict.seconds:>7.1f}"
+                  f"{verdict.peak_mb:>7.0f}  {verdict.detail}", flush=True)
+            shutil.rmtree(Path(tmp) / case.name, ignore_errors=True)
+    print(f"\n{len(cases) - failed} of {len(cases)} cases within the bounds "
+          f"({structure.TIME_BOUND_S:.0f} s, {structure.MEMORY_BOUND_MB:.0f} MB) with a correct "
+          "result")
 
 
 def rules_tally(count: int) -> None:
