@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from etsid.gap.run import run_gap
+from etsid.progress import wanted
 from etsid.report.gap import make_gap_report
 
 
@@ -28,12 +29,23 @@ def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
     battery_sag, thrust_scale, inertia_scale, torque_offset, gyro_bias, or unexplained),
     fitted on the first part of the recording and proven on the later part.
     """
+    def say(line: str) -> None:  # progress on a terminal only, as the progress bars
+        if wanted():
+            click.echo(line, err=True)
+
+    say(f"gap: fitting the nominal model on {sim_log.name} and the candidate effects on "
+        f"{real_log.name} …")
     result = run_gap(sim_log, real_log, out_dir, vehicle)
-    make_gap_report(out_dir)
+    report = make_gap_report(out_dir, say=say)
+    files = ", ".join(["gap.json", "index.html (interactive)", "report.md",
+                       *(p.name for p in report.figures.values())])
     if as_json:
         click.echo((out_dir / "gap.json").read_text(encoding="utf-8").rstrip())
+        if wanted():
+            click.echo(f"wrote {out_dir}/ ({files})", err=True)
     else:
         click.echo(result.summary)
+        click.echo(f"wrote {out_dir}/ ({files})")
 
 
 COMMANDS = [gap]

@@ -6,23 +6,34 @@ from pathlib import Path
 
 import click
 
+from etsid.progress import wanted
 from etsid.report import make_report
 from etsid.report.build import FORMATS
+
+
+def say(line: str) -> None:
+    """A progress line on stderr when it is a terminal (as the progress bars; stdout keeps
+    the result)."""
+    if wanted():
+        click.echo(line, err=True)
 
 
 @click.command()
 @click.argument("run_dir", type=click.Path(path_type=Path))
 @click.option("--format", "fmt", type=click.Choice(FORMATS), default="png", show_default=True,
-              help="Figure format.")
+              help="Format of the static figures (for papers).")
 def report(run_dir: Path, fmt: str) -> None:
-    """Write RUN_DIR/report/: figures, a self-contained index.html and report.md.
+    """Write RUN_DIR/report/: an interactive, self-contained index.html (zoom, pan, linked
+    time axes, hover values; works offline), report.md and static figures.
 
     On a batch directory (written by `etsid batch`), the fleet report: distributions of the
     key figures, the best and worst flights linked to their own reports, failures by cause.
+    On a directory of `etsid gap` or `etsid control`, their reports.
     """
-    result = make_report(run_dir, fmt)
+    result = make_report(run_dir, fmt, say)
     names = ", ".join(p.name for p in result.figures.values())
-    click.echo(f"wrote {result.directory}/: index.html, report.md, {names}")
+    click.echo(f"wrote {result.directory}/: index.html (interactive; open it in a browser), "
+               f"report.md, {names}")
 
 
 COMMANDS = [report]
