@@ -103,8 +103,11 @@ def _structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
     if mode == "auto" and (config.antecedent or "auto").strip().lower() != "auto":
         mode = "scheduled" if spec.antecedent else "unscheduled"  # the user's own choice
     if mode == "auto":
-        return choose_structure(reg, spec, config, excited,
-                                split_excited(excited, config.validate), len(table))
+        try:
+            return choose_structure(reg, spec, config, excited,
+                                    split_excited(excited, config.validate), len(table))
+        except (ValueError, TypeError) as err:
+            raise IdentError(f"bad eTS parameter: {err}") from err
     if mode == "scheduled" and not spec.antecedent:
         raise IdentError("--structure scheduled needs an antecedent (altitude in the log, "
                          "or --antecedent TERMS)")

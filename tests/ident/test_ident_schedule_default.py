@@ -31,7 +31,10 @@ def test_auto_schedules_on_inv_alt_only_with_altitude() -> None:
     assert flat.rules["regressors"].get("antecedent") is None
     assert flat.config["ets"]["radius"] == IDENT_ETS.radius
     table["alt"] = 1.0 + 0.01 * np.sin(np.arange(len(table)) / 50.0)
-    sched = identify(table, IdentConfig(ident_rate=0))
+    auto = identify(table, IdentConfig(ident_rate=0))  # one height: the inner split says
+    assert auto.metrics["structure"]["chosen"] in ("arx", "unscheduled")  # no schedule
+    assert auto.rules["regressors"].get("antecedent") is None
+    sched = identify(table, IdentConfig(ident_rate=0, structure="scheduled"))
     assert sched.rules["regressors"]["antecedent"] == "inv_alt[k-1]"
     assert sched.config["ets"]["radius"] == IDENT_SCHEDULED_ETS.radius
     assert sched.config["ets"]["clustering"] == "evq"
