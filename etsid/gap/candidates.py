@@ -23,13 +23,15 @@ GE_MAX_RATIO = 2.0
 
 @dataclass(frozen=True)
 class Param:
-    """One parameter of a candidate: name, unit, search bounds, start value."""
+    """One parameter of a candidate: name, unit, search bounds, start value and the value
+    that means "no effect" (``null``; a bound equal to it is not a range limit)."""
 
     name: str
     unit: str
     lo: float
     hi: float
     x0: float
+    null: float | None = None
 
 
 @dataclass(frozen=True)
@@ -208,7 +210,8 @@ def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]
 
 LIBRARY: tuple[Candidate, ...] = (
     Candidate(
-        "ground_effect", (Param("R", "m", 0.02, 1.5, 0.3), Param("exponent", "1", 0.6, 3.0, 2.0)),
+        "ground_effect",
+        (Param("R", "m", 0.02, 1.5, 0.3, 0.02), Param("exponent", "1", 0.6, 3.0, 2.0)),
         ("az", "p", "q"),
         "thrust excess that grows as the hubs near the ground (vertical force and the "
         "restoring moments of a tilted rotor plane), independent of command",
@@ -216,12 +219,12 @@ LIBRARY: tuple[Candidate, ...] = (
         "effective radius R and decay exponent n)",
         _ground_effect, ("alt",), ground_search),
     Candidate(
-        "thrust_scale", (Param("scale", "1", 0.4, 2.0, 1.0),), ("az", "p", "q"),
+        "thrust_scale", (Param("scale", "1", 0.4, 2.0, 1.0, 1.0),), ("az", "p", "q"),
         "thrust everywhere too high or low by the same factor: vertical force and roll/pitch "
         "authority change together, yaw does not",
         "T_i = s · T_i,nom", lambda th, ctx: Mods(thrust_gain=th[0])),
     Candidate(
-        "battery_sag", (Param("exponent", "1", 0.0, 6.0, 2.0),), ("az", "p", "q", "r"),
+        "battery_sag", (Param("exponent", "1", 0.0, 6.0, 2.0, 0.0),), ("az", "p", "q", "r"),
         "thrust and torque follow the measured pack voltage (drops under load and with charge)",
         "T_i = T_i,nom · (V / V_sim)^n, V_sim the simulation's mean voltage",
         _battery, ("vbat",)),
@@ -232,12 +235,12 @@ LIBRARY: tuple[Candidate, ...] = (
         "Ω̇_i = (Ω_i,cmd − Ω_i)/τ (symmetric first-order lag)",
         lambda th, ctx: Mods(tau=th[0])),
     Candidate(
-        "time_delay", (Param("delay", "s", 0.0, 0.3, 0.02),), ("az", "p", "q", "r"),
+        "time_delay", (Param("delay", "s", 0.0, 0.3, 0.02, 0.0),), ("az", "p", "q", "r"),
         "response to motor commands later by a fixed time at every frequency, gain unchanged",
         "m_i(t) → m_i(t − d)", lambda th, ctx: Mods(delay=th[0])),
     Candidate(
-        "rotor_drag", (Param("drag", "1/s", 0.0, 3.0, 0.2),
-                       Param("moment", "rad/s² per m/s", -5.0, 5.0, 0.0)),
+        "rotor_drag", (Param("drag", "1/s", 0.0, 3.0, 0.2, 0.0),
+                       Param("moment", "rad/s² per m/s", -5.0, 5.0, 0.0, 0.0)),
         ("ax", "ay", "p", "q"),
         "horizontal specific force opposing the body velocity, growing with speed, and the "
         "pitching/rolling moment it makes at the rotor plane above or below the CG",
@@ -245,25 +248,35 @@ LIBRARY: tuple[Candidate, ...] = (
         "q̇ += h v_x, ṗ −= h v_y",
         lambda th, ctx: Mods(drag=th[0], drag_moment=th[1]), ("vel",)),
     Candidate(
-        "inertia_scale", (Param("scale", "1", 0.3, 3.0, 1.0),), ("p", "q", "r"),
+        "inertia_scale", (Param("scale", "1", 0.3, 3.0, 1.0, 1.0),), ("p", "q", "r"),
         "all angular accelerations smaller or larger by one factor; vertical force unchanged",
         "ω̇ = ω̇_nom / s (inertia s times the simulation's)",
         lambda th, ctx: Mods(inertia=th[0])),
     Candidate(
         "torque_offset",
-        (Param("p_offset", "rad/s²", -20.0, 20.0, 0.0), Param("q_offset", "rad/s²", -20.0,
-                                                            20.0, 0.0),
-         Param("r_offset", "rad/s²", -20.0, 20.0, 0.0)), ("p", "q", "r"),
+        (Param("p_offset", "rad/s²", -20.0, 20.0, 0.0, 0.0), Param("q_offset", "rad/s²", -20.0,
+                                                            20.0, 0.0, 0.0),
+         Param("r_offset", "rad/s²", -20.0, 20.0, 0.0, 0.0)), ("p", "q", "r"),
         "a constant angular acceleration the motors must hold against (steady differential "
         "thrust in level flight): a CG offset or a constant moment",
         "ω̇ = ω̇_nom + J⁻¹ M_0", _offsets(("p", "q", "r"))),
     Candidate(
         "gyro_bias",
-        (Param("bx", "rad/s", -0.5, 0.5, 0.0), Param("by", "rad/s", -0.5, 0.5, 0.0),
-         Param("bz", "rad/s", -0.5, 0.5, 0.0)), ("gyro_p", "gyro_q", "gyro_r"),
+        (Param("bx", "rad/s", -0.5, 0.5, 0.0, 0.0), Param("by", "rad/s", -0.5, 0.5, 0.0, 0.0),
+         Param("bz", "rad/s", -0.5, 0.5, 0.0, 0.0)), ("gyro_p", "gyro_q", "gyro_r"),
         "the gyro reads a constant rate the attitude does not follow (the controller's "
         "integrator hides it in the rate loop)",
         "ω_gyro = ω_attitude + b", _offsets(("gyro_p", "gyro_q", "gyro_r")), ("roll",)),
+    Candidate(
+        "accel_bias",
+        (Param("bx", "m/s²", -3.0, 3.0, 0.0, 0.0), Param("by", "m/s²", -3.0, 3.0, 0.0, 0.0),
+         Param("bz", "m/s²", -3.0, 3.0, 0.0, 0.0)), ("kin_x", "kin_y", "kin_z", "ax", "ay", "az"),
+        "the accelerometer reads a constant specific force the velocity and attitude do not "
+        "follow; unlike a thrust scale it does not grow with thrust and leaves roll/pitch "
+        "authority alone",
+        "f_accel = f_true + b (body axes)",
+        lambda th, ctx: Mods(offset={"kin_x": th[0], "kin_y": th[1], "kin_z": th[2],
+                                     "ax": th[0], "ay": th[1], "az": th[2]}), ("vel",)),
 )
 
 BY_NAME = {c.name: c for c in LIBRARY}

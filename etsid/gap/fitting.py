@@ -122,7 +122,7 @@ def _start(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray) -> np
     x0 = []
     for c in cands:
         for i, p in enumerate(c.params):
-            if p.name.endswith("_offset") or c.name == "gyro_bias":
+            if p.name.endswith("_offset") or c.name in ("gyro_bias", "accel_bias"):
                 if res is None:
                     res = scorer.residuals()
                 ch = c.channels[i]
@@ -141,7 +141,7 @@ def _grid_start(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
                 hi: np.ndarray) -> np.ndarray:
     """The best point of a coarse grid over the parameters of a single two-parameter law
     (offsets excluded: their start is the mean residual), else ``x0``."""
-    if len(cands) != 1 or x0.size != 2 or cands[0].name in ("torque_offset", "gyro_bias"):
+    if len(cands) != 1 or x0.size != 2:
         return x0
     axes = [np.geomspace(a, b, GRID_POINTS) if a > 0 else np.linspace(a, b, GRID_POINTS)
             for a, b in zip(lo, hi, strict=True)]

@@ -101,8 +101,11 @@ def locate_channel(channel: str, resid: np.ndarray, sigma: float, flight: Flight
                 rms_mode = sq
     mean_all = float(e.mean())
     if best is None or best[3] < MIN_ETA2:
-        text = (f"{LABELS[channel]} {mean_all:+.2f} {unit} on average throughout the flight "
-                "(no height, speed, thrust, command-rate, voltage or time band stands out)")
+        rms = float(np.sqrt(np.mean(e**2)))
+        size = (f"off by {mean_all:+.2f} {unit} on average" if mean_all**2 > 0.5 * rms**2
+                else f"residual RMS {rms:.3g} {unit} ({rms / sigma:.1f}× its floor)")
+        text = (f"{LABELS[channel]} {size} throughout the flight (no height, speed, thrust, "
+                "command-rate, voltage or time band stands out)")
         return Regime(channel, "none", float("nan"), float("nan"),
                       0.0 if best is None else best[3], mean_all, text)
     name, edges, means, eta2 = best

@@ -13,7 +13,10 @@ over speed range); thrust and reaction torque go as ``P_i = (m_i + k)²``. The c
 * ``r`` (rad/s²): reaction torques ``Σ h_i (P_i − P̄)`` plus rotor spin-up ``Σ j_i dΩ_i/dt``,
   ``p q``, damping (∝ ``r``) and a constant;
 * ``gyro_p``, ``gyro_q``, ``gyro_r`` (rad/s): the gyro against the body rate implied by the
-  logged attitude (Euler kinematics); no coefficient to fit.
+  logged attitude (Euler kinematics); no coefficient to fit;
+* ``kin_x``, ``kin_y``, ``kin_z`` (m/s²): the accelerometer against the specific force
+  implied by the logged velocity and attitude, ``v̇_b + ω × v_b − Rᵀ g`` (kinematics, no
+  coefficient to fit): zero on average for a sound accelerometer, whatever the thrust.
 
 Measured outputs and predictions are low-passed by the same zero-phase filter
 (:data:`CUTOFF_HZ`), so a linear regression on filtered features is the filtered
@@ -34,15 +37,22 @@ from etsid.gap.signals import Flight, derivative, lowpass
 FORCE_CHANNELS = ("az", "ax", "ay")
 RATE_CHANNELS = ("p", "q", "r")
 GYRO_CHANNELS = ("gyro_p", "gyro_q", "gyro_r")
-CHANNELS = (*RATE_CHANNELS, *FORCE_CHANNELS, *GYRO_CHANNELS)
+KIN_CHANNELS = ("kin_x", "kin_y", "kin_z")
+SENSOR_CHANNELS = (*GYRO_CHANNELS, *KIN_CHANNELS)
+"""Channels that compare a sensor with kinematics: nothing is fitted on them."""
+CHANNELS = (*RATE_CHANNELS, *FORCE_CHANNELS, *GYRO_CHANNELS, *KIN_CHANNELS)
 UNITS = {"p": "rad/s²", "q": "rad/s²", "r": "rad/s²", "az": "m/s²", "ax": "m/s²",
-         "ay": "m/s²", "gyro_p": "rad/s", "gyro_q": "rad/s", "gyro_r": "rad/s"}
+         "ay": "m/s²", "gyro_p": "rad/s", "gyro_q": "rad/s", "gyro_r": "rad/s",
+         "kin_x": "m/s²", "kin_y": "m/s²", "kin_z": "m/s²"}
 LABELS = {"p": "roll angular acceleration", "q": "pitch angular acceleration",
           "r": "yaw angular acceleration", "az": "vertical specific force",
           "ax": "longitudinal specific force", "ay": "lateral specific force",
           "gyro_p": "roll gyro vs attitude", "gyro_q": "pitch gyro vs attitude",
-          "gyro_r": "yaw gyro vs attitude"}
-CUTOFF_HZ = {c: 8.0 for c in CHANNELS} | {c: 0.5 for c in GYRO_CHANNELS}
+          "gyro_r": "yaw gyro vs attitude", "kin_x": "x accelerometer vs velocity",
+          "kin_y": "y accelerometer vs velocity", "kin_z": "z accelerometer vs velocity"}
+CUTOFF_HZ = {c: 8.0 for c in CHANNELS} | {c: 0.5 for c in SENSOR_CHANNELS}
+GRAVITY = 9.80665
+"""m/s²."""
 K_DEFAULT = 0.1
 """Idle offset k of Ω ∝ m + k when no vehicle file gives it (idle ≈ 10 % of range)."""
 TAU_BOUNDS = (0.005, 0.25)
@@ -107,6 +117,17 @@ def euler_body_rates(att: np.ndarray, fs: float) -> np.ndarray:
     return np.column_stack([p, q, r])
 
 
+def kinematic_specific_force(flight: Flight) -> np.ndarray:
+    """(n, 3) specific force in body axes (m/s²) implied by the body velocity, the body
+    rates and the attitude: ``v̇_b + ω × v_b − Rᵀ (0, 0, g)``."""
+    vb = flight.v_body
+    acc = derivative(vb, flight.fs) + np.cross(flight.rates, vb)
+    phi, th = flight.att[:, 0], flight.att[:, 1]
+    g_body = GRAVITY * np.column_stack([-np.sin(th), np.sin(phi) * np.cos(th),
+                                        np.cos(phi) * np.cos(th)])
+    return acc - g_body
+
+
 def measured(flight: Flight) -> dict[str, np.ndarray]:
     """Filtered measured outputs of every channel the flight supports."""
     fs = flight.fs
@@ -121,6 +142,11 @@ def measured(flight: Flight) -> dict[str, np.ndarray]:
         gyro = lowpass(flight.rates, fs, CUTOFF_HZ["gyro_p"])
         for j, c in enumerate(GYRO_CHANNELS):
             out[c] = gyro[:, j]
+        if "vel" in flight.have and np.all(np.isfinite(flight.acc)):
+            kin = lowpass(flight.acc - kinematic_specific_force(flight), fs,
+                          CUTOFF_HZ["kin_x"])
+            for j, c in enumerate(KIN_CHANNELS):
+                out[c] = kin[:, j]
     return out
 
 
@@ -211,7 +237,7 @@ class NominalModel:
         feats = features(flight, self.k, self.tau, mods, chans, self.delay)
         out: dict[str, np.ndarray] = {}
         for c in chans:
-            if c in GYRO_CHANNELS:
+            if c in SENSOR_CHANNELS:
                 continue
             y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
             if c in RATE_CHANNELS:
@@ -228,6 +254,9 @@ class NominalModel:
             for j, c in enumerate(GYRO_CHANNELS):
                 if c in chans:
                     out[c] = kin[:, j] + mods.offset.get(c, 0.0)
+        for c in KIN_CHANNELS:
+            if c in chans:
+                out[c] = np.full(flight.n, mods.offset.get(c, 0.0))
         return out
 
 
@@ -263,7 +292,7 @@ def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
     drop = _unexcited(flight, mask)
     coef = {}
     for c in channels:
-        if c in GYRO_CHANNELS:
+        if c in SENSOR_CHANNELS:
             continue
         x = lowpass(feats[c], flight.fs, CUTOFF_HZ[c])[mask]
         keep = np.array([j not in drop.get(c, []) for j in range(x.shape[1])])
@@ -281,7 +310,7 @@ def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
     pred = model.predict(flight)
     total = 0.0
     for c in channels:
-        if c in GYRO_CHANNELS:
+        if c in SENSOR_CHANNELS:
             continue
         e = (meas[c] - pred[c])[mask]
         total += float(np.mean(e**2) / np.var(meas[c][mask]))

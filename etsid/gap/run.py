@@ -1,10 +1,14 @@
 """``run_gap``: the one entry point of the gap analysis (SIM log + REAL log → gap.json).
 
-Steps: prepare both flights the same way; fit the nominal model on SIM and measure its own
-held-out error there (the noise floor ``σ_c``); predict REAL and call a channel mismatched
-when its error exceeds :data:`Z_MISMATCH` times SIM's (in mean square); locate where the
-residual concentrates; fit the candidate library on the first :data:`FIT_SHARE` of REAL's
-airborne time and keep what improves the later part (:mod:`etsid.gap.select`).
+:func:`analyse` runs the stages in order, each a function named for what it decides:
+:func:`prepare_pair` (same inputs, same grid), :func:`airborne_problem` (enough flight in
+both?), :func:`nominal_and_floors` (the model fitted on SIM and each channel's floor),
+:func:`restrict_to_envelope` (only what SIM flew), :func:`different_airframe` (one vehicle
+for both?), :func:`mismatch_scores` (which channels differ), :func:`explain` (named
+effects, fitted on the first part of REAL and kept only if they predict the later part),
+:func:`leftovers` (what is still mismatched, and an eTS residual model of it),
+:func:`locate` (where) and :func:`assemble` (gap.json). The verdict rules themselves live
+in :mod:`etsid.gap.verdict`.
 """
 
 from __future__ import annotations
@@ -19,10 +23,11 @@ import pandas as pd
 from etsid.errors import GapError
 from etsid.gap.candidates import Context
 from etsid.gap.fitting import Scorer
+from etsid.gap.floors import channel_floors
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.nominal import (
-    GYRO_CHANNELS,
     LABELS,
+    SENSOR_CHANNELS,
     UNITS,
     NominalModel,
     fit_nominal,
@@ -30,16 +35,21 @@ from etsid.gap.nominal import (
 )
 from etsid.gap.result import SCHEMA_NAME, write_gap_json
 from etsid.gap.select import MIN_SHARE, Scored, Selection, fit_unexplained, select
-from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, prepare
+from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, input_kinds, prepare
 from etsid.gap.summary import effect_entry, summary_sentence
+from etsid.gap.vehicle_check import check_vehicles, structural
+from etsid.gap.verdict import (
+    Z_MISMATCH,
+    Z_SMALL,
+    can_be_consistent,
+    decide,
+    leftover,
+    mismatched,
+)
 
-Z_MISMATCH = 4.0
-"""A channel is mismatched when REAL's mean squared error is this many times SIM's
-(RMSE twice SIM's own held-out error)."""
-Z_SMALL = 2.5
 MIN_SHARE_SMALL = 0.5
 """Small but structured mismatch: with no channel above :data:`Z_MISMATCH`, channels (not
-the gyro ones) above ``Z_SMALL`` are explained only by an effect that removes
+the sensor ones) above ``Z_SMALL`` are explained only by an effect that removes
 ``MIN_SHARE_SMALL`` of their held-out excess (both chosen on the dev seeds, whose 20
 no-effect pairs stay below z = 2 in every such channel)."""
 CALM_QUANTILE = 1.0 / 3.0
@@ -47,17 +57,9 @@ CALM_QUANTILE = 1.0 / 3.0
 (highest) third."""
 SIM_FIT_SHARE = 0.7
 FIT_SHARE = 0.6
-GYRO_FLOOR = 0.009
-"""rad/s: the flight-to-flight difference of a calibrated MEMS gyro's bias (≈0.3 °/s =
-0.005 rad/s per flight, two flights compared: 0.007 rad/s) is not evidence of missing
-physics; 0.009 keeps the dev seeds' no-effect pairs below the threshold."""
 SPEED_MARGIN = 0.5
 CLIMB_MARGIN = 0.15
 """m/s: REAL is compared only within SIM's speed and climb-rate range plus these."""
-MAX_HOVER_RATIO = 2.2
-MAX_VOLTAGE_RATIO = 1.3
-"""Mean airborne pack voltages further apart than this are different packs (cell counts:
-4S/3S is 1.33), hence different vehicles; battery sag in the dev pairs stays below 1.2."""
 
 
 @dataclass
@@ -74,6 +76,15 @@ class GapResult:
     def summary(self) -> str:
         """The one-paragraph summary printed on stdout."""
         return str(self.data["summary"])
+
+
+@dataclass
+class Floors:
+    """The nominal model fitted on SIM and each channel's floor (:mod:`etsid.gap.floors`)."""
+
+    nominal: NominalModel
+    sigma: dict[str, float]
+    source: dict[str, str]
 
 
 def _split(mask: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
@@ -112,12 +123,199 @@ def _vehicle_info(vehicle: Any, n_inputs: int) -> dict[str, Any]:
     return info
 
 
-def _insufficient(sim: Flight, real: Flight, reason: str) -> GapResult:
-    data = {"schema": SCHEMA_NAME, "verdict": "insufficient", "reason": reason,
-            "summary": f"Insufficient data: {reason}.", "sim": describe(sim),
-            "real": describe(real), "mismatch": None, "effects": [], "rmse_before": {},
-            "rmse_after": {}, "noise": {}, "units": dict(UNITS), "notes": []}
+def _early(sim: Flight, real: Flight, verdict: str, reason: str, summary: str,
+           extra: dict[str, Any] | None = None) -> GapResult:
+    """A result decided before any model is compared (insufficient, different-vehicle)."""
+    data = {"schema": SCHEMA_NAME, "verdict": verdict, "reason": reason, "summary": summary,
+            "sim": describe(sim), "real": describe(real), "mismatch": None, "effects": [],
+            "rmse_before": {}, "rmse_after": {}, "noise": {}, "units": dict(UNITS),
+            "notes": [], **(extra or {})}
     return GapResult(data, sim, real)
+
+
+def _insufficient(sim: Flight, real: Flight, reason: str) -> GapResult:
+    return _early(sim, real, "insufficient", reason, f"Insufficient data: {reason}.")
+
+
+def _different(sim: Flight, real: Flight, evidence: list[str],
+               check: dict[str, Any] | None = None) -> GapResult:
+    reason = "; ".join(evidence)
+    summary = (f"Different vehicle: {reason}. One airframe with a fault does not explain both "
+               "logs, so no missing physics is named; compare a simulation of this airframe "
+               "(its rotor count, mass, inertia and propulsion) with the recording.")
+    extra = {"vehicle_check": check or {"evidence": evidence}}
+    return _early(sim, real, "different-vehicle", reason, summary, extra)
+
+
+def prepare_pair(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str,
+                 real_name: str) -> tuple[Flight, Flight]:
+    """Both flights on the analysis grid with the same kind of inputs: motor outputs where
+    both logs have them, else the loop commands where both have those."""
+    common = [k for k in input_kinds(sim_table) if k in input_kinds(real_table)]
+    kind = common[0] if common else None
+    sim = prepare(sim_table, sim_name, kind)
+    real = prepare(real_table, real_name, kind)
+    if sim.inputs != real.inputs:
+        raise GapError(f"{real_name}: its inputs ({real.inputs}) cannot be compared with "
+                       f"{sim_name}'s ({sim.inputs}): one log needs motor outputs m1..mN or "
+                       "the loop commands u_thrust/u_roll/u_pitch/u_yaw the other has")
+    return sim, real
+
+
+def airborne_problem(sim: Flight, real: Flight) -> str | None:
+    """Why the flights cannot support a verdict (too little airborne time), in words that
+    say what happened: a simulation that barely flies while the recording does is a twin
+    that crashed or never took off."""
+    if sim.airborne_s < MIN_AIRBORNE_S <= real.airborne_s:
+        flying = np.flatnonzero(sim.airborne)
+        when = (f"it is airborne only {sim.airborne_s:.1f} s (last at {sim.t[flying[-1]]:.1f} s)"
+                if flying.size else "it never leaves the ground")
+        alt = sim.alt[np.isfinite(sim.alt)]
+        top = f", highest {np.max(alt):.2f} m" if alt.size else ""
+        return (f"{sim.name} does not fly the recording: {when}{top}, while {real.name} is "
+                f"airborne {real.airborne_s:.1f} s (a replayed twin that crashed or never took "
+                "off: check its vehicle and the replay's divergence report)")
+    for f in (sim, real):
+        if f.airborne_s < MIN_AIRBORNE_S:
+            return (f"{f.name} has {f.airborne_s:.1f} s of airborne data; at least "
+                    f"{MIN_AIRBORNE_S:.0f} s needed")
+    return None
+
+
+def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
+    """The nominal model on SIM, and each channel's floor: SIM's own held-out error or
+    REAL's sensor noise, whichever is larger (:func:`etsid.gap.floors.channel_floors`)."""
+    s_fit, s_hold = _split(sim.airborne, SIM_FIT_SHARE)
+    probe = fit_nominal(sim, s_fit, k=k)
+    ys = measured(sim)
+    own = _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()}, s_hold)
+    sigma, source = channel_floors(own, real)
+    return Floors(fit_nominal(sim, k=k), sigma, source)
+
+
+def restrict_to_envelope(sim: Flight, real: Flight) -> str | None:
+    """Drop REAL samples faster than SIM ever flew (plus a margin) from the evidence; the
+    note saying how much, or None."""
+    sim_speed = np.hypot(sim.v_body[:, 0], sim.v_body[:, 1])[sim.airborne]
+    real_speed = np.hypot(real.v_body[:, 0], real.v_body[:, 1])
+    limit = float(np.quantile(sim_speed, 0.99)) * 1.2 + SPEED_MARGIN
+    climb = float(np.quantile(np.abs(sim.v_body[sim.airborne, 2]), 0.99)) * 1.2 + CLIMB_MARGIN
+    outside = real.airborne & ((real_speed > limit) | (np.abs(real.v_body[:, 2]) > climb))
+    if not np.any(outside):
+        return None
+    real.airborne = real.airborne & ~outside
+    return (f"{np.sum(outside) / real.fs:.1f} s of {real.name} faster than {limit:.1f} m/s "
+            f"horizontally or {climb:.2f} m/s vertically (beyond what {sim.name} flew) not "
+            "used as evidence")
+
+
+def different_airframe(sim: Flight, real: Flight, nominal: NominalModel
+                       ) -> tuple[list[str], dict[str, Any]]:
+    """Evidence that the logs are of different airframes (:mod:`etsid.gap.vehicle_check`)."""
+    check = check_vehicles(sim, real, nominal)
+    return check.evidence, check.as_dict()
+
+
+@dataclass
+class Mismatch:
+    """Which channels differ: z on all evidence and on the held-out part."""
+
+    z_all: dict[str, float]
+    z_hold: dict[str, float]
+    channels: list[str]
+    small: bool
+
+
+def mismatch_scores(scorer: Scorer, real: Flight, hold: np.ndarray) -> Mismatch:
+    """z per channel with nothing fitted; the mismatched channels (or, with none, the
+    small-but-structured tier of non-sensor channels above ``Z_SMALL``)."""
+    z_all = scorer.zscores(None, real.airborne)
+    z_hold = scorer.zscores(None, hold)
+    mis = sorted(set(mismatched(z_all)) | set(mismatched(z_hold)),
+                 key=lambda c: -max(z_all.get(c, 0.0), z_hold.get(c, 0.0)))
+    small = not mis
+    if small:
+        mis = mismatched(z_all, Z_SMALL, SENSOR_CHANNELS)
+    return Mismatch(z_all, z_hold, mis, small)
+
+
+def explain(scorer: Scorer, real: Flight, mis: Mismatch, fit: np.ndarray,
+            hold: np.ndarray) -> Selection:
+    """Named effects fitted on ``fit`` and kept by their held-out share (:func:`select`)."""
+    rate = scheduling_variables(real)["command_rate"]
+    calm = hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
+    busy = hold & (rate >= np.quantile(rate[real.airborne], 1.0 - CALM_QUANTILE))
+    return select(scorer, fit, hold, tuple(mis.channels),
+                  min_share=MIN_SHARE_SMALL if mis.small else MIN_SHARE, z_left=Z_MISMATCH,
+                  activity=(calm, busy))
+
+
+def _unexplained_entry(unexplained: Any, names: list[str], channel: str,
+                       before: float, after: float) -> dict[str, Any]:
+    return {
+        "name": "unexplained", "channels": [channel],
+        "parameters": {"model": {"value": f"eTS, {unexplained.model.n_rules} rules",
+                                 "unit": ""},
+                       "inputs": {"value": names, "unit": ""}},
+        "confidence": float(np.clip(1 - unexplained.z_after / unexplained.z_before, 0, 1)),
+        "evidence": f"{LABELS[channel]} keeps structure no named effect explains; an eTS "
+                    f"model on {', '.join(names)} predicts it on held-out data",
+        "rmse_before": {channel: before}, "rmse_after": {channel: after}}
+
+
+def leftovers(scorer: Scorer, real: Flight, sel: Selection, mis: Mismatch,
+              fit: np.ndarray, hold: np.ndarray, radius: float | None
+              ) -> tuple[dict[str, dict[str, float]], dict[str, np.ndarray], dict | None]:
+    """Channels still mismatched on held-out data after the named effects (verdict rule 5),
+    their sizes, the residuals after everything, and an eTS residual model of the worst
+    one when it predicts that channel's held-out part."""
+    mods = sel.chosen.fit.mods if sel.chosen else None
+    z_after = scorer.zscores(mods, hold)
+    left = leftover(z_after, mis.channels)
+    res = scorer.residuals(mods)
+    sizes = {c: {"z": z, "rmse": float(np.sqrt(np.mean(res[c][hold] ** 2))),
+                 "floor": scorer.sigma[c], "ratio": float(np.sqrt(z))} for c, z in left.items()}
+    entry = None
+    if left:
+        worst = max(left, key=left.get)
+        reg = locate_channel(worst, res[worst], scorer.sigma[worst], real, radius)
+        names = [reg.variable] if reg.variable != "none" else ["thrust", "command_rate"]
+        var = scheduling_variables(real)
+        unexplained = fit_unexplained(scorer, mods, worst, {n: var[n] for n in names}, fit,
+                                      hold)
+        if unexplained is not None:
+            before = float(np.sqrt(np.mean(res[worst][hold] ** 2)))
+            res[worst] = res[worst] - unexplained.correction
+            after = float(np.sqrt(np.mean(res[worst][hold] ** 2)))
+            entry = _unexplained_entry(unexplained, names, worst, before, after)
+            sizes[worst]["modelled_by_ets"] = True
+    return sizes, res, entry
+
+
+def locate(real: Flight, main: str, res0: dict[str, np.ndarray], sigma: float,
+           radius: float | None, effective: bool, ground_theta: np.ndarray | None
+           ) -> dict[str, Any]:
+    """The regime of the main channel's residual (from the fitted law when ground effect is
+    named) and its time segments."""
+    reg = locate_channel(main, res0[main], sigma, real, radius, effective)
+    basis = "residual bins"
+    if ground_theta is not None:
+        # what the tool believes: the band where the fitted law's excess is ≥ half its peak
+        reg = ground_band(main, res0[main], real, float(ground_theta[0]),
+                          float(ground_theta[1]), reg.eta2, radius, effective)
+        basis = "fitted law"
+    with_radius = reg.variable == "alt" and radius
+    return {"channel": main, "variable": reg.variable,
+            "range": None if reg.variable == "none" else [reg.lo, reg.hi],
+            "unit": "" if reg.variable == "none" else
+            {"alt": "m", "speed": "m/s", "thrust": "1", "command_rate": "1/s", "vbat": "V",
+             "time": "s"}[reg.variable],
+            "z_over_r": [reg.lo / radius, reg.hi / radius] if with_radius else None,
+            "radius": None if not with_radius else
+            {"value": radius, "unit": "m",
+             "source": "fitted effective" if effective else "vehicle"},
+            "basis": basis, "description": reg.description,
+            "segments": segments(res0[main], sigma, real)}
 
 
 def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "SIM",
@@ -136,204 +334,141 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     Returns
     -------
     GapResult
-        gap.json content plus the prepared flights and series for the report.
+        gap.json content plus the prepared flights and series for the report. The verdict
+        is ``consistent``, ``mismatch``, ``insufficient`` or ``different-vehicle``.
 
     Raises
     ------
     GapError
-        A log lacks the channels the analysis needs, or the two logs are plainly of
-        different vehicles.
+        A log lacks the channels the analysis needs.
     """
-    sim = prepare(sim_table, sim_name)
-    real = prepare(real_table, real_name)
-    if sim.inputs != real.inputs or sim.motors.shape[1] != real.motors.shape[1]:
-        raise GapError(f"{real_name}: not the same vehicle type as {sim_name} "
-                       f"({real.motors.shape[1]} {real.inputs} vs {sim.motors.shape[1]} "
-                       f"{sim.inputs})")
-    for f in (sim, real):
-        if f.airborne_s < MIN_AIRBORNE_S:
-            return _insufficient(sim, real, f"{f.name} has {f.airborne_s:.1f} s of airborne "
-                                            f"data; at least {MIN_AIRBORNE_S:.0f} s needed")
+    sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
+    rotor_count = structural(sim, real)
+    if rotor_count:
+        return _different(sim, real, [rotor_count])
+    problem = airborne_problem(sim, real)
+    if problem:
+        return _insufficient(sim, real, problem)
     info = _vehicle_info(vehicle, sim.motors.shape[1]) if vehicle is not None else {}
     notes: list[str] = []
-
-    # --- nominal model and SIM's own error --------------------------------------------
-    s_fit, s_hold = _split(sim.airborne, SIM_FIT_SHARE)
-    probe = fit_nominal(sim, s_fit, k=info.get("k"))
-    ys = measured(sim)
-    sigma = {c: r for c, r in _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()},
-                                    s_hold).items()}
-    for c in GYRO_CHANNELS:
-        if c in sigma:
-            sigma[c] = max(sigma[c], GYRO_FLOOR)
-    nominal = fit_nominal(sim, k=info.get("k"))
+    floors = nominal_and_floors(sim, real, info.get("k"))
+    nominal, sigma = floors.nominal, floors.sigma
     yr = measured(real)
     shared = tuple(c for c in nominal.channels if c in yr)
     nominal.channels = shared
     lacking = [c for c in ("p", "q", "r", "az") if c not in shared]
     if lacking:
         raise GapError(f"{real_name}: lacks {', '.join(lacking)} for a verdict")
-    missing = sorted(set(("ax", "ay", "gyro_p")) - set(shared))
+    missing = sorted(set(("ax", "ay", "gyro_p", "kin_z")) - set(shared))
     if missing:
         notes.append("not compared (a log lacks velocity, attitude or horizontal specific "
                      f"force): {', '.join(missing)}")
-
-    # --- envelope: only where SIM's data support the nominal model --------------------
-    sim_speed = np.hypot(sim.v_body[:, 0], sim.v_body[:, 1])[sim.airborne]
-    real_speed = np.hypot(real.v_body[:, 0], real.v_body[:, 1])
-    limit = float(np.quantile(sim_speed, 0.99)) * 1.2 + SPEED_MARGIN
-    climb = float(np.quantile(np.abs(sim.v_body[sim.airborne, 2]), 0.99)) * 1.2 + CLIMB_MARGIN
-    outside = real.airborne & ((real_speed > limit) | (np.abs(real.v_body[:, 2]) > climb))
-    if np.any(outside):
-        notes.append(f"{np.sum(outside) / real.fs:.1f} s of {real_name} faster than "
-                     f"{limit:.1f} m/s horizontally or {climb:.2f} m/s vertically (beyond "
-                     f"what {sim_name} flew) not used as evidence")
-        real.airborne = real.airborne & ~outside
+    raised = sorted(c for c in shared if floors.source.get(c) == "real noise")
+    if raised:
+        notes.append(f"floor set by {real_name}'s own sensor noise (larger than "
+                     f"{sim_name}'s model error) on {', '.join(raised)}")
+    envelope = restrict_to_envelope(sim, real)
+    if envelope:
+        notes.append(envelope)
         if real.airborne_s < MIN_AIRBORNE_S:
             return _insufficient(sim, real, f"{real_name} flies mostly outside the speed "
                                             f"range of {sim_name}")
+    evidence, check = different_airframe(sim, real, nominal)
+    if evidence:
+        return _different(sim, real, evidence, check)
 
-    # --- obviously different vehicles ---------------------------------------------------
-    k = nominal.k
-    hover_sim = float(np.median(np.mean((np.clip(sim.motors, 0, 1) + k) ** 2, axis=1)
-                                [sim.airborne]))
-    hover_real = float(np.median(np.mean((np.clip(real.motors, 0, 1) + k) ** 2, axis=1)
-                                 [real.airborne]))
-    ratio = hover_real / max(hover_sim, 1e-9)
-    if not 1.0 / MAX_HOVER_RATIO < ratio < MAX_HOVER_RATIO:
-        raise GapError(f"{real_name}: hover thrust command {ratio:.2f}× that of {sim_name}; "
-                       "these look like different vehicles, not one vehicle with missing "
-                       "physics")
-    if "vbat" in sim.have and "vbat" in real.have:
-        v_sim = float(np.nanmedian(sim.vbat[sim.airborne]))
-        v_real = float(np.nanmedian(real.vbat[real.airborne]))
-        v_ratio = v_real / max(v_sim, 1e-9)
-        if not 1.0 / MAX_VOLTAGE_RATIO < v_ratio < MAX_VOLTAGE_RATIO:
-            raise GapError(f"{real_name}: battery voltage {v_real:.1f} V against {v_sim:.1f} V "
-                           f"in {sim_name} (different packs); these look like different "
-                           "vehicles, not one vehicle with missing physics")
-    # --- mismatch verdict on all airborne REAL -----------------------------------------
     ctx = Context(real, nominal,
                   float(np.nanmean(sim.vbat[sim.airborne])) if "vbat" in sim.have else None,
                   info.get("dirs") if info.get("dirs") is not None else _rotor_dirs(nominal,
                                                                                     real),
                   info.get("arm"))
     scorer = Scorer(ctx, yr, sigma)
-    z_all = scorer.zscores(None, real.airborne)
-    mis = [c for c, z in sorted(z_all.items(), key=lambda kv: -kv[1]) if z > Z_MISMATCH]
-    small = not mis
-    if small:
-        mis = [c for c, z in sorted(z_all.items(), key=lambda kv: -kv[1])
-               if z > Z_SMALL and c not in GYRO_CHANNELS]
     r_fit, r_hold = _split(real.airborne, FIT_SHARE)
+    mis = mismatch_scores(scorer, real, r_hold)
     res0 = scorer.residuals()
-    rmse_before = _rmse(res0, r_hold)
     base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
-            "noise": sigma, "units": {c: UNITS[c] for c in shared},
-            "nominal": {"k": k, "tau": nominal.tau, "delay": nominal.delay,
-                        "channels": list(shared), "z_all": z_all},
-            "rmse_before": rmse_before}
-    series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": z_all,
+            "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
+            "units": {c: UNITS[c] for c in shared},
+            "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
+                        "channels": list(shared), "z_all": mis.z_all, "z_held_out": mis.z_hold},
+            "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}
+    series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": mis.z_all,
               "scorer": scorer}
-    if not mis:
-        data = {**base, "verdict": "consistent", "mismatch": None, "effects": [],
-                "rmse_after": rmse_before, "notes": notes,
-                "reason": f"every channel of {real_name} is within {np.sqrt(Z_MISMATCH):.0f}× "
-                          f"the nominal model's error on {sim_name} itself"}
-        data["summary"] = summary_sentence(data)
-        return GapResult(data, sim, real, nominal, series)
+    if not mis.channels:
+        return assemble(base, sim, real, nominal, series, notes, mis, None, {}, res0, None,
+                        info)
+    sel = explain(scorer, real, mis, r_fit, r_hold)
+    left, res1, unexplained = leftovers(scorer, real, sel, mis, r_fit, r_hold,
+                                        info.get("radius"))
+    series.update(res_after=res1, selection=sel,
+                  mods=sel.chosen.fit.mods if sel.chosen else None)
+    return assemble(base, sim, real, nominal, series, notes, mis, sel, left, res1,
+                    unexplained, info)
 
-    # --- explain -------------------------------------------------------------------------
-    rate = scheduling_variables(real)["command_rate"]
-    calm = r_hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
-    busy = r_hold & (rate >= np.quantile(rate[real.airborne], 1.0 - CALM_QUANTILE))
-    sel = select(scorer, r_fit, r_hold, tuple(mis),
-                 min_share=MIN_SHARE_SMALL if small else MIN_SHARE, z_left=Z_MISMATCH,
-                 activity=(calm, busy))
-    if small and sel.chosen:
-        notes.append(f"small but structured mismatch: {', '.join(mis)} between "
-                     f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× {sim_name}'s "
-                     "error, and a named effect predicts it on held-out data")
-    mods = sel.chosen.fit.mods if sel.chosen else None
-    effects = []
-    radius = info.get("radius")
-    ground_theta = None
-    if sel.chosen:
+
+def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalModel,
+             series: dict[str, Any], notes: list[str], mis: Mismatch, sel: Selection | None,
+             left: dict[str, dict[str, float]], res1: dict[str, np.ndarray],
+             unexplained: dict | None, info: dict[str, Any]) -> GapResult:
+    """gap.json from the stages' results, with the verdict of :func:`etsid.gap.verdict.decide`."""
+    scorer, hold = series["scorer"], series["hold"]
+    res0 = series["res_before"]
+    effects: list[dict[str, Any]] = []
+    radius, ground_theta = info.get("radius"), None
+    if sel is not None and sel.chosen:
         for cand, theta, err in sel.chosen.fit.split():
             single = next((s for s in sel.ranked if s.fit.candidates == (cand,)), None)
-            effects.append(effect_entry(cand, theta, err, single, sel, scorer, r_hold,
-                                        res0))
+            effects.append(effect_entry(cand, theta, err, single, sel, scorer, hold, res0))
             if cand.name == "ground_effect":
                 ground_theta = theta
-                if radius is None:
-                    radius = float(theta[0])
-    res1 = scorer.residuals(mods)
-    z_after = scorer.zscores(mods, r_hold)
-    unexplained = None
-    left = [c for c in mis if z_after.get(c, 0.0) > Z_MISMATCH]
-    if left:
-        var = scheduling_variables(real)
-        worst = left[0]
-        reg = locate_channel(worst, res1[worst], sigma[worst], real, radius)
-        names = [reg.variable] if reg.variable != "none" else ["thrust", "command_rate"]
-        unexplained = fit_unexplained(scorer, mods, worst, {n: var[n] for n in names}, r_fit,
-                                      r_hold)
-        if unexplained is not None:
-            res1[worst] = res1[worst] - unexplained.correction
-            effects.append({
-                "name": "unexplained", "channels": [worst],
-                "parameters": {"model": {"value": f"eTS, {unexplained.model.n_rules} rules",
-                                         "unit": ""},
-                               "inputs": {"value": names, "unit": ""}},
-                "confidence": float(np.clip(1 - unexplained.z_after / unexplained.z_before,
-                                            0, 1)),
-                "evidence": f"{LABELS[worst]} keeps structure no named effect explains; an "
-                            f"eTS model on {', '.join(names)} predicts it on held-out data",
-                "rmse_before": {worst: float(np.sqrt(np.mean(res0[worst][r_hold] ** 2)))},
-                "rmse_after": {worst: float(np.sqrt(np.mean(res1[worst][r_hold] ** 2)))}})
-    rmse_after = _rmse(res1, r_hold)
-    series.update(res_after=res1, selection=sel, mods=mods)
-    if not effects:
-        data = {**base, "verdict": "consistent", "mismatch": None, "effects": [],
-                "rmse_after": rmse_before, "candidates": _ranking(sel),
-                "notes": [*notes, f"{', '.join(mis)} exceed{'s' if len(mis) == 1 else ''} "
-                          f"{sim_name}'s error, but no effect and no residual model "
-                          "improves held-out data: unstructured (noise or manoeuvre), "
-                          "not missing physics"],
-                "reason": "the differences are not structured: nothing fitted on the first "
-                          f"part of {real_name} predicts its later part better"}
+                radius = radius if radius is not None else float(theta[0])
+    named = [e["name"] for e in effects]
+    if unexplained is not None:
+        effects.append(unexplained)
+    if sel is not None:
+        for s in sel.refused:
+            notes.append(f"not kept: {s.fit.name} ({s.why_not()})")
+        if mis.small and sel.chosen:
+            notes.append(f"small but structured mismatch: {', '.join(mis.channels)} between "
+                         f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× their "
+                         "floors, and a named effect predicts it on held-out data")
+    ok_consistent = can_be_consistent(mis.z_all, mis.z_hold)
+    verdict = decide([], ok_consistent, named)
+    data = {**base, "verdict": verdict, "effects": effects, "leftover": left,
+            "beyond_range": _beyond_range(sel),
+            "rmse_after": _rmse(res1, hold) if sel is not None else base["rmse_before"],
+            "notes": notes}
+    if sel is not None:
+        data["candidates"] = _ranking(sel)
+    if verdict == "consistent":
+        data.update(mismatch=None, rmse_after=base["rmse_before"], reason=(
+            f"every channel of {real.name} is within {np.sqrt(Z_MISMATCH):.0f}× its floor "
+            f"({sim.name}'s own model error or {real.name}'s sensor noise)"))
         data["summary"] = summary_sentence(data)
         return GapResult(data, sim, real, nominal, series)
-    main = mis[0]
-    effective = info.get("radius") is None
-    reg = locate_channel(main, res0[main], sigma[main], real, radius, effective)
-    basis = "residual bins"
-    if ground_theta is not None:
-        # what the tool believes: the band where the fitted law's excess is ≥ half its peak
-        reg = ground_band(main, res0[main], real, float(ground_theta[0]),
-                          float(ground_theta[1]), reg.eta2, radius, effective)
-        basis = "fitted law"
-    segs = segments(res0[main], sigma[main], real)
-    regime = {"channel": main, "variable": reg.variable,
-              "range": None if reg.variable == "none" else [reg.lo, reg.hi],
-              "unit": "" if reg.variable == "none" else
-              {"alt": "m", "speed": "m/s", "thrust": "1", "command_rate": "1/s", "vbat": "V",
-               "time": "s"}[reg.variable],
-              "z_over_r": [reg.lo / radius, reg.hi / radius]
-              if reg.variable == "alt" and radius else None,
-              "radius": None if not (reg.variable == "alt" and radius) else
-              {"value": radius, "unit": "m",
-               "source": "fitted effective" if effective else "vehicle"},
-              "basis": basis, "description": reg.description}
-    data = {**base, "verdict": "mismatch",
-            "reason": f"{', '.join(LABELS[c] for c in mis)} differ beyond {sim_name}'s own error",
-            "mismatch": {"channels": mis,
-                         "segments": [{"t_start": a, "t_end": b} for a, b in segs],
-                         "regime": regime},
-            "effects": effects, "rmse_after": rmse_after, "candidates": _ranking(sel),
-            "notes": notes}
+    main = mis.channels[0]
+    regime = locate(real, main, res0, scorer.sigma[main], radius,
+                    info.get("radius") is None, ground_theta)
+    segs = regime.pop("segments")
+    what = ", ".join(f"{LABELS[c]} {np.sqrt(max(mis.z_all.get(c, 0), mis.z_hold.get(c, 0))):.1f}×"
+                     for c in mis.channels)
+    data.update(reason=f"{what} their floor" + ("" if named else "; no named effect explains "
+                                                "it on held-out data"),
+                mismatch={"channels": mis.channels,
+                          "segments": [{"t_start": a, "t_end": b} for a, b in segs],
+                          "regime": regime})
     data["summary"] = summary_sentence(data)
     return GapResult(data, sim, real, nominal, series)
+
+
+def _beyond_range(sel: Selection | None) -> list[str]:
+    """Bound hits worth saying (verdict rule 4): of refused candidates that would otherwise
+    have been kept over the chosen effect (a better score, no channel made worse)."""
+    if sel is None:
+        return []
+    bar = sel.chosen.score if sel.chosen else -np.inf
+    return [h.describe() for s in sel.refused if s.bounds and not s.worse and s.score > bar
+            for h in s.bounds]
 
 
 def _ranking(sel: Selection) -> list[dict[str, Any]]:

@@ -20,6 +20,7 @@ from etsid.ets import ETS
 from etsid.gap.candidates import LIBRARY, Candidate
 from etsid.gap.fitting import Fit, Scorer, fit_candidates
 from etsid.gap.nominal import Mods
+from etsid.gap.verdict import BoundHit, at_bound, worsened
 
 PARAM_PENALTY = 0.02
 MIN_SHARE = 0.30
@@ -49,11 +50,26 @@ class Scored:
     z_after: dict[str, float]
     gain: float
     share: float
+    worse: dict[str, float] = field(default_factory=dict)
+    bounds: list[BoundHit] = field(default_factory=list)
 
     @property
     def score(self) -> float:
         """Explained share minus the complexity penalty."""
         return self.share - PARAM_PENALTY * self.fit.n_params
+
+    @property
+    def admissible(self) -> bool:
+        """Whether it may be kept: it worsens no channel beyond noise and no parameter sits
+        at a search bound (verdict rules 3 and 4)."""
+        return not self.worse and not self.bounds
+
+    def why_not(self) -> str:
+        """Why it may not be kept ('' if it may)."""
+        bits = [h.describe() for h in self.bounds]
+        bits += [f"makes {c} worse on held-out data (z +{dz:.1f})"
+                 for c, dz in self.worse.items()]
+        return "; ".join(bits)
 
 
 @dataclass
@@ -78,6 +94,8 @@ class Selection:
     chosen: Scored | None
     unexplained: Unexplained | None = None
     notes: list[str] = field(default_factory=list)
+    refused: list[Scored] = field(default_factory=list)
+    """Candidates that fitted well enough to be chosen but break verdict rule 3 or 4."""
 
 
 def excess(z: dict[str, float]) -> float:
@@ -92,7 +110,9 @@ def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, fl
     z_after = scorer.zscores(fit.mods, hold, tuple(z_before))
     gain = float(sum(z_before[c] - z_after[c] if c in focus or not focus
                      else min(z_before[c] - z_after[c], 0.0) for c in z_before))
-    return Scored(fit, z_after, gain, gain / max(e0, 1e-9))
+    bounds = [h for cand, theta, _ in fit.split() for h in at_bound(cand, theta)]
+    return Scored(fit, z_after, gain, gain / max(e0, 1e-9), worsened(z_before, z_after),
+                  bounds)
 
 
 def _left_share(best: Scored, joint: Scored, left: list[str]) -> float:
@@ -151,15 +171,18 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
                                  focus))
     ranked.sort(key=lambda s: s.score, reverse=True)
     sel = Selection(z0, e0, ranked, None)
-    if not ranked or ranked[0].share < min_share:
+    fit_well = [s for s in ranked if s.share >= min_share]
+    sel.refused = [s for s in fit_well if not s.admissible]
+    usable = [s for s in fit_well if s.admissible]
+    if not usable:
         return sel
-    best = ranked[0]
+    best = usable[0]
     chosen = best
     left = [c for c in focus if best.z_after.get(c, 0.0) > z_left]
     if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
         sel.chosen = best  # nothing left for a second effect to explain
         return sel
-    pool = [s for s in ranked[1:] if s.gain > 0
+    pool = [s for s in ranked if s is not best and s.gain > 0
             and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
     best_left = MIN_LEFT_SHARE
     for other in pool:
@@ -171,8 +194,9 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
         steady = static_in_calm(best, joint.fit, other.fit.candidates[0], scorer,
                                 activity)
         sel.notes.append(f"pair {joint.fit.name}: share {joint.share:.3f}, left "
-                         f"{share_left:.3f}{'' if steady else ', static term fits only busy part'}")
-        if not steady:
+                         f"{share_left:.3f}{'' if steady else ', static term fits only busy part'}"
+                         f"{'' if joint.admissible else ', ' + joint.why_not()}")
+        if not steady or not joint.admissible:
             continue
         if joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score:
             chosen = joint

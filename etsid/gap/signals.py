@@ -149,7 +149,21 @@ def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
-def prepare(table: pd.DataFrame, name: str) -> Flight:
+COMMANDS = ("u_thrust", "u_roll", "u_pitch", "u_yaw")
+
+
+def input_kinds(table: pd.DataFrame) -> tuple[str, ...]:
+    """The kinds of inputs a table offers, best first: ``"motors"`` (m1..mN, N ≥ 3) and
+    ``"commands"`` (the four loop commands)."""
+    kinds = []
+    if len(_motor_columns(table)) >= 3:
+        kinds.append("motors")
+    if all(c in table.columns and table[c].notna().sum() >= 10 for c in COMMANDS):
+        kinds.append("commands")
+    return tuple(kinds)
+
+
+def prepare(table: pd.DataFrame, name: str, inputs: str | None = None) -> Flight:
     """Resample a FlightTable to the analysis grid and derive what the gap analysis uses.
 
     Parameters
@@ -158,6 +172,9 @@ def prepare(table: pd.DataFrame, name: str) -> Flight:
         FlightTable (index ``t`` in s).
     name : str
         File name used in error messages.
+    inputs : str, optional
+        ``"motors"`` or ``"commands"`` (default: motors where the log has them): two logs
+        are compared on the same kind of input.
 
     Raises
     ------
@@ -165,14 +182,11 @@ def prepare(table: pd.DataFrame, name: str) -> Flight:
         The log lacks body rates, vertical specific force or motor/command inputs.
     """
     missing = [c for c in REQUIRED if c not in table.columns or table[c].notna().sum() < 10]
-    motors = _motor_columns(table)
-    inputs = "motors"
-    if len(motors) < 3:
-        commands = ["u_thrust", "u_roll", "u_pitch", "u_yaw"]
-        if all(c in table.columns for c in commands):
-            motors, inputs = commands, "commands"
-        else:
-            missing.append("m1..mN motor outputs (or u_thrust/u_roll/u_pitch/u_yaw)")
+    kinds = input_kinds(table)
+    inputs = inputs if inputs in kinds else (kinds[0] if kinds else None)
+    motors = _motor_columns(table) if inputs == "motors" else list(COMMANDS)
+    if inputs is None:
+        missing.append("m1..mN motor outputs (or u_thrust/u_roll/u_pitch/u_yaw)")
     if missing:
         raise GapError(f"{name}: lacks {', '.join(missing)}; the gap analysis needs body "
                        "rates, vertical specific force and motor outputs or commands")

@@ -14,6 +14,7 @@ NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
         "motor_lag": "motor lag", "time_delay": "time delay", "battery_sag": "battery sag",
         "thrust_scale": "thrust scale", "inertia_scale": "inertia scale",
         "torque_offset": "torque offset", "gyro_bias": "gyro bias",
+        "accel_bias": "accelerometer bias",
         "unexplained": "unexplained structure (eTS residual model)"}
 LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
@@ -52,33 +53,79 @@ def effect_entry(cand: Candidate, theta: np.ndarray, err: np.ndarray, single: An
             "rmse_before": before, "rmse_after": after}
 
 
-def _params_text(effect: dict[str, Any]) -> str:
-    if effect["name"] == "unexplained":
-        return ""
-    bits = []
-    for name, p in effect["parameters"].items():
-        v = p["value"]
-        bits.append(f"{name} = {v:.3g}{' ' + p['unit'] if p['unit'] not in ('', '1') else ''}")
-    law = LAW.get(effect["name"])
-    return f" ({law + ', ' if law else ''}fitted {', '.join(bits)})"
+def _words(effect: dict[str, Any], sim: str, real: str) -> str:
+    """An effect in its own terms (a delay as a later response, a scale as a factor)."""
+    p = {k: v["value"] for k, v in effect["parameters"].items()}
+    name = effect["name"]
+    if name == "time_delay":
+        return f"{real} responds {1000 * p['delay']:.0f} ms later than {sim} (time delay)"
+    if name == "motor_lag":
+        return (f"the motors follow their commands with a first-order lag of "
+                f"τ = {1000 * p['tau']:.0f} ms (motor lag)")
+    if name == "thrust_scale":
+        return f"×{p['scale']:.3g} thrust at the same command (thrust scale)"
+    if name == "inertia_scale":
+        return f"×{p['scale']:.3g} inertia (angular accelerations ÷{p['scale']:.3g}; inertia scale)"
+    if name == "battery_sag":
+        return (f"thrust and torque follow the measured pack voltage as (V/V_sim)^"
+                f"{p['exponent']:.2g} (battery sag)")
+    if name == "torque_offset":
+        return (f"a constant angular acceleration of ({p['p_offset']:+.2f}, "
+                f"{p['q_offset']:+.2f}, {p['r_offset']:+.2f}) rad/s² about roll, pitch, yaw "
+                "(torque offset)")
+    if name == "gyro_bias":
+        return (f"the gyro reads ({1000 * p['bx']:+.0f}, {1000 * p['by']:+.0f}, "
+                f"{1000 * p['bz']:+.0f}) mrad/s the attitude does not follow (gyro bias)")
+    if name == "accel_bias":
+        return (f"the accelerometer reads ({p['bx']:+.2f}, {p['by']:+.2f}, {p['bz']:+.2f}) "
+                "m/s² the velocity does not follow (accelerometer bias)")
+    if name == "rotor_drag":
+        return (f"horizontal drag {p['drag']:.2g} 1/s against the body velocity, with a moment "
+                f"of {p['moment']:+.2g} rad/s² per m/s (rotor drag)")
+    if name == "ground_effect":
+        return (f"ground effect ({LAW['ground_effect']}, fitted R = {p['R']:.2g} m, exponent "
+                f"= {p['exponent']:.3g})")
+    return NICE.get(name, name)
+
+
+def _size(data: dict[str, Any], channel: str) -> float:
+    nominal = data.get("nominal") or {}
+    z = max((nominal.get("z_all") or {}).get(channel, 0.0),
+            (nominal.get("z_held_out") or {}).get(channel, 0.0))
+    return float(np.sqrt(z))
 
 
 def summary_sentence(data: dict[str, Any]) -> str:
-    """The short summary printed on stdout."""
+    """The short summary printed on stdout: the verdict, where, what (in each effect's own
+    terms, with its confidence), what is left, and the held-out proof."""
     if data["verdict"] != "mismatch":
         return f"{data['verdict'].capitalize()}: {data['reason']}."
+    sim, real = data["sim"]["file"], data["real"]["file"]
     mis = data["mismatch"]
-    desc = mis["regime"]["description"]
+    regime = mis["regime"]
+    sizes = ", ".join(f"{LABELS[c]} {_size(data, c):.1f}×" for c in mis["channels"])
+    parts = [f"Mismatch: {sizes} its floor."]
+    if regime["variable"] != "none":
+        parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]
-    parts = [f"Mismatch: {desc}."]
     if names:
         parts.append("Missing physics: " + "; ".join(
-            f"{NICE[e['name']]}{_params_text(e)}" for e in names) + ".")
-    if any(e["name"] == "unexplained" for e in data["effects"]):
-        parts.append("Unexplained structure left, modelled by an eTS residual model.")
+            f"{_words(e, sim, real)}, confidence {e['confidence']:.2f}" for e in names) + ".")
+    else:
+        parts.append("No named effect explains it on held-out data.")
+    for text in data.get("beyond_range", []):
+        parts.append(f"Not a finding: {text} — the difference exceeds the vocabulary's range "
+                     "(another airframe, or a larger effect than modelled).")
+    left = data.get("leftover") or {}
+    if left:
+        bits = [f"{LABELS[c]} {v['ratio']:.1f}× its floor"
+                + (" (an eTS residual model predicts part of it)" if v.get("modelled_by_ets")
+                   else "") for c, v in left.items()]
+        lead = "Still mismatched on held-out data" + (" after that" if names else "")
+        parts.append(f"{lead}: {'; '.join(bits)}.")
     main = mis["channels"][0]
     b, a = data["rmse_before"].get(main), data["rmse_after"].get(main)
-    if b and a is not None:
+    if names and b and a is not None:
         parts.append(f"Held-out RMSE of {LABELS[main]} {b:.3g} → {a:.3g} {UNITS[main]} "
                      f"({100 * (a - b) / b:+.0f} %).")
     return " ".join(parts)

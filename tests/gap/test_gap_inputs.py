@@ -29,30 +29,39 @@ def test_missing_channels_is_an_error(hover) -> None:
         analyse(hover, hover.drop(columns=["az"]), "sim.parquet", "real.parquet")
 
 
-def test_different_vehicles_is_an_error(hover) -> None:
+def _different(sim, real) -> dict:
+    data = analyse(sim, real, "sim.parquet", "real.parquet").data
+    assert data["verdict"] == "different-vehicle", data["summary"]
+    assert data["effects"] == [] and data["summary"].startswith("Different vehicle:")
+    validate(data)
+    return data
+
+
+def test_different_vehicles_is_a_verdict_not_physics(hover) -> None:
+    """Another rotor count, or a thrust-to-weight no fault gives (thrust scale 0.35: the
+    vehicle needs 2.9× the thrust command): verdict different-vehicle, nothing named."""
     quad = simulate("hover-oge", "quad250", duration=24.0, seed=12).table
-    with pytest.raises(GapError, match="not the same vehicle type"):
-        analyse(hover, quad, "sim.parquet", "real.parquet")
+    assert "4 motor outputs" in _different(hover, quad)["reason"]
     heavy = simulate("hover-oge", duration=24.0, seed=13,
                      settings={"vehicle.thrust_scale": 0.35}).table
-    with pytest.raises(GapError, match="different vehicles"):
-        analyse(hover, heavy, "sim.parquet", "real.parquet")
+    data = _different(hover, heavy)
+    assert "hover thrust" in data["reason"]
+    assert data["vehicle_check"]["ratios"]["hover thrust"] > 1.6
 
 
 def test_tarot_against_quad_is_never_a_confident_name() -> None:
     """Two different vehicles: with motor outputs the motor count differs; with only stick
-    commands (four on both) the pack voltages do (6S against 3S). Either way an error."""
+    commands (four on both) the pack voltages do (6S against 3S). Either way the verdict
+    is different-vehicle, with the evidence."""
     tarot = simulate("hover-oge", "tarot680", duration=30.0, seed=21, alt_wander=0.3).table
     quad = simulate("hover-oge", "quad250", duration=30.0, seed=22, alt_wander=0.3).table
-    with pytest.raises(GapError, match="not the same vehicle type"):
-        analyse(tarot, quad, "sim.parquet", "real.parquet")
+    _different(tarot, quad)
 
     def sticks_only(t):
         return t.drop(columns=[c for c in t.columns if c[0] == "m" and c[1:].isdigit()])
 
     for sim, real in ((tarot, quad), (quad, tarot)):
-        with pytest.raises(GapError, match="real.parquet: battery voltage .*different vehicles"):
-            analyse(sticks_only(sim), sticks_only(real), "sim.parquet", "real.parquet")
+        assert "pack voltage" in _different(sticks_only(sim), sticks_only(real))["reason"]
 
 
 def test_too_little_airborne_data_is_insufficient(hover) -> None:
