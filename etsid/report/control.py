@@ -8,9 +8,8 @@ controller, ``potential`` and ``replacements`` figures, ``index.html`` and ``rep
 
 from __future__ import annotations
 
-import base64
-import html
 import json
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,6 +92,35 @@ def read_control_run(run_dir: str | Path) -> ControlRun:
                       _frame("events.parquet"), rules)
 
 
+def find_comparison(run: ControlRun) -> ControlRun | None:
+    """The run of the same scenario by the other controller beside ``run`` (a sibling
+    directory, as ``etsid control SCENARIO --controller pid`` names it next to the eTS run),
+    the newest if there are several; None when there is none."""
+    me = run.metrics.get("controller")
+    scenario = run.metrics.get("scenario")
+    found = []
+    try:
+        siblings = [p for p in run.path.resolve().parent.iterdir() if p.is_dir()]
+    except OSError:
+        return None
+    for path in siblings:
+        if path.resolve() == run.path.resolve() or not is_control_run(path):
+            continue
+        try:
+            metrics = json.loads((path / "metrics.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if (isinstance(metrics, dict) and metrics.get("scenario") == scenario
+                and metrics.get("controller") not in (None, me)):
+            found.append((path.stat().st_mtime, path))
+    for _, path in sorted(found, reverse=True):
+        try:
+            return read_control_run(path)
+        except ControlError:
+            continue
+    return None
+
+
 # ---------------------------------------------------------------------- figures
 def _title(run: ControlRun) -> str:
     return (f"{run.metrics.get('controller', '?')} controller, scenario "
@@ -105,28 +133,42 @@ def _mark_mass_change(ax: Any, run: ControlRun) -> None:
         ax.axvline(change[0], color="tab:purple", lw=0.8, ls="--", label="payload added")
 
 
-def fig_tracking(run: ControlRun) -> Figure:
-    """Fig. 1.12a: reference and flown height, and the tracking error."""
+def fig_tracking(run: ControlRun, other: ControlRun | None = None) -> Figure:
+    """Fig. 1.12a: reference and flown height (and the other controller's, when given), and
+    the tracking errors. The reference is drawn on top, dashed, so it stays visible where
+    the height follows it closely."""
     f = run.flight
     t = f.index.to_numpy()
     fig = Figure(figsize=(WIDTH, 4.2))
     ax, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-    ax.plot(t, f["alt_ref"], color="0.2", ls="--", label="reference r")
-    ax.plot(t, f["true_alt"], color="tab:blue", label="height h (true)")
+    name = run.metrics.get("controller", "?")
+    ax.plot(t, f["true_alt"], color="tab:blue", lw=1.6, label=f"height h, {name}")
+    if other is not None:
+        ax.plot(other.flight.index.to_numpy(), other.flight["true_alt"], color="tab:green",
+                lw=1.0, label=f"height h, {other.metrics.get('controller', '?')}")
+    ax.plot(t, f["alt_ref"], color="tab:orange", ls=(0, (4, 2)), lw=1.3, zorder=5,
+            label="reference r")
     _mark_mass_change(ax, run)
     ax.set_ylabel("height above ground, m")
-    ax.legend(loc="upper right", ncol=3)
+    ax.legend(loc="upper right", ncol=4)
     ax.set_title(f"Tracking — {_title(run)}")
-    err = f["alt_ref"] - f["true_alt"]
-    ax2.plot(t, err, color="tab:red")
+    ax2.plot(t, f["alt_ref"] - f["true_alt"], color="tab:blue", lw=0.9, label=name)
+    if other is not None:
+        o = other.flight
+        ax2.plot(o.index.to_numpy(), o["alt_ref"] - o["true_alt"], color="tab:green", lw=0.9,
+                 label=str(other.metrics.get("controller", "?")))
     after = run.metrics.get("score_after_s", 10.0)
     ax2.axvspan(t[0], after, color="0.9", label=f"first {after:g} s (not scored)")
     rmse = run.metrics.get("tracking_rmse")
     ax2.set_ylabel("r − h, m")
     ax2.set_xlabel("time, s")
     if rmse is not None:
-        ax2.set_title(f"tracking RMSE after {after:g} s: {rmse:.4f} m", fontsize=8)
-    ax2.legend(loc="upper right")
+        text = f"tracking RMSE after {after:g} s: {name} {rmse:.4f} m"
+        if other is not None and other.metrics.get("tracking_rmse") is not None:
+            text += (f", {other.metrics.get('controller')} "
+                     f"{other.metrics['tracking_rmse']:.4f} m")
+        ax2.set_title(text, fontsize=8)
+    ax2.legend(loc="upper right", ncol=3)
     return fig
 
 
@@ -241,50 +283,128 @@ def _rules_text(run: ControlRun) -> str:
     return ETS.from_dict(run.rules).rules()
 
 
-def make_control_report(run_dir: str | Path, fmt: str = "png") -> Report:
-    """Write RUN_DIR/report/ for a control run: figures, index.html, report.md."""
+def _interactive(run: ControlRun, other: ControlRun | None) -> tuple[str, dict[str, str]]:
+    """Linked time series: reference and heights, tracking errors, thrust, rule count."""
+    from etsid.report import interactive as ia
+
+    runs = [run] + ([other] if other is not None else [])
+    colors = [ia.COLORS["one_step"], ia.COLORS["arx"]]
+    t0 = run.flight.index.to_numpy(dtype=float)
+    x_range = ia.shared_range(t0)
+    track = ia.time_figure("height above ground (m)", "Reference and flown height (true)",
+                           x_range, height=260)
+    err = ia.time_figure("r − h (m)", "Tracking error", x_range, height=170)
+    thrust = ia.time_figure("collective (0…1)", "Thrust command", x_range, height=170)
+    for k, r in enumerate(runs):
+        f = r.flight
+        name = str(r.metrics.get("controller", "?"))
+        src = ia.source(f.index.to_numpy(dtype=float),
+                        {"h": f["true_alt"].to_numpy(dtype=float),
+                         "ref": f["alt_ref"].to_numpy(dtype=float),
+                         "e": (f["alt_ref"] - f["true_alt"]).to_numpy(dtype=float),
+                         "u": f["u_thrust"].to_numpy(dtype=float)})
+        track_lines = [ia.Line("h", f"height, {name}", colors[k], 1.8 if k == 0 else 1.2)]
+        if k == len(runs) - 1:  # the reference last: on top of every height
+            track_lines.append(ia.Line("ref", "reference r", ia.COLORS["reference"], 2.0,
+                                       "dashed"))
+        ia.add_lines(track, src, track_lines, digits="0.000", unit="m")
+        rmse = r.metrics.get("tracking_rmse")
+        label = name + (f" (RMSE {rmse:.4f} m after {r.metrics.get('score_after_s', 10):g} s)"
+                        if rmse is not None else "")
+        ia.add_lines(err, src, [ia.Line("e", label, colors[k], 1.0)], digits="0.0000",
+                     unit="m")
+        ia.add_lines(thrust, src, [ia.Line("u", f"u_thrust, {name}", colors[k], 0.9)],
+                     digits="0.000")
+    after = float(run.metrics.get("score_after_s", 10.0))
+    for fig in (track, err, thrust):
+        ia.shade(fig, float(t0[0]), after, "#888888", 0.12)
+        change = (run.config.get("scenario") or {}).get("mass_change")
+        if change:
+            ia.mark(fig, float(change[0]), "#9467bd")
+    figs = [track, err, thrust]
+    hist = next((r.history for r in runs if r.history is not None and len(r.history)), None)
+    if hist is not None:
+        count = ia.time_figure("count", "eTS rule base: rules and cumulative replacements",
+                               x_range, height=170)
+        src = ia.source(hist["t"].to_numpy(dtype=float),
+                        {c: hist[c].to_numpy(dtype=float)
+                         for c in ("n_rules", "replacements", "births") if c in hist})
+        ia.add_lines(count, src, [ia.Line("n_rules", "rules", "#222222", 1.5),
+                                  ia.Line("replacements", "replacements (cumulative)",
+                                          "#ff7f0e", 1.2)], digits="0")
+        ia.integer_axis(count)
+        figs.append(count)
+    return ia.embed({"tracking": ia.column(*figs)})
+
+
+def make_control_report(run_dir: str | Path, fmt: str = "png",
+                        say: Callable[[str], None] | None = None) -> Report:
+    """Write RUN_DIR/report/ for a control run: figures, index.html, report.md. The run of
+    the same scenario by the other controller, when it lies beside RUN_DIR, is drawn with
+    it (:func:`find_comparison`)."""
     from etsid.report.build import FORMATS, Report, save_figure
+    from etsid.report.page import HINT, esc, html_page, image_html, make_shared_dir
 
     if fmt not in FORMATS:
         raise ControlError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
+    say = say or (lambda _: None)
     run = read_control_run(run_dir)
+    other = find_comparison(run)
     out = run.path / "report"
     out.mkdir(exist_ok=True)
+    make_shared_dir(out)
     figures: dict[str, Path] = {}
-    embedded: dict[str, str] = {}
+    shown: dict[str, Path] = {}
+    say(f"control report: drawing the figures into {out}/ …")
     with style():
         for name, (builder, _, needs_history) in CONTROL_FIGURES.items():
             if needs_history and run.history is None:
                 continue
-            fig = builder(run)
+            fig = fig_tracking(run, other) if name == "tracking" else builder(run)
             figures[name] = save_figure(fig, out / f"{name}.{fmt}")
-            png = figures[name] if fmt == "png" else save_figure(fig, out / f"{name}.png")
-            embedded[name] = base64.b64encode(png.read_bytes()).decode()
+            shown[name] = (figures[name] if fmt != "pdf"
+                           else save_figure(fig, out / f"{name}.png"))
+    head_js, divs = _interactive(run, other)
     rows = _metric_rows(run)
+    other_rows = dict(_metric_rows(other)) if other is not None else {}
     rules = _rules_text(run)
     title = f"etsid control: {_title(run)}"
-    esc = html.escape
-    page = [
-        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{esc(title)}</title>",
-        "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em}"
-        "td,th{border:1px solid #bbb;padding:2px 6px}table{border-collapse:collapse}"
-        "img{max-width:100%}pre{background:#f6f6f6;padding:.6em;font-size:85%}</style>",
-        "</head><body>", f"<h1>{esc(title)}</h1>", "<table>",
-        *(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in rows), "</table>",
-    ]
-    for name, data in embedded.items():
-        caption = CONTROL_FIGURES[name][1]
-        page.append(f'<figure id="{name}"><img alt="{esc(name)}" '
-                    f'src="data:image/png;base64,{data}"><figcaption>{esc(caption)}'
-                    "</figcaption></figure>")
-    page += ["<h2>Rule base (rules.json)</h2>", f"<pre>{esc(rules)}</pre>",
-             "<h2>Configuration (config.json)</h2>",
-             f"<pre>{esc(json.dumps(run.config, indent=2))}</pre>", "</body></html>"]
+    me = str(run.metrics.get("controller", "?"))
+    body = []
+    lead = _lead(run, other)
+    if lead:
+        body.append(f'<p class="lead">{esc(lead)}</p>')
+    if other is not None:
+        rel = Path(os.path.relpath(other.path, run.path)).as_posix()
+        body.append(f"<p>Beside it: the {esc(other.metrics.get('controller'))} run of the same "
+                    f"scenario in <code>{esc(rel)}</code>.</p>")
+    else:
+        twin = "pid" if me == "ets" else "ets"
+        scenario = run.metrics.get("scenario", "SCENARIO")
+        body.append(f"<p>No {twin} run of this scenario beside this one: <code>etsid control "
+                    f"{esc(scenario)} --controller {twin} --out "
+                    f"{esc(run.path.parent / f'control-{scenario}-{twin}')}</code> then "
+                    f"<code>etsid report {esc(run.path)}</code> draws the two together.</p>")
+    body += ['<h2 id="tracking">Tracking</h2>', f'<p class="hint">{esc(HINT)}</p>',
+             "<p>Reference dashed orange on top; grey: the first seconds, not scored (the "
+             "eTS controller starts from zero rules).</p>", divs.get("tracking", "")]
+    head = ["metric", me] + ([str(other.metrics.get("controller"))] if other else [])
+    body += ['<h2 id="metrics">Metrics</h2>',
+             _table(head, [[k, v] + ([other_rows.get(k, "—")] if other else [])
+                           for k, v in rows])]
+    body.append('<h2 id="figures">Figures for papers</h2>')
+    body += [image_html(path, name, CONTROL_FIGURES[name][1]) for name, path in shown.items()]
+    body += ["<h2>Rule base (rules.json)</h2>", f"<pre>{esc(rules)}</pre>",
+             "<details><summary>Configuration (config.json)</summary>"
+             f"<pre>{esc(json.dumps(run.config, indent=2))}</pre></details>"]
     html_path = out / "index.html"
-    html_path.write_text("\n".join(page) + "\n")
-    md = [f"# {title}", "", "| metric | value |", "|---|---|"]
-    md += [f"| {k} | {v} |" for k, v in rows]
+    html_path.write_text(html_page(title, body, head_js))
+    md = [f"# {title}", ""]
+    if lead:
+        md += [lead, ""]
+    md += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    md += ["| " + " | ".join([k, v] + ([other_rows.get(k, "—")] if other else [])) + " |"
+           for k, v in rows]
     md.append("")
     for name, path in figures.items():
         md += [f"![{CONTROL_FIGURES[name][1]}]({path.name})", "",
@@ -293,3 +413,21 @@ def make_control_report(run_dir: str | Path, fmt: str = "png") -> Report:
     md_path = out / "report.md"
     md_path.write_text("\n".join(md))
     return Report(out, figures, html_path, md_path)
+
+
+def _lead(run: ControlRun, other: ControlRun | None) -> str:
+    m = run.metrics
+    rmse = m.get("tracking_rmse")
+    if rmse is None:
+        return ""
+    after = m.get("score_after_s", 10)
+    text = f"Tracking RMSE after {after:g} s: {m.get('controller')} {rmse:.4f} m"
+    if other is not None and other.metrics.get("tracking_rmse") is not None:
+        text += f", {other.metrics.get('controller')} {other.metrics['tracking_rmse']:.4f} m"
+    return text + "."
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    from etsid.report.page import table_html
+
+    return table_html(head, rows)

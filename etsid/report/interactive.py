@@ -173,8 +173,9 @@ def legend_above(fig: Any) -> None:
     legends = list(fig.legend)
     items = [item for legend in legends for item in legend.items]
     for legend in legends:
-        if legend in fig.center:
-            fig.center.remove(legend)
+        for side in ("center", "above", "below", "left", "right"):
+            if legend in getattr(fig, side):
+                getattr(fig, side).remove(legend)
     if items:
         fig.add_layout(Legend(items=items, orientation="horizontal", click_policy="hide",
                               label_text_font_size="8pt", spacing=14, padding=2, margin=2,
@@ -224,9 +225,9 @@ def shade_labels(fig: Any, t: np.ndarray, labels: np.ndarray, names: dict[Any, s
 
 def integer_axis(fig: Any) -> None:
     """Integer ticks on the y axis (counts, rule numbers)."""
-    from bokeh.models import SingleIntervalTicker
+    from bokeh.models import AdaptiveTicker
 
-    fig.yaxis.ticker = SingleIntervalTicker(interval=1)
+    fig.yaxis.ticker = AdaptiveTicker(min_interval=1, num_minor_ticks=0)
 
 
 @lru_cache(maxsize=1)
