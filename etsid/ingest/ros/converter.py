@@ -24,6 +24,9 @@ from etsid.ingest.ros.messages import Batch, Spec, spec_for
 
 PLAUSIBLE_NS = 86_400 * 1_000_000_000
 """A header stamp further than this from the record time is not trusted."""
+MAX_TOPIC_NOTES = 10
+"""Topics with undecodable messages named one by one in the warnings; the rest are
+counted in one line (each keeps its channel note)."""
 
 
 class TopicData:
@@ -188,6 +191,7 @@ class Converter:
         base = self.base_ns or 0
         raw.start_time = base * 1e-9 if self.base_ns is not None else None
         shift = ((self.boot_offset_ns or 0) - base) * 1e-9
+        noted = 0
         for data in self.topics.values():
             boot = data.spec is not None and data.spec.boot
             signals = self._signals(data, raw, shift if boot else 0.0)
@@ -198,7 +202,8 @@ class Converter:
                 raw.dropped.append(Issue("message lacks expected fields", data.failed,
                                          data.topic))
             if data.undecodable:
-                note = self._note_undecodable(data, raw, base)
+                note = self._note_undecodable(data, raw, base, noted < MAX_TOPIC_NOTES)
+                noted += 1
             if data.bad_stamp:
                 raw.repaired.append(Issue("header.stamp zero or implausible, used record time",
                                           data.bad_stamp, data.topic))
@@ -210,17 +215,25 @@ class Converter:
                 t_last=None if data.last_ns is None else (data.last_ns - base) * 1e-9,
                 columns=sorted({s.column for s in signals}, key=_column_order), note=note))
 
+        if noted > MAX_TOPIC_NOTES:
+            rest = [d for d in self.topics.values() if d.undecodable][MAX_TOPIC_NOTES:]
+            raw.warnings.append(f"… and {len(rest)} more topic(s) with undecodable messages "
+                                "(etsid inspect lists them)")
+            raw.dropped.append(Issue(f"message undecodable, in {len(rest)} more topics",
+                                     sum(d.undecodable for d in rest)))
+
     @staticmethod
-    def _note_undecodable(data: TopicData, raw: RawLog, base: int) -> str:
-        """Warning and dropped count for the messages of ``data`` that did not decode;
-        returns the channel note."""
+    def _note_undecodable(data: TopicData, raw: RawLog, base: int, warn: bool = True) -> str:
+        """Warning (when ``warn``) and dropped count for the messages of ``data`` that did
+        not decode; returns the channel note."""
         assert data.bad_ns is not None
         a, b = ((t - base) * 1e-9 for t in data.bad_ns)
         when = f"t = {a:.1f} s" if a == b else f"t = {a:.1f}–{b:.1f} s"
         text = (f"{data.undecodable} of {data.count} message(s) could not be decoded and "
                 f"were skipped ({when}; {data.bad_why})")
-        raw.warnings.append(f"{data.topic}: {text}")
-        raw.dropped.append(Issue("message undecodable", data.undecodable, data.topic))
+        if warn:
+            raw.warnings.append(f"{data.topic}: {text}")
+            raw.dropped.append(Issue("message undecodable", data.undecodable, data.topic))
         return text
 
     def _signals(self, data: TopicData, raw: RawLog, shift: float) -> list[Signal]:

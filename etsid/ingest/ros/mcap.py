@@ -57,6 +57,8 @@ class _Decoders:
 
         self.factories = [Ros2Factory(), Ros1Factory()]
         self.store = get_typestore(Stores.EMPTY)
+        self.made: dict[tuple[str, Any], Callable[[bytes], Any]] = {}
+        """Decoders made, per message encoding and schema (many channels share one)."""
 
     def fast_info(self, decoder: Callable[[bytes], Any]) -> tuple[dict[str, Any], str, bool] | None:
         """(fielddefs, typename, cdr) for the vectorised path when ``decoder`` is rosbags'."""
@@ -89,6 +91,13 @@ class _Decoders:
         """A decoder for ``encoding`` and ``schema``; raises ValueError when there is none."""
         if encoding == "json":
             return _json_decoder
+        key = (encoding, None if schema is None else (schema.name, schema.encoding,
+                                                      bytes(schema.data)))
+        if key not in self.made:
+            self.made[key] = self._make(encoding, schema)
+        return self.made[key]
+
+    def _make(self, encoding: str, schema: Any) -> Callable[[bytes], Any]:
         decoder = self._rosbags(encoding, schema)
         if decoder is not None:
             return decoder
@@ -175,6 +184,7 @@ class _State:
             self.conv, topic, state, data, log_ns, self.broken))
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, tuple[TopicData, Any]] = {}
+        self.known = np.zeros(1 << 16, dtype=bool)  # channel ids are uint16: one lookup
         self.encodings: set[str] = set()
         self.messages = 0
         self.lost: list[mcap_resync.Lost] = []
@@ -210,6 +220,7 @@ class _State:
         elif isinstance(record, Channel):
             if record.id not in self.channels:
                 self.channels[record.id] = _open_channel(self.conv, record, self.schemas)
+                self.known[record.id] = True
                 self.encodings.add(record.message_encoding)
         elif isinstance(record, Header):
             self.raw.extra["profile"] = record.profile
@@ -229,7 +240,7 @@ class _State:
         self.messages += len(run.channel)
         if len(run.log_ns):
             self._times(int(run.log_ns.min()), int(run.log_ns.max()))
-        known = np.isin(run.channel, list(self.channels))
+        known = self.known[run.channel]
         if not known.any():
             return
         if self.conv.base_ns is None:
