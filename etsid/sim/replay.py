@@ -42,6 +42,12 @@ from etsid.sim.params import (
     DELAY,
     LOOP_MOTORS,
     N_NOISE,
+    NZ_ACC,
+    NZ_ALT,
+    NZ_ATT,
+    NZ_GYRO,
+    NZ_VBAT,
+    NZ_VEL,
     X_OM,
     X_POS,
     X_Q,
@@ -81,6 +87,9 @@ class ReplayResult:
         of the log and ``ratio`` = rmse / std.
     horizons : ndarray
         Start times of the re-initialisations, s (``[t0]`` in loop mode).
+    divergence : dict or None
+        Where the twin leaves the recording (:func:`divergence`): ``t`` (s from the start),
+        ``what`` differs there, ``ground_t`` when it ends on the ground while the log flies.
     """
 
     table: pd.DataFrame
@@ -92,6 +101,114 @@ class ReplayResult:
     sources: dict[str, str] = field(default_factory=dict)
     errors: dict[str, dict[str, float]] = field(default_factory=dict)
     horizons: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    divergence: dict[str, Any] | None = None
+
+
+NOISE_COLUMNS = {"p": NZ_GYRO, "q": NZ_GYRO + 1, "r": NZ_GYRO + 2, "roll": NZ_ATT,
+                 "pitch": NZ_ATT + 1, "yaw": NZ_ATT + 2, "vx": NZ_VEL, "vy": NZ_VEL + 1,
+                 "vz": NZ_VEL + 2, "alt": NZ_ALT, "ax": NZ_ACC, "ay": NZ_ACC + 1,
+                 "az": NZ_ACC + 2, "vbat": NZ_VBAT}
+"""Log column → the simulator's measurement-noise column it sets (:func:`log_noise_std`)."""
+
+
+def log_noise_std(table: pd.DataFrame, fallback: np.ndarray) -> np.ndarray:
+    """(N_NOISE,) white-noise standard deviation of each sensor of a log, from its
+    second differences (``var(x[k+1] − 2x[k] + x[k−1]) = 6 σ²`` for white noise; the
+    median absolute deviation keeps manoeuvres out). ``fallback`` where the log lacks a
+    column or it is quantised flat."""
+    std = np.array(fallback, dtype=float)
+    for column, i in NOISE_COLUMNS.items():
+        if column not in table:
+            continue
+        x = table[column].to_numpy(dtype=float)
+        if column == "yaw":
+            x = np.unwrap(x[np.isfinite(x)])
+        x = x[np.isfinite(x)]
+        if x.size < 20:
+            continue
+        d2 = np.diff(x, 2)
+        sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
+        if sigma > 0:
+            std[i] = sigma
+    return std
+
+
+DIVERGE_ALT_M = 5.0
+DIVERGE_ANGLE_RAD = math.radians(30.0)
+"""A twin has diverged where its altitude is this far from the recording's, or its roll or
+pitch this far (after its first second: the loops settle), or it is on the ground while the
+recording flies. The altitude limit is wide: with the recorded collective replayed open
+loop, an exact twin of etsid's own hover drifts about 2 m in 20 s."""
+
+
+def divergence(twin: pd.DataFrame, table: pd.DataFrame) -> dict[str, Any] | None:
+    """Where the twin leaves the recording: the first time (s) its altitude or attitude is
+    beyond :data:`DIVERGE_ALT_M` / :data:`DIVERGE_ANGLE_RAD` of the log's, what differs
+    there, and whether it ends on the ground while the log is airborne. None if it follows."""
+    t = np.asarray(twin.index, dtype=float)
+    settle = t >= t[0] + 1.0
+    bad = np.zeros(t.size, dtype=bool)
+    what = np.full(t.size, "", dtype=object)
+    for col, limit, unit in (("alt", DIVERGE_ALT_M, "m"), ("roll", DIVERGE_ANGLE_RAD, "rad"),
+                             ("pitch", DIVERGE_ANGLE_RAD, "rad")):
+        if col not in twin or col not in table:
+            continue
+        diff = twin[col].to_numpy(dtype=float) - table[col].to_numpy(dtype=float)
+        if col != "alt":
+            diff = np.angle(np.exp(1j * diff))
+        off = settle & np.isfinite(diff) & (np.abs(diff) > limit)
+        what[off & ~bad] = [f"{col} {v:+.2f} {unit} from the recording" for v in diff[off & ~bad]]
+        bad |= off
+    ground_t = None
+    if "alt" in twin and "alt" in table:
+        alt_twin, alt_log = twin["alt"].to_numpy(float), table["alt"].to_numpy(float)
+        # resting: within 5 cm of its lowest height and still (1 s spread below 2 cm)
+        span = pd.Series(alt_twin).rolling(max(int(1.0 / np.median(np.diff(t))), 2),
+                                           min_periods=2)
+        still = (span.max() - span.min()).to_numpy() < 0.02
+        base = float(np.nanmin(alt_twin))
+        down = np.flatnonzero(settle & still & (alt_twin < base + 0.05)
+                              & (alt_log > base + 0.5))
+        if down.size:
+            ground_t = int(down[0])
+            if not bad[ground_t]:
+                what[ground_t] = (f"on the ground while the recording is at "
+                                  f"{alt_log[ground_t]:.2f} m")
+            bad[ground_t] = True
+    if not bad.any():
+        return None
+    i = int(np.flatnonzero(bad)[0])
+    out: dict[str, Any] = {"t": float(t[i] - t[0]), "what": str(what[i])}
+    if ground_t is not None:
+        out["ground_t"] = float(t[ground_t] - t[0])
+    return out
+
+
+def uniform_grid(table: pd.DataFrame) -> tuple[pd.DataFrame, str | None]:
+    """The table on a uniform grid at its median period (linear interpolation; booleans
+    held), and a note saying so, or the table itself and None when it already is."""
+    t = np.asarray(table.index, dtype=float)
+    if t.size < 2:
+        return table, None
+    d = np.diff(t)
+    period = float(np.median(d))
+    if period > 0 and np.max(np.abs(d - period)) <= 1e-6 * period + 1e-9:
+        return table, None
+    grid = np.arange(t[0], t[-1] + 0.5 * period, period)
+    cols = {}
+    for c in table.columns:
+        v = table[c]
+        if v.dtype == bool:
+            idx = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1)
+            cols[c] = v.to_numpy()[idx]
+            continue
+        x = v.to_numpy(dtype=float)
+        ok = np.isfinite(x)
+        cols[c] = np.interp(grid, t[ok], x[ok]) if ok.sum() >= 2 else np.full(grid.size, np.nan)
+    out = pd.DataFrame(cols, index=pd.Index(grid, name="t"))
+    out.attrs = dict(table.attrs)
+    return out, (f"time grid: the log's samples are not evenly spaced; resampled to "
+                 f"{1.0 / period:.4g} Hz (its median period) by linear interpolation")
 
 
 def _grid(table: pd.DataFrame) -> tuple[np.ndarray, float]:
@@ -148,7 +265,7 @@ def _initial_state(plant: Plant, table_vals: dict[str, np.ndarray], row: int,
     return S
 
 
-def _sources(mode: str, loop_input: str, thrust: str, ground_effect: bool, noise: bool,
+def _sources(mode: str, loop_input: str, thrust: str, ground_effect: bool, noise: bool | str,
              vehicle: Vehicle) -> dict[str, str]:
     src = {
         "initial state": "log: roll pitch yaw, p q r, vx vy vz, alt, vbat (state of charge "
@@ -157,7 +274,10 @@ def _sources(mode: str, loop_input: str, thrust: str, ground_effect: bool, noise
                         "(not in the log)",
         "physics": f"vehicle file {vehicle.source}: mass, inertia, rotors, drag, battery, "
                    f"effects; ground effect {'on' if ground_effect else 'off'}",
-        "sensors": "vehicle file noise levels" if noise else "exact (noise off)",
+        "sensors": {"log": "the log's own sensor noise (estimated from its sample-to-sample "
+                           "variation; the vehicle file's where the log lacks a sensor)",
+                    "vehicle": "vehicle file noise levels", True: "vehicle file noise levels"
+                    }.get(noise, "exact (noise off)"),
         "pilot": "none (the recorded commands replace it)",
     }
     if mode == "loop":
@@ -188,7 +308,7 @@ class _Prepared:
 
 
 def _prepare(table: pd.DataFrame, vehicle: Vehicle, mode: str, loop_input: str, thrust: str,
-             ground_effect: bool, noise: bool) -> _Prepared:
+             ground_effect: bool, noise: bool | str) -> _Prepared:
     if mode not in MODES:
         raise SimError(f"replay: mode must be one of {', '.join(MODES)}, got {mode!r}")
     if thrust not in THRUST_MODES:
@@ -211,13 +331,14 @@ def _prepare(table: pd.DataFrame, vehicle: Vehicle, mode: str, loop_input: str, 
     n_rot = vehicle.n_rotors
     motor_cols = [f"m{i}" for i in range(1, n_rot + 1)]
     motors = None
+    logged = [c for c in table if c.startswith("m") and c[1:].isdigit()
+              and table[c].notna().any()]
+    if len(logged) >= 3 and len(logged) != n_rot:
+        raise SimError(f"replay: the log has {len(logged)} motor outputs but the vehicle "
+                       f"{vehicle.name!r} has {n_rot} rotors; a twin needs a vehicle file "
+                       f"with {len(logged)} rotors (--vehicle)")
     if all(c in table and table[c].notna().any() for c in motor_cols):
         motors = table[motor_cols].ffill().bfill().to_numpy(dtype=float)
-        extra = [c for c in table if c.startswith("m") and c[1:].isdigit()
-                 and int(c[1:]) > n_rot]
-        if extra:
-            raise SimError(f"replay: the log has motor {extra[0]} but the vehicle "
-                           f"{vehicle.name!r} has {n_rot} rotors")
     elif mode == "motors":
         raise SimError(f"replay: mode 'motors' needs the motor outputs {', '.join(motor_cols)}")
     if mode == "loop":
@@ -228,7 +349,9 @@ def _prepare(table: pd.DataFrame, vehicle: Vehicle, mode: str, loop_input: str, 
     plant = make_plant(vehicle, dt=dt, ground_effect=ground_effect,
                        alt_hold=mode == "loop" and thrust == "alt_hold", pilot=False,
                        loop_input=LOOP_MOTORS if mode == "motors" else LOOP_INPUTS[loop_input])
-    if not noise:
+    if noise == "log":
+        plant.noise_std = log_noise_std(table, plant.noise_std)
+    elif noise in (False, "none"):
         plant.noise_std = np.zeros(N_NOISE)
     sources = {**_sources(mode, loop_input, thrust, ground_effect, noise, vehicle), **sources}
     return _Prepared(plant, vehicle, t, period, k_out, vals, motors, sources)
@@ -329,7 +452,7 @@ def replay_many(
     table: pd.DataFrame, candidates: Sequence[Mapping[str, Any]],
     vehicle: str | Path | Vehicle | None = None, *, mode: str = "loop",
     loop_input: str = "sticks", thrust: str = "command", horizon: float = 2.0,
-    ground_effect: bool = True, noise: bool = False, seed: int = 0,
+    ground_effect: bool = True, noise: bool | str = False, seed: int = 0,
 ) -> list[ReplayResult]:
     """Replay ``table`` once per candidate vehicle setting, all in one parallel call.
 
@@ -353,6 +476,7 @@ def replay_many(
     """
     if not candidates:
         raise SimError("replay: no candidates given")
+    table, regridded = uniform_grid(table)
     base = load_vehicle(vehicle)
     vehicles = [_vehicle(base, c) for c in candidates]
     if len({v.n_rotors for v in vehicles}) != 1:
@@ -376,8 +500,8 @@ def replay_many(
         horizons = first.t[rows]
     exc, alt_sp, alt_rate, vel_sp, thr, motors = _inputs(first, mode, loop_input, thrust)
     n_steps = exc.shape[0]
-    noise_arr = (first.plant.draw_noise(np.random.default_rng(seed), n_steps) if noise
-                 else np.zeros((n_steps, N_NOISE)))
+    noise_arr = (first.plant.draw_noise(np.random.default_rng(seed), n_steps)
+                 if noise not in (False, "none") else np.zeros((n_steps, N_NOISE)))
     n_rot = first.vehicle.n_rotors
     n_rows = first.t.size
     meas = np.empty((len(preps), n_rows, len(MEAS_COLUMNS) + n_rot))
@@ -400,17 +524,22 @@ def replay_many(
                       "replay_of": str(table.attrs.get("source", "?"))}
         tr = pd.DataFrame(truth[c], index=index.copy(), columns=tcols)
         tr.attrs = dict(twin.attrs)
+        sources = dict(prep.sources)
+        if regridded:
+            sources["time grid"] = regridded
         results.append(ReplayResult(table=twin, truth=tr, vehicle=prep.vehicle, mode=mode,
                                     loop_input=loop_input, thrust=thrust,
-                                    sources=prep.sources, errors=_errors(twin, table),
-                                    horizons=horizons))
+                                    sources=sources, errors=_errors(twin, table),
+                                    horizons=horizons,
+                                    divergence=divergence(twin, table) if mode == "loop"
+                                    else None))
     return results
 
 
 def replay(
     table: pd.DataFrame, vehicle: str | Path | Vehicle | None = None, *, mode: str = "loop",
     loop_input: str = "sticks", thrust: str = "command", horizon: float = 2.0,
-    ground_effect: bool = True, noise: bool = False, seed: int = 0,
+    ground_effect: bool = True, noise: bool | str = False, seed: int = 0,
     settings: Mapping[str, Any] | None = None,
 ) -> ReplayResult:
     """Fly ``vehicle`` with the commands of a recorded flight: the flight's simulated twin.
@@ -436,8 +565,10 @@ def replay(
         Re-initialisation period of ``mode="motors"``, s.
     ground_effect : bool
         Vehicle's ground-effect model on.
-    noise : bool
-        Simulate the vehicle file's sensor noise (off: an exact twin).
+    noise : bool or str
+        Sensor noise of the twin: ``"log"`` the log's own (estimated per sensor by
+        :func:`log_noise_std`), ``"vehicle"`` or True the vehicle file's, ``"none"`` or
+        False an exact twin.
     seed : int
         Noise seed.
     settings : mapping, optional

@@ -93,12 +93,13 @@ def test_replay_refuses_what_it_cannot_do(flight) -> None:
         replay(table.drop(columns=["roll"]))
     with pytest.raises(SimError, match="no 'u_thrust' column"):
         replay(table.drop(columns=["u_thrust"]))
+    motors = [f"m{i}" for i in range(1, 7)]
     with pytest.raises(SimError, match="mode 'motors' needs the motor outputs"):
-        replay(table.drop(columns=["m3"]), mode="motors")
-    with pytest.raises(SimError, match="uniform time grid"):
-        replay(table.iloc[[0, 1, 3, 4]])
-    with pytest.raises(SimError, match="has 4 rotors"):
+        replay(table.drop(columns=motors), mode="motors")
+    with pytest.raises(SimError, match="6 motor outputs but the vehicle 'quad250' has 4"):
         replay(table, "quad250")
+    with pytest.raises(SimError, match="5 motor outputs but the vehicle 'tarot680' has 6"):
+        replay(table.drop(columns=["m6"]))
     with pytest.raises(SimError, match="mode must be one of loop, motors"):
         replay(table, mode="dream")
     # missing optional columns are assumed and said so
@@ -116,3 +117,43 @@ def test_motor_replay_tells_delay_from_lag() -> None:
     score = [sum(_rel_rmse(t.truth, flight.truth, a) for a in "pqr") for t in twins]
     assert int(np.argmin(score)) == 2
     assert score[4] > 1.3 * score[2]
+
+
+def test_replay_of_an_uneven_log_is_resampled_and_says_so(flight) -> None:
+    uneven = flight.table.iloc[:600].drop(flight.table.index[[5, 6, 90]])
+    twin = replay(uneven)
+    assert "resampled" in twin.sources["time grid"]
+    assert np.allclose(np.diff(twin.table.index), np.median(np.diff(flight.table.index)))
+
+
+def test_log_noise_is_measured_and_given_to_the_twin(flight) -> None:
+    """The twin's sensors carry the log's own noise (estimated from second differences),
+    not the vehicle file's: a log with 3× the file's gyro and accelerometer noise gives a
+    twin with 3× (within 25 %)."""
+    from etsid.sim.params import NZ_ACC, NZ_GYRO
+    from etsid.sim.replay import log_noise_std
+
+    veh = flight.vehicle
+    noisy = simulate("hover-oge", duration=8.0, seed=5, settings={
+        "vehicle.sensors.gyro_std": 3 * veh["sensors"]["gyro_std"],
+        "vehicle.sensors.accel_std": 3 * veh["sensors"]["accel_std"]})
+    std = log_noise_std(noisy.table, np.zeros(14))
+    assert std[NZ_GYRO] == pytest.approx(3 * veh["sensors"]["gyro_std"], rel=0.25)
+    assert std[NZ_ACC + 2] == pytest.approx(3 * veh["sensors"]["accel_std"], rel=0.25)
+    twin = replay(noisy.table, noise="log")
+    assert "log's own sensor noise" in twin.sources["sensors"]
+    hf = np.std(np.diff(twin.table["p"].to_numpy(), 2)) / np.sqrt(6)
+    assert hf == pytest.approx(3 * veh["sensors"]["gyro_std"], rel=0.3)
+    assert np.std(np.diff(replay(noisy.table).table["p"].to_numpy(), 2)) < 0.3 * hf * np.sqrt(6)
+
+
+def test_a_twin_that_leaves_the_recording_is_reported() -> None:
+    """Half the thrust: the twin cannot hold the recorded height and the replay says when
+    and how it left the recording (and that it is on the ground while the log flies)."""
+    high = simulate("hover-oge", duration=20.0, seed=4)
+    assert replay(high.table).divergence is None
+    weak = replay(high.table, settings={"thrust_scale": 0.5})
+    assert weak.divergence is not None
+    assert weak.divergence["t"] < 10.0 and "ground_t" in weak.divergence
+    assert "from the recording" in weak.divergence["what"] or \
+        "on the ground" in weak.divergence["what"]
