@@ -83,11 +83,15 @@ def _check_out(out: Path, fmt: str | None) -> None:
                    "tracking the recorded alt.")
 @click.option("--horizon", type=click.FloatRange(min=0, min_open=True), default=2.0,
               show_default=True, help="Re-initialisation period of --replay-mode motors, s.")
+@click.option("--noise", "noise", type=click.Choice(["log", "vehicle", "none"]), default="log",
+              show_default=True, help="Sensor noise of a --replay twin: the log's own "
+                                      "(estimated per sensor), the vehicle file's, or none.")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: Path | None,
              duration: float | None, seed: int, ground_effect: str, rate_hz: float,
              assignments: tuple[str, ...], replay_log: Path | None, replay_mode: str,
-             loop_input: str, thrust_mode: str, horizon: float, list_only: bool) -> None:
+             loop_input: str, thrust_mode: str, horizon: float, noise: str,
+             list_only: bool) -> None:
     """Fly SCENARIO with the hexacopter physics model and write it as a real flight log.
 
     Every physical effect of docs/physics.md is a vehicle setting, off by default:
@@ -110,7 +114,7 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
             raise click.UsageError("Missing option '-o' / '--out'.")
         _replay(replay_log, out, fmt, vehicle, seed, ground_effect == "on",
                 parse_assignments(assignments), replay_mode, loop_input,
-                thrust_mode.replace("-", "_"), horizon)
+                thrust_mode.replace("-", "_"), horizon, noise)
         return
     if scenario is None and out is not None and not list_only:
         raise click.UsageError("Missing argument 'SCENARIO' (see etsid simulate --list).")
@@ -151,7 +155,7 @@ def _write(table: pd.DataFrame, truth: pd.DataFrame, out: Path, fmt: str | None)
 
 def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: int,
             ground_effect: bool, settings: dict, mode: str, loop_input: str, thrust: str,
-            horizon: float) -> None:
+            horizon: float, noise: str = "log") -> None:
     from etsid.ingest import read_log
     from etsid.sim.replay import replay
 
@@ -162,7 +166,7 @@ def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: i
     table = read_log(log)
     result = replay(table, vehicle, mode=mode, loop_input=loop_input, thrust=thrust,
                     horizon=horizon, ground_effect=ground_effect, seed=seed,
-                    settings=settings)
+                    settings=settings, noise=noise)
     written = _write(result.table, result.truth, out, fmt)
     t = result.table.index
     click.echo(f"{written}: twin of {log} ({mode} replay, {t[-1] - t[0]:.1f} s), vehicle "
@@ -172,6 +176,15 @@ def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: i
     errs = ", ".join(f"{k} {v['rmse']:.3g} ({100 * v['ratio']:.0f} % of std)"
                      for k, v in result.errors.items() if k in ("p", "q", "r", "alt"))
     click.echo(f"  twin - log RMSE: {errs}")
+    div = result.divergence
+    if div is None:
+        click.echo("  the twin follows the recording (altitude within "
+                   "5 m and roll/pitch within 30° throughout)")
+    else:
+        crash = (f"; it is on the ground at {div['ground_t']:.1f} s while the recording flies"
+                 if div.get("ground_t", div["t"]) != div["t"] else "")
+        click.echo(f"  warning: the twin diverges from the recording at {div['t']:.1f} s "
+                   f"({div['what']}){crash}")
 
 
 COMMANDS = [simulate]

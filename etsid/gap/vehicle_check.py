@@ -36,9 +36,9 @@ PLAUSIBLE = {
 pack voltage: one cell in four (4S/3S = 1.33) is another pack; effectiveness: a 60 %
 heavier inertia with a 20 % weaker thrust is 0.5×, and each log's own fit of it moves
 with its motor lag (a lag three times SIM's gave 0.37× on a dev pair of one airframe), so
-only a factor of five says another airframe. Yaw effectiveness is reported, not judged: the reaction torque and the
-rotor spin-up torque share their regressors, and a changed rotor inertia or a delay moves
-the split between them by several times on one airframe."""
+only a factor of five says another airframe. Yaw effectiveness is reported, not judged:
+the reaction torque and the rotor spin-up torque share their regressors, and a changed
+rotor inertia or a delay moves the split between them by several times on one airframe."""
 AXES = (("roll effectiveness", "p"), ("pitch effectiveness", "q"), ("yaw effectiveness", "r"))
 
 
