@@ -242,7 +242,7 @@ def rules_section(run: Run) -> list[str]:
     from etsid.report.rulebook import physical, summarize
 
     try:
-        summaries = summarize(run.rules)
+        summaries = summarize(run.rules, trusted=True)
     except (EtsidError, ValueError, KeyError, TypeError) as err:
         return [f"<p>Rule base not readable: {esc(err)}</p>"]
     if not summaries:

@@ -205,7 +205,7 @@ def fig_consequents(run: Run, top: int = 4) -> Figure:
     from etsid.report.rulebook import summarize
 
     try:
-        summaries = summarize(run.rules)
+        summaries = summarize(run.rules, trusted=True)
     except (EtsidError, TypeError) as err:
         raise ValueError(f"rule base not readable ({err})") from err
     if not summaries:

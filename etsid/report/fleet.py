@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from etsid.errors import EtsidError
 from etsid.report.build import Report, save_figure
@@ -89,12 +90,16 @@ def failures_by_cause(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def ranking(frame: pd.DataFrame) -> tuple[str | None, pd.DataFrame, pd.DataFrame]:
-    """(figure, best, worst): the :data:`TOP` best and worst successful flights."""
+    """(figure, best, worst): the :data:`TOP` best and worst successful flights; when
+    there are at most 2 × :data:`TOP`, every one of them as ``best`` (best first) and
+    ``worst`` empty, so no flight is listed twice."""
     ok = frame[frame["status"] == "ok"]
     for column in RANK_BY:
         if column in ok.columns and ok[column].notna().any():
             ranked = ok[ok[column].notna()].sort_values([column, "input"],
                                                         ascending=[False, True])
+            if len(ranked) <= 2 * TOP:  # a small fleet: one list, best first
+                return column, ranked, ranked.head(0)
             return column, ranked.head(TOP), ranked.tail(TOP).iloc[::-1]
     return None, ok.head(0), ok.head(0)
 
@@ -117,6 +122,9 @@ def fig_distributions(frame: pd.DataFrame) -> Figure | None:
                     alpha=0.8)
             ax.set_xlabel(FIGURES[column])
             ax.set_ylabel("logs")
+            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+            ax.xaxis.set_major_locator(MaxNLocator(nbins=4))
+            ax.ticklabel_format(axis="x", style="plain", useOffset=False)
             if values.size:
                 ax.axvline(float(np.median(values)), color="tab:red", lw=1,
                            label=f"median {np.median(values):.3g}")
@@ -151,6 +159,13 @@ def _run_report(batch_dir: Path, run_dir: str | None, command: str) -> str | Non
         except EtsidError:
             return None
     return os.path.relpath(target, batch_dir.resolve() / "report")
+
+
+def _needs_report(batch_dir: Path, row: pd.Series, command: str) -> bool:
+    """Whether :func:`_run_report` will write the report of ``row``'s run."""
+    inside = run_dir_inside(batch_dir, row.get("run_dir"))
+    return (command == "identify" and inside is not None
+            and not (inside / "report" / "index.html").exists())
 
 
 def _fmt(value: Any) -> str:
@@ -233,7 +248,7 @@ def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None) 
         raise EtsidError(f"{batch_dir}: cannot write a report there "
                          f"({err.strerror or err})") from err
     try:
-        report = _write_fleet(batch_dir, meta, frame, staging, fmt)
+        report = _write_fleet(batch_dir, meta, frame, staging, fmt, say or (lambda _: None))
         staging.chmod(0o777 & ~_umask())
         _replace(staging, batch_dir / "report")
     except BaseException:
@@ -253,7 +268,7 @@ def _umask() -> int:
 
 
 def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out: Path,
-                 fmt: str) -> Report:
+                 fmt: str, say: Any = print) -> Report:
     """Every part of the fleet report into ``out``."""
     command = str(meta.get("command"))
     report = Report(out)
@@ -268,14 +283,24 @@ def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out
         image = (mime, base64.b64encode(png.read_bytes()).decode())
     figure, best, worst = ranking(frame)
     links = {}
-    for _, row in pd.concat([best, worst]).iterrows():
+    listed = pd.concat([best, worst])
+    missing = sum(1 for _, row in listed.iterrows() if _needs_report(batch_dir, row, command))
+    if missing:
+        say(f"fleet report: writing the own reports of {missing} of the {len(listed)} "
+            "ranked flights (each links to its report) …")
+    done = 0
+    for _, row in listed.iterrows():
+        if _needs_report(batch_dir, row, command):
+            done += 1
+            say(f"fleet report: {done}/{missing}: {row['input']}")
         link = _run_report(batch_dir, row.get("run_dir"), command)
         if link:
             links[row["input"]] = link
+    say("fleet report: drawing the distributions and the page …")
     causes = failures_by_cause(frame)
     parts = _Parts(meta, frame, figure, best, worst, causes, links)
     report.html = out / "index.html"
-    report.html.write_text(parts.html(image))
+    report.html.write_text(parts.html(image, _interactive(frame, figure)))
     report.markdown = out / "report.md"
     report.markdown.write_text(parts.markdown(report.figures.get("distributions")))
     return report
@@ -301,29 +326,30 @@ class _Parts:
         return (f"Ranked by {self.figure} ({FIGURES.get(self.figure, self.figure)}); "
                 "each log links to its own report.")
 
-    def html(self, image: tuple[str, str] | None) -> str:
+    def html(self, image: tuple[str, str] | None,
+             interactive: tuple[str, str] = ("", "")) -> str:
+        from etsid.report.page import HINT, html_page
+
         esc = html.escape
+        head_js, div = interactive
         parts = [
-            "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-            f"<title>{esc(self.title)}</title>",
-            "<style>body{font-family:sans-serif;max-width:70em;margin:2em auto;padding:0 1em;"
-            "color:#222}table{border-collapse:collapse;font-size:85%}"
-            "td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
-            "th{background:#eee}td:first-child,th:first-child{text-align:left}"
-            "img{max-width:100%}</style></head><body>",
-            f"<h1>{esc(self.title)}</h1>",
             '<section id="summary"><h2>Summary</h2><ul>'
             + "".join(f"<li>{esc(s)}</li>" for s in summary_lines(self.meta, self.frame))
             + "</ul></section>",
             '<section id="distributions"><h2>Distributions</h2>',
         ]
+        if div:
+            parts += [f'<p class="hint">{esc(HINT)}</p>', div]
         if image is not None:
             parts.append(f'<img alt="distributions" src="data:{image[0]};base64,{image[1]}">')
         else:
             parts.append("<p>No successful log to draw.</p>")
         parts += ["</section>", '<section id="best-worst"><h2>Best and worst flights</h2>',
                   f"<p>{esc(self._ranking_note())}</p>"]
-        if self.figure is not None:
+        if self.figure is not None and self.worst.empty:
+            parts += ["<h3>Every ranked flight, best first</h3>",
+                      _html_table(self.best, self.rank_columns, self.links)]
+        elif self.figure is not None:
             parts += ["<h3>Best</h3>", _html_table(self.best, self.rank_columns, self.links),
                       "<h3>Worst</h3>", _html_table(self.worst, self.rank_columns, self.links)]
         parts += ["</section>", '<section id="failures"><h2>Failures by cause</h2>']
@@ -332,9 +358,8 @@ class _Parts:
         else:
             parts.append(_html_table(self.causes, ["cause", "kind", "count", "examples"]))
         parts += ["</section>", '<section id="logs"><h2>Every log</h2>',
-                  _html_table(self.frame, self.columns, self.links), "</section>",
-                  "</body></html>"]
-        return "\n".join(parts) + "\n"
+                  _html_table(self.frame, self.columns, self.links), "</section>"]
+        return html_page(self.title, parts, head_js)
 
     def markdown(self, figure_path: Path | None) -> str:
         lines = [f"# {self.title}", "", "## Summary", ""]
@@ -343,7 +368,10 @@ class _Parts:
         lines.append(f"![distributions]({figure_path.name})" if figure_path
                      else "No successful log to draw.")
         lines += ["", "## Best and worst flights", "", self._ranking_note(), ""]
-        if self.figure is not None:
+        if self.figure is not None and self.worst.empty:
+            lines += ["### Every ranked flight, best first", "",
+                      *_md_table(self.best, self.rank_columns, self.links), ""]
+        elif self.figure is not None:
             lines += ["### Best", "", *_md_table(self.best, self.rank_columns, self.links),
                       "", "### Worst", "",
                       *_md_table(self.worst, self.rank_columns, self.links), ""]
@@ -352,3 +380,38 @@ class _Parts:
                   else _md_table(self.causes, ["cause", "kind", "count", "examples"]))
         lines += ["", "## Every log", "", *_md_table(self.frame, self.columns, self.links), ""]
         return "\n".join(lines)
+
+
+def _interactive(frame: pd.DataFrame, figure: str | None) -> tuple[str, str]:
+    """An interactive scatter of every successful flight: the ranking figure (or the rule
+    count) against the log's duration; hover names the log."""
+    from bokeh.models import ColumnDataSource, HoverTool
+    from bokeh.plotting import figure as bokeh_figure
+
+    from etsid.report import interactive as ia
+
+    ok = frame[frame["status"] == "ok"]
+    y_col = figure or ("rules_frozen" if "rules_frozen" in ok else None)
+    if y_col is None or "duration_s" not in ok or not ok[y_col].notna().any():
+        return "", ""
+    ok = ok[ok[y_col].notna() & ok["duration_s"].notna()]
+    src = ColumnDataSource({"x": ok["duration_s"].to_numpy(dtype=float),
+                            "y": ok[y_col].to_numpy(dtype=float),
+                            "input": ok["input"].astype(str).to_numpy(),
+                            "rules": (ok["rules_frozen"] if "rules_frozen" in ok
+                                      else ok["duration_s"] * np.nan).to_numpy(dtype=float)})
+    fig = bokeh_figure(height=300, sizing_mode="stretch_width",
+                       tools="pan,wheel_zoom,box_zoom,reset,save",
+                       title=f"{FIGURES.get(y_col, y_col)} against log duration, one dot "
+                             "per flight (hover for its name)")
+    fig.toolbar.logo = None
+    dots = fig.scatter("x", "y", source=src, size=8, alpha=0.7, color="#1f77b4")
+    fig.add_tools(HoverTool(renderers=[dots], tooltips=[
+        ("log", "@input"), ("duration", "@x{0.0} s"), (y_col, "@y{0.00}"),
+        ("rules", "@rules{0}")]))
+    fig.xaxis.axis_label = FIGURES["duration_s"]
+    fig.yaxis.axis_label = FIGURES.get(y_col, y_col)
+    if y_col == "rules_frozen":
+        ia.integer_axis(fig)
+    head, divs = ia.embed({"fleet": fig})
+    return head, divs["fleet"]

@@ -63,8 +63,9 @@ def physical(name: str, value: float) -> str:
     return text
 
 
-def summarize(rules: dict[str, Any]) -> list[RuleSummary]:
-    """Every rule of a rules.json dict, its terms sorted by share (largest first).
+def summarize(rules: dict[str, Any], trusted: bool = False) -> list[RuleSummary]:
+    """Every rule of a rules.json dict, its terms sorted by share (largest first);
+    ``trusted``: skip the schema check (a rule base already checked or made by etsid).
 
     Raises
     ------
@@ -73,7 +74,7 @@ def summarize(rules: dict[str, Any]) -> list[RuleSummary]:
     """
     from etsid.ets import ETS
 
-    model = ETS.from_dict(rules)
+    model = ETS.from_dict(rules, trusted=trusted)
     if model.n_rules == 0:
         return []
     state = model.export_state()
@@ -114,10 +115,11 @@ def _term_text(term: Term) -> str:
     return f"{term.coefficient:+.4g}·{term.name} ({100 * term.share:.0f} %)"
 
 
-def readable(rules: dict[str, Any], top: int = TOP, width: int = 100) -> str:
+def readable(rules: dict[str, Any], top: int = TOP, width: int = 100,
+             trusted: bool = False) -> str:
     """The rule base in short lines: per rule its focal point and, per output, the ``top``
-    terms by share and what the others add up to."""
-    summaries = summarize(rules)
+    terms by share and what the others add up to (``trusted``: see :func:`summarize`)."""
+    summaries = summarize(rules, trusted)
     if not summaries:
         return "(no rules)"
     lines = []
