@@ -7,10 +7,15 @@ docs/identify.md for the contract.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import hashlib
 import json
 import math
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -132,17 +137,18 @@ def rules_json(data: dict[str, Any] | None, spec: RegressorSpec,
     return out
 
 
+RUN_FILES = (*FILES, "consequents.parquet", "rules_final.json")
+"""Every file :func:`write_run` may write: a new run replaces them all as one."""
+
+LOCK = ".etsid-run.lock"
+"""Lock file in a RUN_DIR, held while a finished run is moved in."""
+
+
 def _dump(data: dict[str, Any], path: Path) -> None:
     path.write_text(json.dumps(jsonable(data), indent=2) + "\n")
 
 
-def write_run(run: Run, out: str | Path) -> Path:
-    """Write ``run`` into the directory ``out`` (created if needed); returns it."""
-    out = Path(out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise IdentError(f"{out}: cannot create the run directory ({err.strerror})") from err
+def _write_files(run: Run, out: Path) -> None:
     run.predictions.to_parquet(out / "predictions.parquet", index=False)
     run.history.to_parquet(out / "history.parquet", index=False)
     run.consequents.to_parquet(out / "consequents.parquet", index=False)
@@ -152,6 +158,57 @@ def write_run(run: Run, out: str | Path) -> Path:
         (out / "rules_final.json").write_text(json.dumps(run.rules_final, indent=1) + "\n")
     _dump(run.metrics, out / "metrics.json")
     _dump(run.config, out / "config.json")
+
+
+@contextlib.contextmanager
+def _locked(directory: Path) -> Iterator[None]:
+    """An exclusive lock on ``directory`` (``flock`` of :data:`LOCK`; none where there is
+    no ``fcntl``): two runs finishing into one RUN_DIR move their files in one at a time."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield
+        return
+    with open(directory / LOCK, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def write_run(run: Run, out: str | Path) -> Path:
+    """Write ``run`` into the directory ``out`` (created if needed) whole; returns it.
+
+    The files are written into a private staging folder inside ``out`` and moved into
+    place under a lock, replacing every file of an earlier run: two runs into one
+    ``--out`` never mix their files, and a run that fails (a full disk) leaves the
+    earlier run as it was and no partial file.
+
+    Raises
+    ------
+    IdentError
+        The directory or a file cannot be written (one line, e.g. no space left).
+    """
+    out = Path(out)
+    staging: Path | None = None
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=".run-", dir=out))
+        _write_files(run, staging)
+        written = {p.name for p in staging.iterdir()}
+        with _locked(out):
+            for name in RUN_FILES:
+                if name in written:
+                    os.replace(staging / name, out / name)
+                else:  # an earlier run's file this run does not have
+                    (out / name).unlink(missing_ok=True)
+    except OSError as err:
+        raise IdentError(f"{out}: cannot write the run directory "
+                         f"({err.strerror or err})") from err
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
     return out
 
 
