@@ -243,8 +243,8 @@ def rules_section(run: Run) -> list[str]:
 
     try:
         summaries = summarize(run.rules, trusted=True)
-    except (EtsidError, ValueError, KeyError, TypeError) as err:
-        return [f"<p>Rule base not readable: {esc(err)}</p>"]
+    except (EtsidError, ValueError, KeyError, TypeError, IndexError, AttributeError) as err:
+        return [f"<p>Rule base not readable: {esc(repr(err))}</p>"]
     if not summaries:
         return []
     regimes = {int(r["rule"]): r.get("regime") or "" for r in

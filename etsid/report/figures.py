@@ -206,8 +206,8 @@ def fig_consequents(run: Run, top: int = 4) -> Figure:
 
     try:
         summaries = summarize(run.rules, trusted=True)
-    except (EtsidError, TypeError) as err:
-        raise ValueError(f"rule base not readable ({err})") from err
+    except (EtsidError, TypeError, KeyError, IndexError, AttributeError) as err:
+        raise ValueError(f"rule base not readable ({err!r})") from err
     if not summaries:
         raise ValueError("the rule base has no rules")
     outputs = list(summaries[0].terms)
