@@ -35,8 +35,10 @@ WORSEN_Z = 1.0
 """Largest rise of any channel's held-out z (mean squared error over floor²) an effect may
 cause: its noise variance."""
 BOUND_SHARE = 0.02
-"""A parameter within this share of its bound (relative to the bound, or to the range for
-a bound at zero) is at the bound."""
+GEOMETRIC_RATIO = 20.0
+"""A parameter within :data:`BOUND_SHARE` of its search range from a bound is at the bound;
+for a range spanning more than :data:`GEOMETRIC_RATIO` times (a time constant from 3 ms to
+0.5 s) within that share of the bound's own value."""
 
 VERDICTS = ("consistent", "mismatch", "insufficient", "different-vehicle")
 
@@ -86,7 +88,8 @@ def at_bound(cand: Candidate, theta: np.ndarray) -> list[BoundHit]:
         for b in (p.lo, p.hi):
             if b == p.null:
                 continue
-            tol = BOUND_SHARE * (abs(b) if b != 0 else p.hi - p.lo)
+            geometric = p.lo > 0 and p.hi / p.lo > GEOMETRIC_RATIO
+            tol = BOUND_SHARE * (abs(b) if geometric else p.hi - p.lo)
             if abs(v - b) <= tol:
                 hits.append(BoundHit(cand.name, p.name, float(v), float(b), p.unit))
     return hits

@@ -1,0 +1,155 @@
+"""The verdict rules of ``etsid gap`` (etsid/gap/verdict.py), one test per rule, and the
+pairs of issue 21 where the previous rules said more than the analysis supported."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from etsid.gap.candidates import BY_NAME
+from etsid.gap.floors import sensor_floors
+from etsid.gap.run import analyse
+from etsid.gap.signals import prepare
+from etsid.gap.verdict import (
+    Z_MISMATCH,
+    at_bound,
+    can_be_consistent,
+    decide,
+    leftover,
+    mismatched,
+    worsened,
+)
+from etsid.sim import load_vehicle, simulate
+
+HOVER = dict(scenario="hover-oge", duration=35.0, alt_wander=0.3)
+
+
+# --- rule by rule -------------------------------------------------------------------------
+
+def test_rule1_mismatched_channels_largest_first() -> None:
+    z = {"p": 3.9, "q": 4.1, "az": 50.0, "gyro_p": 9.0}
+    assert mismatched(z) == ["az", "gyro_p", "q"]
+    assert mismatched(z, exclude=("gyro_p",)) == ["az", "q"]
+
+
+def test_rule2_consistent_needs_every_channel_within_threshold_on_both_parts() -> None:
+    calm = {"p": 1.0, "az": 2.0}
+    assert can_be_consistent(calm, calm)
+    assert not can_be_consistent(calm, {"p": 1.0, "az": Z_MISMATCH + 0.1})
+    assert not can_be_consistent({"r": 553330.0, "p": 1.0}, calm)
+
+
+def test_rule3_an_effect_may_not_worsen_a_channel_beyond_its_noise() -> None:
+    before = {"az": 80.0, "p": 1.0, "q": 1.1}
+    assert worsened(before, {"az": 1.2, "p": 1.9, "q": 2.0}) == {}
+    assert worsened(before, {"az": 1.2, "p": 4.7, "q": 1.2}) == {"p": pytest.approx(3.7)}
+
+
+def test_rule4_a_parameter_at_its_bound_is_not_a_finding() -> None:
+    scale = BY_NAME["thrust_scale"]  # bounds 0.4–2.0, no effect at 1
+    assert at_bound(scale, np.array([0.409]))[0].bound == 0.4
+    assert at_bound(scale, np.array([0.45])) == []
+    inertia = BY_NAME["inertia_scale"]
+    assert "at its bound 3" in at_bound(inertia, np.array([2.9999]))[0].describe()
+    # zero delay is "no effect", not a range limit
+    assert at_bound(BY_NAME["time_delay"], np.array([0.0])) == []
+
+
+def test_rule5_leftovers_are_the_channels_still_above_threshold() -> None:
+    assert leftover({"p": 3.8, "q": 9.0, "r": 60.0}, ["q", "r", "p"]) == {"q": 9.0, "r": 60.0}
+
+
+def test_rule6_verdict() -> None:
+    assert decide(["rotor count"], True, []) == "different-vehicle"
+    assert decide([], True, []) == "consistent"
+    assert decide([], True, ["thrust_scale"]) == "mismatch"  # small but structured
+    assert decide([], False, []) == "mismatch"  # nothing explains it: still a mismatch
+
+
+def test_real_noise_floor_follows_the_recordings_sensors() -> None:
+    """The floor from REAL's own sensor noise grows with that noise (3× the gyro noise →
+    about 3× the angular-acceleration floor), so a noise-free SIM cannot make a noisy
+    recording look mismatched."""
+    veh = load_vehicle("tarot680")
+    quiet = prepare(simulate(**HOVER, seed=3).table, "quiet")
+    loud = prepare(simulate(**HOVER, seed=3, settings={
+        "vehicle.sensors.gyro_std": 3 * veh["sensors"]["gyro_std"]}).table, "loud")
+    a, b = sensor_floors(quiet), sensor_floors(loud)
+    assert b["p"] / a["p"] == pytest.approx(3.0, rel=0.25)
+    assert b["az"] / a["az"] == pytest.approx(1.0, rel=0.2)
+
+
+# --- the pairs of issue 21 ----------------------------------------------------------------
+
+def _gap(real_settings: dict | None = None, sim_vehicle=None, real_vehicle=None) -> dict:
+    sim = simulate(**HOVER, vehicle=sim_vehicle, seed=1).table
+    real = simulate(**dict(HOVER, duration=40.0), vehicle=real_vehicle, seed=2,
+                    settings={f"vehicle.{k}": v for k, v in (real_settings or {}).items()}
+                    ).table
+    return analyse(sim, real, "sim", "real").data
+
+
+def _general_rules_hold(data: dict) -> None:
+    z = data["nominal"]["z_all"]
+    if data["verdict"] == "consistent":
+        assert max(z.values()) <= Z_MISMATCH, data["summary"]
+    for e in data["effects"]:
+        cand = BY_NAME.get(e["name"])
+        if cand is not None:
+            theta = np.array([e["parameters"][p.name]["value"] for p in cand.params])
+            assert not at_bound(cand, theta), data["summary"]
+    for c, before in data["rmse_before"].items():
+        after, sigma = data["rmse_after"][c], data["noise"][c]
+        assert after**2 - before**2 <= sigma**2, (c, data["summary"])
+
+
+def test_accelerometer_bias_is_named_as_such_not_thrust() -> None:
+    data = _gap({"accel_bias": [0.0, 0.0, 0.6]})
+    _general_rules_hold(data)
+    named = {e["name"]: e for e in data["effects"]}
+    assert "accel_bias" in named, data["summary"]
+    assert named["accel_bias"]["parameters"]["bz"]["value"] == pytest.approx(0.6, abs=0.1)
+    assert not ("thrust_scale" in named and named["thrust_scale"]["confidence"] >= 0.9)
+    assert "accelerometer reads" in data["summary"]
+
+
+def test_no_effect_is_kept_that_worsens_roll_and_pitch() -> None:
+    """A higher idle speed (a thrust curve outside the vocabulary): the thrust scale that
+    explains the vertical force makes roll and pitch three times worse and is refused; the
+    verdict is still a mismatch, with the leftover said."""
+    data = _gap({"motor.omega_idle": 250.0})
+    _general_rules_hold(data)
+    assert data["verdict"] == "mismatch"
+    assert "thrust_scale" not in [e["name"] for e in data["effects"]]
+    assert "az" in data["leftover"]
+    assert any("not kept: thrust_scale" in n for n in data["notes"])
+
+
+def test_heavier_rotors_are_never_consistent() -> None:
+    """Rotor inertia ×4 (yaw spin-up torque, outside the vocabulary): r at z ≈ 40 is a
+    mismatch, not 'consistent'."""
+    veh = load_vehicle("tarot680")
+    data = _gap({"rotor.inertia": 4 * veh["rotor"]["inertia"]})
+    _general_rules_hold(data)
+    assert data["verdict"] == "mismatch"
+    assert data["mismatch"]["channels"][0] == "r"
+
+
+def test_another_quad_is_a_different_vehicle() -> None:
+    """A quad with twice the mass and three times the inertia on quad250's motors: the
+    previous rules named thrust_scale ≈ 0.5 and inertia_scale at its bound."""
+    quad = load_vehicle("quad250")
+    heavy = quad.with_settings({"mass": 1.15, "inertia.ixx": 0.0069, "inertia.iyy": 0.0075,
+                                "inertia.izz": 0.0126, "frame.arm_length": 0.16})
+    data = _gap(sim_vehicle=quad, real_vehicle=heavy)
+    assert data["verdict"] == "different-vehicle", data["summary"]
+    assert data["effects"] == []
+    assert "hover thrust" in data["reason"]
+
+
+def test_a_delay_is_said_as_a_later_response() -> None:
+    data = _gap({"time_delay": 0.08})
+    _general_rules_hold(data)
+    assert [e["name"] for e in data["effects"]][:1] == ["time_delay"]
+    assert "responds" in data["summary"] and "ms later than sim" in data["summary"]
+    assert "on average" not in data["summary"]
