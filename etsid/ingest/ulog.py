@@ -44,11 +44,11 @@ import io
 import re
 from pathlib import Path
 
-import numba
 import numpy as np
 
 from etsid.errors import IngestError
 from etsid.frames import quat_to_euler
+from etsid.ingest import ulog_clean
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.rc import motor_from_pwm, stick_from_pwm
@@ -247,46 +247,34 @@ def _start_time(topics: dict[str, Topic]) -> float | None:
     return None
 
 
-@numba.njit(cache=True)
-def _walk_messages(buf: np.ndarray) -> tuple[int, int]:  # pragma: no cover - compiled
-    """Hop over ULog message headers (uint16 size, uint8 type); (messages, end offset)."""
-    pos = 16
-    count = 0
-    n = buf.size
-    while pos + 3 <= n:
-        size = np.int64(buf[pos]) | (np.int64(buf[pos + 1]) << 8)
-        if pos + 3 + size > n:
-            break
-        pos += 3 + size
-        count += 1
-    return count, pos
-
-
-def truncated_bytes(path: Path) -> int:
-    """Bytes at the end of a ULog file that do not complete a message."""
-    size = path.stat().st_size
-    if size <= 16:
-        return 0
-    buf = np.memmap(path, dtype=np.uint8, mode="r")
-    try:
-        _, end = _walk_messages(buf)
-    finally:
-        del buf
-    return int(size - end) if size > end else 0
-
-
-def _parse(path: Path, names: list[str]) -> object:
+def _parse(path: Path, names: list[str], cleaned: ulog_clean.Cleaned) -> object:
     from pyulog import ULog
 
     try:
         # the file is opened here and closed on every path: pyulog, given a name, leaves
         # its handle open when it gives up on a damaged file (a ResourceWarning later)
-        with path.open("rb") as handle, contextlib.redirect_stdout(io.StringIO()), \
+        with (io.BytesIO(ulog_clean.payload(path, cleaned)) if cleaned.changed
+              else path.open("rb")) as handle, contextlib.redirect_stdout(io.StringIO()), \
                 contextlib.redirect_stderr(io.StringIO()):
             return ULog(handle, message_name_filter_list=names)
     except Exception as err:  # pyulog raises many types on broken files
-        first = str(err).splitlines()[0] if str(err) else type(err).__name__
+        first = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
         raise IngestError(f"{path}: not a readable ULog file ({first})") from err
+
+
+def _clean_notes(path: Path, cleaned: ulog_clean.Cleaned, raw: RawLog) -> None:
+    """Notes on what :func:`ulog_clean.clean` left out (stretches skipped are noted with
+    pyulog's own corruption note)."""
+    if cleaned.tail:
+        start = path.stat().st_size - cleaned.tail
+        raw.dropped.append(Issue("bytes that are not ULog messages, at the end", cleaned.tail,
+                                 ""))
+        raw.warnings.append(f"{path.name}: the {cleaned.tail} bytes from byte {start} on are "
+                            "not ULog messages and no sync message follows them: skipped")
+    if cleaned.recursive:
+        names = ", ".join(cleaned.recursive[:5]) + (" …" if len(cleaned.recursive) > 5 else "")
+        raw.warnings.append(f"{path.name}: {len(cleaned.recursive)} message format(s) refer "
+                            f"to themselves ({names}): the topics using them are skipped")
 
 
 def ulog_facts(ulog: object) -> dict[str, str]:
@@ -318,9 +306,12 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     """Read a PX4 ULog into a :class:`RawLog` (see the module docstring)."""
     extra_topics = [o.topic for o in options.field_requests() if o.topic not in TOPICS]
     with progress(path.stat().st_size, f"reading {path.name}", options.progress) as bar:
-        ulog = _parse(path, list(TOPICS) + extra_topics)
+        cleaned = ulog_clean.clean(path)
+        ulog = _parse(path, [t for t in list(TOPICS) + extra_topics
+                             if t not in cleaned.recursive], cleaned)
         bar.update(path.stat().st_size)
     raw = RawLog(path=path, format="ulog")
+    _clean_notes(path, cleaned, raw)
     topics: dict[str, Topic] = {}
     for d in sorted(ulog.data_list, key=lambda d: (d.name, d.multi_id)):  # type: ignore[attr-defined]
         if d.multi_id == 0 and "timestamp" in d.data and d.data["timestamp"].size:
@@ -358,12 +349,12 @@ def read(path: Path, options: ReadOptions) -> RawLog:
                                     columns.get(d.name, []) if d.multi_id == 0 else [], note))
     raw.extra["topics_parsed"] = len(TOPICS) + len(extra_topics)
     raw.extra.update(ulog_facts(ulog))
-    cut = truncated_bytes(path)
+    cut = cleaned.cut
     if cut:
         raw.dropped.append(Issue("bytes of a truncated last message", cut, ""))
         raw.warnings.append(f"{path.name}: file is truncated: skipped the last {cut} bytes "
                             "(an incomplete message)")
-    if getattr(ulog, "file_corruption", False):
+    if getattr(ulog, "file_corruption", False) or cleaned.skipped:
         raw.warnings.append(stream_gap_note(
             path.name, "file is corrupt; pyulog skipped the damaged bytes and kept the "
             "readable messages", [t.t for t in topics.values()],

@@ -385,15 +385,17 @@ def _ulog_messages(buf: bytes) -> list[tuple[int, int, int]]:
 
 def _ulog_recursive(work: Path) -> Path:
     """The real PX4 log with one more format, ``loop``, holding a field of type ``loop``,
-    and a subscription to it, put among its definitions."""
+    put among its definitions, and a subscription to it before the first one."""
     buf = (DATA / "px4_cubeorange_real.ulg").read_bytes()
     msgs = _ulog_messages(buf)
-    first_format = next(m for m in msgs if m[2] == ord("F"))
+    first_format = next(m for m in msgs if m[2] == ord("F"))[0]
+    first_add = next(m for m in msgs if m[2] == ord("A"))[0]
     fmt = b"loop:uint64_t timestamp;loop next;"
-    extra = struct.pack("<HB", len(fmt), ord("F")) + fmt
-    at = first_format[0]
+    add = b"\x00" + struct.pack("<H", 999) + b"loop"
     path = work / "recursive.ulg"
-    path.write_bytes(buf[:at] + extra + buf[at:])
+    path.write_bytes(buf[:first_format] + struct.pack("<HB", len(fmt), ord("F")) + fmt
+                     + buf[first_format:first_add] + struct.pack("<HB", len(add), ord("A"))
+                     + add + buf[first_add:])
     return path
 
 
@@ -612,7 +614,7 @@ def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
     args = [a.replace("{in}", str(path)).replace("{out}", str(out)) for a in c.args]
     start = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "etsid", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=work,
                             env={**os.environ, **(env or {})})
     peak, why = 0.0, ""
     while proc.poll() is None:
