@@ -139,6 +139,15 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
     click.echo(f"{written}: {scenario}, {table.index[-1]:.1f} s at {rate_hz:g} Hz, "
                f"vehicle {table.attrs.get('vehicle', '?')}, seed {seed}, "
                f"ground effect {ground_effect}")
+    _echo_settings(settings)
+
+
+def _echo_settings(settings: dict) -> None:
+    """One line of the --set values the run applied, as parsed (nothing without --set)."""
+    if settings:
+        click.echo("settings applied: " + ", ".join(f"{k} = {v!r}" if isinstance(v, str)
+                                                    else f"{k} = {v}"
+                                                    for k, v in settings.items()))
 
 
 def _write(table: pd.DataFrame, truth: pd.DataFrame, out: Path, fmt: str | None) -> Path:
@@ -171,6 +180,7 @@ def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: i
     t = result.table.index
     click.echo(f"{written}: twin of {log} ({mode} replay, {t[-1] - t[0]:.1f} s), vehicle "
                f"{result.vehicle.name}")
+    _echo_settings(settings)
     for part, where in result.sources.items():
         click.echo(f"  {part}: {where}")
     errs = ", ".join(f"{k} {v['rmse']:.3g} ({100 * v['ratio']:.0f} % of std)"
