@@ -104,6 +104,9 @@ class IdentConfig:
         Model structure of the default rate model: ``auto`` (chosen on an inner split of
         the learning part between scheduled eTS, unscheduled eTS and one rule = ARX,
         :mod:`etsid.ident.structure`), ``scheduled``, ``unscheduled`` or ``arx``.
+    merge
+        Merge neighbouring rules whose consequents are statistically indistinguishable
+        when the model is frozen and at the end of the pass (:mod:`etsid.ets.merge`).
     segments
         Rows to identify on: ``auto`` (airborne samples), ``all`` or ``T0:T1[,T0:T1…]``
         (:mod:`etsid.ident.flight`).
@@ -135,6 +138,7 @@ class IdentConfig:
     attitude: str = "auto"
     unscheduled: str = "none"
     structure: str = "auto"
+    merge: bool = True
 
     def rate_for(self, default_model: bool) -> float | None:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.ets import ETS
+from etsid.ets.merge import merge_rules
 from etsid.ident.regressors import Regression
 from etsid.progress import progress
 
@@ -18,8 +19,14 @@ CHUNK = 4096
 
 
 def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
-                 label: str) -> tuple[np.ndarray, dict[str, Any] | None]:
+                 label: str, merge: bool = False, merges: list[dict[str, Any]] | None = None
+                 ) -> tuple[np.ndarray, dict[str, Any] | None]:
     """Online pass over ``reg``.
+
+    With ``merge``, statistically indistinguishable neighbouring rules are merged
+    (:func:`etsid.ets.merge.merge_rules`, judged on the rows learnt so far) when the model
+    is frozen after ``stop_at`` rows and at the end of the pass; each merge is appended to
+    ``merges`` with the step and time it happened.
 
     Returns
     -------
@@ -37,10 +44,20 @@ def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
         for a, b in itertools.pairwise(bounds):
             S = None if reg.S is None else reg.S[a:b]
             yhat[a:b] = np.asarray(model.run(reg.X[a:b], reg.Y[a:b], S)).reshape(b - a, -1)
+            if merge and b in (stop_at, n):
+                _merge(model, reg, b, merges)
             if b == stop_at:
                 frozen = model.to_dict()
             bar.update(b - a)
     return yhat, frozen
+
+
+def _merge(model: ETS, reg: Regression, upto: int, merges: list[dict[str, Any]] | None
+           ) -> None:
+    done = merge_rules(model, reg.X[:upto], reg.Y[:upto],
+                       None if reg.S is None else reg.S[:upto])
+    if merges is not None:
+        merges.extend({**m, "after_rows": upto, "t": float(reg.t[upto - 1])} for m in done)
 
 
 def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -52,7 +69,8 @@ def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFr
     frame = frame[frame["step"] > first_step].reset_index(drop=True)
     pos = frame["step"].to_numpy() - first_step - 1
     frame.insert(1, "t", reg.t[pos])
-    kinds = {"birth": "births", "replace": "replacements", "removal": "removals"}
+    kinds = {"birth": "births", "replace": "replacements", "removal": "removals",
+             "merge": "merges"}
     for col in kinds.values():
         frame[col] = np.zeros(len(frame), dtype=np.int64)
     text = [""] * len(frame)

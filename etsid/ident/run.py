@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -182,8 +183,9 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     model = _new_model(config, spec, x_range, y_range,
                        schedule_range(reg, spec, split, config.normalise))
     try:
+        merges: list[dict[str, Any]] = []
         yhat, frozen_dict = learn_online(model, reg, split if split < n else -1,
-                                         show_progress, "identify")
+                                         show_progress, "identify", config.merge, merges)
     except ValueError as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
     if split == n:
@@ -197,7 +199,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     metrics = {
         "n_samples": n,
         "rules": {"final": model.n_rules, "peak": int(history["n_rules"].max()),
-                  "frozen": frozen_rules},
+                  "frozen": frozen_rules, "merges": merges},
         "skipped": reg.skipped,
         "validation": {**validation_info(reg, split, config.validate),
                        "excited_s": float(np.count_nonzero(excited[split:]) * dt)},

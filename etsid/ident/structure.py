@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from etsid.ets import ETS
+from etsid.ets.merge import merge_rules
 from etsid.ident.checks import split_excited
 from etsid.ident.config import IdentConfig
 from etsid.ident.metrics import fit_percent, rmse
@@ -87,7 +88,7 @@ def _regression(reg: Regression, spec: RegressorSpec, end: int) -> Regression:
 
 def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) -> ETS:
     """An eTS of ``spec``/``config`` learnt online on rows ``[0, upto)`` with learning-part
-    ranges of those rows."""
+    ranges of those rows (indistinguishable rules merged at the end, as identify does)."""
     scheduled = bool(spec.antecedent)
     x_range, y_range = fixed_ranges(reg, spec, upto, config.normalise)
     model = ETS(**config.ets_params(scheduled), input_names=spec.input_names,
@@ -97,6 +98,8 @@ def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) 
                 antecedent_names=spec.antecedent_names,
                 shared_outputs=config.shared_outputs(spec.outputs, scheduled))
     model.run(reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
+    if config.merge:
+        merge_rules(model, reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
     return model
 
 
