@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import contextlib
 import datetime as dt
+import errno
 import hashlib
 import os
 import resource
+import shutil
 import signal
 import socket
+import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -89,6 +93,8 @@ def error_fields(err: BaseException) -> dict[str, Any]:
             "out of memory (give the worker more memory)")
     elif isinstance(err, EtsidError):
         text = one_line(err)
+    elif isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+        text = f"cannot write the run directory ({err.strerror})"
     else:
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
     return {"status": "error", "error": text, "error_kind": type(err).__name__}
@@ -101,6 +107,42 @@ def failed_outcome(item: Item, spec: BatchSpec, err: BaseException) -> Outcome:
            "sim_input": item[0] if isinstance(item, tuple) else None,
            "options_digest": spec.digest(), **error_fields(err)}
     return Outcome(item, None, row)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+@contextlib.contextmanager
+def staged_dir(final: Path) -> Iterator[Path]:
+    """A private staging folder beside ``final`` that becomes ``final`` whole when the
+    block ends without error (an earlier ``final`` is replaced only then), and is removed
+    otherwise: a log that fails, a full disk or a killed worker never leave half a run
+    directory, and two workers finishing the same log never mix their files."""
+    final.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
+    try:
+        yield staging
+        staging.chmod(0o777 & ~_umask())  # mkdtemp makes 0700
+        for attempt in range(3):  # another worker may put the same log in place meanwhile
+            old = None
+            try:
+                if final.exists():
+                    old = Path(tempfile.mkdtemp(prefix=f".{final.name}.old.",
+                                                dir=final.parent))
+                    os.replace(final, old / final.name)
+                os.rename(staging, final)
+                break
+            except OSError:
+                if attempt == 2:
+                    raise
+            finally:
+                if old is not None:
+                    shutil.rmtree(old, ignore_errors=True)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[str],
@@ -118,7 +160,8 @@ def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[st
                 return False
             run_dir = out / RUNS / f"gap-{digest[:8]}" / f"{run_name(item[1])}-{row['_key'][:12]}"
             row["run_dir"] = run_dir.relative_to(out).as_posix()
-            row.update(tasks.gap(sim, real, spec, run_dir))
+            with staged_dir(run_dir) as staging:
+                row.update(tasks.gap(sim, real, spec, staging))
             return True
         path = stack.enter_context(local_copy(item, spec.protocols))
         row["_local"] = str(path)
@@ -128,7 +171,8 @@ def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[st
         name = f"{run_name(item)}-{row['_key'][:12]}"
         run_dir = out / RUNS / f"{spec.command}-{digest[:8]}" / name
         row["run_dir"] = run_dir.relative_to(out).as_posix()
-        row.update(tasks.RUNNERS[spec.command](path, spec, run_dir))
+        with staged_dir(run_dir) as staging:
+            row.update(tasks.RUNNERS[spec.command](path, spec, staging))
         return True
 
 
