@@ -26,6 +26,7 @@ import pyarrow.parquet as pq
 
 from etsid.batch.schema import SCHEMA, to_table
 from etsid.errors import BatchError
+from etsid.ident.rundir import os_reason
 
 RESULTS = "results"
 RUNS = "runs"
@@ -68,8 +69,7 @@ def write_table_atomic(table: pa.Table, path: Path, what: str) -> Path:
     except OSError as err:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
-        raise BatchError(f"{path.parent}: cannot write {what} "
-                         f"({err.strerror or err})") from err
+        raise BatchError(f"{path.parent}: cannot write {what} ({os_reason(err)})") from err
     except BaseException:
         if tmp is not None:
             tmp.unlink(missing_ok=True)

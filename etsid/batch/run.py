@@ -22,6 +22,7 @@ from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
 from etsid.batch.worker import Item, Outcome
 from etsid.errors import BatchError
+from etsid.ident.rundir import os_reason
 from etsid.progress import progress
 
 SCHEDULERS = ("local", "processes")
@@ -76,7 +77,7 @@ def _write_meta(out: Path, data: dict[str, Any]) -> None:
     except OSError as err:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
-        raise BatchError(f"{path}: cannot write ({err.strerror or err})") from err
+        raise BatchError(f"{path}: cannot write ({os_reason(err)})") from err
 
 
 def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | None = None,

@@ -32,7 +32,7 @@ from etsid.batch.lifeline import die_with_parent
 from etsid.batch.results import RUNS, write_row
 from etsid.batch.spec import BatchSpec
 from etsid.errors import EtsidError
-from etsid.ident.rundir import sha256
+from etsid.ident.rundir import os_errno, os_reason, sha256
 
 Item = str | tuple[str, str]
 """A log (path or URL), or for ``gap`` a ``(sim, real)`` pair."""
@@ -93,8 +93,8 @@ def error_fields(err: BaseException) -> dict[str, Any]:
             "out of memory (give the worker more memory)")
     elif isinstance(err, EtsidError):
         text = one_line(err)
-    elif isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
-        text = f"cannot write the run directory ({err.strerror})"
+    elif isinstance(err, OSError) and os_errno(err) in (errno.ENOSPC, errno.EDQUOT):
+        text = f"cannot write the run directory ({os_reason(err)})"
     else:
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
     return {"status": "error", "error": text, "error_kind": type(err).__name__}

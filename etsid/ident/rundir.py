@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -177,6 +178,24 @@ def _locked(directory: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+def os_reason(err: OSError) -> str:
+    """The cause of a failed write in a few words (``No space left on device``), also for
+    the errors pyarrow raises, which carry the errno only in their text."""
+    found = re.search(r"\[errno (\d+)\]", str(err), flags=re.IGNORECASE)
+    if found:
+        return os.strerror(int(found.group(1)))
+    if err.strerror:
+        return err.strerror
+    text = str(err).strip().splitlines()
+    return text[0] if text else type(err).__name__
+
+
+def os_errno(err: OSError) -> int | None:
+    """The errno of an OSError, also when only its text has it (pyarrow)."""
+    found = re.search(r"\[errno (\d+)\]", str(err), flags=re.IGNORECASE)
+    return int(found.group(1)) if found else err.errno
+
+
 def write_run(run: Run, out: str | Path) -> Path:
     """Write ``run`` into the directory ``out`` (created if needed) whole; returns it.
 
@@ -204,8 +223,8 @@ def write_run(run: Run, out: str | Path) -> Path:
                 else:  # an earlier run's file this run does not have
                     (out / name).unlink(missing_ok=True)
     except OSError as err:
-        raise IdentError(f"{out}: cannot write the run directory "
-                         f"({err.strerror or err})") from err
+        raise IdentError(f"{out}: cannot write the run directory ({os_reason(err)})"
+                         ) from err
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
