@@ -31,9 +31,9 @@ def report(run_dir: Path, fmt: str) -> None:
     On a directory of `etsid gap` or `etsid control`, their reports.
     """
     result = make_report(run_dir, fmt, say)
-    names = ", ".join(p.name for p in result.figures.values())
-    click.echo(f"wrote {result.directory}/: index.html (interactive; open it in a browser), "
-               f"report.md, {names}")
+    names = ["index.html (interactive; open it in a browser)", "report.md",
+             *(p.name for p in result.figures.values())]
+    click.echo(f"wrote {result.directory}/: {', '.join(names)}")
 
 
 COMMANDS = [report]

@@ -16,6 +16,7 @@ import os
 import re
 import shutil
 import tempfile
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,9 @@ FIGURES = {
     "peak_rss_mb": "peak worker memory per log, MB",
 }
 """Result columns drawn as distributions (those with data), with their labels."""
+
+INTEGER_COLUMNS = ("rules_frozen",)
+"""Distributions of counts: one bar per integer."""
 
 RANK_BY = ("fit_one_step", "fit_online")
 """Figures that rank flights best to worst (the first one with data)."""
@@ -118,12 +122,14 @@ def fig_distributions(frame: pd.DataFrame) -> Figure | None:
         for ax, column in zip(axes.flat, columns, strict=False):
             values = ok[column].dropna().to_numpy(dtype=float)
             values = values[np.isfinite(values)]
-            ax.hist(values, bins=min(30, max(5, values.size // 3)), color="tab:blue",
-                    alpha=0.8)
-            ax.set_xlabel(FIGURES[column])
+            integer = column in INTEGER_COLUMNS
+            bins: Any = (np.arange(values.min() - 0.5, values.max() + 1.5) if integer
+                         and values.size else min(30, max(5, values.size // 3)))
+            ax.hist(values, bins=bins, color="tab:blue", alpha=0.8)
+            ax.set_xlabel(textwrap.fill(FIGURES[column], 26))
             ax.set_ylabel("logs")
             ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-            ax.xaxis.set_major_locator(MaxNLocator(nbins=4))
+            ax.xaxis.set_major_locator(MaxNLocator(nbins=4, integer=integer))
             ax.ticklabel_format(axis="x", style="plain", useOffset=False)
             if values.size:
                 ax.axvline(float(np.median(values)), color="tab:red", lw=1,
@@ -328,7 +334,7 @@ class _Parts:
 
     def html(self, image: tuple[str, str] | None,
              interactive: tuple[str, str] = ("", "")) -> str:
-        from etsid.report.page import HINT, html_page
+        from etsid.report.page import html_page
 
         esc = html.escape
         head_js, div = interactive
@@ -339,7 +345,8 @@ class _Parts:
             '<section id="distributions"><h2>Distributions</h2>',
         ]
         if div:
-            parts += [f'<p class="hint">{esc(HINT)}</p>', div]
+            parts += ['<p class="hint">Interactive: drag to pan, scroll to zoom, hover a dot '
+                      "for the flight's name and figures.</p>", div]
         if image is not None:
             parts.append(f'<img alt="distributions" src="data:{image[0]};base64,{image[1]}">')
         else:
