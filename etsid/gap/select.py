@@ -67,7 +67,7 @@ class Scored:
     def why_not(self) -> str:
         """Why it may not be kept ('' if it may)."""
         bits = [h.describe() for h in self.bounds]
-        bits += [f"makes {c} worse on held-out data (z +{dz:.1f})"
+        bits += [f"makes {c} worse on held-out data (RMSE +{dz:.1f}× its floor)"
                  for c, dz in self.worse.items()]
         return "; ".join(bits)
 

@@ -6,8 +6,8 @@ Every rule is a small function with a test of its own (tests/gap/test_gap_verdic
    than :data:`Z_MISMATCH` times its floor (RMSE above twice the floor).
 2. :func:`can_be_consistent` — ``consistent`` only while *every* channel is within that
    threshold with nothing fitted, on all of REAL's evidence and on its held-out part.
-3. :func:`worsened` — an effect is not kept if it raises any channel's held-out mean
-   squared error by more than that channel's noise variance (``Δz > WORSEN_Z``).
+3. :func:`worsened` — an effect is not kept if it raises any channel's held-out RMSE by
+   more than that channel's floor (``√z_after − √z_before > WORSEN_Z``).
 4. :func:`at_bound` — a fitted parameter at, or within :data:`BOUND_SHARE` of, a search
    bound that is not the law's "no effect" value is not a finding: the difference exceeds
    the vocabulary's range (another airframe, or a larger effect than modelled).
@@ -32,8 +32,8 @@ Z_SMALL = 2.5
 """Small but structured tier: with no channel above :data:`Z_MISMATCH`, channels above this
 are offered to the library, and only an effect that removes half their excess is kept."""
 WORSEN_Z = 1.0
-"""Largest rise of any channel's held-out z (mean squared error over floor²) an effect may
-cause: its noise variance."""
+"""Largest rise of any channel's held-out RMSE, in units of its floor, an effect may cause:
+its noise."""
 BOUND_SHARE = 0.02
 GEOMETRIC_RATIO = 20.0
 """A parameter within :data:`BOUND_SHARE` of its search range from a bound is at the bound;
@@ -57,10 +57,11 @@ def can_be_consistent(z_all: dict[str, float], z_hold: dict[str, float]) -> bool
 
 
 def worsened(z_before: dict[str, float], z_after: dict[str, float]) -> dict[str, float]:
-    """Rule 3: channel → rise of its held-out z, for every channel that rose by more than
-    :data:`WORSEN_Z`."""
-    return {c: z_after[c] - z_before[c] for c in z_before
-            if c in z_after and z_after[c] - z_before[c] > WORSEN_Z}
+    """Rule 3: channel → rise of its held-out RMSE in units of its floor, for every channel
+    whose RMSE rose by more than :data:`WORSEN_Z` floors (``√z_after − √z_before``)."""
+    rise = {c: float(np.sqrt(max(z_after[c], 0.0)) - np.sqrt(max(z_before[c], 0.0)))
+            for c in z_before if c in z_after}
+    return {c: v for c, v in rise.items() if v > WORSEN_Z}
 
 
 @dataclass(frozen=True)
