@@ -54,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.ingest import dataflash_index
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.dataflash_legacy import (
@@ -77,6 +78,8 @@ EVENT_STATE_HZ = 10.0
 """Rate at which a state known from events (EV, ARM) is sampled, Hz."""
 _NP = {"b": "i1", "B": "u1", "h": "<i2", "H": "<u2", "i": "<i4", "I": "<u4", "q": "<i8",
        "Q": "<u8", "f": "<f4", "d": "<f8", "s": "S"}
+NOISE_BYTES = 1 << 16
+"""What DFReader printed is kept up to this many bytes (its messages are not needed)."""
 GPS_EPOCH = 315964800.0
 GPS_LEAP_S = 18.0
 
@@ -115,20 +118,28 @@ def _captured_output() -> Iterator[list[str]]:
             for fd in saved:
                 os.close(fd)
             tmp.seek(0)
-            text.append(tmp.read().decode(errors="replace"))
+            text.append(tmp.read(NOISE_BYTES).decode(errors="replace"))
 
 
 def _reader_class() -> type:
     from pymavlink import DFReader
 
+    dataflash_index.install()
+
     class IndexOnly(DFReader.DFReader_binary):  # type: ignore[misc]
         """DFReader_binary without its clock set-up pass, which parses every message in
-        Python when a log has no GPS; etsid reads TimeUS itself."""
+        Python when a log has no GPS (etsid reads TimeUS itself), and with etsid's
+        resynchronising indexer (:mod:`etsid.ingest.dataflash_index`)."""
 
         def init_clock(self) -> None:
             self.clock = DFReader.DFReaderClock_usec()
 
+        def init_arrays(self, progress_callback: object = None) -> None:
+            self.init_arrays_fast(progress_callback)  # never the per-byte Python indexer
+
         def __init__(self, *args: object, **kwargs: object) -> None:
+            self.index_stats = dataflash_index.IndexStats()
+            token = dataflash_index.STATS.set(self.index_stats)
             try:
                 super().__init__(*args, **kwargs)
             except BaseException:  # a broken file: do not leak the handle DFReader opened
@@ -136,6 +147,8 @@ def _reader_class() -> type:
                     with contextlib.suppress(Exception):
                         getattr(self, name).close()
                 raise
+            finally:
+                dataflash_index.STATS.reset(token)
 
     return IndexOnly
 
@@ -427,8 +440,17 @@ def _damage(raw: RawLog, reader: object, data: np.ndarray, noise: str,
         raw.dropped.append(Issue("bytes after the last complete message", tail, ""))
         raw.warnings.append(f"{raw.path.name}: file is truncated or has trailing garbage: "
                             f"skipped the last {tail} bytes")
-    skipped = sum(int(n) for n in re.findall(r"Skipped (\d+) bad bytes", noise))
+    stats = getattr(reader, "index_stats", None) or dataflash_index.IndexStats()
+    skipped = stats.skipped_bytes
     bad = len(re.findall(r"bad header|unknown msg type", noise))
+    if stats.rejected_fmts:
+        at = ", ".join(str(p) for p in stats.rejected_fmts[:5])
+        raw.dropped.append(Issue("FMT record of an impossible length or format",
+                                 len(stats.rejected_fmts), "FMT"))
+        raw.warnings.append(f"{raw.path.name}: skipped {len(stats.rejected_fmts)} FMT "
+                            f"record(s) of an impossible length or format at byte {at}"
+                            f"{' …' if len(stats.rejected_fmts) > 5 else ''}; read on after "
+                            "them")
     if skipped or bad:
         raw.dropped.append(Issue("bytes that are no valid DataFlash message", skipped + bad, ""))
         raw.warnings.append(stream_gap_note(
