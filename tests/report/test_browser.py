@@ -64,7 +64,12 @@ if (out.bokeh) {
         for (const v of column) if (Number.isFinite(v)) finite += 1;
         series.push({field: r.glyph.y.field, finite: finite});
       }
-      out.plots.push({title: m.title ? m.title.text : "", series: series});
+      const legend = [];
+      for (const a of m.above) {
+        if (a.type !== "Legend") continue;
+        for (const item of a.items) legend.push(item.label ? item.label.value : "");
+      }
+      out.plots.push({title: m.title ? m.title.text : "", series: series, legend: legend});
     }
   }
 }
@@ -144,7 +149,8 @@ def flights(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 @pytest.fixture(scope="module")
 def identify_run(flights: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -> Path:
     run = tmp_path_factory.mktemp("ident") / "RUN"
-    invoke("identify", flights["a"], "--out", run, "--vehicle", "tarot680")
+    invoke("identify", flights["a"], "--out", run, "--vehicle", "tarot680",
+           "--structure", "scheduled")  # rules on 1/altitude: the regimes to show
     invoke("report", run)
     return run
 
@@ -159,6 +165,8 @@ def test_identify_report_in_chromium(browser: Any, identify_run: Path) -> None:
     assert {"online", "structure", "figures"} <= set(state["sections"])
     titles = plot_titles(state)
     assert titles[0].startswith("Altitude, shaded by the rule that leads")
+    shaded = state["plots"][0]["legend"]
+    assert "Rule 1 (in ground effect)" in shaded and len(shaded) >= 3  # ≥ 2 rules + altitude
     assert "Leading rule (numbered as in the tables)" in titles
     for y in ("p", "q", "r"):  # each rate with the free-run errors of eTS and ARX under it
         errors = next(p for p in state["plots"] if p["title"] == f"{y}: free-run error, "
