@@ -182,6 +182,16 @@ def airborne_problem(sim: Flight, real: Flight) -> str | None:
     return None
 
 
+def twin_divergence(sim_table: pd.DataFrame, sim_name: str) -> str | None:
+    """What the replay said of a twin that left its recording (``replay_divergence`` in the
+    table's provenance), in words, or None."""
+    div = sim_table.attrs.get("replay_divergence")
+    if not isinstance(div, dict) or "t" not in div:
+        return None
+    return (f"{sim_name} is a replayed twin that leaves its recording at {div['t']:.1f} s "
+            f"({div.get('what', '')})")
+
+
 def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     """The nominal model on SIM, and each channel's floor: SIM's own held-out error or
     REAL's sensor noise, whichever is larger (:func:`etsid.gap.floors.channel_floors`)."""
@@ -346,9 +356,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     rotor_count = structural(sim, real)
     if rotor_count:
         return _different(sim, real, [rotor_count])
+    twin = twin_divergence(sim_table, sim_name)
     problem = airborne_problem(sim, real)
     if problem:
-        return _insufficient(sim, real, problem)
+        return _insufficient(sim, real, problem + (f"; {twin}" if twin else ""))
     info = _vehicle_info(vehicle, sim.motors.shape[1]) if vehicle is not None else {}
     notes: list[str] = []
     floors = nominal_and_floors(sim, real, info.get("k"))
@@ -367,12 +378,16 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     if raised:
         notes.append(f"floor set by {real_name}'s own sensor noise (larger than "
                      f"{sim_name}'s model error) on {', '.join(raised)}")
+    twin = twin_divergence(sim_table, sim_name)
+    if twin:
+        notes.append(f"{twin}: differences after that are the twin's, not physics alone")
     envelope = restrict_to_envelope(sim, real)
     if envelope:
         notes.append(envelope)
         if real.airborne_s < MIN_AIRBORNE_S:
             return _insufficient(sim, real, f"{real_name} flies mostly outside the speed "
-                                            f"range of {sim_name}")
+                                            f"range of {sim_name}" + (f"; {twin}" if twin
+                                                                      else ""))
     evidence, check = different_airframe(sim, real, nominal)
     if evidence:
         return _different(sim, real, evidence, check)

@@ -527,12 +527,13 @@ def replay_many(
         sources = dict(prep.sources)
         if regridded:
             sources["time grid"] = regridded
+        left = divergence(twin, table) if mode == "loop" else None
+        if left is not None:
+            twin.attrs["replay_divergence"] = left
         results.append(ReplayResult(table=twin, truth=tr, vehicle=prep.vehicle, mode=mode,
                                     loop_input=loop_input, thrust=thrust,
                                     sources=sources, errors=_errors(twin, table),
-                                    horizons=horizons,
-                                    divergence=divergence(twin, table) if mode == "loop"
-                                    else None))
+                                    horizons=horizons, divergence=left))
     return results
 
 

@@ -1,0 +1,177 @@
+"""Where a Dask batch's time goes, against the local pool on the same worker count.
+
+Run:  python benchmarks/batch.py --logs 100 --broken 4 --fleet FLEET   (once: the fleet)
+      python benchmarks/batch_dask.py FLEET [--jobs 2] [--repeat 2] [--before DIR]
+
+Each batch (``run_batch`` of ``etsid batch identify``, as the CLI calls it) runs in a child
+process, local pool and Dask LocalCluster back to back in each round. For Dask the child
+loads a scheduler plugin (``distributed.scheduler.preload``: Dask's own task transitions,
+with each task's compute and transfer start/stop times as the workers report them) and
+prints the breakdown of the batch's wall time:
+
+* ``start``: batch start → the first worker registered (cluster start: processes,
+  imports);
+* ``warm``: → the first log task starts (warming the workers, submitting);
+* ``compute``: the logs' compute time (sum over tasks / workers);
+* ``gaps``: worker idle time between its tasks (scheduling, argument and result
+  transfer, the client's bookkeeping), summed / workers;
+* ``transfer``: the part of the gaps the workers report as data transfer;
+* ``tail``: the last task's end → the batch's end (closing the cluster).
+
+Also per-log CPU (the worker's CPU time during each log, median) and peak worker memory
+(VmHWM per log; max and median). ``--before DIR`` runs the same on another etsid checkout
+(``git archive REV | tar -x -C DIR``) so a change is measured back to back with it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+PLUGIN = '''
+import json, os, time
+from distributed.diagnostics.plugin import SchedulerPlugin
+
+class Breakdown(SchedulerPlugin):
+    name = "etsid-bench-breakdown"
+
+    def __init__(self):
+        self.t0 = time.time()
+        self.workers = []
+        self.tasks = []
+
+    def add_worker(self, scheduler=None, worker=None, **kwargs):
+        self.workers.append(time.time())
+
+    def transition(self, key, start, finish, *args, **kwargs):
+        if finish == "memory" and "run_" in str(key):
+            self.tasks.append({"worker": kwargs.get("worker"),
+                               "startstops": kwargs.get("startstops") or []})
+
+    def close(self):
+        with open(os.environ["ETSID_BENCH_BREAKDOWN"], "w") as handle:
+            json.dump({"t0": self.t0, "workers": self.workers, "tasks": self.tasks}, handle)
+
+def dask_setup(scheduler):
+    scheduler.add_plugin(Breakdown())
+'''
+
+CHILD = '''
+import json, os, sys, time
+import dask
+from etsid.batch import BatchSpec, find_inputs, read_results, run_batch
+from etsid.ident import IdentConfig
+from etsid.ingest import ReadOptions
+
+if __name__ == "__main__":
+    fleet, out, jobs, scheduler, plugin = sys.argv[1:6]
+    dask.config.set({"distributed.scheduler.preload": [plugin]})
+    logs = find_inputs([fleet])
+    spec = BatchSpec("identify", read_options=ReadOptions(), ident_config=IdentConfig())
+    start = time.time()
+    run_batch(logs, spec, out, jobs=int(jobs), scheduler=scheduler)
+    end = time.time()
+    rows = read_results(out)
+    print(json.dumps({"start": start, "end": end, "logs": len(logs),
+                      "cpu": rows["cpu_s"].tolist(), "wall": rows["wall_s"].tolist(),
+                      "rss": rows["peak_rss_mb"].tolist()}))
+'''
+
+
+def breakdown(run: dict, trace: dict, jobs: int) -> dict[str, float]:
+    """Phases of one Dask batch, s (see the module docstring)."""
+    starts, stops, compute, transfer = [], [], 0.0, 0.0
+    per_worker: dict[str, list[tuple[float, float]]] = {}
+    for task in trace["tasks"]:
+        for part in task["startstops"]:
+            span = part["stop"] - part["start"]
+            if part["action"] == "compute":
+                compute += span
+                starts.append(part["start"])
+                stops.append(part["stop"])
+                per_worker.setdefault(task["worker"], []).append((part["start"], part["stop"]))
+            elif part["action"] == "transfer":
+                transfer += span
+    gaps = 0.0
+    for spans in per_worker.values():
+        spans.sort()
+        gaps += sum(max(0.0, b[0] - a[1]) for a, b in zip(spans, spans[1:], strict=False))
+    first_worker = min(trace["workers"]) if trace["workers"] else run["start"]
+    return {"wall": run["end"] - run["start"], "start": first_worker - run["start"],
+            "warm": min(starts) - first_worker, "compute": compute / jobs,
+            "gaps": gaps / jobs, "transfer": transfer / jobs,
+            "tail": run["end"] - max(stops), "tasks": len(starts)}
+
+
+def run_child(code: Path, fleet: Path, jobs: int, scheduler: str, work: Path) -> dict:
+    out = work / f"out-{scheduler}"
+    trace = work / "trace.json"
+    trace.unlink(missing_ok=True)
+    env = {**os.environ, "PYTHONPATH": str(code), "ETSID_BENCH_BREAKDOWN": str(trace)}
+    done = subprocess.run([sys.executable, str(work / "child.py"), str(fleet), str(out),
+                           str(jobs), scheduler, str(work / "plugin.py")], env=env,
+                          capture_output=True, text=True, cwd=work, timeout=3600)
+    if done.returncode != 0:
+        raise SystemExit(done.stderr[-3000:])
+    run = json.loads(done.stdout.strip().splitlines()[-1])
+    result = {"wall": run["end"] - run["start"], "logs/min": run["logs"] / (
+        run["end"] - run["start"]) * 60, "cpu/log": float(np.median(run["cpu"])),
+        "busy": sum(run["wall"]) / (jobs * (run["end"] - run["start"])),
+        "rss max": max(run["rss"]), "rss median": float(np.median(run["rss"]))}
+    if scheduler == "processes" and trace.exists():
+        result.update(breakdown(run, json.loads(trace.read_text()), jobs))
+    import shutil
+
+    shutil.rmtree(out, ignore_errors=True)
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("fleet", type=Path)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--before", type=Path, default=None,
+                        help="another etsid checkout, measured back to back")
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="etsid-batch-dask-"))
+    (work / "child.py").write_text(CHILD)
+    (work / "plugin.py").write_text(PLUGIN)
+    here = Path(__file__).resolve().parents[1]
+    codes = [("before", args.before.resolve())] if args.before else []
+    codes.append(("now", here))
+    print(f"# {os.cpu_count()} cpus, load {os.getloadavg()[0]:.1f}; fleet {args.fleet}; "
+          f"{args.jobs} workers")
+    results: dict[tuple[str, str], list[dict]] = {}
+    for round_ in range(args.repeat):
+        for label, code in codes:
+            for scheduler in ("local", "processes"):
+                t0 = time.perf_counter()
+                got = run_child(code, args.fleet, args.jobs, scheduler, work)
+                results.setdefault((label, scheduler), []).append(got)
+                print(f"round {round_ + 1} {label:>6} {scheduler:>9}: "
+                      + ", ".join(f"{k} {v:.3g}" for k, v in got.items())
+                      + f" (child {time.perf_counter() - t0:.0f} s, load "
+                      f"{os.getloadavg()[0]:.1f})", flush=True)
+    print("\nmedians:")
+    for (label, scheduler), runs in results.items():
+        keys = runs[0].keys()
+        med = {k: float(np.median([r[k] for r in runs])) for k in keys}
+        local = results[(label, "local")]
+        ratio = (np.median([r["wall"] for r in local]) / med["wall"]) * 100
+        print(f"{label:>6} {scheduler:>9}: " + ", ".join(f"{k} {v:.3g}" for k, v in med.items())
+              + (f"; throughput {ratio:.0f} % of the local pool, memory "
+                 f"{med['rss max'] / np.median([r['rss max'] for r in local]):.2f}x"
+                 if scheduler != "local" else ""))
+
+
+if __name__ == "__main__":
+    main()

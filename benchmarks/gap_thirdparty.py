@@ -1,0 +1,316 @@
+"""Held-out concealed-effect benchmark of ``etsid gap`` on simulators etsid does not contain.
+
+Pairs (SIM log, "REAL" log with a hidden effect or none) flown in two third-party
+multirotor simulators from PyPI (the ``bench`` extra: ``pip install -e ".[bench]"``):
+
+* ``pyflyt`` — PyFlyt on PyBullet: a 27 g Crazyflie-size quadrotor, PyFlyt's cascaded PID,
+  120 Hz, written as MCAP (ROS 2, MAVROS topics);
+* ``multirotor`` — the ``multirotor`` package: its 10.7 kg Tarot T18 octocopter, its
+  ArduPilot-style cascade, 100 Hz, written as MAVLink telemetry logs.
+
+Each seed gives 24 pairs per simulator: every effect of issue 22's vocabulary the simulator
+can express, four no-effect pairs, thrust scale + time delay together, and three changes
+outside the vocabulary (gyro scale factor, tilted IMU, twisted rotor axes). The vehicle,
+controller, sensor model, log format and rate differ from etsid's own simulator and from
+each other (docs/gap.md, "Third-party benchmarks"). Labels live only in ``labels.json`` of
+the output directory, never in the logs or their names.
+
+Run::
+
+    python benchmarks/gap_thirdparty.py --generate DIR            # seed set 300, both sims
+    python benchmarks/gap_thirdparty.py --generate DIR --seeds 301 --sims pyflyt --jobs 2
+    python benchmarks/gap_thirdparty.py --inspect DIR              # sanity: ingest, airborne,
+                                                                   # excitation (no gap)
+    python benchmarks/gap_thirdparty.py --score DIR --jobs 2       # runs etsid gap per pair
+
+``--score`` prints, per simulator and overall: named correctly X/N, false positives on the
+no-effect pairs, the confusion matrix, a per-effect table and, for the out-of-vocabulary
+changes, whether the answer was ``unexplained``/caveated or a confident wrong name.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import Counter, defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from thirdparty.common import (  # noqa: E402
+    OUT_OF_VOCABULARY,
+    expected_name,
+    jsonable,
+    to_table,
+)
+
+SIMULATORS = ("pyflyt", "multirotor")
+DEFAULT_SEEDS = (300,)
+"""The first held-out seed set; later sets: 301, 302, … (never looked at before a run)."""
+DURATIONS = {"pyflyt": (40.0, 60.0), "multirotor": (45.0, 70.0)}
+"""Flight durations, s (take-off and landing included), drawn per flight."""
+CONFIDENT = 0.9
+"""A named effect at or above this confidence without a caveat is a confident answer."""
+
+
+def simulator(name: str) -> ModuleType:
+    """The pair module of simulator ``name`` (imports the simulator lazily)."""
+    if name == "pyflyt":
+        from thirdparty import pyflyt_pairs
+        return pyflyt_pairs
+    if name == "multirotor":
+        from thirdparty import multirotor_pairs
+        return multirotor_pairs
+    raise SystemExit(f"unknown simulator {name!r}; choose from {', '.join(SIMULATORS)}")
+
+
+def make_pair(sim_name: str, label: str, seed: int) -> tuple[Any, Any, dict[str, Any]]:
+    """(SIM FlightTable, REAL FlightTable, truth) of one concealed pair."""
+    mod = simulator(sim_name)
+    rng = np.random.default_rng(seed)
+    vehicle = mod.random_vehicle(rng)
+    fx, sensor_overrides, truth = mod.draw_effect(label, rng)
+    kind_sim, kind_real = mod.flight_kind(label, rng)
+    lo, hi = DURATIONS[sim_name]
+    d_sim, d_real = rng.uniform(lo, hi), rng.uniform(lo, hi)
+    s_sim = mod.sensors(rng, False, {})
+    s_real = mod.sensors(rng, True, sensor_overrides)
+    rec_sim = mod.fly(kind_sim, d_sim, seed, vehicle, {}, s_sim)
+    rec_real = mod.fly(kind_real, d_real, seed + 7919, vehicle, fx, s_real)
+    sim = to_table(rec_sim, s_sim, rng, f"{sim_name} SIM")
+    real = to_table(rec_real, s_real, rng, f"{sim_name} REAL")
+    truth.update({"vehicle": vehicle, "profiles": [kind_sim, kind_real],
+                  "durations_s": [round(d_sim, 2), round(d_real, 2)]})
+    return sim, real, truth
+
+
+def pair_jobs(sims: list[str], seeds: list[int], only: list[str] | None
+              ) -> list[dict[str, Any]]:
+    """Every pair to generate: id, simulator, label, seed. Ids are numbered in a shuffled
+    order so that a file name says nothing about its effect."""
+    jobs = []
+    for name in sims:
+        labels = simulator_labels(name)
+        for s in seeds:
+            order = np.random.default_rng(s * 7 + len(name)).permutation(len(labels))
+            for k, j in enumerate(order):
+                label = labels[j]
+                if only and label not in only:
+                    continue
+                jobs.append({"id": f"{name}-{s}-{k:02d}", "sim": name, "label": label,
+                             "seed": s * 1000 + int(j) * 10})
+    return jobs
+
+
+def simulator_labels(name: str) -> tuple[str, ...]:
+    """The labels of one seed of ``name``, without importing the simulator itself."""
+    if name == "pyflyt":
+        from thirdparty.pyflyt_pairs import LABELS
+    else:
+        from thirdparty.multirotor_pairs import LABELS
+    return LABELS
+
+
+def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
+    """Fly one pair, write its two logs through etsid's writers, return its label entry."""
+    from etsid.sim.writers import write_log
+
+    t0 = time.time()
+    mod = simulator(job["sim"])
+    sim, real, truth = make_pair(job["sim"], job["label"], job["seed"])
+    folder = Path(out) / job["id"]
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    suffix = mod.LOG_SUFFIX
+    if "ground_effect" in job["label"]:
+        suffix = getattr(mod, "LOW_FLIGHT_SUFFIX", suffix)
+    for role, table in (("sim", sim), ("real", real)):
+        path = folder / f"{role}{suffix}"
+        paths[role] = str(write_log(table, path, rates=mod.LOG_RATES).relative_to(out))
+    return {**job, "expected": expected_name(job["label"]),
+            "out_of_vocabulary": job["label"] in OUT_OF_VOCABULARY,
+            "sim_log": paths["sim"], "real_log": paths["real"], "truth": jsonable(truth),
+            "seconds": round(time.time() - t0, 1)}
+
+
+def generate(out: Path, sims: list[str], seeds: list[int], only: list[str] | None,
+             jobs: int) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    todo = pair_jobs(sims, seeds, only)
+    entries = []
+    t0 = time.time()
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        futures = [pool.submit(generate_one, j, str(out)) for j in todo]
+        for f in futures:
+            e = f.result()
+            entries.append(e)
+            print(f"{e['id']:20s} written in {e['seconds']:5.1f} s", flush=True)
+    labels = out / "labels.json"
+    old = json.loads(labels.read_text())["pairs"] if labels.exists() else []
+    keep = [e for e in old if e["id"] not in {x["id"] for x in entries}]
+    labels.write_text(json.dumps({"benchmark": "gap_thirdparty", "pairs": keep + entries},
+                                 indent=1))
+    print(f"{len(entries)} pairs in {time.time() - t0:.0f} s; labels in {labels}")
+
+
+def inspect_one(entry: dict[str, Any], out: str) -> str:
+    """One line of sanity figures per log of a pair (read back through etsid's ingest):
+    rate, duration, airborne time, height range, rate and attitude excitation."""
+    from etsid.gap.signals import prepare
+    from etsid.ingest import read_log
+
+    cols = []
+    for role in ("sim_log", "real_log"):
+        table = read_log(Path(out) / entry[role])
+        fl = prepare(table, entry[role])
+        air = fl.airborne
+        if not np.any(air):
+            cols.append(f"{fl.fs:5.0f} Hz {fl.t[-1]:5.1f} s NOT AIRBORNE (alt finite "
+                        f"{np.isfinite(fl.alt).mean():.0%}, max {np.nanmax(fl.alt):.2f} m)")
+            continue
+        alt = fl.alt[air]
+        speed = np.linalg.norm(fl.v_body[air, :2], axis=1)
+        cols.append(f"{fl.fs:5.0f} Hz {fl.t[-1]:5.1f} s air {fl.airborne_s:5.1f} s "
+                    f"alt {np.nanmin(alt):5.2f}-{np.nanmax(alt):5.2f} m "
+                    f"p,q,r std {np.array2string(np.std(fl.rates[air], axis=0), precision=2)} "
+                    f"v<={np.max(speed):4.1f} m/s n={fl.motors.shape[1]}")
+    return f"{entry['id']:20s} " + " | ".join(cols)
+
+
+def inspect(out: Path, jobs: int) -> None:
+    entries = json.loads((out / "labels.json").read_text())["pairs"]
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        for line in pool.map(inspect_one, entries, [str(out)] * len(entries)):
+            print(line, flush=True)
+
+
+def answer(data: dict[str, Any]) -> tuple[str, str]:
+    """(the name etsid gap gave, its kind): the named effects "+"-joined, or
+    ``unexplained``/``consistent``/another verdict; kind is ``confident`` when a named
+    effect has confidence ≥ CONFIDENT and no caveat, else ``caveated``, or the verdict."""
+    effects = data.get("effects") or []
+    named = sorted(e["name"] for e in effects if e["name"] != "unexplained")
+    if not named:
+        label = "unexplained" if effects else str(data.get("verdict"))
+        return label, label
+    caveat = any(e.get("caveat") or e.get("caveats") or e.get("at_bound")
+                 for e in effects) or bool(data.get("caveats"))
+    confident = any(float(e.get("confidence", 0.0)) >= CONFIDENT for e in effects
+                    if e["name"] != "unexplained")
+    return "+".join(named), "confident" if confident and not caveat else "caveated"
+
+
+def score_one(entry: dict[str, Any], out: str) -> dict[str, Any]:
+    """Run ``etsid gap`` (in process, :func:`etsid.gap.run.run_gap`) on one pair."""
+    from etsid.gap.run import run_gap
+
+    t0 = time.time()
+    gap_dir = Path(out) / entry["id"] / "gap"
+    gap_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        data = run_gap(Path(out) / entry["sim_log"], Path(out) / entry["real_log"],
+                       gap_dir).data
+        name, kind = answer(data)
+        summary = str(data.get("summary", ""))
+    except Exception as exc:  # a failure is a result here, reported per pair
+        name, kind, data, summary = "error", "error", {}, f"{type(exc).__name__}: {exc}"
+    return {"id": entry["id"], "sim": entry["sim"], "label": entry["label"],
+            "expected": entry["expected"], "named": name, "kind": kind,
+            "verdict": data.get("verdict", "error"), "summary": summary,
+            "seconds": round(time.time() - t0, 1)}
+
+
+def report(rows: list[dict[str, Any]], title: str) -> None:
+    """Print the figures of ``rows`` (one simulator or all)."""
+    vocab = [r for r in rows if r["label"] not in OUT_OF_VOCABULARY]
+    none = [r for r in rows if r["label"] == "none"]
+    correct = sum(r["named"] == r["expected"] for r in vocab)
+    fp = sum(r["verdict"] != "consistent" for r in none)
+    print(f"\n== {title}: {len(rows)} pairs")
+    print(f"named correctly (vocabulary and no-effect pairs): {correct}/{len(vocab)} = "
+          f"{100 * correct / max(1, len(vocab)):.0f} %")
+    print(f"false positives on no-effect pairs: {fp}/{len(none)}")
+    per: dict[str, list[int]] = defaultdict(lambda: [0, 0])
+    wrong: dict[str, Counter] = defaultdict(Counter)
+    for r in vocab:
+        per[r["label"]][0] += r["named"] == r["expected"]
+        per[r["label"]][1] += 1
+        if r["named"] != r["expected"]:
+            wrong[r["label"]][r["named"]] += 1
+    print("per effect (label → expected: named right / pairs; what it said instead):")
+    for label in sorted(per):
+        ok, n = per[label]
+        instead = ", ".join(f"{k} ×{v}" for k, v in wrong[label].most_common())
+        print(f"  {label:24s} → {expected_name(label):24s} {ok}/{n}  {instead}")
+    oov = [r for r in rows if r["label"] in OUT_OF_VOCABULARY]
+    if oov:
+        print("out-of-vocabulary changes (honest = unexplained, caveated or mismatch without "
+              "a confident name):")
+        for r in oov:
+            honest = r["kind"] != "confident" and r["verdict"] != "consistent"
+            print(f"  {r['id']:20s} {r['label']:12s} → {r['named']:28s} {r['kind']:10s} "
+                  f"{'honest' if honest else 'CONFIDENT WRONG' if r['kind'] == 'confident' else 'missed'}")
+    confusion = Counter((r["expected"], r["named"]) for r in rows)
+    print("confusion (expected → named: count):")
+    for (want, got), n in sorted(confusion.items()):
+        print(f"  {want:28s} → {got:28s} {n}")
+
+
+def score(out: Path, jobs: int, only_sims: list[str] | None) -> None:
+    entries = json.loads((out / "labels.json").read_text())["pairs"]
+    if only_sims:
+        entries = [e for e in entries if e["sim"] in only_sims]
+    t0 = time.time()
+    rows = []
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        for r in pool.map(score_one, entries, [str(out)] * len(entries)):
+            rows.append(r)
+            mark = "ok" if r["named"] == r["expected"] else (
+                "oov" if r["label"] in OUT_OF_VOCABULARY else "WRONG")
+            print(f"{r['id']:20s} truth {r['label']:24s} named {r['named']:26s} {mark:5s} "
+                  f"{r['seconds']:5.1f} s  {r['summary'][:100]}", flush=True)
+    (out / "scores.json").write_text(json.dumps(rows, indent=1))
+    print(f"\n{len(rows)} pairs scored in {time.time() - t0:.0f} s")
+    for name in sorted({r["sim"] for r in rows}):
+        report([r for r in rows if r["sim"] == name], name)
+    if len({r["sim"] for r in rows}) > 1:
+        report(rows, "all simulators")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    mode = ap.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--generate", type=Path, metavar="DIR", help="write pairs + labels.json")
+    mode.add_argument("--inspect", type=Path, metavar="DIR",
+                      help="sanity figures of the written logs (no gap analysis)")
+    mode.add_argument("--score", type=Path, metavar="DIR", help="run etsid gap on every pair")
+    ap.add_argument("--sims", default=",".join(SIMULATORS),
+                    help=f"comma-separated simulators (default {','.join(SIMULATORS)})")
+    ap.add_argument("--seeds", default=",".join(map(str, DEFAULT_SEEDS)),
+                    help="comma-separated seed sets, 24 pairs per simulator each (default 300)")
+    ap.add_argument("--only", default=None, help="comma-separated labels (diagnosis)")
+    ap.add_argument("--jobs", type=int, default=1, help="parallel processes")
+    args = ap.parse_args()
+    sims = [s for s in args.sims.split(",") if s]
+    for s in sims:
+        if s not in SIMULATORS:
+            ap.error(f"unknown simulator {s!r}; choose from {', '.join(SIMULATORS)}")
+    if args.generate:
+        seeds = [int(s) for s in args.seeds.split(",")]
+        only = args.only.split(",") if args.only else None
+        generate(args.generate, sims, seeds, only, args.jobs)
+    elif args.inspect:
+        inspect(args.inspect, args.jobs)
+    else:
+        score(args.score, args.jobs, sims if args.sims != ",".join(SIMULATORS) else None)
+
+
+if __name__ == "__main__":
+    main()
