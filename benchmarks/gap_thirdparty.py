@@ -44,7 +44,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from thirdparty.common import (  # noqa: E402
+from thirdparty.common import (
     OUT_OF_VOCABULARY,
     expected_name,
     jsonable,
@@ -255,8 +255,10 @@ def report(rows: list[dict[str, Any]], title: str) -> None:
               "a confident name):")
         for r in oov:
             honest = r["kind"] != "confident" and r["verdict"] != "consistent"
+            verdict = "honest" if honest else (
+                "CONFIDENT WRONG" if r["kind"] == "confident" else "missed")
             print(f"  {r['id']:20s} {r['label']:12s} → {r['named']:28s} {r['kind']:10s} "
-                  f"{'honest' if honest else 'CONFIDENT WRONG' if r['kind'] == 'confident' else 'missed'}")
+                  f"{verdict}")
     confusion = Counter((r["expected"], r["named"]) for r in rows)
     print("confusion (expected → named: count):")
     for (want, got), n in sorted(confusion.items()):
