@@ -51,10 +51,11 @@ def test_flight_ends_before_the_upset(table) -> None:
     assert 72.0 < t0 < 73.0 and 225.0 < t1 < 227.5
 
 
-def test_identify_beats_no_change_on_informative_axes(table) -> None:
+def test_identify_beats_no_change_and_matches_arx_on_informative_axes(table) -> None:
     run = identify(table, IdentConfig())
     for out in ("p", "q", "r"):
         block = run.metrics["outputs"][out]
         one = block["validation"]["one_step"]
         if one.get("informative", True):
             assert one["rmse"] <= block["persistence"]["validation"]["rmse"]
+            assert one["rmse"] <= 1.02 * block["arx"]["validation"]["one_step"]["rmse"]
