@@ -193,6 +193,7 @@ def load_table(path: str | Path) -> pd.DataFrame:
     path = Path(path)
     suffix = path.suffix.lower()
     attrs: dict[str, Any] = {}
+    _check_bounds(path, suffix)
     try:
         if suffix == ".parquet":
             arrow = pq.read_table(path)
@@ -212,7 +213,7 @@ def load_table(path: str | Path) -> pd.DataFrame:
     except FileNotFoundError as err:
         raise TableError(f"{path}: no such file") from err
     except Exception as err:  # pyarrow/pandas raise many types for broken files
-        first = str(err).splitlines()[0] if str(err) else type(err).__name__
+        first = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
         raise TableError(f"{path}: not a readable {suffix[1:]} table ({first})") from err
     warnings = list(attrs.get("warnings", []))
     if "t" in frame.columns:
@@ -236,6 +237,49 @@ def load_table(path: str | Path) -> pd.DataFrame:
         return validate(frame)
     except TableError as err:
         raise TableError(f"{path}: {err}") from err
+
+
+MAX_TABLE_COLUMNS = 10_000
+"""Columns a table may have (a FlightTable has about 30)."""
+MAX_LINE_BYTES = 1 << 20
+"""Length of a CSV table's header line, bytes."""
+
+
+def _check_bounds(path: Path, suffix: str) -> None:
+    """Refuse, before parsing, what would make reading a table unbounded: not a regular
+    file (a FIFO or device never ends), more than :data:`MAX_TABLE_COLUMNS` columns, a
+    CSV header line longer than :data:`MAX_LINE_BYTES`."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError as err:
+        raise TableError(f"{path}: no such file") from err
+    except OSError as err:
+        raise TableError(f"{path}: cannot read ({err.strerror or err})") from err
+    if not stat.S_ISREG(mode):
+        raise TableError(f"{path}: not a regular file (a FIFO, device or socket): tables "
+                         "are read from files")
+    if suffix == ".csv":
+        with path.open("rb") as handle:
+            header = handle.readline(MAX_LINE_BYTES + 1)
+        if len(header) > MAX_LINE_BYTES:
+            raise TableError(f"{path}: the header line is longer than "
+                             f"{MAX_LINE_BYTES >> 20} MiB: not a table etsid reads")
+        columns = header.count(b",") + 1
+    elif suffix == ".parquet":
+        import pyarrow.parquet as pq
+
+        try:
+            columns = pq.read_metadata(path).num_columns
+        except Exception as err:  # pyarrow raises many types for broken files
+            first = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
+            raise TableError(f"{path}: not a readable parquet table ({first})") from err
+    else:
+        return
+    if columns > MAX_TABLE_COLUMNS:
+        raise TableError(f"{path}: {columns} columns, more than the {MAX_TABLE_COLUMNS} a "
+                         "table may have")
 
 
 def is_table_path(path: str | Path) -> bool:

@@ -12,6 +12,7 @@ as the original would have.
 from __future__ import annotations
 
 import json
+import stat
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,15 @@ MAX_FILE_BYTES = 100 * 2**20
 """A rules.json larger than this is refused before it is read (bounded memory and time)."""
 MAX_RULES = 1000
 """Most rules a rule base may hold or allow (``params/max_rules``), as ``--max-rules``."""
+MAX_VALUES = 10_000_000
+"""Values (numbers, strings, … counted by their commas before parsing) a rule-base file may
+hold: 320 MB of parsed floats at most. A global covariance of 150 rules of 20 regressors
+holds 9.5 million."""
+MAX_KEYS = 100_000
+"""Keys a rule base may have in all (1000 rules of 16 keys: 16 000), counted before
+parsing; and in one object."""
+MAX_MESSAGE_CHARS = 300
+"""Length of what an error message quotes of a rule base."""
 MAX_ABS_NUMBER = 1e100
 """Numbers beyond ±this (and integers beyond 64 bits) are refused: no model state is that
 large, and numpy would overflow on them."""
@@ -120,7 +130,8 @@ def model_to_dict(model: Any) -> dict[str, Any]:
 
 
 def _fail(msg: str, source: str) -> ModelError:
-    return ModelError(f"{source}: {msg}")
+    text = msg if len(msg) <= MAX_MESSAGE_CHARS else msg[:MAX_MESSAGE_CHARS] + " …"
+    return ModelError(f"{source}: {' '.join(text.split())}")
 
 
 def _matrix(v: Any, shape: tuple[int, ...], what: str, source: str) -> np.ndarray:
@@ -158,10 +169,14 @@ def check_caps(data: Any, source: str) -> None:
             text = str(cap)
             shown = text if len(text) <= 20 else f"{text[:12]}… ({len(text)} digits)"
             raise _fail(f"params/max_rules = {shown} is outside 1…{MAX_RULES}", source)
+    check_shapes(data, source)
     stack: list[tuple[str, Any]] = [("", data)]
     while stack:
         where, node = stack.pop()
         if isinstance(node, dict):
+            if len(node) > MAX_KEYS:
+                raise _fail(f"the object at {where or '/'} has {len(node)} keys, more than "
+                            f"the {MAX_KEYS} a rule base has", source)
             stack.extend((f"{where}/{k}", v) for k, v in node.items())
         elif isinstance(node, list):
             stack.extend((f"{where}/{i}", v) for i, v in enumerate(node))
@@ -175,6 +190,63 @@ def check_caps(data: Any, source: str) -> None:
                         f"±{MAX_ABS_NUMBER:.0e}", source)
 
 
+def _length(data: Any, path: str) -> int | None:
+    """Length of the list at the slash-separated ``path`` of ``data`` (None: not a list)."""
+    node = data
+    for key in path.split("/"):
+        if isinstance(node, dict):
+            node = node.get(key)
+        elif isinstance(node, list) and key.isdigit() and int(key) < len(node):
+            node = node[int(key)]
+        else:
+            return None
+    return len(node) if isinstance(node, list) else None
+
+
+def check_shapes(data: dict[str, Any], source: str) -> None:
+    """Lengths of the arrays against the sizes the rule base declares (its inputs, outputs,
+    antecedent dimension and rule count), checked before anything walks the arrays: a
+    focal point of millions of numbers is refused at once, not after the schema check
+    has gone through it. Fields of the wrong kind are left to the schema check."""
+    if len(data) > MAX_KEYS:
+        raise _fail(f"the top level has {len(data)} keys; a rule base has about 10", source)
+    n, m = _length(data, "inputs"), _length(data, "outputs")
+    rules = data.get("rules")
+    if n is None or m is None or not isinstance(rules, list):
+        return
+    ante = data.get("antecedents")
+    scheduled = isinstance(ante, dict) and ante.get("scheduled") is True
+    na = ante.get("dimension") if scheduled else n  # type: ignore[union-attr]
+    if not isinstance(na, int) or isinstance(na, bool) or not 0 <= na <= MAX_KEYS:
+        return
+    d = na + m + (n if scheduled else 0)
+    sizes: dict[str, tuple[int, int | None]] = {
+        "normalisation/low": (d, None), "normalisation/high": (d, None),
+        "normalisation/fixed": (d, None), "learner/mean": (d, None), "learner/m2": (d, None),
+        "learner/global_covariance": (len(rules) * (n + 1), len(rules) * (n + 1)),
+        "learner/shared_covariance": (n + 1, n + 1),
+    }
+    if scheduled:
+        sizes["antecedents/names"] = (na, None)
+    for i in range(len(rules)):
+        sizes.update({f"rules/{i}/focal_point": (d, None), f"rules/{i}/radius": (na, None),
+                      f"rules/{i}/scatter": (na, None), f"rules/{i}/consequent": (n + 1, m),
+                      f"rules/{i}/consequent_original_units": (n + 1, m),
+                      f"rules/{i}/covariance": (n + 1, n + 1)})
+    for path, (rows, cols) in sizes.items():
+        got = _length(data, path)
+        if got is not None and got != rows:
+            raise _fail(f"{path} has the wrong shape: {got} entries, expected {rows} (from "
+                        f"the rule base's {n} inputs, {m} outputs and {len(rules)} rules)",
+                        source)
+        if got and cols is not None:
+            for j in range(rows):
+                width = _length(data, f"{path}/{j}")
+                if width is not None and width != cols:
+                    raise _fail(f"{path}/{j} has the wrong shape: {width} entries, expected "
+                                f"{cols}", source)
+
+
 def model_from_dict(cls: type, data: Any, source: str = "rule base",
                     trusted: bool = False) -> Any:
     """Validate ``data`` against the schema and rebuild the model; ModelError if invalid.
@@ -185,9 +257,9 @@ def model_from_dict(cls: type, data: Any, source: str = "rule base",
         try:
             jsonschema.validate(data, schema())
         except jsonschema.ValidationError as err:
-            where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
+            where = "/".join(str(p) for p in err.absolute_path)[:200] or "(top level)"
             raise _fail(
-                f"not a valid {SCHEMA_NAME} rule base at {where}: {err.message}", source
+                f"not a valid {SCHEMA_NAME} rule base at {where}: {err.message[:200]}", source
             ) from err
     params = dict(data["params"])
     n, m = len(data["inputs"]), len(data["outputs"])
@@ -307,16 +379,29 @@ def read_document(path: str | Path) -> Any:
     """
     p = Path(path)
     try:
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ModelError(f"{p}: {size / 2**20:.0f} MiB is too large for a rule base "
-                             f"(limit {MAX_FILE_BYTES / 2**20:.0f} MiB)")
-        text = p.read_text(encoding="utf-8")
+        info = p.stat()
+        if not stat.S_ISREG(info.st_mode):
+            raise ModelError(f"{p}: not a regular file (a FIFO, device or socket): rule "
+                             "bases are read from files")
+        if info.st_size > MAX_FILE_BYTES:
+            raise ModelError(f"{p}: {info.st_size / 2**20:.0f} MiB is too large for a rule "
+                             f"base (limit {MAX_FILE_BYTES / 2**20:.0f} MiB)")
+        with p.open("rb") as handle:  # at most the limit, whatever the size said
+            raw = handle.read(MAX_FILE_BYTES + 1)
+        if len(raw) > MAX_FILE_BYTES:
+            raise ModelError(f"{p}: too large for a rule base (limit "
+                             f"{MAX_FILE_BYTES / 2**20:.0f} MiB)")
+        text = raw.decode("utf-8")
     except OSError as err:
         raise ModelError(f"{p}: cannot read rule base ({err.strerror or err})") from err
     except UnicodeDecodeError as err:
         raise ModelError(f"{p}: not a JSON file ({err}); expected a {SCHEMA_NAME} rule base"
                          ) from err
+    values, keys = text.count(",") + 1, text.count('":')
+    if values > MAX_VALUES or keys > MAX_KEYS:
+        what = (f"about {values} values, more than the {MAX_VALUES}" if values > MAX_VALUES
+                else f"about {keys} keys, more than the {MAX_KEYS}")
+        raise ModelError(f"{p}: {what} a rule base may hold")
     try:
         return json.loads(text, parse_constant=_no_constant)
     except RecursionError as err:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -47,6 +48,13 @@ def _head(path: Path, size: int = 16) -> bytes:
         raise IngestError(f"{path}: cannot read ({err.strerror or err})") from err
 
 
+def special_kind(mode: int) -> str:
+    """What a file that is not a regular file is (its ``st_mode``), in words."""
+    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    return next((name for test, name in kinds if test(mode)), "a special file")
+
+
 def detect_format(path: Path) -> str:
     """Format name of ``path`` (a key of :data:`FORMATS`).
 
@@ -56,7 +64,8 @@ def detect_format(path: Path) -> str:
     Raises
     ------
     IngestError
-        Missing, empty, unreadable or unrecognised file, or bytes that contradict the
+        Missing, empty, unreadable or unrecognised file, not a regular file (a FIFO
+        or device: reading it would never end), or bytes that contradict the
         extension.
     """
     if not path.exists():
@@ -67,7 +76,11 @@ def detect_format(path: Path) -> str:
         storage = sorted(p.name for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
         hint = f" (it holds {', '.join(storage)}: pass that file instead)" if storage else ""
         raise IngestError(f"{path}: directory without metadata.yaml is not a ROS 2 bag{hint}")
-    if path.stat().st_size == 0:
+    info = path.stat()
+    if not stat.S_ISREG(info.st_mode):
+        raise IngestError(f"{path}: not a regular file but {special_kind(info.st_mode)}: "
+                          "logs are read from files")
+    if info.st_size == 0:
         raise IngestError(f"{path}: empty file")
     head = _head(path)
     fmt = EXTENSIONS.get(path.suffix.lower())

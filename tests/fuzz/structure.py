@@ -480,26 +480,28 @@ def _fifo(name: str) -> Callable[[Path], Path]:
 
 
 def _rules_doc() -> dict:
-    """A small valid rule base, made by identifying the gas furnace in-process."""
+    """The fields of a rule base that size its arrays: one input, one output, one rule."""
     return {
-        "schema": "etsid.rules/2", "outputs": ["y"],
-        "regressors": {"names": ["y[k-1]"], "sample_rate_hz": 1.0},
-        "params": {"max_rules": 10, "radius": 0.5},
-        "rules": [{"focal": [0.0], "theta": [[0.0], [1.0]]}],
+        "schema": "etsid.rules/2", "inputs": ["y[k-1]"], "outputs": ["y"],
+        "antecedents": {"scheduled": False, "names": ["y[k-1]"], "dimension": 1},
+        "params": {"max_rules": 10},
+        "rules": [{"id": 0, "focal_point": [0.0, 0.0], "radius": [0.5], "scatter": [0.1],
+                   "consequent": [[0.0], [1.0]]}],
     }
 
 
-def _rules_focal(work: Path) -> Path:
-    """A 60 MB rules.json whose focal point holds 30 million numbers."""
-    doc = _rules_doc()
-    path = work / "rules.json"
-    text = json.dumps(doc)
-    head, _, tail = text.partition('"focal": [0.0]')
-    with path.open("w") as out:
-        out.write(head + '"focal": [')
-        out.write(",".join(["0"] * 30_000_000))
-        out.write("]" + tail)
-    return path
+def _rules_focal(count: int) -> Callable[[Path], Path]:
+    """A rules.json whose focal point holds ``count`` numbers."""
+    def build(work: Path) -> Path:
+        path = work / "rules.json"
+        head, _, tail = json.dumps(_rules_doc()).partition('"focal_point": [0.0, 0.0]')
+        with path.open("w") as out:
+            out.write(head + '"focal_point": [')
+            out.write(",".join(["0"] * count))
+            out.write("]" + tail)
+        return path
+
+    return build
 
 
 def _rules_keys(work: Path) -> Path:
@@ -570,8 +572,11 @@ CASES: list[Case] = [
          what="etsid rules FIFO"),
     Case("rules-dev-zero", _link("/dev/zero", "rules.json"), error=True, cheap=True,
          args=("rules", "{in}"), what="etsid rules → /dev/zero"),
-    Case("rules-30m-focal", _rules_focal, error=True, args=("rules", "{in}"),
+    Case("rules-30m-focal", _rules_focal(30_000_000), error=True, args=("rules", "{in}"),
          what="rules.json of 60 MB: a focal point of 30 million numbers"),
+    Case("rules-3m-focal", _rules_focal(3_000_000), error=True, args=("rules", "{in}"),
+         note=("focal_point",), cheap=True,
+         what="rules.json of 6 MB: a focal point of 3 million numbers (under the value cap)"),
     Case("rules-4m-keys", _rules_keys, error=True, args=("rules", "{in}"),
          what="rules.json: one object of 4 million keys"),
     Case("inspect-escapes", _mcap_escape_topic, args=("inspect", "{in}"),
