@@ -3,10 +3,13 @@
 Layout::
 
     DIR/results/command=identify/<sha256[:32]>-<options[:12]>-<path[:8]>.parquet
+    DIR/results/command=identify/part-<random16>.parquet     (compacted rows)
 
-One file per log is written atomically (temporary name, then rename) as soon as the log
-finishes, so a batch stopped at any moment leaves only whole rows, and ``--resume`` finds
-them by name. ``pandas.read_parquet(DIR/"results")``, ``dask.dataframe.read_parquet`` and
+One file per log is written atomically (unique temporary name, then rename) as soon as the
+log finishes, so a batch stopped at any moment leaves only whole rows. A finished batch
+whose partition holds :data:`COMPACT_AT` files or more merges them into part files
+(:func:`compact`). ``--resume`` reads the rows (input hash, options digest, status) to
+know what is done. ``pandas.read_parquet(DIR/"results")``, ``dask.dataframe.read_parquet`` and
 DuckDB's ``read_parquet('DIR/results/*/*.parquet', hive_partitioning = true)`` read the
 dataset as it is; :func:`read_results` adds the row order and the schema.
 """
@@ -16,11 +19,13 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import uuid
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
@@ -128,6 +133,53 @@ def done_keys(out: str | Path, command: str, options_digest: str,
             latest[key[:32]] = (status, finished or "")
     return frozenset(key for key, (status, _) in latest.items()
                      if status == "ok" or not retry_failed)
+
+
+COMPACT_AT = 256
+"""Row files in a partition from which a finished batch compacts them into part files."""
+
+PART_ROWS = 10_000
+"""Rows per part file of a compacted partition."""
+
+
+def _latest_indices(table: pa.Table) -> pa.Array:
+    """Row indices of ``table`` keeping one row per log (:data:`ROW_IDENTITY`), the latest
+    ``finished``."""
+    ident = [c for c in ROW_IDENTITY if c in table.column_names and c != "command"]
+    indexed = table.select([*ident, "finished"]).append_column(
+        "_row", pa.array(range(table.num_rows), pa.int64()))
+    ordered = indexed.sort_by([("finished", "ascending"), ("_row", "ascending")])
+    ordered = ordered.append_column("_rank", pa.array(range(ordered.num_rows), pa.int64()))
+    last = ordered.group_by(ident, use_threads=False).aggregate([("_rank", "max")])
+    ranks = pc.sort_indices(last.column("_rank_max"))
+    return pc.take(ordered.column("_row"),
+                           pc.take(last.column("_rank_max"), ranks))
+
+
+def compact(out: str | Path, command: str, min_files: int = COMPACT_AT) -> int:
+    """Merge the row files of ``DIR/results/command=COMMAND`` into part files of at most
+    :data:`PART_ROWS` rows (one row per log, the latest), when there are ``min_files`` or
+    more. Each part is written whole before the files it replaces are removed: stopped
+    at any moment, the dataset holds every row (at worst twice, which
+    :func:`read_results` resolves). Returns the number of files merged.
+    """
+    directory = partition_dir(out, command)
+    files = sorted(directory.glob("*.parquet")) if directory.is_dir() else []
+    if len(files) < max(2, min_files):
+        return 0
+    merged = 0
+    for first in range(0, len(files), PART_ROWS):
+        group = files[first:first + PART_ROWS]
+        table = ds.dataset([str(f) for f in group], format="parquet",
+                           schema=SCHEMA).to_table()
+        table = table.take(_latest_indices(table)).sort_by(
+            [("input", "ascending"), ("options_digest", "ascending")])
+        name = f"part-{uuid.uuid4().hex[:16]}.parquet"
+        write_table_atomic(table, directory / name, "a compacted part of the results")
+        for path in group:
+            path.unlink(missing_ok=True)
+        merged += len(group)
+    return merged
 
 
 ROW_IDENTITY = ("command", "options_digest", "sim_input", "input")

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from etsid.batch.results import done_keys, write_row
+from etsid.batch.results import compact, done_keys, write_row
 from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
 from etsid.batch.worker import Item, Outcome
@@ -178,8 +178,12 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
             with contextlib.suppress(BatchError):  # a full disk: the error says so
                 _write_meta(out, meta)
             raise
+    compact(out, spec.command)
     summary.wall_s = time.perf_counter() - start
     meta.update(ended="finished", **_counts(summary, start))
+    timings = getattr(runner, "timings", None)
+    if timings:
+        meta["dask_timings_s"] = {k: round(v, 3) for k, v in timings.items()}
     _write_meta(out, meta)
     return summary
 
