@@ -164,6 +164,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
             reg = build(table, spec)
             excited = excited_mask(table, spec.outputs)[reg.rows]
     choice = None
+    requested_spec, requested_config = spec, config
     if rate_model:
         choice = _structure(reg, spec, config, excited, table)
         if choice.spec != spec:
@@ -212,7 +213,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
     if choice is not None and frozen is not None and split < n:
         metrics["structure"] = {**choice.to_dict(), "validation": validation_table(
-            reg, spec, config, choice.chosen, split, len(table), cols)}
+            table, reg, requested_spec, requested_config, choice.chosen, split, cols)}
         chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
                                          float(np.count_nonzero(excited[:split]) * dt),
                                          1.0 / dt, reg.X.shape[1] + 1))

@@ -36,7 +36,7 @@ from etsid.ident.checks import split_excited
 from etsid.ident.config import IdentConfig
 from etsid.ident.metrics import fit_percent, rmse
 from etsid.ident.ranges import fixed_ranges, schedule_range
-from etsid.ident.regressors import Regression, RegressorSpec
+from etsid.ident.regressors import Regression, RegressorSpec, build
 from etsid.ident.simulate import envelope, free_run
 
 ARX_OMEGA = 1e4
@@ -155,26 +155,29 @@ def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
     return StructureChoice(chosen, c_spec, c_config, note, fits)
 
 
-def validation_table(reg: Regression, spec: RegressorSpec, config: IdentConfig,
-                     chosen: str, split: int, n_table: int, cols: dict[str, np.ndarray]
+def validation_table(table: Any, reg: Regression, spec: RegressorSpec, config: IdentConfig,
+                     chosen: str, split: int, cols: dict[str, np.ndarray]
                      ) -> dict[str, dict[str, dict[str, float | None]]]:
     """Validation one-step RMSE and free-run fit % per output of every candidate (the
-    chosen one from ``cols``), ARX (batch LS) and persistence: ``{model: {y: {...}}}``."""
+    chosen one from ``cols``), ARX (batch LS) and persistence: ``{model: {y: {...}}}``.
+
+    ``spec`` and ``config`` are the requested ones (before the choice), ``reg`` and
+    ``split`` the chosen model's regression and first validation row; each other candidate
+    learns on its own rows before the same validation start time."""
     out: dict[str, dict[str, dict[str, float | None]]] = {}
-    names = [n for n in ORDER if n != "scheduled" or spec.antecedent or chosen == "scheduled"]
-    base_spec = spec
-    for name in names:
+    for name in (n for n in ORDER if n != "scheduled" or spec.antecedent):
+        label = "eTS one rule" if name == "arx" else f"eTS {name}"
         if name == chosen:
-            one, sim = cols["y_val"][split:], cols["y_sim"][split:]
-        else:
-            c_spec, c_config = candidate(name, base_spec, config)
-            if name == "scheduled" and not base_spec.antecedent:
-                continue
-            sub = _regression(reg, c_spec, len(reg.X))
-            one, sim = scores_on(train(sub, c_spec, c_config, split), sub, c_spec, split,
-                                 n_table)
-        out[f"eTS {name}" if name != "arx" else "eTS one rule"] = _block(reg, split, one, sim,
-                                                                        spec)
+            out[label] = _block(reg, split, cols["y_val"][split:], cols["y_sim"][split:], spec)
+            continue
+        c_spec, c_config = candidate(name, spec, config)
+        c_reg = build(table, c_spec)
+        c_split = int(np.searchsorted(c_reg.t, reg.t[split], side="left"))
+        if not 0 < c_split < len(c_reg.t):
+            continue
+        one, sim = scores_on(train(c_reg, c_spec, c_config, c_split), c_reg, c_spec, c_split,
+                             len(table))
+        out[label] = _block(c_reg, c_split, one, sim, spec)
     out["ARX"] = _block(reg, split, cols["y_arx_val"][split:], cols["y_arx_sim"][split:], spec)
     out["no-change"] = _block(reg, split, cols["y_persist"][split:], None, spec)
     return out
