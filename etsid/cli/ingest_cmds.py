@@ -12,6 +12,7 @@ import click
 from etsid.cli.options import RateHz, echo_table_notes, log_options, read_options
 from etsid.errors import IngestError
 from etsid.ingest import inspect_log, read_log
+from etsid.ingest.base import printable
 from etsid.table import save_table
 
 
@@ -30,7 +31,21 @@ def inspect(log: Path, as_json: bool, maps: tuple[str, ...], mapping_file: Path 
 
 
 def format_inspect(info: dict[str, Any]) -> str:
-    """Human-readable ``inspect`` output."""
+    """Human-readable ``inspect`` output (names from the log with control characters
+    shown as ``\\xNN``, never sent to the terminal)."""
+    text = _printable_info(info)
+    return "\n".join(printable(line) for line in _inspect_lines(text).splitlines())
+
+
+def _printable_info(info: dict[str, Any]) -> dict[str, Any]:
+    """``info`` with every channel name, type and note made printable (so that the
+    columns line up on what is shown)."""
+    channels = [{**c, "name": printable(str(c["name"])), "type": printable(str(c["type"])),
+                 "note": printable(str(c["note"]))} for c in info["channels"]]
+    return {**info, "channels": channels}
+
+
+def _inspect_lines(info: dict[str, Any]) -> str:
     lines = [f"file:      {info['path']}", f"format:    {info['format']}"]
     if info["start_time"]:
         start = dt.datetime.fromtimestamp(info["start_time"], tz=dt.UTC)

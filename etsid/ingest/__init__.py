@@ -15,7 +15,7 @@ import pandas as pd
 
 from etsid.errors import EtsidError, IngestError, TableError
 from etsid.ingest.align import build_table, native_rate
-from etsid.ingest.base import Channel, Override, RawLog, ReadOptions, Signal
+from etsid.ingest.base import Channel, Override, RawLog, ReadOptions, Signal, printable
 from etsid.ingest.damage import decoder_errors, describe
 from etsid.ingest.detect import FORMATS, detect_format, open_reader
 from etsid.ingest.mapping import choose_signals
@@ -39,12 +39,23 @@ def read_raw(path: str | Path, options: ReadOptions | None = None) -> RawLog:
     fmt = detect_format(path)
     reader = open_reader(fmt)
     try:
-        return reader(path, options or ReadOptions())
+        return _printable_notes(reader(path, options or ReadOptions()))
     except EtsidError:
         raise
     except decoder_errors() as err:  # the one error path for damaged bytes (damage.py)
         raise IngestError(f"{path}: damaged {fmt} file, nothing could be read "
                           f"({describe(err)})") from err
+
+
+def _printable_notes(raw: RawLog) -> RawLog:
+    """Notes and issue names with control characters shown, not sent (names in them come
+    from the log: a terminal escape there would reach the user's terminal and reports)."""
+    raw.warnings = [printable(w) for w in raw.warnings]
+    for issue in (*raw.dropped, *raw.repaired):
+        issue.reason, issue.signal = printable(issue.reason), printable(issue.signal)
+    for channel in raw.channels:
+        channel.note = printable(channel.note)
+    return raw
 
 
 def read_log(
@@ -98,6 +109,13 @@ def table_from_raw(
     note = missing_core_note(raw, list(table.columns))
     if note:
         table.attrs["warnings"].append(note)
+    attrs = table.attrs  # sources named after topics: shown, never sent raw (see printable)
+    attrs["warnings"] = [printable(w) for w in attrs.get("warnings", [])]
+    attrs["mapping"] = {c: printable(v) for c, v in (attrs.get("mapping") or {}).items()}
+    for sig in (attrs.get("signals") or {}).values():
+        sig["source"] = printable(sig["source"])
+    if isinstance(attrs.get("reference"), str):
+        attrs["reference"] = printable(attrs["reference"])
     return table
 
 

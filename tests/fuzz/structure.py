@@ -253,11 +253,7 @@ def _mcap_message_bomb(work: Path) -> Path:
     import zstandard
 
     path, lo, hi = _small_mcap(work, "message_bomb.mcap")
-    from mcap.reader import make_reader
-
-    with path.open("rb") as handle:
-        channel = next(c.id for c in make_reader(handle).get_summary().channels.values()
-                       if c.topic == "/mavros/imu/data")
+    channel = _channel_id(path, "/mavros/imu/data")
     record = struct.pack("<BQHIQQ", 5, 22, channel, 0, lo, lo)
     block = record * ((1 << 24) // len(record))
     total = (GIB // len(block)) * len(block)
@@ -287,18 +283,39 @@ def _mcap_channel_flood(work: Path, channels: int = 60_000) -> Path:
                          lambda *_: None, extra=extra)
 
 
-def _mcap_escape_topic(work: Path) -> Path:
-    def extra(writer, schemas, message) -> None:  # type: ignore[no-untyped-def]
-        if not hasattr(extra, "done"):
-            extra.done = True  # type: ignore[attr-defined]
-            for name in ("/x\x1b]52;c;ZWNobyBwd25lZA==\x07", "/y\x1b[2J\x1b[31m<script>",
-                         "/z\x9b1m\r\x08"):
-                cid = writer.register_channel(name, "cdr", next(iter(schemas.values())))
-                writer.add_message(cid, message.log_time, b"\x00\x01\x00\x00",
-                                   message.log_time)
+ESCAPES = ("/x\x1b]52;c;ZWNobyBwd25lZA==\x07", "/y\x1b[2J\x1b[31m<script>", "/z\x9b1m\r\x08")
+"""Topic names carrying OSC 52 (clipboard), CSI and other control characters."""
 
+
+def _mcap_escape_topic(work: Path) -> Path:
+    """The sample MCAP with three more channels named with terminal escapes: one copies
+    every IMU message (a usable candidate for p, q, r), two hold an undecodable message."""
+    state: dict[str, int] = {}
+
+    def extra(writer, schemas, message) -> None:  # type: ignore[no-untyped-def]
+        if not state:
+            schema = next(iter(schemas.values()))
+            for name in ESCAPES:
+                state[name] = writer.register_channel(name, "cdr", schema)
+            for name in ESCAPES[1:]:
+                writer.add_message(state[name], message.log_time, b"\x00\x01\x00\x00",
+                                   message.log_time)
+        if message.channel_id == imu:
+            writer.add_message(state[ESCAPES[0]], message.log_time, message.data,
+                               message.log_time)
+
+    imu = _channel_id(SAMPLES / "hexa_ige_oge.mcap", "/mavros/imu/data")
     return _rewrite_mcap(SAMPLES / "hexa_ige_oge.mcap", work / "escapes.mcap",
                          lambda *_: None, extra=extra)
+
+
+def _channel_id(path: Path, topic: str) -> int:
+    """The id of ``topic``'s channel in the MCAP file ``path``."""
+    from mcap.reader import make_reader
+
+    with path.open("rb") as handle:
+        summary = make_reader(handle).get_summary()
+    return next(c.id for c in summary.channels.values() if c.topic == topic)
 
 
 # ---------------------------------------------------------------------------
@@ -580,8 +597,11 @@ CASES: list[Case] = [
     Case("rules-4m-keys", _rules_keys, error=True, args=("rules", "{in}"),
          what="rules.json: one object of 4 million keys"),
     Case("inspect-escapes", _mcap_escape_topic, args=("inspect", "{in}"),
-         absent=("\x1b", "\x07", "\x9b", "\x08"), cheap=True,
-         what="MCAP: topic names with OSC 52, CSI and other control characters"),
+         absent=("\x1b", "\x07", "\x9b", "\x08"), note=("\\x1b]52",), cheap=True,
+         what="MCAP: topic names with OSC 52, CSI and other control characters (inspect)"),
+    Case("ingest-escapes", _mcap_escape_topic, absent=("\x1b", "\x07", "\x9b", "\x08"),
+         columns=RATES, note=("\\x1b]52",), cheap=True,
+         what="the same MCAP through ingest: notes name the escape-named IMU copy"),
 ]
 """Every hostile structure, in the order of issue 23."""
 
