@@ -80,6 +80,8 @@ def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFr
             frame.loc[i, kinds[event["kind"]]] += 1
             text[i] = (text[i] + "; " if text[i] else "") + f"{event['kind']} {event['rule_id']}"
     frame["events"] = text
+    if len(frame) and frame["merges"].iloc[-1] > 0:  # merged after the last sample learnt
+        frame.loc[len(frame) - 1, "n_rules"] = model.n_rules
     rows = []
     inputs, outputs = model.names()
     terms = ["1", *inputs]
