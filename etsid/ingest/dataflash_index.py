@@ -12,7 +12,8 @@ result: one list of offsets per message type), compiled with numba:
 * a message of an unknown type, or bytes that are no message header, start a resync at
   the next header of a known type whose message is followed by another header (or by the
   end of the file); the bytes skipped are counted, never printed;
-* a message running past the end of the file (a cut log) is left out.
+* a message running past the end of the file (a cut log) is listed, as pymavlink does
+  (the reader keeps complete messages only and notes the cut).
 
 The counts reach the reader that asked (:data:`STATS`, per thread), for its notes.
 :func:`install` makes pymavlink's DFReader use this indexer.
@@ -110,8 +111,13 @@ def _index(buf: np.ndarray, pos: int, limit: int, resync: int, head1: int, head2
             kind = buf[pos + 2]
             size = lengths[kind]
             if buf[pos] == head1 and buf[pos + 1] == head2 and size > 0:
-                if pos + size > n:
-                    pos = n  # cut short: the last message is incomplete
+                if pos + size > n:  # cut short: listed (as pymavlink does), then the end
+                    offs = _grow(offs, k)
+                    kinds = _grow(kinds, k)
+                    offs[k] = pos
+                    kinds[k] = kind
+                    k += 1
+                    pos = n
                     break
                 if kind == 0x80:
                     flen = _fmt_length(buf, pos, sizes)
