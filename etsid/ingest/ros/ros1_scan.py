@@ -170,8 +170,8 @@ class _Scan:
             return True
         try:
             msg = self.store.deserialize_ros1(bytes(body), typename)
-        except Exception:  # a damaged message or bad definition: counted, not converted
-            self.conv.count(topic, log_ns)
+        except Exception as err:  # a damaged message: this one only, counted and noted
+            self.conv.undecodable(topic, log_ns, err)
             return True
         self.conv.add(topic, msg, log_ns)
         return True

@@ -104,7 +104,6 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
     conv = Converter(options)
     store = typestore(ros1=False)
     errors = decoder_errors()
-    bad: dict[str, int] = {}
     lost: list[LostRows] = []
     last_ns: int | None = None
     with tempfile.TemporaryDirectory() as tmp:
@@ -128,16 +127,12 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
                     continue
                 try:
                     msg = store.deserialize_cdr(bytes(data), topic.msgtype)
-                except errors:
-                    bad[topic.topic] = bad.get(topic.topic, 0) + 1
-                    conv.count(topic, stamp)
+                except errors as err:  # this message only: counted, noted with its times
+                    conv.undecodable(topic, stamp, err)
                     continue
                 conv.add(topic, msg, stamp)
         finally:
             db.close()
-    for name, count in bad.items():
-        raw.warnings.append(f"{name}: {count} damaged message(s) could not be decoded and "
-                            "were skipped")
     kept = sum(t.count for t in conv.topics.values())
     if not kept:
         raise IngestError(f"{storage}: damaged ROS 2 storage, no message could be read")
