@@ -24,6 +24,7 @@ hubs wandering through z/R ≈ 1.5-4.5 of the vehicle's rotor radius (docs/gap.m
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from collections import Counter
 
@@ -222,6 +223,9 @@ def main() -> None:
                     help="comma-separated seeds instead of the default set (diagnosis)")
     ap.add_argument("--only", type=str, default=None,
                     help="comma-separated effect labels to run (diagnosis)")
+    ap.add_argument("--record", type=str, default=None,
+                    help="append one JSON line per named effect (seed, truth, name, "
+                         "confidence, right) to this file, for benchmarks/gap_reliability.py")
     ap.add_argument("--old-ground", action="store_true",
                     help="the previous generator's ground-effect pairs (vehicle-file law, "
                          "fixed low heights) for comparison")
@@ -251,9 +255,15 @@ def main() -> None:
         total += 1
         correct += ok
         confusion[(want, label)] += 1
+        if args.record:
+            with open(args.record, "a", encoding="utf-8") as out:
+                for e in data["effects"]:
+                    out.write(json.dumps({"seed": seed, "truth": truth["effects"],
+                                          "name": e["name"], "confidence": e["confidence"],
+                                          "right": e["name"] in truth["effects"]}) + "\n")
         if effect == "none":
             n_none += 1
-            fp += data["verdict"] == "mismatch"
+            fp += data["verdict"] != "consistent"
         else:
             main_ch = data["mismatch"]["channels"][0] if data.get("mismatch") else None
             if main_ch:

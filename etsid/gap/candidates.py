@@ -142,7 +142,8 @@ def merge(a: Mods, b: Mods) -> Mods:
     return Mods(tau=tau, delay=a.delay + b.delay, thrust_gain=_times(a.thrust_gain, b.thrust_gain),
                 torque_gain=_times(a.torque_gain, b.torque_gain), inertia=a.inertia * b.inertia,
                 offset=offset, drag=a.drag + b.drag,
-                drag_moment=a.drag_moment + b.drag_moment)
+                drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
+                damping=a.damping + b.damping)
 
 
 def ground_ratio(z: np.ndarray, radius: float, exponent: float = 2.0) -> np.ndarray:
@@ -267,6 +268,24 @@ LIBRARY: tuple[Candidate, ...] = (
         "the gyro reads a constant rate the attitude does not follow (the controller's "
         "integrator hides it in the rate loop)",
         "ω_gyro = ω_attitude + b", _offsets(("gyro_p", "gyro_q", "gyro_r")), ("roll",)),
+    Candidate(
+        "yaw_torque_scale", (Param("scale", "1", 0.3, 3.0, 1.0, 1.0),), ("r",),
+        "yaw authority too high or low by one factor (propeller drag torque, motor "
+        "constant), roll, pitch and vertical force unchanged",
+        "Q_i = s · Q_i,nom (rotor reaction torque)",
+        lambda th, ctx: Mods(torque_gain=th[0])),
+    Candidate(
+        "rotor_inertia", (Param("scale", "1", 0.2, 8.0, 1.0, 1.0),), ("r",),
+        "yaw kicks when the motors speed up or slow down, larger or smaller than simulated; "
+        "steady yaw authority unchanged",
+        "Q_spin,i = s · I_rotor,nom dΩ_i/dt",
+        lambda th, ctx: Mods(spinup=th[0])),
+    Candidate(
+        "rate_damping", (Param("damping", "1/s", -5.0, 20.0, 0.0, 0.0),), ("p", "q"),
+        "roll and pitch rates die out faster (or slower) than simulated, in proportion to "
+        "the rate: the rotors' aerodynamic damping of a rotating rotor plane (blade flapping)",
+        "ṗ = ṗ_nom − d p, q̇ = q̇_nom − d q",
+        lambda th, ctx: Mods(damping=th[0])),
     Candidate(
         "accel_bias",
         (Param("bx", "m/s²", -3.0, 3.0, 0.0, 0.0), Param("by", "m/s²", -3.0, 3.0, 0.0, 0.0),

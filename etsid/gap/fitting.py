@@ -187,16 +187,22 @@ def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarr
 
 
 def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
-                   x0: np.ndarray | None = None) -> Fit:
+                   x0: np.ndarray | None = None, base: Fit | None = None) -> Fit:
     """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
-    e.g. the single fits of a pair; default the candidates' own starts)."""
-    chans = channels_of(cands, scorer)
+    e.g. the single fits of a pair; default the candidates' own starts). With ``base``, on
+    top of that fitted effect, whose parameters stay fixed (the returned fit holds only
+    ``cands``; its ``mods`` include the base's)."""
+    chans = channels_of(cands + (base.candidates if base else ()), scorer)
     params = [p for c in cands for p in c.params]
     lo = np.array([p.lo for p in params])
     hi = np.array([p.hi for p in params])
 
+    def mods_at(theta: np.ndarray) -> Mods:
+        own = _mods(cands, theta, scorer.ctx)
+        return merge(base.mods, own) if base is not None else own
+
     def f(theta: np.ndarray) -> float:
-        return scorer.objective(_mods(cands, theta, scorer.ctx), mask, chans)
+        return scorer.objective(mods_at(theta), mask, chans)
 
     if len(params) == 1:
         grid = np.linspace(lo[0], hi[0], 13)
@@ -219,7 +225,7 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
         if f(x0) < f(theta):  # never worse than the start (e.g. the single fits of a pair)
             theta = x0
     stderr = _stderr(f, theta, lo, hi, scorer, mask)
-    return Fit(cands, theta, stderr, _mods(cands, theta, scorer.ctx))
+    return Fit(cands, theta, stderr, mods_at(theta))
 
 
 def _stderr(f, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray, scorer: Scorer,

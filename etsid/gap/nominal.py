@@ -84,6 +84,10 @@ class Mods:
     drag_moment : float
         Angular acceleration per body speed of that drag acting at the rotor plane, above
         or below the CG, rad/s² per m/s (q̇ += k v_x, ṗ −= k v_y).
+    spinup : float
+        Multiplier on the rotors' spin-up reaction torque (∝ rotor inertia) in r.
+    damping : float
+        Extra rate damping of roll and pitch, 1/s (ṗ −= d p, q̇ −= d q).
     """
 
     tau: float | None = None
@@ -94,6 +98,8 @@ class Mods:
     offset: dict[str, float] = field(default_factory=dict)
     drag: float = 0.0
     drag_moment: float = 0.0
+    spinup: float = 1.0
+    damping: float = 0.0
 
 
 def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> np.ndarray:
@@ -181,7 +187,7 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         # collective thrust makes no moment: only differences between rotors enter
         mom = thrust - thrust.mean(axis=1, keepdims=True)
         tq = pw * qg
-        dom = derivative(om, fs)
+        dom = derivative(om, fs) * mods.spinup
         yaw = np.column_stack([tq - tq.mean(axis=1, keepdims=True),
                                dom - dom.mean(axis=1, keepdims=True)])
         om_mean = om.mean(axis=1)
@@ -190,7 +196,7 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         s = omt**2 * tg.mean(axis=1)
         mom = m_eff[:, 1:] * (omt * tg.mean(axis=1))[:, None]
         yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
-                               derivative(m_eff[:, 3:4], fs)])
+                               derivative(m_eff[:, 3:4], fs) * mods.spinup])
         om_mean = omt
     out = {
         "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
@@ -244,6 +250,8 @@ class NominalModel:
                 y = y / mods.inertia
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * flight.v_body[:, 0 if c == "ax" else 1]
+            if mods.damping and c in ("p", "q"):
+                y = y - mods.damping * flight.rates[:, 0 if c == "p" else 1]
             if mods.drag_moment and c in ("p", "q"):
                 sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]

@@ -145,6 +145,27 @@ def static_in_calm(best: Scored, joint: Fit, other: Candidate, scorer: Scorer,
     return g_calm > 0.0 and g_calm >= MIN_CALM_RATIO * g_busy
 
 
+def _companions(best: Scored, ranked: list[Scored], left: list[str], scorer: Scorer,
+                fit_mask: np.ndarray, hold: np.ndarray, z0: dict[str, float], e0: float,
+                focus: tuple[str, ...]) -> list[Scored]:
+    """The candidates that help most *on top of* ``best`` on the channels it leaves
+    mismatched, each fitted with ``best`` held fixed (a torque offset hidden under a delay
+    does not help by itself, only once the delay is there). Up to :data:`PAIR_POOL`."""
+    out = []
+    for s in ranked:
+        cand = s.fit.candidates[0]
+        if s is best or not set(cand.channels) & set(left):
+            continue
+        cond = fit_candidates((cand,), scorer, fit_mask, base=best.fit)
+        z = scorer.zscores(cond.mods, hold, tuple(left))
+        gain = sum(best.z_after[c] - z[c] for c in left)
+        if gain > 0:
+            own = Fit((cand,), cond.theta, cond.stderr, cand.mods(cond.theta, scorer.ctx))
+            out.append((gain, score_fit(own, scorer, hold, z0, e0, focus)))
+    out.sort(key=lambda gs: gs[0], reverse=True)
+    return [s for _, s in out[:PAIR_POOL]]
+
+
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
            focus: tuple[str, ...] = (),
            library: tuple[Candidate, ...] = LIBRARY, min_share: float = MIN_SHARE,
@@ -184,6 +205,8 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
         return sel
     pool = [s for s in ranked if s is not best and s.gain > 0
             and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
+    if left:
+        pool = _companions(best, ranked, left, scorer, fit_mask, hold, z0, e0, focus)
     best_left = MIN_LEFT_SHARE
     for other in pool:
         pair = (best.fit.candidates[0], other.fit.candidates[0])

@@ -14,7 +14,8 @@ NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
         "motor_lag": "motor lag", "time_delay": "time delay", "battery_sag": "battery sag",
         "thrust_scale": "thrust scale", "inertia_scale": "inertia scale",
         "torque_offset": "torque offset", "gyro_bias": "gyro bias",
-        "accel_bias": "accelerometer bias",
+        "accel_bias": "accelerometer bias", "yaw_torque_scale": "yaw torque scale",
+        "rotor_inertia": "rotor inertia", "rate_damping": "rate damping",
         "unexplained": "unexplained structure (eTS residual model)"}
 LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
@@ -79,6 +80,14 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
     if name == "accel_bias":
         return (f"the accelerometer reads ({p['bx']:+.2f}, {p['by']:+.2f}, {p['bz']:+.2f}) "
                 "m/s² the velocity does not follow (accelerometer bias)")
+    if name == "yaw_torque_scale":
+        return f"×{p['scale']:.3g} yaw torque at the same command (yaw torque scale)"
+    if name == "rotor_inertia":
+        return (f"×{p['scale']:.3g} the rotors' spin-up torque in yaw (rotor inertia "
+                f"{p['scale']:.3g}× SIM's)")
+    if name == "rate_damping":
+        return (f"roll and pitch rates damped by {p['damping']:+.2g} 1/s more than in "
+                f"{sim} (rate damping)")
     if name == "rotor_drag":
         return (f"horizontal drag {p['drag']:.2g} 1/s against the body velocity, with a moment "
                 f"of {p['moment']:+.2g} rad/s² per m/s (rotor drag)")
