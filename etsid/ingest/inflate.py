@@ -19,6 +19,9 @@ MAX_CHUNK_BYTES = int(float(os.environ.get("ETSID_MAX_CHUNK_MB", "128")) * (1 <<
 """Largest decompressed chunk read, bytes (``ETSID_MAX_CHUNK_MB``, default 128 MiB).
 A chunk declaring more is skipped whole, before anything is decompressed; ROS and MCAP
 writers make chunks of about 1 MiB (one larger message makes one larger chunk)."""
+MAX_RECORD_BYTES = MAX_CHUNK_BYTES + (1 << 20)
+"""Longest record read whole (a chunk's compressed bytes, a message): compressed data
+never grows beyond its content by more than a fraction, so a longer record is damaged."""
 STEP_BYTES = 1 << 20
 """Output asked of an lz4 or bz2 decompressor at a time, bytes."""
 FEED_BYTES = 4096

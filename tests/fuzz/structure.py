@@ -272,6 +272,27 @@ def _mcap_message_bomb(work: Path) -> Path:
     return path
 
 
+def _mcap_huge_message(work: Path) -> Path:
+    """The sample MCAP rewritten with 64 KiB chunks and, before its DataEnd record, one
+    message record declaring :data:`ZEROS_BYTES` of body (a sparse hole)."""
+    path, lo, _ = _small_mcap(work, "huge_message.mcap")
+    src = path.read_bytes()
+    pos = 8
+    while True:
+        op, length = struct.unpack_from("<BQ", src, pos)
+        if op == 0x0F:
+            break
+        pos += 9 + length
+    channel = _channel_id(path, "/mavros/imu/data")
+    head = struct.pack("<BQHIQQ", 5, 22 + ZEROS_BYTES, channel, 0, lo, lo)
+    with path.open("r+b") as out:
+        out.seek(pos)
+        out.write(head)
+        out.seek(pos + len(head) + ZEROS_BYTES)
+        out.write(src[pos:])
+    return path
+
+
 def _mcap_channel_flood(work: Path, channels: int = 60_000) -> Path:
     """The sample MCAP with ``channels`` extra channels, each registered (and so written)
     between messages."""
@@ -560,6 +581,9 @@ CASES: list[Case] = [
     Case("mcap-message-bomb", _mcap_message_bomb, columns=RATES, note=("chunk",),
          rows=11900, what="MCAP: a chunk of 31-byte message records inflating to 1 GiB beside the "
               "valid chunks"),
+    Case("mcap-huge-message", _mcap_huge_message, columns=RATES, rows=11900,
+         note=("damaged",),
+         what="MCAP: a message record of 2 GiB (zeros, sparse) before the summary"),
     Case("mcap-channel-flood", _mcap_channel_flood, columns=RATES,
          rows=11900, what="MCAP: 60 000 channel records interleaved with the messages"),
     Case("bag-bz2-bomb", _bag_bz2_bomb, columns=RATES, note=("chunk",),

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from etsid.ingest.inflate import Inflated, inflate, too_large
+from etsid.ingest.inflate import MAX_RECORD_BYTES, Inflated, inflate, too_large
 
 MAGIC = b"\x89MCAP0\r\n"
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
@@ -232,6 +232,9 @@ def _top(handle: Any, end: int) -> Iterator[Any]:
         op, length = _RECORD.unpack(head)
         if handle.tell() + length > end:
             raise NotFast("record cut short")
+        if length > MAX_RECORD_BYTES and op in (_OP_MESSAGE, _OP_CHUNK, _OP_SCHEMA,
+                                                _OP_CHANNEL, _OP_HEADER, _OP_FOOTER):
+            raise NotFast("record longer than any chunk read")  # the resync skips it
         if op == _OP_MESSAGE:
             run += head
             run += handle.read(length)

@@ -30,7 +30,13 @@ from pathlib import Path
 from typing import Any
 
 from etsid.ingest import mapped
-from etsid.ingest.inflate import MAX_CHUNK_BYTES, Inflated, inflate, too_large
+from etsid.ingest.inflate import (
+    MAX_CHUNK_BYTES,
+    MAX_RECORD_BYTES,
+    Inflated,
+    inflate,
+    too_large,
+)
 from etsid.ingest.ros.fast import mcap as strict
 
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
@@ -234,7 +240,8 @@ def _plausible_chunk(buf: Any, pos: int, size: int, cut: bool = False) -> int | 
             return None
         start_ns, end_ns, usize, _ = struct.unpack_from("<QQQI", buf, pos + 9)
         (klen,) = struct.unpack_from("<I", buf, pos + 37)
-        if start_ns > end_ns or usize > MAX_CHUNK_BYTES or klen > 4:
+        if start_ns > end_ns or usize > MAX_CHUNK_BYTES or klen > 4 \
+                or length > MAX_RECORD_BYTES:
             return None
         if bytes(buf[pos + 41:pos + 41 + klen]).decode("ascii") not in _COMPRESSIONS:
             return None
@@ -333,7 +340,7 @@ def _scan(buf: Any, size: int) -> Iterator[Any]:
         op, length = _RECORD.unpack_from(buf, pos)
         nxt = pos + 9 + length
         if op in _KNOWN_OPS and nxt <= size:
-            if op == _OP_MESSAGE and length >= 22:
+            if op == _OP_MESSAGE and 22 <= length <= MAX_RECORD_BYTES:
                 run += buf[pos:nxt]
                 if len(run) > strict.RUN_BYTES:
                     yield from flush()
@@ -344,7 +351,7 @@ def _scan(buf: Any, size: int) -> Iterator[Any]:
                 yield from _chunk_at(buf, pos, nxt, ctx)
                 pos = nxt
                 continue
-            if op in (_OP_SCHEMA, _OP_CHANNEL, _OP_HEADER):
+            if op in (_OP_SCHEMA, _OP_CHANNEL, _OP_HEADER) and length <= MAX_RECORD_BYTES:
                 rec = bytes(buf[pos:nxt])
                 obj = _parses(rec, 0, op)
                 if obj is not None:
@@ -355,7 +362,7 @@ def _scan(buf: Any, size: int) -> Iterator[Any]:
                     continue
             elif op == _OP_FOOTER:
                 return
-            elif op != _OP_CHUNK:
+            elif op not in (_OP_CHUNK, _OP_MESSAGE):
                 pos = nxt  # summary, index, attachment … records: not needed
                 continue
         yield from flush()

@@ -28,7 +28,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from etsid.ingest.inflate import inflate
+from etsid.ingest.inflate import MAX_RECORD_BYTES, inflate
 
 _MAGIC = b"#ROSBAG V2.0\n"
 _OP_MSG, _OP_HEADER, _OP_INDEX, _OP_CHUNK, _OP_CHUNK_INFO, _OP_CONN = 2, 3, 4, 5, 6, 7
@@ -96,6 +96,8 @@ def _record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes]:
     (dlen,) = struct.unpack("<I", handle.read(4))
     if dlen > left - hlen:
         raise Damaged("record length beyond the end of the file")
+    if dlen > MAX_RECORD_BYTES:
+        raise Damaged(f"record of {dlen} bytes, longer than any chunk read")
     data = handle.read(dlen)
     if len(header) < hlen or len(data) < dlen:
         raise NotFast("record cut short")
