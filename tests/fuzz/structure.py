@@ -496,9 +496,9 @@ def _bin_zeros(work: Path) -> Path:
 # tables and rule bases
 
 
-def _csv_wide(work: Path) -> Path:
+def _csv_wide(work: Path, cols: int = 1_000_000) -> Path:
+    """A CSV table of ``cols`` columns and one row."""
     path = work / "wide.csv"
-    cols = 1_000_000
     with path.open("w") as out:
         out.write(",".join(f"c{i}" for i in range(cols)) + "\n")
         out.write(",".join("0" for _ in range(cols)) + "\n")
@@ -611,6 +611,10 @@ CASES: list[Case] = [
          args=("identify", "{in}", "--output", "c1", "--regressors", "c1[k-1]",
                "--out", "{out}"),
          what="CSV table of 10^6 columns"),
+    Case("csv-20k-columns", lambda work: _csv_wide(work, 20_000), error=True,
+         args=("identify", "{in}", "--output", "c1", "--regressors", "c1[k-1]",
+               "--out", "{out}"), note=("columns",),
+         what="CSV table of 20 000 columns (a header line under 1 MiB)"),
     Case("csv-dev-zero", _link("/dev/zero", "x.csv"), error=True,
          args=("identify", "{in}", "--output", "y", "--regressors", "y[k-1]", "--out",
                "{out}"), what="x.csv → /dev/zero"),
