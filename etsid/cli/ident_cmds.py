@@ -51,6 +51,10 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     for note in run.config.get("model", {}).get("notes") or []:
         click.echo(note)
     click.echo(summary_table(run))
+    merges = (run.metrics.get("rules") or {}).get("merges") or []
+    if merges:
+        click.echo("merged (consequents indistinguishable): " + "; ".join(
+            f"rule id {m['absorbed']} into {m['kept']} at {m['t']:.1f} s" for m in merges))
     compared = _structure_text(run.metrics.get("structure"))
     if compared:
         click.echo(compared)

@@ -186,7 +186,9 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     try:
         merges: list[dict[str, Any]] = []
         yhat, frozen_dict = learn_online(model, reg, split if split < n else -1,
-                                         show_progress, "identify", config.merge, merges)
+                                         show_progress, "identify",
+                                         rate_model if config.merge is None
+                                         else config.merge, merges)
     except ValueError as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
     if split == n:

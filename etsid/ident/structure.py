@@ -104,7 +104,7 @@ def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) 
                 antecedent_names=spec.antecedent_names,
                 shared_outputs=config.shared_outputs(spec.outputs, scheduled))
     model.run(reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
-    if config.merge:
+    if config.merge is not False:  # the structure choice is for the rate model
         merge_rules(model, reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
     return model
 

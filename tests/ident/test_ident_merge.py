@@ -9,7 +9,7 @@ import pandas as pd
 from etsid.ident import IdentConfig, identify
 
 BASE = dict(outputs=["y"], regressors="y[k-1],u[k-1]", segments="all", radius=0.3,
-            antecedent="alt[k-1]")
+            antecedent="alt[k-1]", merge=True)  # generic models do not merge by default
 
 
 def _table(gain_low: float, gain_high: float, n: int = 3000, seed: int = 0) -> pd.DataFrame:
@@ -36,5 +36,5 @@ def test_one_physics_at_two_heights_ends_with_one_rule_and_the_merges_in_history
     assert int(hist["n_rules"].iloc[-1]) == run.metrics["rules"]["final"]
     kept = identify(_table(2.0, 1.0), IdentConfig(**BASE))
     assert kept.metrics["rules"]["frozen"] >= 2  # different gains: not merged
-    unmerged = identify(_table(1.5, 1.5), IdentConfig(**BASE, merge=False))
+    unmerged = identify(_table(1.5, 1.5), IdentConfig(**{**BASE, "merge": None}))
     assert unmerged.metrics["rules"]["frozen"] >= 2 and not unmerged.metrics["rules"]["merges"]
