@@ -252,16 +252,16 @@ def _mcap_bomb(kind: str, nbytes: int, declared: int | None = None,
     return build
 
 
-def _mcap_message_bomb(work: Path) -> Path:
+def _mcap_message_bomb(work: Path, nbytes: int = GIB) -> Path:
     """A zstd chunk of 31-byte message records (empty bodies on the IMU channel) that
-    inflates to 1 GiB, among the valid chunks."""
+    inflates to ``nbytes``, among the valid chunks."""
     import zstandard
 
     path, lo, hi = _small_mcap(work, "message_bomb.mcap")
     channel = _channel_id(path, "/mavros/imu/data")
     record = struct.pack("<BQHIQQ", 5, 22, channel, 0, lo, lo)
     block = record * ((1 << 24) // len(record))
-    total = (GIB // len(block)) * len(block)
+    total = (nbytes // len(block)) * len(block)
     obj = zstandard.ZstdCompressor(level=1).compressobj(size=total)
     data = bytearray()
     for _ in range(total // len(block)):
@@ -581,6 +581,10 @@ CASES: list[Case] = [
     Case("mcap-message-bomb", _mcap_message_bomb, columns=RATES, note=("chunk",),
          rows=11900, what="MCAP: a chunk of 31-byte message records inflating to 1 GiB beside the "
               "valid chunks"),
+    Case("mcap-message-flood", lambda work: _mcap_message_bomb(work, 120 << 20),
+         columns=RATES, rows=11900, note=("could not be decoded",),
+         what="MCAP: a chunk of 4 million empty IMU messages (120 MiB, under the chunk "
+              "limit) beside the valid chunks"),
     Case("mcap-huge-message", _mcap_huge_message, columns=RATES, rows=11900,
          note=("damaged",),
          what="MCAP: a message record of 2 GiB (zeros, sparse) before the summary"),

@@ -96,6 +96,20 @@ class Converter:
         else:
             data.bad_ns = (min(data.bad_ns[0], log_ns), max(data.bad_ns[1], log_ns))
 
+    def undecodable_many(self, data: TopicData, log_ns: np.ndarray, err: BaseException
+                         ) -> None:
+        """:meth:`undecodable` for messages (record times ``log_ns``, in order) that all
+        failed alike (identical bytes: decoded once)."""
+        if not len(log_ns):
+            return
+        self.count_many(data, log_ns)
+        data.undecodable += len(log_ns)
+        lo, hi = int(log_ns.min()), int(log_ns.max())
+        if data.bad_ns is None:
+            data.bad_ns, data.bad_why = (lo, hi), _one_line(err)
+        else:
+            data.bad_ns = (min(data.bad_ns[0], lo), max(data.bad_ns[1], hi))
+
     def add(self, data: TopicData, msg: Any, log_ns: int) -> None:
         """Take the numbers needed from one decoded message received at ``log_ns``."""
         self.count(data, log_ns)
