@@ -164,11 +164,12 @@ def interactive_parts(run: Run, say: Say = quiet) -> tuple[str, dict[str, str], 
     say("report: building the interactive plots …")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        whole = ia.shared_range(run.predictions["t"].to_numpy(dtype=float))
-        groups = {"overview": overview_plots(run, flight, whole),
+        t = run.predictions["t"].to_numpy(dtype=float)
+        # one linked time range per section: each section is drawn on its own
+        groups = {"overview": overview_plots(run, flight, ia.shared_range(t)),
                   "validation": validation_plots(run),
-                  "online": online_plots(run, whole),
-                  "structure": structure_plots(run, whole)}
+                  "online": online_plots(run, ia.shared_range(t)),
+                  "structure": structure_plots(run, ia.shared_range(t))}
     head, divs = ia.embed({k: ia.column(*v) for k, v in groups.items() if v})
     return head, divs, flight.notes
 

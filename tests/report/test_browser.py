@@ -76,8 +76,10 @@ if (out.bokeh) {
 return JSON.stringify(out);
 """
 
-IDLE = ("return typeof Bokeh !== 'undefined' && Bokeh.documents.length > 0 && "
+IDLE = ("return document.readyState === 'complete' && typeof Bokeh !== 'undefined' && "
+        "Bokeh.documents.length === document.querySelectorAll('div.bk-lazy').length && "
         "Bokeh.documents.every(d => d.is_idle)")
+"""Every plot section drawn (each is drawn when it nears the viewport) and idle."""
 
 
 @pytest.fixture(scope="module")
@@ -102,15 +104,19 @@ def open_report(driver: Any, page: Path, shot: str) -> dict[str, Any]:
     driver.set_window_size(1280, 900)
     driver.get(page.resolve().as_uri())
     deadline = time.monotonic() + 30
-    while not driver.execute_script(IDLE):
-        assert time.monotonic() < deadline, f"{page}: Bokeh never became idle"
+    while driver.execute_script("return document.readyState") != "complete":
+        assert time.monotonic() < deadline, f"{page}: never finished loading"
         time.sleep(0.05)
+    # a window as tall as the page: every section is in view, so every one is drawn
+    height = driver.execute_script("return document.documentElement.scrollHeight")
+    driver.set_window_size(1280, min(int(height) + 40, 16000))
+    while not driver.execute_script(IDLE):
+        assert time.monotonic() < deadline, f"{page}: the plots were never all drawn"
+        time.sleep(0.05)
+    time.sleep(0.3)  # the last layout settles before the screenshot
     state = json.loads(driver.execute_script(PAGE_STATE))
     errors = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    height = driver.execute_script("return document.documentElement.scrollHeight")
-    driver.set_window_size(1280, min(int(height) + 40, 16000))
-    time.sleep(0.3)  # the plots re-layout to the new size
     driver.save_screenshot(str(ARTIFACTS / f"{shot}.png"))
     assert errors == [], f"{page}: JavaScript console errors {errors}"
     assert state["resources"] == [], f"{page}: fetched {state['resources']} (not offline)"
