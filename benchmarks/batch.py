@@ -1,6 +1,7 @@
 """``etsid batch identify`` over a simulated fleet: throughput, CPU efficiency, determinism.
 
 Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--repeat 3] [--dask]
+      python benchmarks/batch.py --logs 2000 --duration 8 --jobs 2 --report   (a fleet at scale)
 
 1. Writes a fleet of ``--logs`` simulated flights (``etsid.sim.simulate`` +
    ``etsid.sim.writers.write_log``) in mixed formats — tlog, ROS 1 bag, ROS 2 bag directory
@@ -20,6 +21,8 @@ Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--re
    the largest log, and
    checks that every run gives the same rows bit for bit (all columns but wall time, peak
    memory, worker and finish time) and that every broken log is an error row.
+4. Prints the peak memory of this (the submitting) process, the results dataset's file
+   count and size, and with ``--report`` the time of ``etsid report`` on the last batch.
 """
 
 from __future__ import annotations
@@ -27,7 +30,10 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import resource
 import shutil
+import subprocess
+import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -105,6 +111,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=1, help="rounds of every job count")
     parser.add_argument("--dask", action="store_true", help="also a Dask LocalCluster run")
     parser.add_argument("--fleet", type=Path, default=None, help="fleet directory (kept)")
+    parser.add_argument("--report", action="store_true",
+                        help="time `etsid report` on the last batch directory")
     args = parser.parse_args()
     cores = default_jobs()
     jobs = sorted({int(j) for j in args.jobs.split(",")} if args.jobs else {1, cores})
@@ -148,6 +156,17 @@ def main() -> None:
             print(f"median of {args.repeat}: {scheduler:>9} jobs {j}: {wall:7.1f} s wall, "
                   f"{len(logs) / wall * 60:6.1f} logs/min, speed-up {base / wall:4.2f}, "
                   f"efficiency {base / wall / j * 100:5.1f} % of linear")
+    last = work / f"out-{runs[-1][1]}-{runs[-1][0]}"
+    files = list((last / "results").rglob("*.parquet"))
+    print(f"parent peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} "
+          f"MB; results dataset {len(files)} files, "
+          f"{sum(f.stat().st_size for f in files) / 2**20:.1f} MB ({last / 'results'})")
+    if args.report:
+        t0 = time.perf_counter()
+        done = subprocess.run([sys.executable, "-m", "etsid", "report", str(last)],
+                              capture_output=True, text=True)
+        print(f"etsid report {last.name}: {time.perf_counter() - t0:.1f} s, exit "
+              f"{done.returncode} {done.stderr.strip()[-300:]}")
     frames = [f.drop(columns=list(VOLATILE)) for f in results.values()]
     same = all(f.equals(frames[0]) for f in frames[1:])
     print(f"rows identical bit for bit across {len(frames)} runs (all but "

@@ -32,6 +32,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -103,7 +104,7 @@ def breakdown(run: dict, trace: dict, jobs: int) -> dict[str, float]:
     gaps = 0.0
     for spans in per_worker.values():
         spans.sort()
-        gaps += sum(max(0.0, b[0] - a[1]) for a, b in zip(spans, spans[1:], strict=False))
+        gaps += sum(max(0.0, b[0] - a[1]) for a, b in pairwise(spans))
     first_worker = min(trace["workers"]) if trace["workers"] else run["start"]
     return {"wall": run["end"] - run["start"], "start": first_worker - run["start"],
             "warm": min(starts) - first_worker, "compute": compute / jobs,
