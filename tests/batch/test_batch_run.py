@@ -223,8 +223,11 @@ def test_an_unscheduled_rule_base_has_a_count_and_no_regimes(fleet: Path,
     assert ok["regimes"].isna().all()
 
 
-def test_rows_of_scheduled_runs_name_their_regimes(serial: Path) -> None:
-    """identify schedules on 1/altitude by default: every row of the fleet says where."""
+def test_rows_of_scheduled_runs_name_their_regimes(fleet: Path, tmp_path: Path) -> None:
+    """A run scheduled on 1/altitude says where in its row. (identify's structure choice
+    gives the fleet's 8 s single-height flights one rule: the scheduled structure is forced.)"""
+    run_batch([str(fleet / "a.tlog")], identify_spec(structure="scheduled"), tmp_path, jobs=1)
+    serial = tmp_path
     ok = read_results(serial).query("status == 'ok'")
     n_scheduled = 0
     for _, row in ok.iterrows():
