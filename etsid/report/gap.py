@@ -131,7 +131,7 @@ def _value(p: dict[str, Any]) -> str:
     return f"{v:.4g}" + (f" ± {err:.2g}" if err else "")
 
 
-def _parameters(effect: dict[str, Any]) -> str:
+def parameters_text(effect: dict[str, Any]) -> str:
     """``R = 0.2498 ± 0.0084 m, exponent = 1.236 ± 0.026`` (no unit for dimensionless)."""
     return ", ".join(f"{k} = {_value(v)} {_unit(v.get('unit'))}".strip()
                      for k, v in effect["parameters"].items())
@@ -167,7 +167,7 @@ def _markdown(data: dict[str, Any], figures: dict[str, Path]) -> str:
         lines += ["## Effects", "", "| effect | parameters | confidence | evidence |",
                   "|---|---|---|---|"]
         for e in data["effects"]:
-            lines.append(f"| {e['name']} | {_parameters(e)} | {e['confidence']:.2f} | "
+            lines.append(f"| {e['name']} | {parameters_text(e)} | {e['confidence']:.2f} | "
                          f"{e['evidence']} |")
         lines.append("")
     lines += ["## Held-out RMSE per channel", "", "| " + " | ".join(RMSE_HEAD) + " |",
@@ -204,7 +204,7 @@ def _html(data: dict[str, Any], figures: dict[str, Path],
     if data["effects"]:
         body += ['<h2 id="effects">Missing physics, fitted</h2>',
                  table_html(["effect", "parameters", "confidence", "evidence"],
-                            [[e["name"], _parameters(e), f"{e['confidence']:.2f}",
+                            [[e["name"], parameters_text(e), f"{e['confidence']:.2f}",
                               e["evidence"]] for e in data["effects"]],
                             text_columns=(1, 3))]
     if "timeseries" in divs:
