@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from etsid.gap.nominal import Mods, NominalModel
+from etsid.gap.nominal import Mods, NominalModel, air_velocity
 from etsid.gap.signals import Flight
 
 GE_MAX_RATIO = 2.0
@@ -113,9 +113,15 @@ class Candidate:
     needs: tuple[str, ...] = ()
     search: Callable[[Context], SearchMap] | None = None
 
+    motor: int | None = None
+    """For a per-motor law (``weak_motor``): the motor (0-based) it acts on."""
+
     def available(self, ctx: Context) -> bool:
         """Whether the flight has the signals this candidate needs."""
         if self.name == "battery_sag" and ctx.v_ref is None:
+            return False
+        if self.motor is not None and (ctx.flight.inputs != "motors"
+                                       or self.motor >= ctx.flight.motors.shape[1]):
             return False
         return all(s in ctx.flight.have for s in self.needs)
 
@@ -143,7 +149,8 @@ def merge(a: Mods, b: Mods) -> Mods:
                 torque_gain=_times(a.torque_gain, b.torque_gain), inertia=a.inertia * b.inertia,
                 offset=offset, drag=a.drag + b.drag,
                 drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
-                damping=a.damping + b.damping)
+                damping=a.damping + b.damping,
+                wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]))
 
 
 def ground_ratio(z: np.ndarray, radius: float, exponent: float = 2.0) -> np.ndarray:
@@ -207,6 +214,39 @@ def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]
     def build(theta: np.ndarray, ctx: Context) -> Mods:
         return Mods(offset={c: float(v) for c, v in zip(channels, theta, strict=True)})
     return build
+
+
+def _weak_motor(index: int) -> Callable[[np.ndarray, Context], Mods]:
+    def build(theta: np.ndarray, ctx: Context) -> Mods:
+        gain = np.ones((1, ctx.flight.motors.shape[1]))
+        gain[0, index] = theta[0]
+        gain = np.repeat(gain, ctx.flight.n, axis=0)
+        return Mods(thrust_gain=gain, torque_gain=gain)
+    return build
+
+
+MAX_MOTORS = 8
+
+
+def _weak_motors() -> tuple[Candidate, ...]:
+    return tuple(Candidate(
+        "weak_motor", (Param("scale", "1", 0.3, 1.5, 1.0, 1.0),), ("az", "p", "q", "r"),
+        "one rotor gives less (or more) thrust than the others at the same command: the "
+        "others' trims hold a differential that grows with thrust (a chipped propeller, a "
+        "worn motor)",
+        f"T_{i + 1}, Q_{i + 1} = s · (T, Q)_{i + 1},nom (motor {i + 1} only)", _weak_motor(i),
+        motor=i)
+        for i in range(MAX_MOTORS))
+
+
+def _wind(theta: np.ndarray, ctx: Context) -> Mods:
+    """Drag on the air-relative velocity, and the translational lift the extra airspeed
+    gives the rotors: thrust × (1 + c (|v_air,h|² − |v_h|²))."""
+    wind = (float(theta[0]), float(theta[1]))
+    va = air_velocity(ctx.flight, wind)
+    vb = ctx.flight.v_body
+    extra = va[:, 0] ** 2 + va[:, 1] ** 2 - vb[:, 0] ** 2 - vb[:, 1] ** 2
+    return Mods(wind=wind, thrust_gain=1.0 + theta[2] * extra)
 
 
 LIBRARY: tuple[Candidate, ...] = (
@@ -287,6 +327,17 @@ LIBRARY: tuple[Candidate, ...] = (
         "ṗ = ṗ_nom − d p, q̇ = q̇_nom − d q",
         lambda th, ctx: Mods(damping=th[0])),
     Candidate(
+        "wind", (Param("north", "m/s", -15.0, 15.0, 0.0, 0.0),
+                 Param("east", "m/s", -15.0, 15.0, 0.0, 0.0),
+                 Param("lift", "1/(m/s)²", 0.0, 0.02, 0.0, 0.0)), ("ax", "ay", "az"),
+        "a horizontal force that depends on the heading and on the velocity relative to a "
+        "fixed direction of the earth (drag on the air-relative velocity), not on the body "
+        "velocity alone; the airspeed also lifts the rotors (translational lift)",
+        "v_air = v − w (w steady, north-east), drag terms on v_air; "
+        "T = T_nom (1 + c (|v_air,h|² − |v_h|²))",
+        _wind, ("vel",)),
+    *_weak_motors(),
+    Candidate(
         "accel_bias",
         (Param("bx", "m/s²", -3.0, 3.0, 0.0, 0.0), Param("by", "m/s²", -3.0, 3.0, 0.0, 0.0),
          Param("bz", "m/s²", -3.0, 3.0, 0.0, 0.0)), ("kin_x", "kin_y", "kin_z", "ax", "ay", "az"),
@@ -298,5 +349,5 @@ LIBRARY: tuple[Candidate, ...] = (
                                      "ax": th[0], "ay": th[1], "az": th[2]}), ("vel",)),
 )
 
-BY_NAME = {c.name: c for c in LIBRARY}
-VOCABULARY = (*(c.name for c in LIBRARY), "unexplained")
+BY_NAME = {c.name: c for c in LIBRARY if c.motor in (None, 0)}
+VOCABULARY = (*BY_NAME, "unexplained")

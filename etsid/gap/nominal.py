@@ -88,6 +88,8 @@ class Mods:
         Multiplier on the rotors' spin-up reaction torque (∝ rotor inertia) in r.
     damping : float
         Extra rate damping of roll and pitch, 1/s (ṗ −= d p, q̇ −= d q).
+    wind : tuple of float
+        Steady wind (north, east), m/s: the drag terms see the air-relative velocity.
     """
 
     tau: float | None = None
@@ -100,6 +102,7 @@ class Mods:
     drag_moment: float = 0.0
     spinup: float = 1.0
     damping: float = 0.0
+    wind: tuple[float, float] = (0.0, 0.0)
 
 
 def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> np.ndarray:
@@ -111,6 +114,21 @@ def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> 
     zi = (a * m[0])[None, :]
     out, _ = lfilter([1.0 - a], [1.0, -a], m, axis=0, zi=zi)
     return out
+
+
+def air_velocity(flight: Flight, wind: tuple[float, float]) -> np.ndarray:
+    """(n, 3) body-axis velocity relative to a steady horizontal wind (north, east), m/s."""
+    if not any(wind):
+        return flight.v_body
+    phi, th, psi = flight.att[:, 0], flight.att[:, 1], flight.att[:, 2]
+    wn, we = wind
+    # Rᵀ (wn, we, 0): NED → body (ZYX)
+    x = np.cos(th) * (np.cos(psi) * wn + np.sin(psi) * we)
+    y = (np.sin(phi) * np.sin(th) * np.cos(psi) - np.cos(phi) * np.sin(psi)) * wn \
+        + (np.sin(phi) * np.sin(th) * np.sin(psi) + np.cos(phi) * np.cos(psi)) * we
+    z = (np.cos(phi) * np.sin(th) * np.cos(psi) + np.sin(phi) * np.sin(psi)) * wn \
+        + (np.cos(phi) * np.sin(th) * np.sin(psi) - np.sin(phi) * np.cos(psi)) * we
+    return flight.v_body - np.column_stack([x, y, z])
 
 
 def euler_body_rates(att: np.ndarray, fs: float) -> np.ndarray:
@@ -175,6 +193,7 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     m_eff = motor_response(flight.motors, fs, tau_eff, delay + mods.delay)
     p, q, r = flight.rates.T
     vb = flight.v_body
+    va = air_velocity(flight, mods.wind)  # horizontal drag sees the air, not the ground
     vh2 = vb[:, 0] ** 2 + vb[:, 1] ** 2
     tg = _column_gain(mods.thrust_gain, p.size)
     qg = _column_gain(mods.torque_gain, p.size)
@@ -200,8 +219,8 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         om_mean = omt
     out = {
         "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
-        "ax": np.column_stack([om_mean * vb[:, 0], np.abs(vb[:, 0]) * vb[:, 0], one]),
-        "ay": np.column_stack([om_mean * vb[:, 1], np.abs(vb[:, 1]) * vb[:, 1], one]),
+        "ax": np.column_stack([om_mean * va[:, 0], np.abs(va[:, 0]) * va[:, 0], one]),
+        "ay": np.column_stack([om_mean * va[:, 1], np.abs(va[:, 1]) * va[:, 1], one]),
         # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
         "p": np.column_stack([mom, q * r, p, one]),
         "q": np.column_stack([mom, p * r, q, one]),
@@ -249,7 +268,7 @@ class NominalModel:
             if c in RATE_CHANNELS:
                 y = y / mods.inertia
             if c in ("ax", "ay") and mods.drag:
-                y = y - mods.drag * flight.v_body[:, 0 if c == "ax" else 1]
+                y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
             if mods.damping and c in ("p", "q"):
                 y = y - mods.damping * flight.rates[:, 0 if c == "p" else 1]
             if mods.drag_moment and c in ("p", "q"):

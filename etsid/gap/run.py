@@ -328,6 +328,36 @@ def locate(real: Flight, main: str, res0: dict[str, np.ndarray], sigma: float,
             "segments": segments(res0[main], sigma, real)}
 
 
+def located_by_driver(effects: list[dict[str, Any]], real: Flight) -> dict[str, Any] | None:
+    """The regime stated by the named effect's own physical driver, where it has one that
+    the residual bins cannot show: a steady wind by the heading relative to it, a weak
+    motor by the motor, a battery sag by the measured voltage."""
+    named = {e["name"]: e for e in effects}
+    if "wind" in named:
+        p = {k: v["value"] for k, v in named["wind"]["parameters"].items()}
+        towards = float(np.degrees(np.arctan2(p["east"], p["north"]))) % 360.0
+        yaw = np.degrees(np.unwrap(real.att[real.airborne, 2])) % 360.0
+        rel = (yaw - towards + 180.0) % 360.0 - 180.0
+        return {"variable": "heading", "unit": "deg", "basis": "fitted law",
+                "range": [float(np.min(rel)), float(np.max(rel))],
+                "description": f"the horizontal force follows the heading relative to a steady "
+                               f"wind towards {towards:.0f}° (flown at {np.min(rel):.0f}° to "
+                               f"{np.max(rel):.0f}° from it): drag on the air-relative "
+                               "velocity, in earth axes"}
+    if "weak_motor" in named:
+        k = int(named["weak_motor"]["parameters"]["motor"]["value"])
+        return {"variable": "motor", "unit": "", "basis": "fitted law", "range": [k, k],
+                "description": f"motor {k}: its thrust at a given command differs from the "
+                               "others' (the trims hold the differential)"}
+    if "battery_sag" in named and "vbat" in real.have:
+        v = real.vbat[real.airborne]
+        return {"variable": "vbat", "unit": "V", "basis": "fitted law",
+                "range": [float(np.nanmin(v)), float(np.nanmax(v))],
+                "description": f"thrust and torque follow the measured pack voltage "
+                               f"({np.nanmin(v):.2f}–{np.nanmax(v):.2f} V)"}
+    return None
+
+
 def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "SIM",
             real_name: str = "REAL", vehicle: Any = None) -> GapResult:
     """Compare a simulated and a recorded flight (FlightTables) and explain the gap.
@@ -473,6 +503,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     main = mis.channels[0]
     regime = locate(real, main, res0, scorer.sigma[main], radius,
                     info.get("radius") is None, ground_theta)
+    regime.update(located_by_driver(effects, real) or {})
     segs = regime.pop("segments")
     what = ", ".join(f"{LABELS[c]} {np.sqrt(max(mis.z_all.get(c, 0), mis.z_hold.get(c, 0))):.1f}×"
                      for c in mis.channels)

@@ -16,6 +16,7 @@ NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
         "torque_offset": "torque offset", "gyro_bias": "gyro bias",
         "accel_bias": "accelerometer bias", "yaw_torque_scale": "yaw torque scale",
         "rotor_inertia": "rotor inertia", "rate_damping": "rate damping",
+        "wind": "wind", "weak_motor": "weak motor",
         "unexplained": "unexplained structure (eTS residual model)"}
 LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
@@ -38,6 +39,8 @@ def effect_entry(cand: Candidate, theta: np.ndarray, err: np.ndarray, single: An
     params = {p.name: {"value": float(v), "unit": p.unit,
                        "stderr": float(e) if np.isfinite(e) else None}
               for p, v, e in zip(cand.params, theta, err, strict=True)}
+    if cand.motor is not None:
+        params["motor"] = {"value": cand.motor + 1, "unit": ""}
     mods = single.fit.mods if single is not None else sel.chosen.fit.mods
     res1 = scorer.residuals(mods)
     before = {c: float(np.sqrt(np.mean(res0[c][hold] ** 2))) for c in chans}
@@ -63,8 +66,6 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
     if name == "motor_lag":
         return (f"the motors follow their commands with a first-order lag of "
                 f"τ = {1000 * p['tau']:.0f} ms (motor lag)")
-    if name == "thrust_scale":
-        return f"×{p['scale']:.3g} thrust at the same command (thrust scale)"
     if name == "inertia_scale":
         return f"×{p['scale']:.3g} inertia (angular accelerations ÷{p['scale']:.3g}; inertia scale)"
     if name == "battery_sag":
@@ -80,6 +81,18 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
     if name == "accel_bias":
         return (f"the accelerometer reads ({p['bx']:+.2f}, {p['by']:+.2f}, {p['bz']:+.2f}) "
                 "m/s² the velocity does not follow (accelerometer bias)")
+    if name == "weak_motor":
+        return (f"motor {p['motor']:.0f} gives ×{p['scale']:.3g} the thrust of the others at "
+                "the same command (weak motor)")
+    if name == "wind":
+        speed = float(np.hypot(p["north"], p["east"]))
+        towards = float(np.degrees(np.arctan2(p["east"], p["north"]))) % 360.0
+        return (f"a steady wind of {speed:.1f} m/s blowing towards {towards:.0f}° "
+                "(from north, clockwise; wind)")
+    if name == "thrust_scale":
+        return (f"×{p['scale']:.3g} thrust at the same command (thrust scale; from "
+                f"accelerations alone the same as a {1 / p['scale']:.3g}× heavier vehicle: "
+                "thrust-to-weight ×{0:.3g})".format(p["scale"]))
     if name == "yaw_torque_scale":
         return f"×{p['scale']:.3g} yaw torque at the same command (yaw torque scale)"
     if name == "rotor_inertia":

@@ -48,6 +48,8 @@ from etsid.sim.params import (
     TAU_M,
     TH0,
     THRUST_SCALE,
+    WEAK_MOTOR,
+    WEAK_SCALE,
     TORQUE_SCALE,
     TWIST,
     V_REF,
@@ -150,6 +152,9 @@ def derivative(
                                           P[SIGMA], P[LIFT], P[CD0], P[KAPPA])
         t *= ratio * scale_t
         qa *= scale_q
+        if k == int(P[WEAK_MOTOR]) - 1:
+            t *= P[WEAK_SCALE]
+            qa *= P[WEAK_SCALE]
         thrust[k] = t
         torque[k] = qa
         ge[k] = ratio

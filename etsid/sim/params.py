@@ -92,7 +92,9 @@ EST_KI = 83
 GE_TORQUE = 84     # 1: reaction torque from the in-ground-effect inflow
 DELAY = 85         # command -> motor transport delay, in physics steps (fractional)
 LOOP_INPUT = 86    # what the per-step loop commands are (LOOP_* below)
-N_PARAMS = 87
+WEAK_MOTOR = 87    # 1-based rotor whose thrust and torque are scaled (0: none)
+WEAK_SCALE = 88    # its thrust and torque multiplier
+N_PARAMS = 89
 
 # LOOP_INPUT values: how the per-step command array ``exc`` is read
 LOOP_STICKS = 0    # added to the pilot's sticks (pilot off: the sticks), angle mode
@@ -227,6 +229,8 @@ def pack(
     steps = fx["time_delay"] / dt
     p[DELAY] = round(steps) if abs(steps - round(steps)) < 1e-9 else steps
     p[LOOP_INPUT] = loop_input
+    weak = fx["weak_motor"]
+    p[WEAK_MOTOR], p[WEAK_SCALE] = (0.0, 1.0) if weak is None else (weak[0], weak[1])
     return p
 
 

@@ -81,6 +81,7 @@ EFFECTS: dict[str, tuple[str, Any]] = {
     "estimator_kp": ("pos", 0.2),              # rad/s per unit error (tilt and heading)
     "estimator_ki": ("nonneg", 0.05),          # rad/s^2 per unit error (gyro-bias learning)
     "ground_effect_torque": ("bool", False),   # reaction torque follows the IGE inflow
+    "weak_motor": ("weak", None),              # [rotor (1-based), thrust/torque multiplier]
 }
 
 
@@ -274,6 +275,13 @@ def _check(path: str, name: str, kind: str, value: Any, n_rotors: int | None) ->
             raise _fail(path, name, "must be two positive time constants [spin_up, spin_down] "
                         "in s", value)
         return [float(v) for v in value]
+    if kind == "weak":
+        ok = (isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value)
+              and float(value[0]).is_integer() and value[1] > 0)
+        if not ok or not 1 <= value[0] <= (n_rotors or 99):
+            raise _fail(path, name, "must be [rotor number 1..N, positive thrust multiplier]",
+                        value)
+        return [float(value[0]), float(value[1])]
     if kind == "scale3":
         if isinstance(value, list):
             ok = len(value) == 3 and all(_number(v) for v in value)

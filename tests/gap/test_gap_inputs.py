@@ -76,7 +76,7 @@ def test_schema_rejects_unknown_effect_names() -> None:
     bad = {"schema": "etsid.gap/1", "verdict": "mismatch", "reason": "", "summary": "",
            "sim": {"file": "a", "airborne_s": 1.0}, "real": {"file": "b", "airborne_s": 1.0},
            "mismatch": None, "rmse_before": {}, "rmse_after": {}, "noise": {}, "units": {},
-           "effects": [{"name": "wind", "parameters": {}, "confidence": 0.5, "evidence": "",
+           "effects": [{"name": "gremlins", "parameters": {}, "confidence": 0.5, "evidence": "",
                         "rmse_before": {}, "rmse_after": {}}]}
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(bad, schema())

@@ -125,14 +125,40 @@ def test_no_effect_is_kept_that_worsens_roll_and_pitch() -> None:
     assert any("not kept: thrust_scale" in n for n in data["notes"])
 
 
-def test_heavier_rotors_are_never_consistent() -> None:
-    """Rotor inertia ×4 (yaw spin-up torque, outside the vocabulary): r at z ≈ 40 is a
-    mismatch, not 'consistent'."""
+def test_heavier_rotors_are_never_consistent_and_named_as_rotor_inertia() -> None:
+    """Rotor inertia ×4 (yaw spin-up torque): r at z ≈ 40 is a mismatch, not 'consistent'
+    (the previous rules), and the rotor-inertia law names it, not an inertia scale."""
     veh = load_vehicle("tarot680")
     data = _gap({"rotor.inertia": 4 * veh["rotor"]["inertia"]})
     _general_rules_hold(data)
     assert data["verdict"] == "mismatch"
     assert data["mismatch"]["channels"][0] == "r"
+    assert [e["name"] for e in data["effects"]] == ["rotor_inertia"], data["summary"]
+    assert data["effects"][0]["parameters"]["scale"]["value"] > 2.0
+
+
+def _wind_pair(**real_kw) -> dict:
+    sim = simulate(**HOVER, seed=1).table
+    real = simulate(**dict(HOVER, duration=40.0), seed=2, **real_kw).table
+    return analyse(sim, real, "sim", "real").data
+
+
+def test_a_steady_wind_is_named_and_located_by_heading() -> None:
+    data = _wind_pair(wind=[0.0, 4.0, 0.0])
+    _general_rules_hold(data)
+    assert [e["name"] for e in data["effects"]] == ["wind"], data["summary"]
+    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
+    assert np.degrees(np.arctan2(p["east"], p["north"])) == pytest.approx(90.0, abs=15.0)
+    assert data["mismatch"]["regime"]["variable"] == "heading"
+
+
+def test_its_look_alike_a_horizontal_accelerometer_bias_is_not_wind() -> None:
+    """In hover a steady wind and an x/y accelerometer bias both offset ax, ay; only the
+    bias disagrees with the velocity (kin channels)."""
+    data = _wind_pair(settings={"vehicle.accel_bias": [0.0, 0.4, 0.0]})
+    _general_rules_hold(data)
+    names = [e["name"] for e in data["effects"]]
+    assert "accel_bias" in names and "wind" not in names, data["summary"]
 
 
 def test_another_quad_is_a_different_vehicle() -> None:

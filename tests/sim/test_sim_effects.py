@@ -262,3 +262,16 @@ def test_ground_effect_torque_follows_the_reduced_inflow() -> None:
     q_on = on[[f"true_Q{i}" for i in range(1, 7)]].to_numpy().mean()
     q_off = off[[f"true_Q{i}" for i in range(1, 7)]].to_numpy().mean()
     assert 0.85 < q_on / q_off < 0.98
+
+
+def test_a_weak_motor_is_trimmed_by_the_others() -> None:
+    """One rotor at 0.8× thrust (a chipped propeller): the rate loop holds the hover by
+    commanding that motor higher and its opposite lower; the others stay near the mean."""
+    kw = dict(scenario="hover-oge", duration=15.0, seed=2)
+    plain = simulate(**kw).table
+    weak = simulate(**kw, settings={"vehicle.weak_motor": [3, 0.8]}).table
+    m_plain = plain[[f"m{i}" for i in range(1, 7)]].mean().to_numpy()
+    m_weak = weak[[f"m{i}" for i in range(1, 7)]].mean().to_numpy()
+    assert np.ptp(m_plain) < 0.005
+    assert m_weak[2] - m_plain[2] > 0.03
+    assert int(np.argmax(m_weak)) == 2
