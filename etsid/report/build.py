@@ -125,7 +125,8 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet) -> Report:
     """Every figure, index.html and report.md of ``run`` into ``out``."""
     report = Report(out)
     embedded: dict[str, tuple[str, str]] = {}
-    say(f"report: drawing {len(FIGURES)} static figures ({fmt}) …")
+    count = len(FIGURES)
+    say(f"report: drawing {count} static figure{'s' if count != 1 else ''} ({fmt}) …")
     for name, (builder, caption) in FIGURES.items():
         fig = _build(builder, run, caption)
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
