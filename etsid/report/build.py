@@ -274,9 +274,18 @@ def render_html(run: Run, images: dict[str, tuple[str, str]], rules: str,
     head_js, divs, notes = interactive or ("", {}, [])
     head, rows = metrics_rows(run)
     lead = headline(run)
+    facts = summary_lines(run)
+    key, more = facts[:4], facts[4:]
+    if key and len(key[0]) > 160:  # the regressor list: in full under "more"
+        more.insert(0, key[0])
+        outputs = ", ".join((run.config.get("model") or {}).get("outputs") or [])
+        key[0] = f"Outputs: {outputs}; regressors: see below."
     body = [f'<p class="lead">{esc(lead)}</p>' if lead else "",
-            "<ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary_lines(run)) + "</ul>",
-            f'<p class="hint">{esc(HINT)}</p>' if divs else ""]
+            "<ul>" + "".join(f"<li>{esc(s)}</li>" for s in key) + "</ul>"]
+    if more:
+        body.append(f"<details><summary>Model choices and data notes ({len(more)})</summary>"
+                    "<ul>" + "".join(f"<li>{esc(s)}</li>" for s in more) + "</ul></details>")
+    body.append(f'<p class="hint">{esc(HINT)}</p>' if divs else "")
     sections = [
         ("overview", "Flight overview",
          "Altitude shaded by the leading rule, thrust command, sticks and the rule that "
