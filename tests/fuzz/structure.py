@@ -148,7 +148,10 @@ def _mcap_frame_id(work: Path) -> Path:
 
 
 def _bag_rewrite(src: Path, dst: Path, edit: Callable[[str, int, bytes], bytes | None],
-                 compression: str = "lz4", threshold: int | None = None) -> Path:
+                 compression: str = "lz4", threshold: int | None = None,
+                 flood: int = 0) -> Path:
+    """``src`` rewritten with rosbags' writer; ``edit`` as for :func:`_rewrite_mcap`;
+    ``flood``: this many empty IMU messages appended at the last record time."""
     from rosbags.rosbag1 import Reader, Writer
 
     seen: dict[str, int] = {}
@@ -159,10 +162,15 @@ def _bag_rewrite(src: Path, dst: Path, edit: Callable[[str, int, bytes], bytes |
     with Reader(src) as reader, writer:
         conns = {c.id: writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data,
                                              md5sum=c.digest) for c in reader.connections}
+        last = 0
         for conn, stamp, data in reader.messages():
             k = seen[conn.topic] = seen.get(conn.topic, -1) + 1
             new = edit(conn.topic, k, data)
             writer.write(conns[conn.id], stamp, data if new is None else new)
+            last = max(last, stamp)
+        imu = next(c for c in reader.connections if c.topic == "/mavros/imu/data")
+        for _ in range(flood):
+            writer.write(conns[imu.id], last, b"")
     return dst
 
 
@@ -171,6 +179,11 @@ def _bag_one_bad(work: Path) -> Path:
         return bytes(10) if topic == "/mavros/imu/data" and k == 1000 else None
 
     return _bag_rewrite(SAMPLES / "hexa_ige_oge.bag", work / "one_bad.bag", edit)
+
+
+def _bag_flood(work: Path) -> Path:
+    return _bag_rewrite(SAMPLES / "hexa_ige_oge.bag", work / "flood.bag", lambda *_: None,
+                        flood=500_000)
 
 
 # ---------------------------------------------------------------------------
@@ -186,6 +199,7 @@ def _zstd_zeros(nbytes: int, content_size: bool = True) -> bytes:
     out = bytearray()
     for _ in range(nbytes // len(block)):
         out += obj.compress(block)
+    out += obj.compress(bytes(nbytes % len(block)))
     out += obj.flush()
     return bytes(out)
 
@@ -198,6 +212,7 @@ def _lz4_zeros(nbytes: int) -> bytes:
     block = bytes(1 << 24)
     for _ in range(nbytes // len(block)):
         out += comp.compress(block)
+    out += comp.compress(bytes(nbytes % len(block)))
     out += comp.flush()
     return bytes(out)
 
@@ -578,6 +593,9 @@ CASES: list[Case] = [
     Case("mcap-zero-chunks", _mcap_bomb("zstd", GIB - (1 << 24), count=10), columns=RATES,
          note=("chunk",), rows=11900,
          what="MCAP: ten zstd chunks of 1 GiB of zeros each, declared so"),
+    Case("mcap-zero-chunks-127m", _mcap_bomb("zstd", 127 << 20, count=10), columns=RATES,
+         note=("chunk",), rows=11900,
+         what="MCAP: ten zstd chunks of 127 MiB of zeros each (under the limit), declared so"),
     Case("mcap-message-bomb", _mcap_message_bomb, columns=RATES, note=("chunk",),
          rows=11900, what="MCAP: a chunk of 31-byte message records inflating to 1 GiB beside the "
               "valid chunks"),
@@ -590,6 +608,9 @@ CASES: list[Case] = [
          what="MCAP: a message record of 2 GiB (zeros, sparse) before the summary"),
     Case("mcap-channel-flood", _mcap_channel_flood, columns=RATES,
          rows=11900, what="MCAP: 60 000 channel records interleaved with the messages"),
+    Case("bag-message-flood", _bag_flood, columns=RATES, rows=11900,
+         note=("could not be decoded",),
+         what="ROS 1 bag: 500 000 empty IMU messages after the flight"),
     Case("bag-bz2-bomb", _bag_bz2_bomb, columns=RATES, note=("chunk",),
          rows=11000, what="ROS 1 bag: last bz2 chunk replaced by 1.5 GiB of zeros"),
     Case("bag-magic-zeros", _bag_magic_zeros, error=True,

@@ -110,6 +110,18 @@ def _slow_one(conv: Converter, deser: Any, topic: TopicData, typename: str, data
     conv.add(topic, msg, log_ns)
 
 
+def _fails_alike(deser: Any, arr: Any, typename: str) -> BaseException | None:
+    """What decoding raises when every message of ``arr`` (messages, bytes) holds the same
+    bytes and they do not decode (a flood of one bad message: decoded once); else None."""
+    if len(arr) < 2 or not (arr == arr[0]).all():
+        return None
+    try:
+        deser(arr[0].tobytes(), typename)
+    except _errors() as err:
+        return err
+    return None
+
+
 def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) -> Converter:
     """Stream ``paths`` through AnyReader into a fresh :class:`Converter`."""
     from rosbags.highlevel import AnyReader
@@ -219,6 +231,9 @@ def _read_ros1_fast(path: Path, options: ReadOptions, raw: RawLog) -> Converter 
                 if arr is not None and fast.decode_batch(
                         conv, topic, store.fielddefs, typename, arr, log_ns, cdr=False):
                     done += arr.size
+                elif arr is not None and (err := _fails_alike(store.deserialize_ros1, arr,
+                                                              typename)) is not None:
+                    conv.undecodable_many(topic, log_ns, err)
                 else:
                     datas = bodies if arr is None else [row.tobytes() for row in arr]
                     for data, t in zip(datas, log_ns.tolist(), strict=True):
