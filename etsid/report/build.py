@@ -94,7 +94,7 @@ def make_report(run_dir: str | Path, fmt: str = "png", say: Say = quiet) -> Repo
         raise ReportError(f"{run_dir}: cannot write a report there "
                           f"({err.strerror or err})") from err
     try:
-        report = _write(run, staging, fmt, say)
+        report = _write(run, staging, fmt, say, Path(run_dir).resolve().parent)
         _replace(staging, out)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
@@ -121,8 +121,10 @@ def _replace(staging: Path, out: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _write(run: Run, out: Path, fmt: str, say: Say = quiet) -> Report:
-    """Every figure, index.html and report.md of ``run`` into ``out``."""
+def _write(run: Run, out: Path, fmt: str, say: Say = quiet, base: Path | None = None
+           ) -> Report:
+    """Every figure, index.html and report.md of ``run`` into ``out`` (``base``: the
+    directory holding RUN_DIR, where a relative input path may also be found)."""
     report = Report(out)
     embedded: dict[str, tuple[str, str]] = {}
     count = len(FIGURES)
@@ -141,14 +143,17 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet) -> Report:
             embedded[name] = ("image/png", base64.b64encode(png.read_bytes()).decode())
     rules = rules_text(run)
     report.html = out / "index.html"
-    report.html.write_text(render_html(run, embedded, rules, interactive_parts(run, say)))
+    report.html.write_text(render_html(run, embedded, rules,
+                                       interactive_parts(run, say, base)))
     report.markdown = out / "report.md"
     report.markdown.write_text(render_markdown(run, report.figures, rules))
     return report
 
 
-def interactive_parts(run: Run, say: Say = quiet) -> tuple[str, dict[str, str], list[str]]:
-    """(head, {section: div}, notes) of the interactive plots of ``run``."""
+def interactive_parts(run: Run, say: Say = quiet, base: Path | None = None
+                      ) -> tuple[str, dict[str, str], list[str]]:
+    """(head, {section: div}, notes) of the interactive plots of ``run`` (``base``: see
+    :func:`etsid.report.overview.read_flight`)."""
     from etsid.report import interactive as ia
     from etsid.report.overview import read_flight
     from etsid.report.run_plots import (
@@ -161,7 +166,7 @@ def interactive_parts(run: Run, say: Say = quiet) -> tuple[str, dict[str, str], 
     source = (run.config.get("input") or {}).get("path")
     say(f"report: reading {source} again for the flight overview …" if source else
         "report: building the interactive plots …")
-    flight = read_flight(run)
+    flight = read_flight(run, base)
     say("report: building the interactive plots …")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -35,12 +35,15 @@ class Overview:
     notes: list[str] = field(default_factory=list)
 
 
-def _log_path(run: Run) -> tuple[Path | None, str]:
+def _log_path(run: Run, base: Path | None = None) -> tuple[Path | None, str]:
     info = run.config.get("input") or {}
     path = info.get("path")
     if not path:
         return None, "the run names no input file"
     file = Path(str(path))
+    if not file.exists() and base is not None and not file.is_absolute() \
+            and (base / file).exists():
+        file = base / file  # the run was made from the directory that holds RUN_DIR
     if not file.exists():
         return None, f"{file} (the run's input) is not there any more"
     digest = info.get("sha256")
@@ -49,12 +52,13 @@ def _log_path(run: Run) -> tuple[Path | None, str]:
     return file, ""
 
 
-def read_flight(run: Run) -> Overview:
+def read_flight(run: Run, base: Path | None = None) -> Overview:
     """The :class:`Overview` of ``run``; ``table`` None (with a note) when the log cannot
-    be read again."""
+    be read again. A relative input path is looked for from the working directory, then
+    from ``base`` (the directory holding RUN_DIR)."""
     from etsid.ident.inputs import load_for_ident
 
-    file, why = _log_path(run)
+    file, why = _log_path(run, base)
     if file is None:
         return Overview(None, notes=[f"No flight overview: {why}."])
     mode = str((run.config.get("parameters") or {}).get("inputs") or "auto")

@@ -86,3 +86,25 @@ def test_reduction_keeps_every_extreme_and_the_gaps() -> None:
     assert rows.size <= 1002 and {54_321, 77_777} <= set(rows.tolist())
     assert rows[0] == 0 and rows[-1] == t.size - 1
     assert keep_rows(t[:800], [y[:800]], buckets=500).size == 800  # short: every row
+
+
+def test_overview_finds_a_relative_input_beside_the_run(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import etsid.report.build as build
+    from etsid.sim import simulate
+    from etsid.table import save_table
+
+    monkeypatch.setattr(build, "FIGURES", {"rates": build.FIGURES["rates"]})  # fast
+    save_table(simulate("hover-ige", duration=3.0, seed=1).table, tmp_path / "flight.parquet")
+    run = fake_run(300)
+    run.config["input"] = {"path": "flight.parquet"}  # relative to where identify ran
+    run_dir = write_run(run, tmp_path / "run")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    page = make_report(run_dir).html.read_text()
+    assert '<h2 id="overview">' in page and "No flight overview" not in page
+    assert "Thrust command" in page and "Altitude, shaded by the rule" in page
+    (tmp_path / "flight.parquet").unlink()
+    page = make_report(run_dir).html.read_text()
+    assert "No flight overview: flight.parquet (the run&#x27;s input) is not there" in page
