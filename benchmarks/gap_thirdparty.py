@@ -61,7 +61,15 @@ CONFIDENT = 0.9
 
 
 def simulator(name: str) -> ModuleType:
-    """The pair module of simulator ``name`` (imports the simulator lazily)."""
+    """The pair module of simulator ``name``; exits with one line when the simulator
+    package is not installed."""
+    package = {"pyflyt": "PyFlyt", "multirotor": "multirotor"}.get(name)
+    if package is not None:
+        try:
+            __import__(package)
+        except ImportError:
+            raise SystemExit(f"simulator {name!r} is not installed: pip install -e "
+                             "'.[bench]'") from None
     if name == "pyflyt":
         from thirdparty import pyflyt_pairs
         return pyflyt_pairs

@@ -1,8 +1,9 @@
 """Pairs flown in the ``multirotor`` package: its Tarot T18 octocopter and its cascaded PID.
 
 Vehicle: the package's ``tarott18`` model (8 × 18-inch rotors on 0.635 m arms, 10.7 kg,
-thrust k ω², yaw torque k_d ω², rotor speeds taking effect at once as the package ships
-it), integrated by the package (``odeint`` over 10 ms steps, state rounded to 1e-4) and
+thrust k ω², yaw torque k_d ω²; the package ships it with rotor speeds taking effect at
+once, the pairs add a 40 ms first-order lag), integrated by the package (``odeint`` over
+10 ms steps, state rounded to 1e-4) and
 flown by its ArduPilot-style cascade (position → velocity → attitude → rate, altitude →
 climb rate; gains set here) at 100 Hz through its control allocation. Added around it (the
 package has no ground, drag or battery): a ground plane with landing gear, quadratic body
@@ -39,6 +40,9 @@ OMEGA_MAX = 700.0
 """Rotor speed at motor output 1, rad/s (output = commanded speed / OMEGA_MAX)."""
 OMEGA_MIN = 60.0
 """Idle rotor speed, rad/s."""
+MOTOR_TAU = 0.04
+"""First-order rotor speed lag, s, of every flight (the package ships the T18 with speeds
+taking effect at once; with no lag a rotor's spin-up torque is an impulse train)."""
 ROTOR_RADIUS = 0.2286
 """18-inch propeller radius, m."""
 GEAR = 0.3
@@ -74,7 +78,7 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             s = rng.uniform(0.82, 0.9) if rng.random() < 0.5 else rng.uniform(1.1, 1.2)
             fx["thrust_scale"] = truth["scale"] = s
         elif name == "motor_lag":
-            fx["motor_tau"] = truth["tau"] = rng.uniform(0.06, 0.1)
+            fx["motor_tau"] = truth["tau"] = rng.uniform(0.1, 0.15)
         elif name == "time_delay":
             steps = int(rng.integers(2, 5))
             fx["delay_steps"] = steps
@@ -114,7 +118,7 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             s = rng.uniform(0.55, 0.7) if rng.random() < 0.5 else rng.uniform(1.4, 1.7)
             fx["yaw_scale"] = truth["yaw_scale"] = s
         elif name == "rotor_inertia":
-            fx["rotor_inertia"] = truth["rotor_inertia"] = rng.uniform(2.0e-3, 4.0e-3)
+            fx["rotor_inertia"] = truth["rotor_inertia"] = rng.uniform(0.6e-3, 1.2e-3)
         elif name == "gyro_scale":
             sens["gyro_scale"] = truth["gyro_scale"] = rng.uniform(1.10, 1.15)
         elif name == "imu_tilt":
@@ -185,15 +189,20 @@ def _controller(vehicle: Any) -> Any:
 
     # the package stores k_i × (clipped integral) as the next integral, so k_i = 1 is the
     # one value that integrates (k_i < 1 leaks, k_i > 1 runs to the clip): I terms use 1
-    return Controller(
+    ctrl = Controller(
         PosController(**pid(1.0, 0.0, 0.0), max_velocity=7.0, max_acceleration=2.0,
                       square_root_scaling=True, leashing=True),
         VelController(**pid(0.25, 0.0, 0.0), max_tilt=np.pi / 9),
-        AttController(**pid(4.0, 0.0, 0.0)),
-        RateController(**pid(14.0, 1.0, 0.0, 0.5), max_acceleration=10.0),
+        AttController(**pid(3.5, 0.0, 0.0)),
+        RateController(**pid(10.0, 1.0, 0.0, 0.5), max_acceleration=10.0),
         AltController(**pid(1.2, 0.0, 0.0), max_velocity=2.0),
         AltRateController(**pid(3.0, 1.0, 0.0, 3.0)),
         period_p=0.1, period_a=DT, period_z=0.05)
+    # yaw softer: the allocation has no axis priority, and a yaw demand beyond the
+    # octocopter's ≈ 1 N m of yaw authority starves half the rotors (a flip on a yaw step)
+    ctrl.ctrl_a.k_p[2] = 1.0
+    ctrl.ctrl_r.k_p[2] = 3.0
+    return ctrl
 
 
 def _profile(kind: str, duration: float, rng: np.random.Generator) -> tuple[np.ndarray,
@@ -225,7 +234,7 @@ def _profile(kind: str, duration: float, rng: np.random.Generator) -> tuple[np.n
     else:
         reach = 1.0 if kind == "low" else 2.5
         xs = rng.uniform(-reach, reach, (step_t.size, 2))
-        yaws = np.cumsum(rng.choice([0.0, 0.0, 0.6, -0.6], step_t.size))
+        yaws = np.cumsum(rng.choice([0.0, 0.0, 0.35, -0.35], step_t.size))
         ref[:, :2] = np.where(active[:, None], xs[idx], 0.0)
         ref[:, 3] = np.where(active, yaws[idx], 0.0)
     zs = z0 + wander * rng.uniform(-1.0, 1.0, step_t.size)
@@ -262,10 +271,11 @@ def fly(kind: str, duration: float, seed: int, vehicle: dict[str, float],
     arms = params.propeller_vectors.T
     unit = np.tile([0.0, 0.0, 1.0], (n_rot, 1))
     if "motor_tilt" in fx:
+        # every rotor axis tilted outward along its arm (the octocopter's yaw authority,
+        # ≈ 1 N m, cannot hold the yaw torque of a tangential tilt of even 1°)
         d = fx["motor_tilt"]
-        tang = np.column_stack([-arms[:, 1], arms[:, 0]]) / np.linalg.norm(arms[:, :2], axis=1)[
-            :, None]
-        unit = np.column_stack([np.sin(d) * tang, np.full(n_rot, np.cos(d))])
+        radial = arms[:, :2] / np.linalg.norm(arms[:, :2], axis=1)[:, None]
+        unit = np.column_stack([np.sin(d) * radial, np.full(n_rot, np.cos(d))])
     veh.thrust_unit = unit
     ctrl = _controller(veh)
     veh.state[2] = GEAR
@@ -300,8 +310,8 @@ def fly(kind: str, duration: float, seed: int, vehicle: dict[str, float],
             "r_internal", R_NOMINAL) * current
         target = cmd * volts / V_REF
         last = speed
-        tau = fx.get("motor_tau")
-        speed = target if tau is None else speed + (target - speed) * min(1.0, DT / tau)
+        tau = fx.get("motor_tau", MOTOR_TAU)
+        speed = speed + (target - speed) * min(1.0, DT / tau)
         r_wb = direction_cosine_matrix(*veh.orientation).T
         v_world = r_wb @ veh.velocity
         v_air = v_world - wind

@@ -8,12 +8,12 @@ with gain 1/s, 1 cm rangefinder noise. Written as an MCAP file with MAVROS topic
 encoding): IMU 120 Hz, motor outputs 60 Hz, velocity and range 30 Hz, battery 5 Hz.
 
 Effects act through PyFlyt's own parameters where it has them (thrust and torque
-coefficients, motor ``tau``, the rotational damping coefficient, the URDF's mass and
-inertia, its wind field on the body-drag law, the motors' thrust axes) and through a
-wrapper around its physics step otherwise (command delay, rotor H-force, ground effect,
-torque offset, rotor spin-up torque, a 1S battery with internal resistance whose voltage
-sets the motors' top speed) or the sensor model (gyro bias, accelerometer bias, gyro scale,
-tilted IMU).
+coefficients, motor ``tau``, the URDF's mass and inertia, its wind field on the body-drag
+law, the motors' thrust axes) and through a wrapper around its physics step otherwise
+(command delay, rotor H-force, ground effect, torque offset, linear rate damping on top of
+PyFlyt's small quadratic one, rotor spin-up torque, a 1S battery with internal resistance
+whose voltage sets the motors' top speed) or the sensor model (gyro bias, accelerometer
+bias, gyro scale, tilted IMU).
 """
 
 from __future__ import annotations
@@ -45,6 +45,9 @@ R_NOMINAL = 0.03
 """Nominal pack internal resistance, Ω."""
 CURRENT_PER_CUBE = 22.0
 """Pack current per unit of Σ throttle³, A (≈ 4 A in hover)."""
+CURRENT_LIMIT = 12.0
+"""Pack current limit, A (PyFlyt's cf2x has 7× its weight in thrust; the cube law alone
+would draw 88 A at full throttle)."""
 V_REF = 4.0
 """Voltage at which the motors reach PyFlyt's max rpm."""
 
@@ -76,7 +79,6 @@ def _quadx_class() -> type:
             self.pwm_queue: deque = deque()
             self.soc = fx.get("soc0", 0.95)
             self.vbat = V_FULL
-            self.last_omega = np.zeros(4)
             self.spin = np.sign(self.motors.torque_coef[:, 0])
 
         def update_control(self) -> None:
@@ -97,8 +99,12 @@ def _quadx_class() -> type:
                 self.pwm_queue.append(pwm)
                 pwm = self.pwm_queue.popleft() if len(self.pwm_queue) > delay else \
                     self.pwm_queue[0]
+            # spin-up: the deterministic part of the motor ramp (PyFlyt's throttle noise
+            # is per-step jitter, not a rotor acceleration)
+            spin_up = (pwm - self.motors.throttle) / self.motors.tau * self.motors.max_rpm
             # battery: open-circuit voltage falls with charge, sags with current
-            current = CURRENT_PER_CUBE * float(np.sum(np.clip(self.motors.throttle, 0, 1) ** 3))
+            current = min(CURRENT_PER_CUBE * float(np.sum(np.clip(self.motors.throttle, 0, 1)
+                                                          ** 3)), CURRENT_LIMIT)
             self.soc -= current * dt / CAPACITY_AS
             v_oc = V_EMPTY + (V_FULL - V_EMPTY) * np.clip(self.soc, 0.0, 1.0)
             self.vbat = v_oc - fx.get("r_internal", R_NOMINAL) * current
@@ -113,8 +119,9 @@ def _quadx_class() -> type:
             if "torque_offset" in fx:
                 torque = torque + np.asarray(fx["torque_offset"])
             if "rotor_inertia" in fx:
-                domega = (omega - self.last_omega) / dt
-                torque[2] += fx["rotor_inertia"] * float(np.sum(self.spin * domega))
+                torque[2] += fx["rotor_inertia"] * float(np.sum(self.spin * spin_up))
+            if "rate_damping" in fx:
+                torque = torque - fx["rate_damping"] * self.inertia * np.asarray(self.state[0])
             if "rotor_drag" in fx:
                 v_body = self.state[2]
                 force[:2] -= fx["rotor_drag"] * float(np.sum(self.motors.throttle)) * v_body[:2]
@@ -125,7 +132,6 @@ def _quadx_class() -> type:
                     extra = thrust[i] * a * np.exp(-b * z / ROTOR_RADIUS)
                     self.p.applyExternalForce(self.Id, link, [0.0, 0.0, extra], [0.0, 0.0, 0.0],
                                               self.p.LINK_FRAME)
-            self.last_omega = omega
             if airborne:
                 self.p.applyExternalTorque(self.Id, -1, torque.tolist(), self.p.LINK_FRAME)
                 if np.any(force):
@@ -146,9 +152,9 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             s = rng.uniform(0.8, 0.9) if rng.random() < 0.5 else rng.uniform(1.1, 1.2)
             fx["thrust_scale"] = truth["scale"] = s
         elif name == "motor_lag":
-            fx["tau_scale"] = truth["tau_scale"] = rng.uniform(3.0, 5.0)
+            fx["tau_scale"] = truth["tau_scale"] = rng.uniform(2.5, 4.0)
         elif name == "time_delay":
-            steps = int(rng.integers(4, 10))
+            steps = int(rng.integers(2, 5))  # 8-17 ms (25 ms makes the rate loop ring)
             fx["delay_steps"] = steps
             truth["delay"] = steps / PHYSICS_HZ
         elif name == "rotor_drag":
@@ -162,8 +168,8 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             b = rng.uniform(0.02, 0.05, 2) * rng.choice([-1, 1], 2)
             sens["gyro_bias"] = truth["bias_frd"] = (float(b[0]), float(b[1]), 0.0)
         elif name == "battery_sag":
-            fx["r_internal"] = truth["r_internal"] = R_NOMINAL * rng.uniform(5.0, 8.0)
-            fx["soc0"] = truth["soc0"] = rng.uniform(0.35, 0.55)
+            fx["r_internal"] = truth["r_internal"] = R_NOMINAL * rng.uniform(1.8, 2.5)
+            fx["soc0"] = truth["soc0"] = rng.uniform(0.55, 0.7)
         elif name == "ground_effect":
             fx["ground_effect"] = truth["ge_law"] = [rng.uniform(0.35, 0.45),
                                                      rng.uniform(0.5, 0.65)]
@@ -181,12 +187,12 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             i = int(rng.integers(0, 4))
             fx["weak_motor"] = truth["weak_motor"] = [i, rng.uniform(0.8, 0.88)]
         elif name == "rate_damping":
-            fx["damping_scale"] = truth["damping_scale"] = rng.uniform(3.0, 5.0)
+            fx["rate_damping"] = truth["rate_damping"] = rng.uniform(5.0, 8.0)
         elif name == "yaw_torque_scale":
             s = rng.uniform(0.55, 0.7) if rng.random() < 0.5 else rng.uniform(1.4, 1.7)
             fx["yaw_scale"] = truth["yaw_scale"] = s
         elif name == "rotor_inertia":
-            fx["rotor_inertia"] = truth["rotor_inertia"] = rng.uniform(1.0e-8, 2.0e-8)
+            fx["rotor_inertia"] = truth["rotor_inertia"] = rng.uniform(5.0e-10, 1.0e-9)
         elif name == "gyro_scale":
             sens["gyro_scale"] = truth["gyro_scale"] = rng.uniform(1.10, 1.15)
         elif name == "imu_tilt":
@@ -213,7 +219,7 @@ def _profile(kind: str, duration: float, rng: np.random.Generator, rest: float
     else:
         z0 = rng.uniform(0.8, 1.4)
         wander = rng.uniform(0.2, 0.35)
-    step_t = np.cumsum(rng.uniform(1.5, 3.0, 200)) + t_up + 3.0
+    step_t = np.cumsum(rng.uniform(1.0, 2.2, 200)) + t_up + 3.0
     if kind == "forward":
         speed = rng.uniform(1.6, 2.0)
         heading0 = rng.uniform(0, 2 * np.pi)
@@ -227,9 +233,9 @@ def _profile(kind: str, duration: float, rng: np.random.Generator, rest: float
                 xy = xy + speed * dt * np.array([np.cos(yaw), np.sin(yaw)])
             sp[i, :2], sp[i, 2] = xy, yaw
     else:
-        reach = 0.4 if kind == "low" else 0.6
+        reach = 0.4 if kind == "low" else 1.5
         xs = rng.uniform(-reach, reach, (step_t.size, 2))
-        yaws = np.cumsum(rng.choice([0.0, 0.0, 0.5, -0.5], step_t.size))
+        yaws = np.cumsum(rng.choice([0.0, 0.0, 0.7, -0.7], step_t.size))
         idx = np.clip(np.searchsorted(step_t, t) - 1, 0, step_t.size - 1)
         active = (t > t_up + 3.0) & (t < t_land - 1.0)
         sp[:, :2] = np.where(active[:, None], xs[idx], 0.0)
@@ -238,7 +244,7 @@ def _profile(kind: str, duration: float, rng: np.random.Generator, rest: float
     idx = np.clip(np.searchsorted(step_t, t) - 1, 0, step_t.size - 1)
     z_man = np.where(t > t_up + 3.0, zs[idx], max(z0, 0.4)) + 0.4 * wander * np.sin(
         2 * np.pi * t / rng.uniform(4.0, 7.0))
-    ramp_up = np.clip((t - t_up) / 2.5, 0.0, 1.0)
+    ramp_up = np.clip((t - t_up) / 0.5, 0.0, 1.0)  # a firm take-off (PyFlyt's z loop is slow)
     ramp_down = np.clip((t_land - t) / 2.5, 0.0, 1.0)
     sp[:, 3] = np.minimum(ramp_up, ramp_down) * z_man - 0.05 * (t > t_land + 2.5)
     return t, sp
@@ -285,14 +291,21 @@ def _fly(env: Any, kind: str, duration: float, rng: np.random.Generator,
         tang = np.column_stack([-pos[:, 1], pos[:, 0]]) / np.linalg.norm(pos, axis=1)[:, None]
         unit = np.column_stack([np.sin(d) * tang, np.full(4, np.cos(d))])
         motors.thrust_unit = unit[:, :, None]
-    drone.drag_coef_pqr *= fx.get("damping_scale", 1.0)
-    # PyFlyt's cf2x z-velocity D gain (0.05) closes a collective limit cycle through the
-    # thrust (pwm 0.05 <-> 0.8 at ~30 Hz in plain hover); these pairs fly it at 0
+    # PyFlyt's cf2x gains close its loops near 100 rad/s on a vehicle with 7x its weight in
+    # thrust: the z-velocity loop (kp 2, kd 0.05) limit-cycles in plain hover (pwm
+    # 0.05 <-> 0.8 at ~30 Hz) and a 4 ms command delay makes the rate loop diverge. These
+    # pairs fly PyFlyt's cascade with the rate loop at 3/8 of its gain and no D term, and
+    # the z-velocity loop at kp 0.3, ki 0.3, kd 0 (chosen on no-effect flights, seed 900).
+    drone.Kp_ang_vel = np.array([0.015, 0.015, 0.03])
+    drone.Kd_ang_vel = np.zeros(3)
+    drone.z_PIDs[0].kp = np.array([0.3])
+    drone.z_PIDs[0].ki = np.array([0.3])
     drone.z_PIDs[0].kd = np.zeros(1)
     phys = dict(fx)
     if "torque_offset_acc" in fx:
         phys["torque_offset"] = (inertia * np.asarray(fx["torque_offset_acc"])).tolist()
     drone.arm_effects(phys, sensors)
+    drone.inertia = inertia
     if "wind" in fx:
         wind = np.asarray(fx["wind"], dtype=float)
         env.register_wind_field_function(lambda t, pos: np.tile(wind, (len(pos), 1)))
