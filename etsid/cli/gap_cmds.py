@@ -26,16 +26,16 @@ def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
 
     Fits a physics-structured model on the simulation, predicts the recording, and explains
     what differs with named effects (ground_effect, rotor_drag, motor_lag, time_delay,
-    battery_sag, thrust_scale, inertia_scale, torque_offset, gyro_bias, or unexplained),
-    fitted on the first part of the recording and proven on the later part.
+    battery_sag, thrust_scale, inertia_scale, torque_offset, gyro_bias, accel_bias, wind,
+    weak_motor, rotor_inertia, yaw_torque_scale, rate_damping, or unexplained), fitted on the
+    first part of the recording and proven on the later part. Verdicts: consistent,
+    mismatch, insufficient, different-vehicle (the logs are of two airframes).
     """
     def say(line: str) -> None:  # progress on a terminal only, as the progress bars
         if wanted():
             click.echo(line, err=True)
 
-    say(f"gap: fitting the nominal model on {sim_log.name} and the candidate effects on "
-        f"{real_log.name} …")
-    result = run_gap(sim_log, real_log, out_dir, vehicle)
+    result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say)
     report = make_gap_report(out_dir, say=say)
     files = ", ".join(["gap.json", "index.html (interactive)", "report.md",
                        *(p.name for p in report.figures.values())])

@@ -13,6 +13,7 @@ in :mod:`etsid.gap.verdict`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import GapError
-from etsid.gap.candidates import Context
+from etsid.gap.candidates import LIBRARY, Context
 from etsid.gap.fitting import Scorer
 from etsid.gap.floors import channel_floors
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
@@ -359,7 +360,8 @@ def located_by_driver(effects: list[dict[str, Any]], real: Flight) -> dict[str, 
 
 
 def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "SIM",
-            real_name: str = "REAL", vehicle: Any = None) -> GapResult:
+            real_name: str = "REAL", vehicle: Any = None,
+            progress: Callable[[str], None] | None = None) -> GapResult:
     """Compare a simulated and a recorded flight (FlightTables) and explain the gap.
 
     Parameters
@@ -370,6 +372,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         Names used in messages.
     vehicle : str, Path or Vehicle, optional
         Vehicle description; sharpens the rotor-speed law and the ground-effect geometry.
+    progress : callable, optional
+        Called with one line as each stage starts (``etsid gap`` prints them on a terminal).
 
     Returns
     -------
@@ -382,6 +386,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     GapError
         A log lacks the channels the analysis needs.
     """
+    say = progress or (lambda line: None)
+    say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
     rotor_count = structural(sim, real)
     if rotor_count:
@@ -392,6 +398,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         return _insufficient(sim, real, problem + (f"; {twin}" if twin else ""))
     info = _vehicle_info(vehicle, sim.motors.shape[1]) if vehicle is not None else {}
     notes: list[str] = []
+    say(f"gap: fitting the nominal model on {sim_name}; noise floors from both logs")
     floors = nominal_and_floors(sim, real, info.get("k"))
     nominal, sigma = floors.nominal, floors.sigma
     yr = measured(real)
@@ -418,6 +425,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             return _insufficient(sim, real, f"{real_name} flies mostly outside the speed "
                                             f"range of {sim_name}" + (f"; {twin}" if twin
                                                                       else ""))
+    say("gap: checking that one airframe can explain both logs")
     evidence, check = different_airframe(sim, real, nominal)
     if evidence:
         return _different(sim, real, evidence, check)
@@ -442,7 +450,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     if not mis.channels:
         return assemble(base, sim, real, nominal, series, notes, mis, None, {}, res0, None,
                         info)
+    say(f"gap: {', '.join(mis.channels)} mismatched; fitting {len(LIBRARY)} candidate "
+        f"effects on the first part of {real_name}, scoring on the rest")
     sel = explain(scorer, real, mis, r_fit, r_hold)
+    say("gap: leftovers, locating the regime, writing the verdict")
     left, res1, unexplained = leftovers(scorer, real, sel, mis, r_fit, r_hold,
                                         info.get("radius"))
     series.update(res_after=res1, selection=sel,
@@ -582,7 +593,8 @@ def series_frame(result: GapResult) -> pd.DataFrame:
 
 
 def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | None = None,
-            vehicle: str | Path | None = None, options: Any = None) -> GapResult:
+            vehicle: str | Path | None = None, options: Any = None,
+            progress: Callable[[str], None] | None = None) -> GapResult:
     """Read two logs (or saved tables), analyse them, write ``out_dir/gap.json``.
 
     ``options`` is an :class:`etsid.ingest.ReadOptions` for both logs (default: none).
@@ -594,7 +606,8 @@ def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | N
 
     sim_table = read_log(sim_path, options)
     real_table = read_log(real_path, options)
-    result = analyse(sim_table, real_table, Path(sim_path).name, Path(real_path).name, vehicle)
+    result = analyse(sim_table, real_table, Path(sim_path).name, Path(real_path).name, vehicle,
+                     progress)
     if out_dir is not None:
         write_gap_json(result.data, out_dir)
         frame = series_frame(result)

@@ -145,6 +145,23 @@ def static_in_calm(best: Scored, joint: Fit, other: Candidate, scorer: Scorer,
     return g_calm > 0.0 and g_calm >= MIN_CALM_RATIO * g_busy
 
 
+MIN_SCALE_CHANGE = 0.1
+"""A second effect whose law is a scale (no effect at 1) must change its quantity by at
+least this share to be named: a 7 % spin-up torque under a delay is the nominal model's
+imperfection, not missing physics."""
+
+
+def _negligible(part: tuple, tau_nominal: float) -> bool:
+    """Whether a fitted companion (candidate, theta, stderr) is a scale within
+    :data:`MIN_SCALE_CHANGE` of no effect (for a motor lag: of the nominal time constant
+    ``tau_nominal``, s)."""
+    cand, theta, _ = part
+    if cand.name == "motor_lag":
+        return abs(float(theta[0]) / max(tau_nominal, 1e-6) - 1.0) < MIN_SCALE_CHANGE
+    return any(p.null == 1.0 and abs(float(v) - 1.0) < MIN_SCALE_CHANGE
+               for p, v in zip(cand.params, theta, strict=True))
+
+
 def _companions(best: Scored, ranked: list[Scored], left: list[str], scorer: Scorer,
                 fit_mask: np.ndarray, hold: np.ndarray, z0: dict[str, float], e0: float,
                 focus: tuple[str, ...]) -> list[Scored]:
@@ -216,10 +233,12 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
         share_left = _left_share(best, joint, left) if left else 0.0
         steady = static_in_calm(best, joint.fit, other.fit.candidates[0], scorer,
                                 activity)
+        small = _negligible(joint.fit.split()[1], scorer.ctx.nominal.tau)
         sel.notes.append(f"pair {joint.fit.name}: share {joint.share:.3f}, left "
                          f"{share_left:.3f}{'' if steady else ', static term fits only busy part'}"
-                         f"{'' if joint.admissible else ', ' + joint.why_not()}")
-        if not steady or not joint.admissible:
+                         f"{'' if joint.admissible else ', ' + joint.why_not()}"
+                         f"{', companion within 10 % of nominal' if small else ''}")
+        if not steady or not joint.admissible or small:
             continue
         if joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score:
             chosen = joint

@@ -9,6 +9,7 @@ the NED velocity into body axes, find the airborne part, and keep the raw motor 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -85,11 +86,14 @@ class Flight:
         return float(np.sum(self.airborne)) / self.fs
 
 
+@lru_cache(maxsize=64)
+def _lowpass_sos(wn: float) -> np.ndarray:
+    return butter(2, wn, output="sos")
+
+
 def lowpass(x: np.ndarray, fs: float, cutoff: float = ANALYSIS_CUTOFF_HZ) -> np.ndarray:
     """Zero-phase 4th-order Butterworth low-pass along axis 0 (cut-off in Hz)."""
-    wn = min(cutoff / (0.5 * fs), 0.95)
-    sos = butter(2, wn, output="sos")
-    return sosfiltfilt(sos, x, axis=0)
+    return sosfiltfilt(_lowpass_sos(min(cutoff / (0.5 * fs), 0.95)), x, axis=0)
 
 
 def derivative(x: np.ndarray, fs: float) -> np.ndarray:
