@@ -12,10 +12,16 @@ from etsid.report.build import FORMATS
 
 
 def say(line: str) -> None:
-    """A progress line on stderr when it is a terminal (as the progress bars; stdout keeps
-    the result)."""
+    """A transient progress line on stderr when it is a terminal (as the progress bars:
+    each replaces the last, :func:`done` clears it; stdout keeps the result)."""
     if wanted():
-        click.echo(line, err=True)
+        click.echo(f"\r\033[K{line}", err=True, nl=False)
+
+
+def done() -> None:
+    """Clear the progress line."""
+    if wanted():
+        click.echo("\r\033[K", err=True, nl=False)
 
 
 @click.command()
@@ -30,7 +36,10 @@ def report(run_dir: Path, fmt: str) -> None:
     key figures, the best and worst flights linked to their own reports, failures by cause.
     On a directory of `etsid gap` or `etsid control`, their reports.
     """
-    result = make_report(run_dir, fmt, say)
+    try:
+        result = make_report(run_dir, fmt, say)
+    finally:
+        done()
     names = ["index.html (interactive; open it in a browser)", "report.md",
              *(p.name for p in result.figures.values())]
     click.echo(f"wrote {result.directory}/: {', '.join(names)}")
