@@ -21,7 +21,7 @@ CSS = (
     "table{border-collapse:collapse;font-size:88%;margin:.5em 0}"
     "td,th{border:1px solid #ccc;padding:2px 7px;text-align:right;vertical-align:top}"
     "th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}"
-    "td.text{text-align:left;max-width:40em}"
+    "td.text,th.text{text-align:left;max-width:40em}"
     "img{max-width:100%}pre{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:85%;"
     "white-space:pre-wrap;word-break:break-word}"
     "figure{margin:1em 0}figcaption{font-size:90%;color:#444}"
@@ -45,7 +45,9 @@ def table_html(head: Sequence[str], rows: Iterable[Sequence[object]],
                text_columns: Iterable[int] = ()) -> str:
     """An HTML table; cells of ``text_columns`` are left aligned prose."""
     text = set(text_columns)
-    out = ["<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr>"]
+    out = ["<table><tr>" + "".join(f'<th class="text">{esc(h)}</th>' if i in text
+                                   else f"<th>{esc(h)}</th>" for i, h in enumerate(head))
+           + "</tr>"]
     for row in rows:
         out.append("<tr>" + "".join(
             f'<td class="text">{esc(c)}</td>' if i in text else f"<td>{esc(c)}</td>"

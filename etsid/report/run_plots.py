@@ -26,9 +26,13 @@ STICKS = {"u_roll": ("roll stick", "#1f77b4"), "u_pitch": ("pitch stick", "#d627
 
 
 def _validation_start(run: Run) -> float | None:
+    """Start of the held-out part, s; None when there is none or when it is the whole
+    record (``etsid predict``: a frozen rule base on another flight)."""
     val = (run.metrics.get("validation") or {}) if isinstance(run.metrics, dict) else {}
     start = val.get("t_start")
-    return float(start) if start is not None else None
+    if start is None or not val.get("n_learn"):
+        return None
+    return float(start)
 
 
 def _mark_parts(fig: Any, run: Run, t_end: float) -> None:
