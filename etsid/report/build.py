@@ -257,19 +257,44 @@ def rules_section(run: Run) -> list[str]:
     regimes = {int(r["rule"]): r.get("regime") or "" for r in
                ((run.metrics.get("regimes") or {}).get("rules") or [])}
     outputs = list(summaries[0].terms)
+    gains = _own_input_gains(run, outputs)
     head = ["rule", "focal point", "regime",
+            *(f"{y}: gain of {gains[y]['term']}" for y in outputs if y in gains),
             *(f"{y}: dominant terms (share)" for y in outputs)]
     rows = []
     for rule in summaries:
         focal = ", ".join(physical(n, v) for n, v in list(rule.focal.items())[:3])
+        per_rule = [gains[y]["per_rule"] for y in outputs if y in gains]
         rows.append([f"Rule {rule.number}", focal, regimes.get(rule.number, ""),
+                     *(f"{g[rule.number - 1]:.3g}" if rule.number <= len(g) else "–"
+                       for g in per_rule),
                      *("; ".join(f"{t.coefficient:+.3g}·{t.name} ({100 * t.share:.0f} %)"
                                  for t in rule.terms[y][:4]) for y in outputs)])
     return ['<h2 id="rules">Rules: where they fire and what dominates them</h2>',
-            "<p>Share = |θ| × the input's learnt range over the sum of all terms: the part "
+            "<p>Gain: the coefficient of the rate's own command at its shortest lag, the "
+            "response one sample after a unit command (what the regime sentence compares). "
+            "Share = |θ| × the input's learnt range over the sum of all terms: the part "
             "of the output's swing a term can cause. All rules are listed, numbered as in "
             "the tables above and in <code>etsid rules</code>.</p>",
             table_html(head, rows, text_columns=range(1, len(head)))]
+
+
+OWN_INPUT = {"p": "u_roll", "q": "u_pitch", "r": "u_yaw"}
+"""The command of each body rate (its input gain is the rule's physical number)."""
+
+
+def _own_input_gains(run: Run, outputs: list[str]) -> dict[str, dict[str, Any]]:
+    """metrics.json ``regimes.gains`` entry of each output's own command (u_roll for p …):
+    per rule the coefficient of its shortest lag, the response one sample after a unit
+    command."""
+    entries = ((run.metrics.get("regimes") or {}).get("gains") or []) \
+        if isinstance(run.metrics, dict) else []
+    out = {}
+    for entry in entries:
+        y = entry.get("output")
+        if y in outputs and entry.get("input") == OWN_INPUT.get(y) and entry.get("per_rule"):
+            out[y] = entry
+    return out
 
 
 def render_html(run: Run, images: dict[str, tuple[str, str]], rules: str,
