@@ -256,6 +256,7 @@ LOADER = """<script>(function () {
       });
     }, {rootMargin: "400px"});
     divs.forEach(function (d) { seen.observe(d); });
+    window.addEventListener("beforeprint", function () { divs.forEach(draw); });
   }
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();
