@@ -207,16 +207,19 @@ def to_table(rec: Record, sensors: Sensors, rng: np.random.Generator,
     return table
 
 
-def smooth_steps(t: np.ndarray, times: np.ndarray, values: np.ndarray, tau: float) -> np.ndarray:
-    """A staircase through ``values`` switching at ``times``, smoothed by a first-order
-    filter of time constant ``tau`` s (setpoint shaping, as a pilot or planner gives)."""
-    idx = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(values) - 1)
-    raw = np.asarray(values, dtype=float)[idx]
-    out = np.empty_like(raw)
-    out[0] = raw[0]
-    dt = np.diff(t, prepend=t[0])
-    for i in range(1, t.size):
-        out[i] = out[i - 1] + (raw[i] - out[i - 1]) * min(1.0, dt[i] / tau)
+LEG_TURNS = (0, 1, 2, 1)
+"""Forward-flight legs turn by these quarter turns from the first heading and back: the
+headings span half a circle without wrapping (both simulators' attitude loops take the
+plain difference of yaw angles, so a setpoint past ±π makes the vehicle spin)."""
+
+
+def bounded_walk(rng: np.random.Generator, n: int, step: float, limit: float) -> np.ndarray:
+    """``n`` yaw setpoints, rad: a random walk of ±``step`` (or no change) kept within
+    ±``limit`` of zero (never near ±π, see :data:`LEG_TURNS`)."""
+    out = np.zeros(n)
+    for i in range(1, n):
+        move = rng.choice([0.0, 0.0, step, -step])
+        out[i] = out[i - 1] + (move if abs(out[i - 1] + move) <= limit else -move)
     return out
 
 

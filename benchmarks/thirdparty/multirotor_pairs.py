@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .common import Record, Sensors
+from .common import LEG_TURNS, Record, Sensors, bounded_walk
 
 NAME = "multirotor"
 LOG_SUFFIX = ".tlog"
@@ -223,18 +223,18 @@ def _profile(kind: str, duration: float, rng: np.random.Generator) -> tuple[np.n
     active = (t > start) & (t < t_land - 2.0)
     if kind == "forward":
         speed = rng.uniform(5.0, 6.5)
-        heading0, leg = rng.uniform(0, 2 * np.pi), rng.uniform(5.0, 7.0)
+        heading0, leg = rng.uniform(-np.pi + 0.35, -0.35), rng.uniform(5.0, 7.0)
         xy, yaw = np.zeros(2), heading0
         for i in range(t.size):
             if active[i]:
                 k = int((t[i] - start) // leg)
-                yaw = heading0 + k * np.pi / 2 + 0.3 * np.sin(0.7 * k)
+                yaw = heading0 + LEG_TURNS[k % 4] * np.pi / 2 + 0.3 * np.sin(0.7 * k)
                 xy = xy + speed * DT * np.array([np.cos(yaw), np.sin(yaw)])
             ref[i, :2], ref[i, 3] = xy, yaw
     else:
         reach = 1.0 if kind == "low" else 2.5
         xs = rng.uniform(-reach, reach, (step_t.size, 2))
-        yaws = np.cumsum(rng.choice([0.0, 0.0, 0.35, -0.35], step_t.size))
+        yaws = bounded_walk(rng, step_t.size, 0.35, 1.4)
         ref[:, :2] = np.where(active[:, None], xs[idx], 0.0)
         ref[:, 3] = np.where(active, yaws[idx], 0.0)
     zs = z0 + wander * rng.uniform(-1.0, 1.0, step_t.size)

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .common import Record, Sensors
+from .common import LEG_TURNS, Record, Sensors, bounded_walk
 
 NAME = "pyflyt"
 LOG_SUFFIX = ".mcap"
@@ -222,20 +222,20 @@ def _profile(kind: str, duration: float, rng: np.random.Generator, rest: float
     step_t = np.cumsum(rng.uniform(1.0, 2.2, 200)) + t_up + 3.0
     if kind == "forward":
         speed = rng.uniform(1.6, 2.0)
-        heading0 = rng.uniform(0, 2 * np.pi)
+        heading0 = rng.uniform(-np.pi + 0.35, -0.35)
         leg = rng.uniform(2.5, 3.5)
         xy = np.zeros(2)
         yaw = heading0
         for i in range(t.size):
             if t[i] > t_up + 3.0 and t[i] < t_land - 1.0:
                 k = int((t[i] - t_up - 3.0) // leg)
-                yaw = heading0 + k * np.pi / 2 + 0.3 * np.sin(0.7 * k)
+                yaw = heading0 + LEG_TURNS[k % 4] * np.pi / 2 + 0.3 * np.sin(0.7 * k)
                 xy = xy + speed * dt * np.array([np.cos(yaw), np.sin(yaw)])
             sp[i, :2], sp[i, 2] = xy, yaw
     else:
         reach = 0.4 if kind == "low" else 1.5
         xs = rng.uniform(-reach, reach, (step_t.size, 2))
-        yaws = np.cumsum(rng.choice([0.0, 0.0, 0.7, -0.7], step_t.size))
+        yaws = bounded_walk(rng, step_t.size, 0.7, 1.4)
         idx = np.clip(np.searchsorted(step_t, t) - 1, 0, step_t.size - 1)
         active = (t > t_up + 3.0) & (t < t_land - 1.0)
         sp[:, :2] = np.where(active[:, None], xs[idx], 0.0)
