@@ -96,6 +96,9 @@ class Selection:
     notes: list[str] = field(default_factory=list)
     refused: list[Scored] = field(default_factory=list)
     """Candidates that fitted well enough to be chosen but break verdict rule 3 or 4."""
+    companion_share: float | None = None
+    """For a chosen pair: the share of the first effect's held-out excess on the focus
+    channels that the second removes (its evidence)."""
 
 
 def excess(z: dict[str, float]) -> float:
@@ -242,10 +245,12 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
             continue
         if joint.score - best.score >= MIN_EXTRA_SHARE and joint.score > chosen.score:
             chosen = joint
+            sel.companion_share = _left_share(best, joint, list(focus) or list(joint.z_after))
         elif (share_left >= best_left and joint.share >= best.share
               and chosen.score - best.score < MIN_EXTRA_SHARE):
             # the first effect leaves a channel mismatched; the pair explains what is left
             chosen, best_left = joint, share_left
+            sel.companion_share = share_left
     sel.chosen = chosen
     return sel
 

@@ -22,7 +22,13 @@ LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
 
 def _confidence(name: str, sel: Any) -> float:
+    """How far the effect's held-out score stands above its best alternative (plus half its
+    own share). The second effect of a pair is judged on top of the first: the share of
+    what the first left mismatched that it removes (``sel.companion_share``)."""
     chosen = sel.chosen
+    parts = chosen.fit.name.split("+")
+    if len(parts) == 2 and name == parts[1] and sel.companion_share is not None:
+        return float(np.clip(sel.companion_share, 0.0, 1.0))
     alts = [s for s in sel.ranked if name not in s.fit.name.split("+")]
     best_alt = max((s.score for s in alts), default=0.0)
     own = next((s.score for s in sel.ranked if s.fit.name == name), chosen.score)
