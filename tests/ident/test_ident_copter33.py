@@ -59,3 +59,16 @@ def test_identify_beats_no_change_and_matches_arx_on_informative_axes(table) -> 
         if one.get("informative", True):
             assert one["rmse"] <= block["persistence"]["validation"]["rmse"]
             assert one["rmse"] <= 1.02 * block["arx"]["validation"]["one_step"]["rmse"]
+
+
+def test_without_altitude_the_events_still_find_the_flight_and_no_schedule_is_offered(
+        table) -> None:
+    bare = table.drop(columns=["alt"])
+    bare.attrs = dict(table.attrs)
+    sel = select_flight(bare)
+    assert sel.windows == select_flight(table).windows  # EV land detector + upset, no alt
+    run = identify(bare, IdentConfig())
+    block = run.metrics["structure"]
+    assert block["chosen"] in ("arx", "unscheduled")
+    assert "eTS scheduled" not in block["validation"]
+    assert {"eTS one rule", "eTS unscheduled", "ARX", "no-change"} <= set(block["validation"])
