@@ -1,0 +1,41 @@
+"""The structure choice's reporting: one line per informative axis where eTS is behind ARX
+(×1.02) or no-change, with the likely reason; nothing where it is not."""
+
+from __future__ import annotations
+
+from etsid.ident.structure import behind_lines
+
+
+def _outputs(ets: float, arx: float, persist: float, informative: bool = True,
+             std: float = 0.3) -> dict:
+    return {"p": {"validation": {"one_step": {"rmse": ets, "informative": informative,
+                                              "signal_std": std}},
+                  "arx": {"validation": {"one_step": {"rmse": arx}}},
+                  "persistence": {"validation": {"rmse": persist}}}}
+
+
+def test_behind_arx_says_which_and_why() -> None:
+    lines = behind_lines(_outputs(0.0139, 0.0121, 0.048), rules=3, excited_learn_s=40.0,
+                         rate_hz=50.0, n_params=39)
+    assert len(lines) == 1
+    assert lines[0].startswith("warning: p: eTS validation one-step RMSE 0.0139 is behind "
+                               "ARX 0.0121 (1.15×)")
+    assert "one regime only: 3 rules" in lines[0]
+
+
+def test_the_reasons_in_their_order() -> None:
+    few = behind_lines(_outputs(0.02, 0.01, 0.05), 1, 5.0, 50.0, 39)
+    assert "too little excitation: 5.0 s" in few[0]
+    still = behind_lines(_outputs(0.02, 0.01, 0.05, std=0.07), 1, 40.0, 50.0, 39)
+    assert "too little excitation in the validation part" in still[0]
+    floor = behind_lines(_outputs(0.0105, 0.0100, 0.0110), 1, 40.0, 50.0, 39)
+    assert "noise floor" in floor[0]
+    behind_persist = behind_lines(_outputs(0.0112, 0.0111, 0.0110), 1, 40.0, 50.0, 39)
+    assert "no-change 0.011" in behind_persist[0] and "ARX" not in behind_persist[0].split(
+        "likely")[0].split("behind")[1]
+
+
+def test_no_line_when_level_or_not_informative() -> None:
+    assert behind_lines(_outputs(0.0122, 0.0121, 0.048), 1, 40.0, 50.0, 39) == []
+    assert behind_lines(_outputs(0.02, 0.01, 0.005, informative=False), 1, 40.0, 50.0,
+                        39) == []
