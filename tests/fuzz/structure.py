@@ -93,6 +93,31 @@ def _db3_one_bad(work: Path) -> Path:
     return bag
 
 
+def _db3_flood(work: Path, count: int = 300_000) -> Path:
+    """The sample db3 bag with ``count`` empty IMU messages after the flight (1 µs apart),
+    metadata.yaml's counts raised to match."""
+    import yaml
+
+    bag = work / "db3_flood"
+    shutil.copytree(SAMPLES / "hexa_ige_oge_db3", bag)
+    with sqlite3.connect(bag / "hexa_ige_oge_db3.db3") as db:
+        tid = db.execute("SELECT id FROM topics WHERE name='/mavros/imu/data'").fetchone()[0]
+        last = db.execute("SELECT MAX(timestamp) FROM messages").fetchone()[0]
+        db.executemany("INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, x'')",
+                       ((tid, last + 1000 * (i + 1)) for i in range(count)))
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())
+    info = meta["rosbag2_bagfile_information"]
+    info["message_count"] += count
+    info["files"][0]["message_count"] += count
+    info["duration"]["nanoseconds"] += 1000 * count
+    info["files"][0]["duration"]["nanoseconds"] += 1000 * count
+    for entry in info["topics_with_message_count"]:
+        if entry["topic_metadata"]["name"] == "/mavros/imu/data":
+            entry["message_count"] += count
+    (bag / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    return bag
+
+
 def _mcap_messages(src: Path):  # type: ignore[no-untyped-def]
     from mcap.reader import make_reader
 
@@ -578,6 +603,9 @@ def _rules_keys(work: Path) -> Path:
 CASES: list[Case] = [
     Case("db3-one-bad-imu", _db3_one_bad, columns=RATES, note=("/mavros/imu/data",),
          cheap=True, rows=2900, what="ROS 2 db3: one 10-byte IMU message among 3000"),
+    Case("db3-message-flood", _db3_flood, columns=RATES, rows=2900,
+         note=("could not be decoded",),
+         what="ROS 2 db3: 300 000 empty IMU messages after the flight"),
     Case("mcap-one-bad-imu", _mcap_one_bad, columns=RATES, note=("/mavros/imu/data",),
          cheap=True, rows=11900, what="MCAP: one 10-byte IMU message among 12000"),
     Case("mcap-frame-id-length", _mcap_frame_id, columns=RATES, note=("/mavros/imu/data",),

@@ -190,7 +190,8 @@ def _read_ros2_fast(reader: Any, paths: list[Path], options: ReadOptions,
         _slow_one(conv, deser, topic, typename, data, log_ns)
 
     try:
-        fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow)
+        fast_ros2.read(storage, conv, reader.connections, reader.typestore.fielddefs, slow,
+                       lambda arr, typename: _fails_alike(deser, arr, typename))
     except (fast_ros2.NotFast, fast_mcap.NotFast, OSError):
         return None
     return conv

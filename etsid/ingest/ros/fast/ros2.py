@@ -25,6 +25,7 @@ from etsid.ingest.ros.fast import decode as fast
 from etsid.ingest.ros.fast import mcap as fast_mcap
 
 Slow = Callable[[TopicData, str, bytes, int], None]
+Alike = Callable[[np.ndarray, str], BaseException | None]
 
 
 class NotFast(Exception):
@@ -68,12 +69,16 @@ class _Order:
 
 
 def _take(conv: Converter, topic: TopicData, typename: str, fielddefs: dict[str, Any],
-          arr: np.ndarray | None, bodies: list[bytes], log_ns: np.ndarray, slow: Slow) -> None:
+          arr: np.ndarray | None, bodies: list[bytes], log_ns: np.ndarray, slow: Slow,
+          alike: Alike | None) -> None:
     if not topic.decode:
         conv.count_many(topic, log_ns)
         return
     if arr is not None and fast.decode_batch(conv, topic, fielddefs, typename, arr,
                                                  log_ns, cdr=True):
+        return
+    if arr is not None and alike is not None and (err := alike(arr, typename)) is not None:
+        conv.undecodable_many(topic, log_ns, err)  # one bad message, many times
         return
     if arr is not None:
         bodies = [row.tobytes() for row in arr]
@@ -82,8 +87,11 @@ def _take(conv: Converter, topic: TopicData, typename: str, fielddefs: dict[str,
 
 
 def read(storage: Path, conv: Converter, connections: list[Any], fielddefs: dict[str, Any],
-         slow: Slow) -> None:
+         slow: Slow, alike: Alike | None = None) -> None:
     """Convert every message of ``storage`` into ``conv`` (whose ``base_ns`` is set).
+
+    ``alike(arr, typename)``: what decoding raises when every message of a batch holds
+    the same bytes and they do not decode (else None): such a batch is counted at once.
 
     Raises
     ------
@@ -102,7 +110,7 @@ def read(storage: Path, conv: Converter, connections: list[Any], fielddefs: dict
         order.check(name, log_ns)
         counts[name] += len(log_ns)
         _take(conv, topics[name], by_topic[name].msgtype, fielddefs, arr, bodies, log_ns,
-              slow)
+              slow, alike)
     order.done()
     if any(counts[c.topic] != c.msgcount for c in connections):
         raise NotFast("storage and metadata disagree on message counts")
