@@ -84,8 +84,10 @@ def _index(data: bytes) -> tuple[list[list[int]], dataflash_index.IndexStats]:
         dataflash_index.STATS.reset(token)
 
 
-def test_the_dataflash_indexer_equals_pymavlinks_on_a_real_log() -> None:
-    data = BIN.read_bytes()
+@pytest.mark.parametrize("log", [BIN, ROOT.parent / "shared" / "data" / "logs" /
+                                 "ardupilot_copter33_loiter_acro_flips_real.bin"])
+def test_the_dataflash_indexer_equals_pymavlinks_on_a_real_log(log: Path) -> None:
+    data = log.read_bytes()
     offsets, stats = _index(data)
     assert offsets == _pymavlink_offsets(data)
     assert stats.skipped_bytes == 0 and stats.rejected_fmts == []
