@@ -38,6 +38,7 @@ from etsid.gap.result import SCHEMA_NAME, write_gap_json
 from etsid.gap.select import MIN_SHARE, Scored, Selection, fit_unexplained, select
 from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, input_kinds, prepare
 from etsid.gap.summary import effect_entry, summary_sentence
+from etsid.gap.validation import blocked_split, time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
 from etsid.gap.verdict import (
     Z_MISMATCH,
@@ -86,13 +87,6 @@ class Floors:
     nominal: NominalModel
     sigma: dict[str, float]
     source: dict[str, str]
-
-
-def _split(mask: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
-    idx = np.flatnonzero(mask)
-    cut = idx[int(share * idx.size)] if idx.size else 0
-    before = mask & (np.arange(mask.size) < cut)
-    return before, mask & ~before
 
 
 def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
@@ -183,6 +177,22 @@ def airborne_problem(sim: Flight, real: Flight) -> str | None:
     return None
 
 
+SPLIT = "time"
+"""How REAL's evidence is split to fit and to score (:mod:`etsid.gap.validation`):
+``"time"`` (first 60 % / last 40 %) or ``"blocked"`` (2 s blocks dealt alternately along
+their departure from the nominal model)."""
+
+
+def split_evidence(real: Flight, res0: dict[str, np.ndarray], sigma: dict[str, float],
+                   how: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(fit, score) masks of REAL's evidence by :data:`SPLIT` (or ``how``)."""
+    if (how or SPLIT) == "blocked":
+        departure = sum(res0[c] ** 2 / sigma[c] ** 2 for c in res0
+                        if c not in SENSOR_CHANNELS)
+        return blocked_split(real.airborne, real.fs, np.asarray(departure))
+    return time_split(real.airborne, FIT_SHARE)
+
+
 def twin_divergence(sim_table: pd.DataFrame, sim_name: str) -> str | None:
     """What the replay said of a twin that left its recording (``replay_divergence`` in the
     table's provenance), in words, or None."""
@@ -196,7 +206,7 @@ def twin_divergence(sim_table: pd.DataFrame, sim_name: str) -> str | None:
 def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     """The nominal model on SIM, and each channel's floor: SIM's own held-out error or
     REAL's sensor noise, whichever is larger (:func:`etsid.gap.floors.channel_floors`)."""
-    s_fit, s_hold = _split(sim.airborne, SIM_FIT_SHARE)
+    s_fit, s_hold = time_split(sim.airborne, SIM_FIT_SHARE)
     probe = fit_nominal(sim, s_fit, k=k)
     ys = measured(sim)
     own = _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()}, s_hold)
@@ -436,9 +446,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                                                                                     real),
                   info.get("arm"))
     scorer = Scorer(ctx, yr, sigma)
-    r_fit, r_hold = _split(real.airborne, FIT_SHARE)
-    mis = mismatch_scores(scorer, real, r_hold)
     res0 = scorer.residuals()
+    r_fit, r_hold = split_evidence(real, res0, sigma)
+    mis = mismatch_scores(scorer, real, r_hold)
     base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared},
