@@ -40,11 +40,28 @@ def read_raw(path: str | Path, options: ReadOptions | None = None) -> RawLog:
     reader = open_reader(fmt)
     try:
         return _printable_notes(reader(path, options or ReadOptions()))
+    except IngestError as err:
+        shown = _shown(str(err))
+        if shown == str(err):
+            raise
+        raise IngestError(shown) from err
     except EtsidError:
         raise
     except decoder_errors() as err:  # the one error path for damaged bytes (damage.py)
         raise IngestError(f"{path}: damaged {fmt} file, nothing could be read "
                           f"({describe(err)})") from err
+
+
+MAX_ERROR_CHARS = 600
+"""Length of an error message from a reader; the rest is cut (names in it come from the
+log and may be long)."""
+
+
+def _shown(text: str) -> str:
+    """``text`` with control characters shown (:func:`printable`) and cut to one line of
+    :data:`MAX_ERROR_CHARS`."""
+    text = printable(text)
+    return text if len(text) <= MAX_ERROR_CHARS else text[:MAX_ERROR_CHARS] + " …"
 
 
 def _printable_notes(raw: RawLog) -> RawLog:
@@ -99,7 +116,8 @@ def table_from_raw(
     --inputs``; see :func:`etsid.ingest.mapping.choose_signals`).
     """
     if all(s.column in ("landed", "ground_contact") for s in raw.signals):  # no flight data
-        kinds = ", ".join(sorted({f"{c.name} ({c.type})" for c in raw.channels})[:12])
+        kinds = ", ".join(sorted({_shown(f"{c.name} ({c.type})")[:120]
+                                  for c in raw.channels})[:12])
         raise IngestError(
             f"{raw.path}: no usable flight data; found {kinds or 'no messages'}"
         )

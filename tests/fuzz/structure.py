@@ -375,6 +375,25 @@ def _mcap_escape_topic(work: Path) -> Path:
                          lambda *_: None, extra=extra)
 
 
+def _mcap_escape_only(work: Path) -> Path:
+    """An MCAP file whose only channels (std_msgs/String) are named with escapes and a
+    newline: nothing to ingest, and the error names them."""
+    from mcap.writer import Writer
+
+    path = work / "escape_only.mcap"
+    with path.open("wb") as out:
+        writer = Writer(out)
+        writer.start("ros2", "etsid structure fuzzer")
+        schema = writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data")
+        for name in (*ESCAPES, "/~\nnote: forged line"):
+            cid = writer.register_channel(name, "cdr", schema)
+            for i in range(10):
+                writer.add_message(cid, 1_000_000_000 * (i + 1), b"\x00\x01\x00\x00"
+                                   + struct.pack("<I", 2) + b"a\x00", 1_000_000_000 * (i + 1))
+        writer.finish()
+    return path
+
+
 def _channel_id(path: Path, topic: str) -> int:
     """The id of ``topic``'s channel in the MCAP file ``path``."""
     from mcap.reader import make_reader
@@ -686,6 +705,9 @@ CASES: list[Case] = [
          what="rules.json of 6 MB: a focal point of 3 million numbers (under the value cap)"),
     Case("rules-4m-keys", _rules_keys, error=True, args=("rules", "{in}"),
          what="rules.json: one object of 4 million keys"),
+    Case("error-escapes", _mcap_escape_only, error=True, note=("\\x1b]52",),
+         absent=("\x1b", "\x07", "\x9b", "\x08"), cheap=True,
+         what="MCAP with only escape-named String topics: the error names them"),
     Case("inspect-escapes", _mcap_escape_topic, args=("inspect", "{in}"),
          absent=("\x1b", "\x07", "\x9b", "\x08"), note=("\\x1b]52",),
          what="MCAP: topic names with OSC 52, CSI and other control characters (inspect)"),
