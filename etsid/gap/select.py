@@ -148,6 +148,11 @@ def static_in_calm(best: Scored, joint: Fit, other: Candidate, scorer: Scorer,
     return g_calm > 0.0 and g_calm >= MIN_CALM_RATIO * g_busy
 
 
+STRONG_LEFT = 2.0
+"""Candidates are fitted on top of the first effect only for a channel it leaves clearly
+mismatched (z above this many times the threshold: RMSE ≥ 2.8× its floor). Just above the
+threshold, what is left is as likely the first law's imperfection (a battery sag's slower
+spin-ups taken up as a 14 % lighter rotor, dev seed 10105)."""
 MIN_SCALE_CHANGE = 0.1
 """A second effect whose law is a scale (no effect at 1) must change its quantity by at
 least this share to be named: a 7 % spin-up torque under a delay is the nominal model's
@@ -225,8 +230,11 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
         return sel
     pool = [s for s in ranked if s is not best and s.gain > 0
             and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
-    if left:
-        pool = _companions(best, ranked, left, scorer, fit_mask, hold, z0, e0, focus)
+    strong = [c for c in left if best.z_after[c] > STRONG_LEFT * z_left]
+    if strong:
+        names = {s.fit.name for s in pool}
+        pool += [s for s in _companions(best, ranked, strong, scorer, fit_mask, hold, z0, e0,
+                                        focus) if s.fit.name not in names]
     best_left = MIN_LEFT_SHARE
     for other in pool:
         pair = (best.fit.candidates[0], other.fit.candidates[0])
