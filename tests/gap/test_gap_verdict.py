@@ -3,6 +3,8 @@ pairs of issue 21 where the previous rules said more than the analysis supported
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -179,3 +181,45 @@ def test_a_delay_is_said_as_a_later_response() -> None:
     assert [e["name"] for e in data["effects"]][:1] == ["time_delay"]
     assert "responds" in data["summary"] and "ms later than sim" in data["summary"]
     assert "on average" not in data["summary"]
+
+
+# --- real recordings (../shared/data/logs; skipped where absent) -------------------------
+
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "logs"
+OCTO = Path(__file__).resolve().parents[2] / "benchmarks" / "vehicles" / \
+    "octo_coax_from_tarot680.toml"
+
+
+def _real(name: str):
+    from etsid.ingest import read_log
+
+    path = SHARED / name
+    if not path.exists():
+        pytest.skip(f"{path} not here (the shared real logs are not shipped)")
+    return read_log(path)
+
+
+def test_a_real_octocopter_against_its_twin_is_never_consistent() -> None:
+    """The issue's case: a real coaxial octocopter against a twin made from the hexacopter's
+    parts used to be 'consistent' with z = 553 330. The twin carries the log's own sensor
+    noise; the verdict names the airframe difference, with its evidence."""
+    from etsid.sim.replay import replay
+
+    table = _real("px4_coaxocto_manual_real.ulg")
+    twin = replay(table, OCTO, noise="log").table
+    data = analyse(twin, table, "twin", "real").data
+    assert data["verdict"] == "different-vehicle", data["summary"]
+    assert data["effects"] == []
+    assert any("pack voltage" in e or "effectiveness" in e
+               for e in data["vehicle_check"]["evidence"])
+
+
+def test_a_twin_that_never_flies_is_said_so() -> None:
+    """A quad250 twin of a real PX4 quad flown with the recorded collective does not take
+    off: the verdict says the twin left its recording, and when."""
+    from etsid.sim.replay import replay
+
+    table = _real("px4_v6c_quad_lowhover_real.ulg")
+    data = analyse(replay(table, "quad250", noise="log").table, table, "twin", "real").data
+    assert data["verdict"] == "insufficient"
+    assert "replayed twin that leaves its recording" in data["reason"]
