@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import resource
 import shutil
 import subprocess
 import sys
@@ -42,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from etsid.batch import VOLATILE, BatchSpec, default_jobs, find_inputs, read_results, run_batch
+from etsid.batch.worker import peak_memory_mb, reset_peak_memory
 from etsid.ident import IdentConfig
 from etsid.ingest import ReadOptions
 
@@ -92,12 +92,19 @@ def _short_flight(path: Path) -> None:
     write_log(simulate("steps", duration=0.3, seed=1).table, path)
 
 
+START_MB = 0.0
+PARENT_PEAK_MB: list[float] = []
+"""Peak resident memory of this process (the batch's parent) during each batch, MB."""
+
+
 def timed_batch(logs: list[str], out: Path, jobs: int, scheduler: str) -> tuple[float, float]:
     """Wall time and this process's CPU time of one batch into ``out`` (fresh), s."""
     shutil.rmtree(out, ignore_errors=True)
     spec = BatchSpec("identify", read_options=ReadOptions(), ident_config=IdentConfig())
+    reset_peak_memory()
     wall, cpu = time.perf_counter(), time.process_time()
     run_batch(logs, spec, out, jobs=jobs, scheduler=scheduler)
+    PARENT_PEAK_MB.append(peak_memory_mb())
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
@@ -127,6 +134,9 @@ def main() -> None:
     print(f"fleet: {len(logs)} logs ({args.broken} broken), {sum(sizes.values()) / 2**20:.0f} "
           f"MB, largest {max(sizes.values()) / 2**20:.1f} MB, made in "
           f"{time.perf_counter() - t0:.0f} s ({fleet})")
+    global START_MB
+    reset_peak_memory()
+    START_MB = peak_memory_mb()  # resident now
     runs = [(j, "local") for j in jobs] + ([(max(jobs), "processes")] if args.dask else [])
     results = {}
     walls: dict[tuple[int, str], list[float]] = {run: [] for run in runs}
@@ -158,8 +168,8 @@ def main() -> None:
                   f"efficiency {base / wall / j * 100:5.1f} % of linear")
     last = work / f"out-{runs[-1][1]}-{runs[-1][0]}"
     files = list((last / "results").rglob("*.parquet"))
-    print(f"parent peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} "
-          f"MB; results dataset {len(files)} files, "
+    print(f"parent peak memory during the batches {max(PARENT_PEAK_MB):.0f} MB (resident "
+          f"before the first {START_MB:.0f} MB); results dataset {len(files)} files, "
           f"{sum(f.stat().st_size for f in files) / 2**20:.1f} MB ({last / 'results'})")
     if args.report:
         t0 = time.perf_counter()

@@ -1,7 +1,9 @@
 """Run a batch on Dask distributed: an existing cluster, or a LocalCluster on this machine.
 
-Nothing here schedules: every log is one ``client.submit`` of
-:func:`etsid.batch.worker.run_and_write` and Dask places it. The batch's fixed arguments
+Nothing here schedules: logs go to Dask as tasks of :func:`run_chunk` (one log each in a
+small batch, up to 8 in a large one, :func:`chunk_size`) and Dask places them; a task
+whose worker dies on every retry is split into one task per log, so only the log that
+kills its worker gets the error row. The batch's fixed arguments
 (options, the resume keys) are two tasks every log depends on, sent once and recomputed if
 the worker holding them dies. Each worker is warmed once (imports, numba kernels, one BLAS
 thread) by a worker plugin, which Dask also runs on a worker that joins or is restarted. A
@@ -94,6 +96,27 @@ def _client(address: str | None, jobs: int, command: str,
         raise BatchError(f"cannot reach the Dask scheduler at {address} ({err})") from err
 
 
+LOGS_PER_TASK_ENV = "ETSID_BATCH_LOGS_PER_TASK"
+"""Environment variable that sets the logs per Dask task (default: :func:`chunk_size`)."""
+
+
+def chunk_size(logs: int, workers: int, max_size: int = 8) -> int:
+    """Logs per Dask task: 1 for a small batch; up to ``max_size`` when every worker still
+    gets 16 tasks or more (Dask's per-task cost, a few ms of scheduling and messages, then
+    weighs little against short logs, and the tail a worker waits for stays a few logs).
+    ``ETSID_BATCH_LOGS_PER_TASK`` overrides it."""
+    fixed = os.environ.get(LOGS_PER_TASK_ENV, "")
+    if fixed.isdigit() and int(fixed) > 0:
+        return int(fixed)
+    return max(1, min(max_size, logs // (workers * 16)))
+
+
+def run_chunk(items: list[Item], spec: BatchSpec, out: str,
+              done: frozenset[str]) -> list[Outcome]:
+    """Several logs in one Dask task, one after the other (each writes its own row)."""
+    return [run_and_write(item, spec, out, done) for item in items]
+
+
 def hold(value: Any) -> Any:
     """The task that keeps a batch argument in the cluster (its value is its argument)."""
     return value
@@ -152,25 +175,40 @@ class DaskRunner:
                 # the scheduler recomputes a lost task's value where scattered data is gone
                 spec = client.submit(hold, self.spec, pure=False)
                 done = client.submit(hold, self.done, pure=False)
-                futures = [client.submit(run_and_write, item, spec, str(self.out), done,
-                                         pure=False) for item in items]
-                owner = {f.key: item for f, item in zip(futures, items, strict=True)}
+                size = chunk_size(len(items), workers)
+                owner: dict[Any, list[Item]] = {}
+                for chunk in (items[i:i + size] for i in range(0, len(items), size)):
+                    future = client.submit(run_chunk, chunk, spec, str(self.out), done,
+                                           pure=False)
+                    futures.append(future)
+                    owner[future.key] = chunk
                 self.timings["submit_s"] = time.perf_counter() - mark
+                self.timings["logs_per_task"] = size
                 mark = time.perf_counter()
-                left = len(futures)
-                for future in as_completed(futures):
-                    on_running(min(workers, left))
-                    left -= 1
+                left = len(items)
+                pending = as_completed(futures)
+                for future in pending:
+                    chunk = owner.pop(future.key)
                     try:
-                        outcome = future.result()
+                        outcomes = future.result()
                     except KilledWorker:  # its worker died on every retry Dask allowed
-                        outcome = failed_outcome(owner.pop(future.key), self.spec,
-                                                 WorkerDied())
+                        if len(chunk) > 1:  # again log by log: only the culprit fails
+                            for item in chunk:
+                                single = client.submit(run_chunk, [item], spec,
+                                                       str(self.out), done, pure=False)
+                                owner[single.key] = [item]
+                                futures.append(single)
+                                pending.add(single)
+                            continue
+                        outcomes = [failed_outcome(chunk[0], self.spec, WorkerDied())]
                     except BatchError:  # the worker could not write (a full disk)
                         raise
                     except Exception as err:  # the scheduler lost the task
-                        outcome = failed_outcome(owner.pop(future.key), self.spec, err)
-                    on_done(outcome)
+                        outcomes = [failed_outcome(item, self.spec, err) for item in chunk]
+                    for outcome in outcomes:
+                        on_running(min(workers, left))
+                        left -= 1
+                        on_done(outcome)
                     future.release()
                 self.timings["results_s"] = time.perf_counter() - mark
         except BaseException:

@@ -137,14 +137,17 @@ def test_a_log_that_kills_every_worker_is_the_only_error_row(logs: list[str],
 
 
 def test_dask_gives_the_same_row_after_its_retries(logs: list[str], tmp_path: Path) -> None:
+    """Two logs per task: the task holding the poison dies on its try and the one retry
+    allowed, is split into one task per log, and the poison's own task dies twice more;
+    its partner and the other task lose nothing (they did when the batch arguments were
+    scattered data, which died with the workers)."""
     pytest.importorskip("dask.distributed")
     env = {"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1",
-           "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0"}
+           "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0",
+           "ETSID_BATCH_LOGS_PER_TASK": "2"}
     deaths, stdout = _run_poisoned(logs, tmp_path / "killed", "processes", max_deaths=99,
                                    extra_env=env)
-    # the first try and the one retry allowed; the logs after it lose nothing (they did
-    # when the batch arguments were scattered data, which died with the workers)
-    assert deaths == 2
+    assert deaths == 4
     _assert_only_the_poison_failed(stdout, tmp_path / "killed")
 
 
