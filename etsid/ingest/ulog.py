@@ -355,9 +355,16 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         raw.warnings.append(f"{path.name}: file is truncated: skipped the last {cut} bytes "
                             "(an incomplete message)")
     if getattr(ulog, "file_corruption", False) or cleaned.skipped:
+        what = "file is corrupt; pyulog skipped the damaged bytes and kept the readable messages"
+        if cleaned.skipped:
+            nbytes = sum(n for _, n in cleaned.skipped)
+            where = ", ".join(str(a) for a, _ in cleaned.skipped[:5])
+            raw.dropped.append(Issue("bytes that are no ULog messages", nbytes, ""))
+            what = (f"file is corrupt; skipped {nbytes} bytes that are no ULog messages at "
+                    f"byte {where}{' …' if len(cleaned.skipped) > 5 else ''} and kept the "
+                    "readable messages")
         raw.warnings.append(stream_gap_note(
-            path.name, "file is corrupt; pyulog skipped the damaged bytes and kept the "
-            "readable messages", [t.t for t in topics.values()],
+            path.name, what, [t.t for t in topics.values()],
             [(d.timestamp * 1e-6 - 0.01, d.timestamp * 1e-6 + d.duration * 1e-3 + 0.01)
              for d in getattr(ulog, "dropouts", [])]))
     for dropped in getattr(ulog, "dropouts", []):

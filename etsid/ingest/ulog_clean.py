@@ -1,16 +1,17 @@
 """What pyulog is given of a ULog file: its message chain, without what would hang or
 break pyulog.
 
-pyulog steps one byte at a time through bytes that are not messages (in the definitions
-section, or where no sync marker follows): gigabytes of zeros after a valid header run for
-hours. And a message format that refers to itself (``loop:loop next;``), directly or
+pyulog steps one byte at a time (in Python) through bytes that are not messages (in the
+definitions section, or where no sync marker follows): gigabytes of zeros after a valid
+header run for hours. And a message format that refers to itself (``loop:loop next;``), directly or
 through other formats, makes pyulog recurse until Python stops it, losing every topic of
 the file. Before pyulog reads a file, :func:`clean` walks its messages (compiled, over a
 memory map):
 
 * where the chain breaks (a message type 0, size 0 or an unknown type longer than
-  10 000 bytes, pyulog's own tests), the walk resumes at the next sync message; bytes
-  with no sync message after them end the file;
+  10 000 bytes, pyulog's own tests), the walk resumes where :data:`RESYNC_MESSAGES`
+  messages of known types follow one another (what pyulog finds by stepping a byte at a
+  time, found compiled); bytes with no such chain after them end the file;
 * formats in or depending on a cycle are replaced by a format of the same name holding
   only a timestamp, so that only the topics using them are lost.
 
@@ -31,7 +32,12 @@ import numpy as np
 from etsid.ingest import mapped
 
 HEADER_BYTES = 16
-SYNC = b"\x2f\x73\x13\x20\x25\x0c\xbb\x12"
+RESYNC_MESSAGES = 8
+"""Messages of known types in a row that mark where the chain starts again (random bytes
+give 8 in a row about once in 10¹⁷ positions: 13 known types of 256, sizes of at most
+:data:`RESYNC_MAX_SIZE`)."""
+RESYNC_MAX_SIZE = 8192
+"""Largest message size accepted while looking for where the chain starts again, bytes."""
 _KNOWN = np.zeros(256, dtype=np.bool_)
 _KNOWN[[ord(c) for c in "FDIMPQARSOLCB"]] = True
 _BASIC = {"int8_t", "uint8_t", "int16_t", "uint16_t", "int32_t", "uint32_t", "int64_t",
@@ -49,7 +55,7 @@ class Cleaned:
     skipped : list[tuple[int, int]]
         Byte ranges that are not messages (position, bytes).
     tail : int
-        Bytes at the end that are not messages, with no sync message after them.
+        Bytes at the end that are not messages, with no chain of messages after them.
     cut : int
         Bytes of an incomplete last message.
     recursive : list[str]
@@ -87,6 +93,32 @@ def _chain(buf: np.ndarray, pos: int, known: np.ndarray) -> tuple[int, int]:  # 
     return pos, 1
 
 
+@numba.njit(cache=True)
+def _resync(buf: np.ndarray, first: int, limit: int, known: np.ndarray,
+            depth: int) -> int:  # pragma: no cover
+    """The first position from ``first`` (below ``limit``) where ``depth`` messages of
+    known types follow one another (or fewer that end exactly at the end of the file);
+    -1 when the file ends first, -2 when ``limit`` is reached first."""
+    n = buf.size
+    start = first
+    while start + 3 <= n:
+        if start >= limit:
+            return -2
+        at = start
+        good = 0
+        while good < depth and at + 3 <= n:
+            size = np.int64(buf[at]) | (np.int64(buf[at + 1]) << 8)
+            if not known[buf[at + 2]] or size == 0 or size > RESYNC_MAX_SIZE \
+                    or at + 3 + size > n:
+                break
+            at += 3 + size
+            good += 1
+        if good == depth or (good > 0 and at == n):
+            return start
+        start += 1
+    return -1
+
+
 def clean(path: Path) -> Cleaned:
     """The spans of ``path`` pyulog should read (see the module docstring)."""
     out = Cleaned()
@@ -105,46 +137,49 @@ def clean(path: Path) -> Cleaned:
                     out.cut = size - stop
                     break
                 out.spans.append((start if out.spans else 0, stop))
-                sync = _next_sync(mm, stop, size)
-                if sync is None:
+                resume = _next_chain(mm, buf, stop + 1)
+                if resume < 0:
                     out.tail = size - stop
                     break
-                out.skipped.append((stop, sync - stop))
-                start = pos = sync
-            out.recursive, out.replace = _recursive_formats(mm, out.spans[0][1])
+                out.skipped.append((stop, resume - stop))
+                start = pos = resume
+            out.recursive, out.replace = _recursive_formats(mm, out.spans)
         finally:
             del buf
     return out
 
 
-def _next_sync(mm: mmap.mmap, start: int, size: int) -> int | None:
-    """Start of the next sync message (3-byte header, 8-byte marker) after ``start``."""
-    pos = start + 1
+def _next_chain(mm: mmap.mmap, buf: np.ndarray, first: int) -> int:
+    """:func:`_resync` a window at a time, the pages searched given back (memory stays
+    bounded over gigabytes of garbage)."""
     while True:
-        hit = mapped.find(mm, SYNC, pos + 3, size)
-        if hit < 0:
-            return None
-        head = hit - 3
-        if head > start and mm[head:head + 3] == struct.pack("<HB", len(SYNC), ord("S")):
-            return head
-        pos = hit + 1
+        got = _resync(buf, first, first + mapped.WINDOW_BYTES, _KNOWN, RESYNC_MESSAGES)
+        if got != -2:
+            return got
+        mapped.release(mm, first, first + mapped.WINDOW_BYTES)
+        first += mapped.WINDOW_BYTES
 
 
-def _recursive_formats(mm: mmap.mmap, end: int) -> tuple[list[str], dict[int, bytes]]:
+def _recursive_formats(mm: mmap.mmap, spans: list[tuple[int, int]]
+                       ) -> tuple[list[str], dict[int, bytes]]:
     """Formats of the definitions section (up to the first subscription) that refer to
     themselves directly or through others, and the replacement of each format message."""
     formats: dict[str, tuple[int, list[str]]] = {}
-    pos = HEADER_BYTES
-    while pos + 3 <= end:
-        size, kind = struct.unpack_from("<HB", mm, pos)
-        if kind == ord("A"):
-            break
-        if kind == ord("F"):
-            text = bytes(mm[pos + 3:pos + 3 + size]).decode("utf-8", "replace")
-            name, _, body = text.partition(":")
-            types = [f.split(" ")[0].split("[")[0] for f in body.split(";") if f.strip()]
-            formats[name] = (pos, [t for t in types if t not in _BASIC])
-        pos += 3 + size
+    for first, end in spans:
+        pos = max(first, HEADER_BYTES)
+        while pos + 3 <= end:
+            size, kind = struct.unpack_from("<HB", mm, pos)
+            if kind == ord("A"):
+                break
+            if kind == ord("F"):
+                text = bytes(mm[pos + 3:pos + 3 + size]).decode("utf-8", "replace")
+                name, _, body = text.partition(":")
+                types = [f.split(" ")[0].split("[")[0] for f in body.split(";") if f.strip()]
+                formats[name] = (pos, [t for t in types if t not in _BASIC])
+            pos += 3 + size
+        else:
+            continue
+        break
     bad: set[str] = set()
     state: dict[str, int] = {}  # 1: on the current path, 2: done
 

@@ -502,6 +502,17 @@ def _ulog_recursive(work: Path) -> Path:
     return path
 
 
+def _ulog_garbage_defs(work: Path) -> Path:
+    """The real PX4 log with 20 MiB of random bytes among its definitions (before the
+    last format message), where pyulog steps through garbage a byte at a time."""
+    buf = (DATA / "px4_cubeorange_real.ulg").read_bytes()
+    at = [m for m in _ulog_messages(buf) if m[2] == ord("F")][-1][0]
+    garbage = random.Random(5).randbytes(20 << 20)
+    path = work / "garbage_defs.ulg"
+    path.write_bytes(buf[:at] + garbage + buf[at:])
+    return path
+
+
 # ---------------------------------------------------------------------------
 # DataFlash
 
@@ -667,6 +678,9 @@ CASES: list[Case] = [
     Case("ulog-recursive-format", _ulog_recursive, columns=RATES, note=("loop",), cheap=True,
          rows=1800,
          what="ULog: a format with a field of its own type among the real log's formats"),
+    Case("ulog-garbage-defs", _ulog_garbage_defs, columns=RATES, rows=1800,
+         note=("corrupt",),
+         what="ULog: 20 MiB of random bytes among the format definitions"),
     Case("bin-fmt0-start", _bin_with(0, _bin_fmt(200, 0, b"BAD0"), "fmt0.BIN"),
          columns=("roll", "pitch", "yaw"), note=("FMT",), cheap=True,
          rows=40, what="DataFlash: an FMT of length 0 before the first message"),
