@@ -132,7 +132,7 @@ def test_ulog_recursive_formats_are_found_with_what_depends_on_them(tmp_path: Pa
     assert b"fine:uint64_t timestamp;float v;" in new
 
 
-def test_ulog_clean_leaves_a_real_log_alone_and_drops_a_tail_without_sync(
+def test_ulog_clean_leaves_a_real_log_alone_and_drops_a_tail_of_zeros(
         tmp_path: Path) -> None:
     assert not ulog_clean.clean(ULG).changed
     path = tmp_path / "tail.ulg"
