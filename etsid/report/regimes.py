@@ -136,12 +136,12 @@ def regimes_html(run: Run) -> list[str]:
     parts = ['<h2 id="regimes">What the model learnt</h2>']
     if block.get("sentence"):
         parts.append(f"<p><strong>{esc(block['sentence'])}</strong></p>")
-    for title, (head, rows) in (("Rules and regimes", rule_rows(run)),
-                                ("Metrics per regime (validation part)", regime_rows(run))):
+    from etsid.report.page import table_html
+
+    for title, (head, rows), text in (
+            ("Rules and regimes", rule_rows(run), (1, 9)),
+            ("Metrics per regime (validation part)", regime_rows(run), (0, 1))):
         if rows:
-            parts += [f"<h3>{esc(title)}</h3>",
-                      "<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr>",
-                      *("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>"
-                        for r in rows), "</table>"]
+            parts += [f"<h3>{esc(title)}</h3>", table_html(head, rows, text_columns=text)]
     parts.append("<ul>" + "".join(f"<li>{esc(n)}</li>" for n in regime_notes(run)) + "</ul>")
     return parts
