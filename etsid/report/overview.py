@@ -68,6 +68,9 @@ def read_flight(run: Run, base: Path | None = None) -> Overview:
         return Overview(None, notes=[f"No flight overview: {file} not readable ({err})."])
     keep = [c for c in COLUMNS if c in table.columns]
     overview = Overview(table[keep].copy() if keep else None)
+    if not keep:
+        overview.notes.append(f"No flight overview: {file.name} has none of "
+                              f"{', '.join(COLUMNS)}.")
     try:
         overview.lead_t, overview.lead = leading_rules(run, table)
     except (EtsidError, KeyError, ValueError, IndexError) as err:
