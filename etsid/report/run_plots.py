@@ -21,8 +21,9 @@ from etsid.report import interactive as ia
 from etsid.report.figures import label_of, outputs_of, unit_of
 from etsid.report.overview import Overview
 
-STICKS = {"u_roll": ("roll stick", "#1f77b4"), "u_pitch": ("pitch stick", "#d62728"),
-          "u_yaw": ("yaw stick", "#2ca02c")}
+STICKS = {"u_roll": ("u_roll", "#1f77b4"), "u_pitch": ("u_pitch", "#d62728"),
+          "u_yaw": ("u_yaw", "#2ca02c")}
+"""The loop commands of the overview (sticks, or the input family identify chose)."""
 
 
 def _validation_start(run: Run) -> float | None:
@@ -91,7 +92,10 @@ def overview_plots(run: Run, flight: Overview, x_range: Any) -> list[Any]:
         figs.append(fig)
     sticks = [c for c in STICKS if c in table]
     if sticks:
-        fig = ia.time_figure("stick (−1…1)", "Sticks", x_range, height=180)
+        chosen = (run.config.get("model") or {}).get("inputs")
+        kind = chosen.get("kind") if isinstance(chosen, dict) else None
+        fig = ia.time_figure("command", "Loop commands" + (f" ({kind})" if kind else ""),
+                             x_range, height=180)
         src = ia.source(t, {c: table[c].to_numpy(dtype=float) for c in sticks})
         ia.add_lines(fig, src, [ia.Line(c, STICKS[c][0], STICKS[c][1], 1.0) for c in sticks],
                      digits="0.000")
