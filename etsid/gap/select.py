@@ -52,11 +52,21 @@ class Scored:
     share: float
     worse: dict[str, float] = field(default_factory=dict)
     bounds: list[BoundHit] = field(default_factory=list)
+    motors: int = 1
 
     @property
     def score(self) -> float:
-        """Explained share minus the complexity penalty."""
-        return self.share - PARAM_PENALTY * self.fit.n_params
+        """Explained share minus the complexity penalty: per parameter, and for a per-motor
+        law also for choosing its motor among N (log2 N parameters' worth: the best of N
+        one-motor fits looks better than any one of them is)."""
+        choice = sum(np.log2(self.n_motors) for c in self.fit.candidates
+                     if c.motor is not None and self.n_motors > 1)
+        return self.share - PARAM_PENALTY * (self.fit.n_params + choice)
+
+    @property
+    def n_motors(self) -> int:
+        """Motor count of the flight (for the per-motor choice penalty)."""
+        return self.motors
 
     @property
     def admissible(self) -> bool:
@@ -115,7 +125,7 @@ def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, fl
                      else min(z_before[c] - z_after[c], 0.0) for c in z_before))
     bounds = [h for cand, theta, _ in fit.split() for h in at_bound(cand, theta)]
     return Scored(fit, z_after, gain, gain / max(e0, 1e-9), worsened(z_before, z_after),
-                  bounds)
+                  bounds, int(scorer.ctx.flight.motors.shape[1]))
 
 
 def _left_share(best: Scored, joint: Scored, left: list[str]) -> float:
