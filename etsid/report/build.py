@@ -318,9 +318,9 @@ def render_html(run: Run, images: dict[str, tuple[str, str]], rules: str,
     body.append(f'<p class="hint">{esc(HINT)}</p>' if divs else "")
     sections = [
         ("overview", "Flight overview",
-         "Altitude shaded by the leading rule, thrust command, sticks and the rule that "
-         "leads; the yellow band is the held-out validation part, the dashed line the "
-         "moment the model was frozen."),
+         "Altitude shaded by the leading rule, thrust command, loop commands (sticks) and "
+         "the rule that leads; the yellow band is the held-out validation part, the dashed "
+         "line the moment the model was frozen."),
         ("validation", "Held-out part: eTS against ARX in free run",
          "Measured (black, on top), eTS frozen one-step (thin blue), eTS free run (red "
          "dashed), ARX free run (green dashed); under each rate the free-run errors."),
