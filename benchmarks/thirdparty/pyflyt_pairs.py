@@ -192,7 +192,7 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             s = rng.uniform(0.55, 0.7) if rng.random() < 0.5 else rng.uniform(1.4, 1.7)
             fx["yaw_scale"] = truth["yaw_scale"] = s
         elif name == "rotor_inertia":
-            fx["rotor_inertia"] = truth["rotor_inertia"] = rng.uniform(5.0e-10, 1.0e-9)
+            fx["rotor_inertia"] = truth["rotor_inertia"] = rng.uniform(1.5e-9, 3.0e-9)
         elif name == "gyro_scale":
             sens["gyro_scale"] = truth["gyro_scale"] = rng.uniform(1.10, 1.15)
         elif name == "imu_tilt":
