@@ -32,7 +32,8 @@ LOG_RATES = {"imu": 120.0, "rc_out": 60.0, "velocity": 30.0, "range": 30.0, "bat
 LOW_FLIGHT_SUFFIX = ".parquet"
 """Ground-effect pairs fly 3-9 cm above the resting height; etsid's MAVROS writer gives its
 rangefinder a 5 cm minimum range (readings below it are invalid, the resting height is
-never seen), so these pairs are written as FlightTables instead."""
+never seen), so these pairs are written as FlightTables instead (and a quarter of the
+others too, chosen by their shuffled pair number, so that the format tells nothing)."""
 CONTROL_HZ = 120
 PHYSICS_HZ = 240
 ROTOR_RADIUS = 0.023
