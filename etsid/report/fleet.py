@@ -59,19 +59,21 @@ def is_batch_dir(path: str | Path) -> bool:
 
 
 def load_fleet(path: str | Path) -> tuple[dict[str, Any], pd.DataFrame]:
-    """``batch.json`` and the rows of its command and options, sorted by input."""
-    from etsid.batch.results import read_results
-
+    """``batch.json`` and the rows of its command and options, sorted by input; one row per
+    log, the latest (a compacted dataset may hold an older row of a log run again)."""
     path = Path(path)
     try:
         meta = json.loads((path / "batch.json").read_text())
-        frame = read_results(path)
+        frame = pd.read_parquet(path / "results")
     except (OSError, ValueError) as err:
         raise EtsidError(f"{path}: unreadable batch directory ({err})") from err
     if "command" in frame.columns:
         frame = frame[frame["command"].astype(str) == meta.get("command")]
     if meta.get("options_digest") and "options_digest" in frame.columns:
         frame = frame[frame["options_digest"] == meta["options_digest"]]
+    if "finished" in frame.columns:
+        frame = frame.sort_values("finished", kind="stable", na_position="first")
+        frame = frame.drop_duplicates(subset=["sim_input", "input"], keep="last")
     return meta, frame.sort_values("input", kind="stable").reset_index(drop=True)
 
 
