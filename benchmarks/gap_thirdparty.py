@@ -48,6 +48,7 @@ from thirdparty.common import (
     OUT_OF_VOCABULARY,
     expected_name,
     jsonable,
+    same_answer,
     to_table,
 )
 
@@ -242,7 +243,7 @@ def report(rows: list[dict[str, Any]], title: str) -> None:
     """Print the figures of ``rows`` (one simulator or all)."""
     vocab = [r for r in rows if r["label"] not in OUT_OF_VOCABULARY]
     none = [r for r in rows if r["label"] == "none"]
-    correct = sum(r["named"] == r["expected"] for r in vocab)
+    correct = sum(same_answer(r["expected"], r["named"]) for r in vocab)
     fp = sum(r["verdict"] != "consistent" for r in none)
     print(f"\n== {title}: {len(rows)} pairs")
     print(f"named correctly (vocabulary and no-effect pairs): {correct}/{len(vocab)} = "
@@ -251,9 +252,10 @@ def report(rows: list[dict[str, Any]], title: str) -> None:
     per: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     wrong: dict[str, Counter] = defaultdict(Counter)
     for r in vocab:
-        per[r["label"]][0] += r["named"] == r["expected"]
+        ok = same_answer(r["expected"], r["named"])
+        per[r["label"]][0] += ok
         per[r["label"]][1] += 1
-        if r["named"] != r["expected"]:
+        if not ok:
             wrong[r["label"]][r["named"]] += 1
     print("per effect (label → expected: named right / pairs; what it said instead):")
     for label in sorted(per):
@@ -285,7 +287,7 @@ def score(out: Path, jobs: int, only_sims: list[str] | None) -> None:
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         for r in pool.map(score_one, entries, [str(out)] * len(entries)):
             rows.append(r)
-            mark = "ok" if r["named"] == r["expected"] else (
+            mark = "ok" if same_answer(r["expected"], r["named"]) else (
                 "oov" if r["label"] in OUT_OF_VOCABULARY else "WRONG")
             print(f"{r['id']:20s} truth {r['label']:24s} named {r['named']:26s} {mark:5s} "
                   f"{r['seconds']:5.1f} s  {r['summary'][:100]}", flush=True)
