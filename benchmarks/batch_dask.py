@@ -10,7 +10,9 @@ with each task's compute and transfer start/stop times as the workers report the
 prints the breakdown of the batch's wall time:
 
 * ``start``: batch start → the first worker registered (cluster start: processes,
-  imports);
+  imports; 0 for the command-line cluster, ``cli``, which is up before the batch starts:
+  ``dask scheduler`` and ``--jobs`` ``dask worker --nthreads 1`` processes, as a user
+  runs them);
 * ``warm``: → the first log task starts (warming the workers, submitting);
 * ``compute``: the logs' compute time (sum over tasks / workers);
 * ``gaps``: worker idle time between its tasks (scheduling, argument and result
@@ -72,14 +74,43 @@ from etsid.batch import BatchSpec, find_inputs, read_results, run_batch
 from etsid.ident import IdentConfig
 from etsid.ingest import ReadOptions
 
+def cli_cluster(jobs, plugin):
+    """`dask scheduler` (with the breakdown plugin) and `jobs` `dask worker` processes."""
+    import socket, subprocess
+    from pathlib import Path
+    from dask.distributed import Client
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    dask_cli = str(Path(sys.executable).with_name("dask"))
+    procs = [subprocess.Popen([dask_cli, "scheduler", "--host", "127.0.0.1", "--port",
+                               str(port), "--no-dashboard", "--preload", plugin],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs += [subprocess.Popen([dask_cli, "worker", address, "--nthreads", "1",
+                                "--no-dashboard", "--host", "127.0.0.1"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+              for _ in range(jobs)]
+    with Client(address, timeout="60s") as client:
+        client.wait_for_workers(jobs, timeout=300)
+    return address, procs
+
+
 if __name__ == "__main__":
     fleet, out, jobs, scheduler, plugin = sys.argv[1:6]
-    dask.config.set({"distributed.scheduler.preload": [plugin]})
+    procs = []
+    if scheduler == "cli":
+        scheduler, procs = cli_cluster(int(jobs), plugin)
+    else:
+        dask.config.set({"distributed.scheduler.preload": [plugin]})
     logs = find_inputs([fleet])
     spec = BatchSpec("identify", read_options=ReadOptions(), ident_config=IdentConfig())
     start = time.time()
     run_batch(logs, spec, out, jobs=int(jobs), scheduler=scheduler)
     end = time.time()
+    for proc in procs[1:] + procs[:1]:  # workers first, then the scheduler (its plugin)
+        proc.terminate()
+        proc.wait(timeout=60)
     rows = read_results(out)
     print(json.dumps({"start": start, "end": end, "logs": len(logs),
                       "cpu": rows["cpu_s"].tolist(), "wall": rows["wall_s"].tolist(),
@@ -105,7 +136,9 @@ def breakdown(run: dict, trace: dict, jobs: int) -> dict[str, float]:
     for spans in per_worker.values():
         spans.sort()
         gaps += sum(max(0.0, b[0] - a[1]) for a, b in pairwise(spans))
-    first_worker = min(trace["workers"]) if trace["workers"] else run["start"]
+    # a command-line cluster is up before the batch: its start is 0
+    first_worker = max(min(trace["workers"]), run["start"]) if trace["workers"] \
+        else run["start"]
     return {"wall": run["end"] - run["start"], "start": first_worker - run["start"],
             "warm": min(starts) - first_worker, "compute": compute / jobs,
             "gaps": gaps / jobs, "transfer": transfer / jobs,
@@ -127,7 +160,7 @@ def run_child(code: Path, fleet: Path, jobs: int, scheduler: str, work: Path) ->
         run["end"] - run["start"]) * 60, "cpu/log": float(np.median(run["cpu"])),
         "busy": sum(run["wall"]) / (jobs * (run["end"] - run["start"])),
         "rss max": max(run["rss"]), "rss median": float(np.median(run["rss"]))}
-    if scheduler == "processes" and trace.exists():
+    if scheduler != "local" and trace.exists():
         result.update(breakdown(run, json.loads(trace.read_text()), jobs))
     import shutil
 
@@ -140,6 +173,9 @@ def main() -> None:
     parser.add_argument("fleet", type=Path)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--schedulers", default="local,processes,cli",
+                        help="local (the pool), processes (LocalCluster), cli (dask "
+                             "scheduler + dask worker processes, up before the batch)")
     parser.add_argument("--before", type=Path, default=None,
                         help="another etsid checkout, measured back to back")
     args = parser.parse_args()
@@ -154,7 +190,7 @@ def main() -> None:
     results: dict[tuple[str, str], list[dict]] = {}
     for round_ in range(args.repeat):
         for label, code in codes:
-            for scheduler in ("local", "processes"):
+            for scheduler in args.schedulers.split(","):
                 t0 = time.perf_counter()
                 got = run_child(code, args.fleet, args.jobs, scheduler, work)
                 results.setdefault((label, scheduler), []).append(got)
