@@ -37,6 +37,7 @@ SEEDS: list[tuple[str, int]] = [
     ("ulog", 2923),  # pyulog left a damaged file open (ResourceWarning)
     ("mcap", 1121),  # kept records of a zstd chunk failing its CRC: garbled times, overflow
     ("mcap", 3025),  # garbled values in kept records: "invalid value encountered in cast"
+    ("ros2-db3", 5108),  # a cut db3 whose topics row holds NULLs: internal AttributeError
 ]
 """(format, seed) pairs read on every test run."""
 

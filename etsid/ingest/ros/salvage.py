@@ -111,7 +111,8 @@ def read_db3(storage: Path, options: ReadOptions, raw: RawLog) -> Converter:
         db = sqlite3.connect(f"{copy.resolve().as_uri()}?immutable=1", uri=True)
         try:
             try:
-                topics = {tid: conv.topic(name, msgtype) for tid, name, msgtype in
+                topics = {tid: conv.topic(str(name or ""), str(msgtype or ""))  # NULLs
+                          for tid, name, msgtype in
                           db.execute("SELECT id, name, type FROM topics").fetchall()}
             except sqlite3.Error as err:
                 raise IngestError(f"{storage}: damaged ROS 2 storage, its topic list is "
