@@ -71,6 +71,11 @@ def detect_format(path: Path) -> str:
     if not path.exists():
         raise IngestError(f"{path}: no such file or directory")
     if path.is_dir():
+        odd = sorted(p.name for p in path.iterdir()
+                     if p.suffix in (".db3", ".mcap") and not p.is_file())
+        if odd:
+            raise IngestError(f"{path}: {', '.join(odd[:3])} is not a regular file (a FIFO, "
+                              "device or directory): bags are read from files")
         if (path / "metadata.yaml").is_file():
             return "ros2"
         storage = sorted(p.name for p in path.iterdir() if p.suffix in (".db3", ".mcap"))

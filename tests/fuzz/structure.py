@@ -593,6 +593,15 @@ def _fifo(name: str) -> Callable[[Path], Path]:
     return build
 
 
+def _bag_dir_fifo(work: Path) -> Path:
+    """The sample db3 bag directory with its storage file replaced by a FIFO."""
+    bag = work / "fifo_bag"
+    shutil.copytree(SAMPLES / "hexa_ige_oge_db3", bag)
+    (bag / "hexa_ige_oge_db3.db3").unlink()
+    os.mkfifo(bag / "hexa_ige_oge_db3.db3")
+    return bag
+
+
 def _rules_doc() -> dict:
     """The fields of a rule base that size its arrays: one input, one output, one rule."""
     return {
@@ -708,6 +717,8 @@ CASES: list[Case] = [
          args=("identify", "{in}", "--output", "y", "--regressors", "y[k-1]", "--out",
                "{out}"), what="a FIFO named fifo.csv"),
     Case("log-fifo", _fifo("fifo.tlog"), error=True, cheap=True, what="a FIFO named .tlog"),
+    Case("bag-dir-fifo", _bag_dir_fifo, error=True, cheap=True,
+         what="a ROS 2 bag directory whose .db3 storage file is a FIFO"),
     Case("rules-fifo", _fifo("rules.json"), error=True, args=("rules", "{in}"),
          what="etsid rules FIFO"),
     Case("rules-dev-zero", _link("/dev/zero", "rules.json"), error=True, cheap=True,
