@@ -106,7 +106,8 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             bxy = rng.uniform(-0.15, 0.15, 2)
             sens["accel_bias"] = truth["bias_frd"] = (float(bxy[0]), float(bxy[1]), float(bz))
         elif name == "wind":
-            speed, heading = rng.uniform(3.0, 5.0), rng.uniform(0, 2 * np.pi)
+            # 5-7 m/s on the quadratic body drag: 0.6-1.1 m/s² on the T18
+            speed, heading = rng.uniform(5.0, 7.0), rng.uniform(0, 2 * np.pi)
             fx["wind"] = truth["wind_enu"] = [speed * np.cos(heading), speed * np.sin(heading),
                                               0.0]
         elif name == "weak_motor":

@@ -181,7 +181,8 @@ def draw_effect(label: str, rng: np.random.Generator) -> tuple[dict[str, Any], d
             bxy = rng.uniform(-0.15, 0.15, 2)
             sens["accel_bias"] = truth["bias_frd"] = (float(bxy[0]), float(bxy[1]), float(bz))
         elif name == "wind":
-            speed, heading = rng.uniform(1.5, 2.5), rng.uniform(0, 2 * np.pi)
+            # 3-4 m/s: PyFlyt's wind acts on its body-drag law only (≈ 0.3-0.6 m/s² on 27 g)
+            speed, heading = rng.uniform(3.0, 4.0), rng.uniform(0, 2 * np.pi)
             fx["wind"] = truth["wind_enu"] = [speed * np.cos(heading), speed * np.sin(heading),
                                               0.0]
         elif name == "weak_motor":
