@@ -159,10 +159,12 @@ def static_in_calm(best: Scored, joint: Fit, other: Candidate, scorer: Scorer,
 
 
 STRONG_LEFT = 2.0
-"""Candidates are fitted on top of the first effect only for a channel it leaves clearly
-mismatched (z above this many times the threshold: RMSE ≥ 2.8× its floor). Just above the
-threshold, what is left is as likely the first law's imperfection (a battery sag's slower
-spin-ups taken up as a 14 % lighter rotor, dev seed 10105)."""
+"""A second effect is sought for what the first leaves only where it leaves a channel
+clearly mismatched (z above this many times the threshold: RMSE ≥ 2.8× its floor); then
+candidates are also fitted on top of the first. Just above the threshold, what is left is
+as likely the first law's imperfection (a battery sag's slower spin-ups taken up as a 14 %
+lighter rotor, dev seed 10105, r at z 4.4 after the sag). A pair that raises the score by
+MIN_EXTRA_SHARE is kept as before."""
 MIN_SCALE_CHANGE = 0.1
 """A second effect whose law is a scale (no effect at 1) must change its quantity by at
 least this share to be named: a 7 % spin-up torque under a delay is the nominal model's
@@ -234,16 +236,15 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
         return sel
     best = usable[0]
     chosen = best
-    left = [c for c in focus if best.z_after.get(c, 0.0) > z_left]
+    left = [c for c in focus if best.z_after.get(c, 0.0) > STRONG_LEFT * z_left]
     if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
         sel.chosen = best  # nothing left for a second effect to explain
         return sel
     pool = [s for s in ranked if s is not best and s.gain > 0
             and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
-    strong = [c for c in left if best.z_after[c] > STRONG_LEFT * z_left]
-    if strong:
+    if left:
         names = {s.fit.name for s in pool}
-        pool += [s for s in _companions(best, ranked, strong, scorer, fit_mask, hold, z0, e0,
+        pool += [s for s in _companions(best, ranked, left, scorer, fit_mask, hold, z0, e0,
                                         focus) if s.fit.name not in names]
     best_left = MIN_LEFT_SHARE
     for other in pool:
