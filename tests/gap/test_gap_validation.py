@@ -23,7 +23,7 @@ def test_blocked_split_scores_where_the_mismatch_lives() -> None:
     t = np.arange(6000) / fs
     mask = np.ones(t.size, dtype=bool)
     departure = np.where((t >= 5.0) & (t < 11.0), 50.0, 1.0)
-    fit_t, score_t = time_split(mask, 0.6)
+    _, score_t = time_split(mask, 0.6)
     assert departure[score_t].max() == 1.0
     fit, score = blocked_split(mask, fs, departure)
     assert not np.any(fit & score)
