@@ -10,7 +10,7 @@ multirotor simulators from PyPI (the ``bench`` extra: ``pip install -e ".[bench]
 
 Each seed gives 24 pairs per simulator: every effect of issue 22's vocabulary the simulator
 can express, four no-effect pairs, thrust scale + time delay together, and three changes
-outside the vocabulary (gyro scale factor, tilted IMU, twisted rotor axes). The vehicle,
+outside the vocabulary (gyro scale factor, tilted IMU, tilted rotor axes). The vehicle,
 controller, sensor model, log format and rate differ from etsid's own simulator and from
 each other (docs/gap.md, "Third-party benchmarks"). Labels live only in ``labels.json`` of
 the output directory, never in the logs or their names.

@@ -60,8 +60,8 @@ OUT_OF_VOCABULARY: dict[str, str] = {
                   "loop flies on it)",
     "imu_tilt": "IMU mounted rolled by 3-5 deg (gyro, accelerometer and attitude in a "
                 "rotated frame)",
-    "motor_tilt": "every rotor axis twisted 4-7 deg about its arm (yaw torque and side force "
-                  "from tilted thrust)",
+    "motor_tilt": "every rotor axis tilted 4-7 deg (PyFlyt: twisted about its arm, a yaw "
+                  "torque; octocopter: outward along its arm, side forces)",
 }
 """Changes outside the vocabulary: the right answer is ``unexplained`` or the nearest
 physical name with a caveat, never a confident wrong name."""
