@@ -31,4 +31,10 @@ class WarmWorker(WorkerPlugin):
                 from threadpoolctl import threadpool_limits
 
                 threadpool_limits(limits=1, user_api="blas")
-        tasks.warm(self.command)
+        if self.command not in _WARMED:  # a worker of a long-lived cluster: warm once
+            tasks.warm(self.command)
+            _WARMED.add(self.command)
+
+
+_WARMED: set[str] = set()
+"""Commands this worker process has warmed up for."""

@@ -138,8 +138,9 @@ def done_keys(out: str | Path, command: str, options_digest: str,
 COMPACT_AT = 256
 """Row files in a partition from which a finished batch compacts them into part files."""
 
-PART_ROWS = 10_000
-"""Rows per part file of a compacted partition."""
+PART_ROWS = 256
+"""Rows per part file of a compacted partition (what the compaction holds in memory at a
+time: a few tens of MB of rows with their metrics)."""
 
 
 def _latest_indices(table: pa.Table) -> pa.Array:
@@ -156,9 +157,10 @@ def _latest_indices(table: pa.Table) -> pa.Array:
                            pc.take(last.column("_rank_max"), ranks))
 
 
-def compact(out: str | Path, command: str, min_files: int = COMPACT_AT) -> int:
+def compact(out: str | Path, command: str, min_files: int = COMPACT_AT,
+            part_rows: int = PART_ROWS) -> int:
     """Merge the row files of ``DIR/results/command=COMMAND`` into part files of at most
-    :data:`PART_ROWS` rows (one row per log, the latest), when there are ``min_files`` or
+    ``part_rows`` rows (one row per log, the latest), when there are ``min_files`` or
     more. Each part is written whole before the files it replaces are removed: stopped
     at any moment, the dataset holds every row (at worst twice, which
     :func:`read_results` resolves). Returns the number of files merged.
@@ -168,17 +170,18 @@ def compact(out: str | Path, command: str, min_files: int = COMPACT_AT) -> int:
     if len(files) < max(2, min_files):
         return 0
     merged = 0
-    for first in range(0, len(files), PART_ROWS):
-        group = files[first:first + PART_ROWS]
+    for first in range(0, len(files), part_rows):
+        group = files[first:first + part_rows]
         table = ds.dataset([str(f) for f in group], format="parquet",
                            schema=SCHEMA).to_table()
-        table = table.take(_latest_indices(table)).sort_by(
-            [("input", "ascending"), ("options_digest", "ascending")])
+        table = table.take(_latest_indices(table))
         name = f"part-{uuid.uuid4().hex[:16]}.parquet"
         write_table_atomic(table, directory / name, "a compacted part of the results")
         for path in group:
             path.unlink(missing_ok=True)
         merged += len(group)
+        del table
+        pa.default_memory_pool().release_unused()  # keep the batch's parent small
     return merged
 
 
