@@ -72,12 +72,11 @@ def test_sigkill_of_the_batch_takes_its_workers_along(fleet: Path, tmp_path: Pat
                               str(tmp_path / "out"), "-j", "2", "-q"],
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        deadline = time.monotonic() + 120
+        deadline = time.monotonic() + 600
         rows = tmp_path / "out" / "results" / "command=identify"
-        # the fork server, two workers, the resource tracker; and a first row written
+        # a first row written: the fork server, two workers and the resource tracker run
         while time.monotonic() < deadline and (
-                len(_children(batch.pid)) < 4 or not rows.is_dir()
-                or not any(rows.glob("*.parquet"))):
+                not rows.is_dir() or not any(rows.glob("*.parquet"))):
             assert batch.poll() is None, batch.stderr.read().decode()[-2000:]
             time.sleep(0.1)
         family = _children(batch.pid)
