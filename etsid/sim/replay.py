@@ -412,15 +412,25 @@ def _inputs(prep: _Prepared, mode: str, loop_input: str, thrust: str
     n = prep.t.size * k
     n_rot = prep.vehicle.n_rotors
     hold = lambda x: np.ascontiguousarray(np.repeat(x, k, axis=0))  # noqa: E731
+
+    def ramp(x: np.ndarray) -> np.ndarray:
+        """Loop commands between log samples: linear from each sample to the next (the
+        sticks are samples of a continuous signal; holding them delays it by half a log
+        period, 10 ms at 50 Hz)."""
+        steps = np.arange(n) / k
+        cols = np.atleast_2d(np.asarray(x, dtype=float).T)
+        out = np.column_stack([np.interp(steps, np.arange(col.size), col) for col in cols])
+        return np.ascontiguousarray(out if np.ndim(x) > 1 else out[:, 0])
+
     exc = np.zeros((n, 3))
     thr = np.zeros(n)
     alt_sp = np.zeros(n)
     alt_rate = np.zeros(n)
     motors = np.zeros((0, n_rot))
     if mode == "loop":
-        exc = hold(np.column_stack([prep.vals[c] for c in COMMAND_COLUMNS[loop_input]]))
+        exc = ramp(np.column_stack([prep.vals[c] for c in COMMAND_COLUMNS[loop_input]]))
         if thrust == "command":
-            thr = hold(prep.vals["u_thrust"])
+            thr = ramp(prep.vals["u_thrust"])
         else:
             alt = prep.vals["alt"]
             alt_sp = hold(alt)
