@@ -8,6 +8,7 @@ import re
 
 import numpy as np
 import pandas as pd
+from regime_flight import two_regime_table
 
 from etsid.ident import IdentConfig, identify, predict
 from etsid.ident.regimes import bands_for, learnt_sentence, regime_metrics
@@ -18,19 +19,7 @@ BASE = dict(outputs=["y"], regressors="y[k-1],u[k-1]", segments="all", radius=0.
 
 
 def _table(gain_low: float, gain_high: float, n: int = 3000, seed: int = 0) -> pd.DataFrame:
-    """y[k] = 0.6 y[k-1] + g u[k-1] + noise, g = gain_low at 0.25 m, gain_high at 2 m
-    (6 s dwells)."""
-    rng = np.random.default_rng(seed)
-    alt = np.where((np.arange(n) // 300) % 2 == 0, 0.25, 2.0) + 0.02 * rng.normal(size=n)
-    u = rng.normal(size=n)
-    y = np.zeros(n)
-    for k in range(1, n):
-        g = gain_low if alt[k - 1] < 1.0 else gain_high
-        y[k] = 0.6 * y[k - 1] + g * u[k - 1] + 0.3 * rng.normal()
-    table = pd.DataFrame({"y": y, "u": u, "alt": alt},
-                         index=pd.Index(np.arange(n) * 0.02, name="t"))
-    table.attrs["rotor_radius_m"] = 0.165
-    return table
+    return two_regime_table(gain_low, gain_high, n, seed, rotor_radius_m=0.165)
 
 
 def test_a_real_difference_is_claimed_with_an_interval_that_holds_the_truth() -> None:
