@@ -41,7 +41,7 @@ STYLE: dict[str, Any] = {
 
 COLORS = {"measured": "0.25", "one_step": "tab:blue", "free_run": "tab:red",
           "arx": "tab:green", "birth": "tab:green", "replace": "tab:orange",
-          "removal": "tab:red"}
+          "removal": "tab:red", "merge": "tab:purple"}
 
 NAMES = {"p": "roll rate", "q": "pitch rate", "r": "yaw rate"}
 
@@ -140,7 +140,8 @@ def fig_rates(run: Run) -> Figure:
 def _event_times(run: Run) -> dict[str, np.ndarray]:
     hist = run.history
     out: dict[str, np.ndarray] = {}
-    for kind, col in (("birth", "births"), ("replace", "replacements"), ("removal", "removals")):
+    for kind, col in (("birth", "births"), ("replace", "replacements"), ("removal", "removals"),
+                      ("merge", "merges")):
         if col in hist.columns:
             out[kind] = hist.loc[hist[col] > 0, "t"].to_numpy()
     return out
@@ -163,12 +164,12 @@ def fig_structure(run: Run) -> Figure:
             ax_r.step(t, hist["n_rules"].to_numpy(), where="post", color="k",
                       label="rules")
             counts = hist.set_index("t")["n_rules"]
-            markers = {"birth": "^", "replace": "D", "removal": "v"}
+            markers = {"birth": "^", "replace": "D", "removal": "v", "merge": "X"}
             for kind, times in _event_times(run).items():
                 if times.size:
+                    n = int(hist["merges"].sum()) if kind == "merge" else times.size
                     ax_r.plot(times, counts.loc[times].to_numpy(), markers[kind], ms=4,
-                              color=COLORS[kind], label=f"{kind} ({times.size})",
-                              linestyle="none")
+                              color=COLORS[kind], label=f"{kind} ({n})", linestyle="none")
         else:
             ax_p.text(0.5, 0.5, "no learning in this run (rules frozen)",
                       transform=ax_p.transAxes, ha="center")

@@ -24,3 +24,14 @@ def test_one_physics_at_two_heights_ends_with_one_rule_and_the_merges_in_history
     assert kept.metrics["rules"]["frozen"] >= 2  # different gains: not merged
     unmerged = identify(two_regime_table(1.5, 1.5), IdentConfig(**{**BASE, "merge": None}))
     assert unmerged.metrics["rules"]["frozen"] >= 2 and not unmerged.metrics["rules"]["merges"]
+
+
+def test_merges_are_marked_in_the_structure_figure() -> None:
+    from etsid.report.figures import fig_structure
+
+    run = identify(two_regime_table(1.5, 1.5), IdentConfig(**BASE))
+    fig = fig_structure(run)
+    labels = [t.get_text() for ax in fig.axes if ax.get_legend()
+              for t in ax.get_legend().get_texts()]
+    n = len(run.metrics["rules"]["merges"])
+    assert f"merge ({n})" in labels
