@@ -109,8 +109,8 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         Memory (RSS) limit of each local pool worker, MB (None: no limit); a log that
         passes it becomes a MemoryError row.
     dashboard
-        ``--scheduler processes``: address of Dask's dashboard (default
-        :data:`etsid.batch.cluster.DASHBOARD`, this machine only).
+        ``--scheduler processes``: address of Dask's dashboard, e.g. ``127.0.0.1:8787``
+        (None: no dashboard; the cluster listens on 127.0.0.1 only either way).
 
     Raises
     ------

@@ -36,8 +36,8 @@ def _batch_options(func: Callable[..., Any]) -> Callable[..., Any]:
     func = click.option("--quiet", "-q", is_flag=True, help="No progress bar.")(func)
     func = click.option("--dashboard", default=None, metavar="HOST:PORT",
                         help="--scheduler processes: serve Dask's dashboard at this "
-                             "address (default: 127.0.0.1:8787, this machine only; "
-                             "0.0.0.0:8787 opens it to the network).")(func)
+                             "address, e.g. 127.0.0.1:8787 (this machine only; "
+                             "0.0.0.0:8787 opens it to the network). Default: none.")(func)
     func = click.option("--protocol", "protocols", multiple=True, metavar="NAME",
                         help="Also open URLs of this fsspec protocol (repeatable, e.g. "
                              "--protocol s3); file:// is always allowed, any other URL "
