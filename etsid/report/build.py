@@ -17,7 +17,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from etsid.errors import IdentError, ReportError
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
-from etsid.report.page import HINT, esc, html_page, make_shared_dir, table_html
+from etsid.report.page import HINT, esc, html_page, make_shared_dir, markdown_safe, table_html
 from etsid.report.regimes import regimes_html, regimes_markdown
 from etsid.report.tables import metrics_rows, rules_text
 
@@ -146,7 +146,7 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet, base: Path | None = 
     report.html.write_text(render_html(run, embedded, rules,
                                        interactive_parts(run, say, base)))
     report.markdown = out / "report.md"
-    report.markdown.write_text(render_markdown(run, report.figures, rules))
+    report.markdown.write_text(markdown_safe(render_markdown(run, report.figures, rules)))
     return report
 
 

@@ -343,7 +343,14 @@ def make_control_report(run_dir: str | Path, fmt: str = "png",
     the same scenario by the other controller, when it lies beside RUN_DIR, is drawn with
     it (:func:`find_comparison`)."""
     from etsid.report.build import FORMATS, Report, save_figure
-    from etsid.report.page import HINT, esc, html_page, image_html, make_shared_dir
+    from etsid.report.page import (
+        HINT,
+        esc,
+        html_page,
+        image_html,
+        make_shared_dir,
+        markdown_safe,
+    )
 
     if fmt not in FORMATS:
         raise ControlError(f"unknown figure format {fmt!r}; use one of {', '.join(FORMATS)}")
@@ -411,7 +418,7 @@ def make_control_report(run_dir: str | Path, fmt: str = "png",
                f"*{CONTROL_FIGURES[name][1]}*", ""]
     md += ["## Rule base (rules.json)", "", "```", rules, "```", ""]
     md_path = out / "report.md"
-    md_path.write_text("\n".join(md))
+    md_path.write_text(markdown_safe("\n".join(md)))
     return Report(out, figures, html_path, md_path)
 
 

@@ -28,6 +28,7 @@ from matplotlib.ticker import MaxNLocator
 from etsid.errors import EtsidError
 from etsid.report.build import Report, save_figure
 from etsid.report.figures import WIDTH, style
+from etsid.report.page import markdown_safe
 
 FIGURES = {
     "duration_s": "log duration, s",
@@ -310,7 +311,7 @@ def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out
     report.html = out / "index.html"
     report.html.write_text(parts.html(image, _interactive(frame, figure)))
     report.markdown = out / "report.md"
-    report.markdown.write_text(parts.markdown(report.figures.get("distributions")))
+    report.markdown.write_text(markdown_safe(parts.markdown(report.figures.get("distributions"))))
     return report
 
 

@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 
 from etsid.errors import ReportError
 from etsid.report.build import Report, save_figure
+from etsid.report.page import markdown_safe
 
 SERIES_FILE = "gap_series.parquet"
 VAR_TEXT = {"alt": "height above ground (m)", "speed": "horizontal speed (m/s)",
@@ -369,7 +370,7 @@ def make_gap_report(out_dir: str | Path, fmt: str = "png",
             interactive = _interactive(series, data)
     md = _markdown(data, report.figures)
     report.markdown = out / "report.md"
-    report.markdown.write_text(md, encoding="utf-8")
+    report.markdown.write_text(markdown_safe(md), encoding="utf-8")
     report.html = out / "index.html"
     report.html.write_text(_html(data, report.figures, interactive), encoding="utf-8")
     return report

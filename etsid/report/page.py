@@ -41,6 +41,26 @@ def esc(text: object) -> str:
     return html.escape(str(text))
 
 
+def markdown_safe(text: str) -> str:
+    """Markdown with raw HTML made inert: ``<`` and ``>`` outside code spans and fenced blocks
+    become ``&lt;``/``&gt;`` (names from a log — topics, fields, files — can hold
+    ``<script>``; a Markdown viewer renders raw HTML). Code keeps its characters."""
+    out, fenced = [], False
+    for line in text.split("\n"):
+        if line.lstrip().startswith("```"):
+            fenced = not fenced
+            out.append(line)
+            continue
+        if fenced:
+            out.append(line)
+            continue
+        parts = line.split("`")
+        for i in range(0, len(parts), 2):  # even parts are outside code spans
+            parts[i] = parts[i].replace("<", "&lt;").replace(">", "&gt;")
+        out.append("`".join(parts))
+    return "\n".join(out)
+
+
 def table_html(head: Sequence[str], rows: Iterable[Sequence[object]],
                text_columns: Iterable[int] = ()) -> str:
     """An HTML table; cells of ``text_columns`` are left aligned prose."""

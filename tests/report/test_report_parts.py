@@ -108,3 +108,14 @@ def test_overview_finds_a_relative_input_beside_the_run(
     (tmp_path / "flight.parquet").unlink()
     page = make_report(run_dir).html.read_text()
     assert "No flight overview: flight.parquet (the run&#x27;s input) is not there" in page
+
+
+def test_report_markdown_makes_raw_html_from_log_names_inert() -> None:
+    """Names from a log (topics, files) can hold ``<script>``; report.md escapes raw HTML
+    outside code, and code keeps its characters."""
+    from etsid.report.page import markdown_safe
+
+    text = "topic </mavros/imu><script>alert(1)</script> `a<b>` done\n```\n<kept>\n```"
+    out = markdown_safe(text)
+    assert "<script>" not in out and "&lt;script&gt;" in out
+    assert "`a<b>`" in out and "\n<kept>\n" in out
