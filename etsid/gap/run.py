@@ -425,7 +425,6 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     if raised:
         notes.append(f"floor set by {real_name}'s own sensor noise (larger than "
                      f"{sim_name}'s model error) on {', '.join(raised)}")
-    twin = twin_divergence(sim_table, sim_name)
     if twin:
         notes.append(f"{twin}: differences after that are the twin's, not physics alone")
     envelope = restrict_to_envelope(sim, real)
