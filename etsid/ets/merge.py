@@ -33,7 +33,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import gammaincinv
 
 from etsid.ets.state import LearnedState
 
@@ -66,7 +66,9 @@ def _wald_ratio(state: LearnedState, var: list[np.ndarray | None], i: int, j: in
         return 0.0
     Pi, C = state.consequents, state.covariances
     p, m = Pi.shape[1], Pi.shape[2]
-    crit = chi2.ppf(1.0 - ALPHA / m, p)
+    # χ²(p) quantile, as scipy.stats.chi2.ppf computes it (bit for bit) without importing
+    # scipy.stats (29 MB and 0.45 s in every worker process)
+    crit = 2.0 * gammaincinv(p / 2.0, 1.0 - ALPHA / m)
     worst = 0.0
     for o in range(m):
         if shared[o]:
