@@ -43,16 +43,10 @@ class WarmWorker(WorkerPlugin):
                 from threadpoolctl import threadpool_limits
 
                 threadpool_limits(limits=1, user_api="blas")
-        if self.command not in _WARMED:  # a worker of a long-lived cluster: warm once
-            tasks.warm(self.command)
-            _WARMED.add(self.command)
+        tasks.warm(self.command)  # once per process (a forked worker is warm already)
 
     def teardown(self, worker: Any) -> None:
         """The profiler runs again when the plugin is removed or replaced."""
         for callback in self.stopped:
             callback.start()
         self.stopped.clear()
-
-
-_WARMED: set[str] = set()
-"""Commands this worker process has warmed up for."""

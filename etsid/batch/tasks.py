@@ -237,17 +237,23 @@ RUNNERS = {"inspect": inspect, "ingest": ingest, "identify": identify}
 """Command → function(path, spec, run_dir) -> row fields (``gap`` takes a pair)."""
 
 
+WARMED: set[str] = set()
+"""Commands this process has warmed up for (inherited by the processes it forks)."""
+
+
 def warm(command: str) -> None:
     """Load (or compile once) the numba kernels a command uses, before the workers start.
 
     ``identify`` learns a small synthetic table, which runs every eTS and ARX kernel; the
     compiled code lands in numba's on-disk cache, so the workers load it instead of each
-    compiling it again.
+    compiling it again. Once per process: a process forked from a warm one (the fork
+    server's workers) is warm already.
     """
-    if command != "identify":
+    if command != "identify" or command in WARMED:
         return
     from etsid.ident import IdentConfig
     from etsid.ident import identify as identify_table
     from etsid.ident.synthetic import rate_table
 
     identify_table(rate_table(600, seed=0), IdentConfig(ident_rate=0))
+    WARMED.add(command)
