@@ -147,6 +147,7 @@ def merge(a: Mods, b: Mods) -> Mods:
         offset[k] = offset.get(k, 0.0) + v
     return Mods(tau=tau, delay=a.delay + b.delay, thrust_gain=_times(a.thrust_gain, b.thrust_gain),
                 torque_gain=_times(a.torque_gain, b.torque_gain), inertia=a.inertia * b.inertia,
+                mass=a.mass * b.mass,
                 offset=offset, drag=a.drag + b.drag,
                 drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
                 damping=a.damping + b.damping,
@@ -218,10 +219,11 @@ def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]
 
 def _weak_motor(index: int) -> Callable[[np.ndarray, Context], Mods]:
     def build(theta: np.ndarray, ctx: Context) -> Mods:
-        gain = np.ones((1, ctx.flight.motors.shape[1]))
-        gain[0, index] = theta[0]
-        gain = np.repeat(gain, ctx.flight.n, axis=0)
-        return Mods(thrust_gain=gain, torque_gain=gain)
+        n_rotors = ctx.flight.motors.shape[1]
+        thrust, torque = np.ones((1, n_rotors)), np.ones((1, n_rotors))
+        thrust[0, index], torque[0, index] = theta[0], theta[1]
+        return Mods(thrust_gain=np.repeat(thrust, ctx.flight.n, axis=0),
+                    torque_gain=np.repeat(torque, ctx.flight.n, axis=0))
     return build
 
 
@@ -230,11 +232,14 @@ MAX_MOTORS = 8
 
 def _weak_motors() -> tuple[Candidate, ...]:
     return tuple(Candidate(
-        "weak_motor", (Param("scale", "1", 0.3, 1.5, 1.0, 1.0),), ("az", "p", "q", "r"),
+        "weak_motor", (Param("scale", "1", 0.3, 1.5, 1.0, 1.0),
+                       Param("torque_scale", "1", 0.3, 1.5, 1.0, 1.0)), ("az", "p", "q", "r"),
         "one rotor gives less (or more) thrust than the others at the same command: the "
         "others' trims hold a differential that grows with thrust (a chipped propeller, a "
-        "worn motor)",
-        f"T_{i + 1}, Q_{i + 1} = s · (T, Q)_{i + 1},nom (motor {i + 1} only)", _weak_motor(i),
+        "worn motor); its reaction torque changes by its own factor (a slower motor loses "
+        "both alike, a damaged propeller mostly thrust)",
+        f"T_{i + 1} = s · T_{i + 1},nom, Q_{i + 1} = s_Q · Q_{i + 1},nom (motor {i + 1} only)",
+        _weak_motor(i),
         motor=i)
         for i in range(MAX_MOTORS))
 
@@ -264,6 +269,13 @@ LIBRARY: tuple[Candidate, ...] = (
         "thrust everywhere too high or low by the same factor: vertical force and roll/pitch "
         "authority change together, yaw does not",
         "T_i = s · T_i,nom", lambda th, ctx: Mods(thrust_gain=th[0])),
+    Candidate(
+        "mass", (Param("ratio", "1", 0.5, 2.0, 1.0, 1.0),), ("az", "ax", "ay"),
+        "the vehicle heavier or lighter at the same thrust (a payload, a bigger pack): the "
+        "specific forces change, roll/pitch authority does not (which tells it from a thrust "
+        "scale; from the vertical force alone the two are one thrust-to-weight ratio)",
+        "a = F_nom / (r m_nom): specific forces ÷ r",
+        lambda th, ctx: Mods(mass=th[0])),
     Candidate(
         "battery_sag", (Param("exponent", "1", 0.0, 6.0, 2.0, 0.0),), ("az", "p", "q", "r"),
         "thrust and torque follow the measured pack voltage (drops under load and with charge)",

@@ -77,6 +77,8 @@ class Mods:
         Multiplier on rotor reaction torque (r).
     inertia : float
         Inertia ratio real/nominal: divides the predicted angular accelerations.
+    mass : float
+        Mass ratio real/nominal: divides the predicted specific forces (az, ax, ay).
     offset : dict
         Constant added to a channel's prediction (channel → value in its unit).
     drag : float
@@ -97,6 +99,7 @@ class Mods:
     thrust_gain: float | np.ndarray = 1.0
     torque_gain: float | np.ndarray = 1.0
     inertia: float = 1.0
+    mass: float = 1.0
     offset: dict[str, float] = field(default_factory=dict)
     drag: float = 0.0
     drag_moment: float = 0.0
@@ -267,6 +270,8 @@ class NominalModel:
             y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
             if c in RATE_CHANNELS:
                 y = y / mods.inertia
+            elif mods.mass != 1.0:
+                y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
             if mods.damping and c in ("p", "q"):

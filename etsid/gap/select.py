@@ -23,11 +23,20 @@ from etsid.gap.nominal import Mods
 from etsid.gap.verdict import BoundHit, at_bound, worsened
 
 PARAM_PENALTY = 0.02
+PARAM_Z = 2.0
+"""A parameter costs :data:`PARAM_PENALTY` of the explained share, or this many floor units
+of held-out excess when that is less: with a mismatch hundreds of times its floor, half a
+percent of the excess is still far beyond noise (a weak motor leaving a third of what a
+torque offset leaves must not lose for its motor choice)."""
 MIN_SHARE = 0.30
 MIN_EXTRA_SHARE = 0.10
 MIN_UNEXPLAINED_GAIN = 0.30
 """Least relative drop of a channel's held-out z that the eTS residual model must give."""
 PAIR_POOL = 4
+SINGLE_ONLY = ("mass",)
+"""Effects named only alone: as a second effect a mass change is told from a thrust scale
+by nothing the first effect leaves (dev seed 10110 named a delay's thrust scale a mass);
+a thrust scale's words give the thrust-to-weight reading too."""
 STATIC = ("thrust_scale", "torque_offset", "ground_effect")
 """Effects independent of command activity (a constant gain or offset, or a gain set by
 height). As the second effect to a dynamic one (lag, delay) such a term must improve the
@@ -53,6 +62,8 @@ class Scored:
     worse: dict[str, float] = field(default_factory=dict)
     bounds: list[BoundHit] = field(default_factory=list)
     motors: int = 1
+    excess: float = 0.0
+    """Held-out excess Σ max(z − 1, 0) before the effect (what ``share`` is a share of)."""
 
     @property
     def score(self) -> float:
@@ -61,7 +72,9 @@ class Scored:
         one-motor fits looks better than any one of them is)."""
         choice = sum(np.log2(self.n_motors) for c in self.fit.candidates
                      if c.motor is not None and self.n_motors > 1)
-        return self.share - PARAM_PENALTY * (self.fit.n_params + choice)
+        per_param = min(PARAM_PENALTY, PARAM_Z / self.excess) if self.excess > 0 else \
+            PARAM_PENALTY
+        return self.share - per_param * (self.fit.n_params + choice)
 
     @property
     def n_motors(self) -> int:
@@ -125,7 +138,7 @@ def score_fit(fit: Fit, scorer: Scorer, hold: np.ndarray, z_before: dict[str, fl
                      else min(z_before[c] - z_after[c], 0.0) for c in z_before))
     bounds = [h for cand, theta, _ in fit.split() for h in at_bound(cand, theta)]
     return Scored(fit, z_after, gain, gain / max(e0, 1e-9), worsened(z_before, z_after),
-                  bounds, int(scorer.ctx.flight.motors.shape[1]))
+                  bounds, int(scorer.ctx.flight.motors.shape[1]), e0)
 
 
 def _left_share(best: Scored, joint: Scored, left: list[str]) -> float:
@@ -191,7 +204,7 @@ def _companions(best: Scored, ranked: list[Scored], left: list[str], scorer: Sco
     out = []
     for s in ranked:
         cand = s.fit.candidates[0]
-        if s is best or not set(cand.channels) & set(left):
+        if s is best or cand.name in SINGLE_ONLY or not set(cand.channels) & set(left):
             continue
         cond = fit_candidates((cand,), scorer, fit_mask, base=best.fit)
         z = scorer.zscores(cond.mods, hold, tuple(left))
@@ -201,6 +214,35 @@ def _companions(best: Scored, ranked: list[Scored], left: list[str], scorer: Sco
             out.append((gain, score_fit(own, scorer, hold, z0, e0, focus)))
     out.sort(key=lambda gs: gs[0], reverse=True)
     return [s for _, s in out[:PAIR_POOL]]
+
+
+ROLL_PITCH_MARGIN = 1.0
+"""Floor units (mean square, roll + pitch, held out) by which a thrust scale must leave roll
+and pitch worse than a mass change for the two to be told apart."""
+
+
+def _roll_pitch(s: Scored) -> float:
+    return s.z_after.get("p", 0.0) + s.z_after.get("q", 0.0)
+
+
+def _thrust_or_mass(usable: list[Scored], sel: Selection) -> Scored:
+    """The best usable fit, except between a mass change and a thrust scale of about the
+    same score (within :data:`MIN_EXTRA_SHARE`): the mass change only where the thrust
+    scale leaves roll and pitch worse by :data:`ROLL_PITCH_MARGIN` (a payload leaves their
+    authority alone), else the thrust scale, whose words give both readings."""
+    best = usable[0]
+    if best.fit.name not in ("mass", "thrust_scale"):
+        return best
+    other = next((s for s in usable if s.fit.name in ("mass", "thrust_scale")
+                  and s.fit.name != best.fit.name), None)
+    if other is None or best.score - other.score >= MIN_EXTRA_SHARE:
+        return best
+    mass, scale = (best, other) if best.fit.name == "mass" else (other, best)
+    if _roll_pitch(scale) - _roll_pitch(mass) >= ROLL_PITCH_MARGIN:
+        return mass
+    sel.notes.append(f"mass and thrust scale explain as much (shares {mass.share:.3f}, "
+                     f"{scale.share:.3f}): roll and pitch do not tell them apart")
+    return scale
 
 
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
@@ -234,13 +276,13 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     usable = [s for s in fit_well if s.admissible]
     if not usable:
         return sel
-    best = usable[0]
+    best = _thrust_or_mass(usable, sel)
     chosen = best
     left = [c for c in focus if best.z_after.get(c, 0.0) > STRONG_LEFT * z_left]
     if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
         sel.chosen = best  # nothing left for a second effect to explain
         return sel
-    pool = [s for s in ranked if s is not best and s.gain > 0
+    pool = [s for s in ranked if s is not best and s.gain > 0 and s.fit.name not in SINGLE_ONLY
             and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
     if left:
         names = {s.fit.name for s in pool}

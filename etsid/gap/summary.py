@@ -16,7 +16,7 @@ NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
         "torque_offset": "torque offset", "gyro_bias": "gyro bias",
         "accel_bias": "accelerometer bias", "yaw_torque_scale": "yaw torque scale",
         "rotor_inertia": "rotor inertia", "rate_damping": "rate damping",
-        "wind": "wind", "weak_motor": "weak motor",
+        "wind": "wind", "weak_motor": "weak motor", "mass": "mass (payload)",
         "unexplained": "unexplained structure (eTS residual model)"}
 LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
@@ -99,6 +99,9 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
         return (f"×{p['scale']:.3g} thrust at the same command (thrust scale; from "
                 f"accelerations alone the same as a {1 / p['scale']:.3g}× heavier vehicle: "
                 "thrust-to-weight ×{0:.3g})".format(p["scale"]))
+    if name == "mass":
+        return (f"×{p['ratio']:.3g} mass at the same thrust (a payload; thrust-to-weight "
+                f"×{1 / p['ratio']:.3g}, roll/pitch authority unchanged; mass)")
     if name == "yaw_torque_scale":
         return f"×{p['scale']:.3g} yaw torque at the same command (yaw torque scale)"
     if name == "rotor_inertia":
