@@ -2,6 +2,7 @@
 
 Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--repeat 3] [--dask]
       python benchmarks/batch.py --logs 2000 --duration 8 --jobs 2 --report   (a fleet at scale)
+      python benchmarks/batch.py --report-only DIR   (etsid report on a kept batch directory)
 
 1. Writes a fleet of ``--logs`` simulated flights (``etsid.sim.simulate`` +
    ``etsid.sim.writers.write_log``) in mixed formats — tlog, ROS 1 bag, ROS 2 bag directory
@@ -22,7 +23,10 @@ Run:  python benchmarks/batch.py [--logs 200] [--duration 25] [--jobs 1,2] [--re
    checks that every run gives the same rows bit for bit (all columns but wall time, peak
    memory, worker and finish time) and that every broken log is an error row.
 4. Prints the peak memory of this (the submitting) process, the results dataset's file
-   count and size, and with ``--report`` the time of ``etsid report`` on the last batch.
+   count and size, and with ``--report`` the time of ``etsid report`` on the last batch
+   (from scratch: the ten best and worst flights' own reports are written too).
+   ``--report-only DIR`` times only ``etsid report DIR`` on a batch directory kept from an
+   earlier run, from scratch and then again (the flights' reports reused).
 """
 
 from __future__ import annotations
@@ -108,6 +112,24 @@ def timed_batch(logs: list[str], out: Path, jobs: int, scheduler: str) -> tuple[
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
+def time_report(batch_dir: Path, fresh: bool) -> None:
+    """Time ``etsid report DIR`` in a child process; ``fresh``: without the fleet report
+    and the ranked flights' own reports of an earlier run (they are written again)."""
+    if fresh:
+        shutil.rmtree(batch_dir / "report", ignore_errors=True)
+        for old in (batch_dir / "runs").glob("*/*/report"):
+            shutil.rmtree(old)
+    load = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "etsid", "report", str(batch_dir)],
+                          capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    flights = len(list((batch_dir / "runs").glob("*/*/report/index.html")))
+    print(f"etsid report {batch_dir.name} ({'from scratch' if fresh else 'again'}): "
+          f"{wall:.1f} s, exit {done.returncode}, {flights} flight reports, load "
+          f"{load:.1f} -> {os.getloadavg()[0]:.1f} {done.stderr.strip()[-300:]}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--logs", type=int, default=200, help="fleet size (with the broken)")
@@ -120,7 +142,14 @@ def main() -> None:
     parser.add_argument("--fleet", type=Path, default=None, help="fleet directory (kept)")
     parser.add_argument("--report", action="store_true",
                         help="time `etsid report` on the last batch directory")
+    parser.add_argument("--report-only", type=Path, default=None, metavar="DIR",
+                        help="only time `etsid report` on this existing batch directory "
+                             "(e.g. kept from an earlier run), from scratch and again")
     args = parser.parse_args()
+    if args.report_only is not None:
+        time_report(args.report_only, fresh=True)
+        time_report(args.report_only, fresh=False)
+        return
     cores = default_jobs()
     jobs = sorted({int(j) for j in args.jobs.split(",")} if args.jobs else {1, cores})
     work = Path(tempfile.mkdtemp(prefix="etsid-batch-bench-"))
@@ -172,11 +201,7 @@ def main() -> None:
           f"before the first {START_MB:.0f} MB); results dataset {len(files)} files, "
           f"{sum(f.stat().st_size for f in files) / 2**20:.1f} MB ({last / 'results'})")
     if args.report:
-        t0 = time.perf_counter()
-        done = subprocess.run([sys.executable, "-m", "etsid", "report", str(last)],
-                              capture_output=True, text=True)
-        print(f"etsid report {last.name}: {time.perf_counter() - t0:.1f} s, exit "
-              f"{done.returncode} {done.stderr.strip()[-300:]}")
+        time_report(last, fresh=True)
     frames = [f.drop(columns=list(VOLATILE)) for f in results.values()]
     same = all(f.equals(frames[0]) for f in frames[1:])
     print(f"rows identical bit for bit across {len(frames)} runs (all but "

@@ -68,14 +68,18 @@ def dask_setup(scheduler):
 '''
 
 CHILD = '''
-import json, os, sys, time
+import json, os, sys, threading, time
 import dask
+import psutil
 from etsid.batch import BatchSpec, find_inputs, read_results, run_batch
 from etsid.ident import IdentConfig
 from etsid.ingest import ReadOptions
 
-def cli_cluster(jobs, plugin):
-    """`dask scheduler` (with the breakdown plugin) and `jobs` `dask worker` processes."""
+def cli_cluster(jobs, plugin, host_preload):
+    """`dask scheduler` (with the breakdown plugin) and the workers: `jobs` `dask worker
+    --nthreads 1` commands (each with its nanny), or with `host_preload` one `dask worker
+    --nworkers jobs --preload-nanny etsid.batch.dask_host` (workers forked from a warm
+    server)."""
     import socket, subprocess
     from pathlib import Path
     from dask.distributed import Client
@@ -87,34 +91,74 @@ def cli_cluster(jobs, plugin):
     procs = [subprocess.Popen([dask_cli, "scheduler", "--host", "127.0.0.1", "--port",
                                str(port), "--no-dashboard", "--preload", plugin],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
-    procs += [subprocess.Popen([dask_cli, "worker", address, "--nthreads", "1",
-                                "--no-dashboard", "--host", "127.0.0.1"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-              for _ in range(jobs)]
+    worker = [dask_cli, "worker", address, "--nthreads", "1", "--no-dashboard", "--host",
+              "127.0.0.1"]
+    if host_preload:
+        worker += ["--nworkers", str(jobs), "--preload-nanny", "etsid.batch.dask_host"]
+    procs += [subprocess.Popen(worker, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+              for _ in range(1 if host_preload else jobs)]
     with Client(address, timeout="60s") as client:
         client.wait_for_workers(jobs, timeout=300)
     return address, procs
 
 
+class Memory(threading.Thread):
+    """Peak RSS, USS and PSS of every process this one started (but the scheduler),
+    sampled every second, and the peak of their summed PSS."""
+
+    def __init__(self, skip):
+        super().__init__(daemon=True)
+        self.skip, self.peak, self.total, self.running = skip, {}, 0.0, True
+
+    def run(self):
+        me = psutil.Process()
+        while self.running:
+            total = 0.0
+            for proc in me.children(recursive=True):
+                if proc.pid in self.skip:
+                    continue
+                try:
+                    mem = proc.memory_full_info()
+                except psutil.Error:
+                    continue
+                old = self.peak.get(proc.pid, (0, 0, 0))
+                self.peak[proc.pid] = (max(old[0], mem.rss), max(old[1], mem.uss),
+                                       max(old[2], mem.pss))
+                total += mem.pss
+            self.total = max(self.total, total)
+            time.sleep(1.0)
+
+
 if __name__ == "__main__":
     fleet, out, jobs, scheduler, plugin = sys.argv[1:6]
     procs = []
-    if scheduler == "cli":
-        scheduler, procs = cli_cluster(int(jobs), plugin)
+    if scheduler in ("cli", "cli-host"):
+        scheduler, procs = cli_cluster(int(jobs), plugin, scheduler == "cli-host")
     else:
         dask.config.set({"distributed.scheduler.preload": [plugin]})
+    memory = Memory({p.pid for p in procs[:1]})
+    memory.start()
     logs = find_inputs([fleet])
     spec = BatchSpec("identify", read_options=ReadOptions(), ident_config=IdentConfig())
     start = time.time()
     run_batch(logs, spec, out, jobs=int(jobs), scheduler=scheduler)
     end = time.time()
+    memory.running = False
+    memory.join()
     for proc in procs[1:] + procs[:1]:  # workers first, then the scheduler (its plugin)
         proc.terminate()
         proc.wait(timeout=60)
     rows = read_results(out)
+    workers = {int(w.rsplit(":", 1)[1]) for w in rows["worker"].dropna()}
+    mb = 2 ** 20
     print(json.dumps({"start": start, "end": end, "logs": len(logs),
                       "cpu": rows["cpu_s"].tolist(), "wall": rows["wall_s"].tolist(),
-                      "rss": rows["peak_rss_mb"].tolist()}))
+                      "rss": rows["peak_rss_mb"].tolist(),
+                      "workers": [[v / mb for v in m] for pid, m in memory.peak.items()
+                                  if pid in workers],
+                      "others": [[v / mb for v in m] for pid, m in memory.peak.items()
+                                 if pid not in workers],
+                      "pss_total": memory.total / mb}))
 '''
 
 
@@ -160,6 +204,14 @@ def run_child(code: Path, fleet: Path, jobs: int, scheduler: str, work: Path) ->
         run["end"] - run["start"]) * 60, "cpu/log": float(np.median(run["cpu"])),
         "busy": sum(run["wall"]) / (jobs * (run["end"] - run["start"])),
         "rss max": max(run["rss"]), "rss median": float(np.median(run["rss"]))}
+    # sampled every second by the child: per worker process (median over the workers),
+    # and the sum of PSS over every process the run started (workers, fork server,
+    # nannies; not the scheduler, not the batch process) per worker
+    for i, name in enumerate(("rss", "uss", "pss")):
+        result[f"worker {name}"] = float(np.median([m[i] for m in run["workers"]])) \
+            if run["workers"] else float("nan")
+    result["others pss"] = sum(m[2] for m in run["others"])
+    result["host pss/worker"] = run["pss_total"] / jobs
     if scheduler != "local" and trace.exists():
         result.update(breakdown(run, json.loads(trace.read_text()), jobs))
     import shutil
@@ -175,7 +227,9 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--schedulers", default="local,processes,cli",
                         help="local (the pool), processes (LocalCluster), cli (dask "
-                             "scheduler + dask worker processes, up before the batch)")
+                             "scheduler + one dask worker command per worker, up before "
+                             "the batch), cli-host (one dask worker --nworkers JOBS "
+                             "--preload-nanny etsid.batch.dask_host)")
     parser.add_argument("--before", type=Path, default=None,
                         help="another etsid checkout, measured back to back")
     args = parser.parse_args()
@@ -191,24 +245,31 @@ def main() -> None:
     for round_ in range(args.repeat):
         for label, code in codes:
             for scheduler in args.schedulers.split(","):
-                t0 = time.perf_counter()
+                t0, load = time.perf_counter(), os.getloadavg()[0]
                 got = run_child(code, args.fleet, args.jobs, scheduler, work)
+                # the 1-min load average before and after (the batch itself adds ~jobs)
+                got["load"] = max(load, os.getloadavg()[0])
                 results.setdefault((label, scheduler), []).append(got)
                 print(f"round {round_ + 1} {label:>6} {scheduler:>9}: "
                       + ", ".join(f"{k} {v:.3g}" for k, v in got.items())
-                      + f" (child {time.perf_counter() - t0:.0f} s, load "
-                      f"{os.getloadavg()[0]:.1f})", flush=True)
-    print("\nmedians:")
+                      + f" (child {time.perf_counter() - t0:.0f} s)", flush=True)
+    print("\nmedians over the rounds; Dask against the local pool of the same round "
+          "(throughput = pool wall / Dask wall), median [min–max]:")
     for (label, scheduler), runs in results.items():
-        keys = runs[0].keys()
-        med = {k: float(np.median([r[k] for r in runs])) for k in keys}
+        med = {k: float(np.median([r[k] for r in runs])) for k in runs[0]}
+        print(f"{label:>6} {scheduler:>9}: " + ", ".join(f"{k} {v:.3g}" for k, v in med.items()))
+        if scheduler == "local":
+            continue
         local = results[(label, "local")]
-        ratio = (np.median([r["wall"] for r in local]) / med["wall"]) * 100
-        print(f"{label:>6} {scheduler:>9}: " + ", ".join(f"{k} {v:.3g}" for k, v in med.items())
-              + (f"; throughput {ratio:.0f} % of the local pool, memory "
-                 f"{med['rss max'] / np.median([r['rss max'] for r in local]):.2f}x"
-                 if scheduler != "local" else ""))
-
+        for key, name in (("wall", "throughput"), ("cpu/log", "per-log CPU"),
+                          ("rss max", "peak RSS (VmHWM)"), ("worker rss", "worker RSS"),
+                          ("worker uss", "worker USS"), ("worker pss", "worker PSS"),
+                          ("host pss/worker", "all processes' PSS per worker")):
+            pairs = [(a[key], b[key]) for a, b in zip(local, runs, strict=False)]
+            ratios = [pool / dask if key == "wall" else dask / pool for pool, dask in pairs]
+            unit, scale = ("%", 100) if key == "wall" else ("x", 1)
+            print(f"{'':>17}{name}: {np.median(ratios) * scale:.3g} {unit} of the pool's "
+                  f"[{min(ratios) * scale:.3g}–{max(ratios) * scale:.3g}]")
 
 if __name__ == "__main__":
     main()

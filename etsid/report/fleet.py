@@ -25,10 +25,12 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from etsid.batch.run import default_jobs
 from etsid.errors import EtsidError
 from etsid.report.build import Report, save_figure
 from etsid.report.figures import WIDTH, style
 from etsid.report.page import markdown_safe
+from etsid.report.parallel import ReportPool
 
 FIGURES = {
     "duration_s": "log duration, s",
@@ -154,27 +156,25 @@ def run_dir_inside(batch_dir: Path, run_dir: str | None) -> Path | None:
     return target if target.is_relative_to(runs) and target != runs else None
 
 
-def _run_report(batch_dir: Path, run_dir: str | None, command: str) -> str | None:
-    """Relative link from DIR/report/ to a run's own report (written when missing)."""
-    inside = run_dir_inside(batch_dir, run_dir)
-    if inside is None or command != "identify":
+def flight_reports(batch_dir: Path, listed: pd.DataFrame, command: str) -> dict[str, Path]:
+    """Input → the run directory of each listed flight that has (or gets) its own report:
+    identify runs whose ``run_dir`` lies inside ``DIR/runs/``."""
+    if command != "identify":
+        return {}
+    found = {}
+    for _, row in listed.iterrows():
+        inside = run_dir_inside(batch_dir, row.get("run_dir"))
+        if inside is not None:
+            found[str(row["input"])] = inside
+    return found
+
+
+def run_report_link(batch_dir: Path, run_dir: Path) -> str | None:
+    """Relative link from DIR/report/ to a run's own report (None: it has none)."""
+    target = run_dir / "report" / "index.html"
+    if not target.is_file():
         return None
-    target = inside / "report" / "index.html"
-    if not target.exists():
-        from etsid.report.build import make_report
-
-        try:
-            make_report(inside)
-        except EtsidError:
-            return None
     return os.path.relpath(target, batch_dir.resolve() / "report")
-
-
-def _needs_report(batch_dir: Path, row: pd.Series, command: str) -> bool:
-    """Whether :func:`_run_report` will write the report of ``row``'s run."""
-    inside = run_dir_inside(batch_dir, row.get("run_dir"))
-    return (command == "identify" and inside is not None
-            and not (inside / "report" / "index.html").exists())
 
 
 def _fmt(value: Any) -> str:
@@ -281,38 +281,53 @@ def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out
     """Every part of the fleet report into ``out``."""
     command = str(meta.get("command"))
     report = Report(out)
+    figure, best, worst = ranking(frame)
+    flights = flight_reports(batch_dir, pd.concat([best, worst]), command)
+    missing = [d for d in flights.values() if not (d / "report" / "index.html").is_file()]
+    if missing:  # written by worker processes while this one draws the fleet's page
+        say(f"fleet report: writing the own reports of {len(missing)} of the "
+            f"{len(best) + len(worst)} ranked flights (each links to its report) …")
+    pool = ReportPool(missing, default_jobs())
+    try:
+        image, interactive = _draw(frame, figure, report, fmt)
+    except BaseException:
+        pool.close(cancel=True)
+        raise
+    failed = pool.results(lambda done, run_dir: say(
+        f"fleet report: {done}/{len(missing)} flight reports written ({run_dir.name})"))
+    links = {}
+    unreported = {}
+    for item, run_dir in flights.items():
+        link = run_report_link(batch_dir, run_dir)
+        if link:
+            links[item] = link
+        else:
+            unreported[item] = failed.get(run_dir) or "its report was not written"
+    say("fleet report: writing the page …")
+    causes = failures_by_cause(frame)
+    parts = _Parts(meta, frame, figure, best, worst, causes, links, unreported)
+    report.html = out / "index.html"
+    report.html.write_text(parts.html(image, interactive))
+    report.markdown = out / "report.md"
+    report.markdown.write_text(markdown_safe(parts.markdown(report.figures.get("distributions"))))
+    return report
+
+
+def _draw(frame: pd.DataFrame, figure: str | None, report: Report, fmt: str
+          ) -> tuple[tuple[str, str] | None, tuple[str, str]]:
+    """The distributions figure (saved into the report; embedded as (mime, base64)) and
+    the interactive scatter (head, div)."""
     fig = fig_distributions(frame)
     image = None
     if fig is not None:
+        out = report.directory
         report.figures["distributions"] = save_figure(fig, out / f"distributions.{fmt}")
         png = report.figures["distributions"]
         if fmt == "pdf":
             png = save_figure(fig, out / "distributions.png")
         mime = "image/svg+xml" if fmt == "svg" else "image/png"
         image = (mime, base64.b64encode(png.read_bytes()).decode())
-    figure, best, worst = ranking(frame)
-    links = {}
-    listed = pd.concat([best, worst])
-    missing = sum(1 for _, row in listed.iterrows() if _needs_report(batch_dir, row, command))
-    if missing:
-        say(f"fleet report: writing the own reports of {missing} of the {len(listed)} "
-            "ranked flights (each links to its report) …")
-    done = 0
-    for _, row in listed.iterrows():
-        if _needs_report(batch_dir, row, command):
-            done += 1
-            say(f"fleet report: {done}/{missing}: {row['input']}")
-        link = _run_report(batch_dir, row.get("run_dir"), command)
-        if link:
-            links[row["input"]] = link
-    say("fleet report: drawing the distributions and the page …")
-    causes = failures_by_cause(frame)
-    parts = _Parts(meta, frame, figure, best, worst, causes, links)
-    report.html = out / "index.html"
-    report.html.write_text(parts.html(image, _interactive(frame, figure)))
-    report.markdown = out / "report.md"
-    report.markdown.write_text(markdown_safe(parts.markdown(report.figures.get("distributions"))))
-    return report
+    return image, _interactive(frame, figure)
 
 
 class _Parts:
@@ -320,9 +335,10 @@ class _Parts:
 
     def __init__(self, meta: dict[str, Any], frame: pd.DataFrame, figure: str | None,
                  best: pd.DataFrame, worst: pd.DataFrame, causes: pd.DataFrame,
-                 links: dict[str, str]) -> None:
+                 links: dict[str, str], unreported: dict[str, str] | None = None) -> None:
         self.meta, self.frame, self.figure = meta, frame, figure
         self.best, self.worst, self.causes, self.links = best, worst, causes, links
+        self.unreported = unreported or {}
         self.title = f"etsid fleet report: {meta.get('command')} over {len(frame)} logs"
         self.columns = [c for c in TABLE_COLUMNS
                         if c in frame.columns and frame[c].notna().any()]
@@ -334,6 +350,10 @@ class _Parts:
             return "No figure ranks these logs (only identify batches are ranked)."
         return (f"Ranked by {self.figure} ({FIGURES.get(self.figure, self.figure)}); "
                 "each log links to its own report.")
+
+    def _unreported_notes(self) -> list[str]:
+        """One line per ranked flight without its own report, and why."""
+        return [f"No report of {item}: {why}" for item, why in self.unreported.items()]
 
     def html(self, image: tuple[str, str] | None,
              interactive: tuple[str, str] = ("", "")) -> str:
@@ -355,7 +375,8 @@ class _Parts:
         else:
             parts.append("<p>No successful log to draw.</p>")
         parts += ["</section>", '<section id="best-worst"><h2>Best and worst flights</h2>',
-                  f"<p>{esc(self._ranking_note())}</p>"]
+                  f"<p>{esc(self._ranking_note())}</p>",
+                  *(f"<p>{esc(n)}</p>" for n in self._unreported_notes())]
         if self.figure is not None and self.worst.empty:
             parts += ["<h3>Every ranked flight, best first</h3>",
                       _html_table(self.best, self.rank_columns, self.links)]
@@ -378,6 +399,7 @@ class _Parts:
         lines.append(f"![distributions]({figure_path.name})" if figure_path
                      else "No successful log to draw.")
         lines += ["", "## Best and worst flights", "", self._ranking_note(), ""]
+        lines += [*self._unreported_notes(), ""] if self.unreported else []
         if self.figure is not None and self.worst.empty:
             lines += ["### Every ranked flight, best first", "",
                       *_md_table(self.best, self.rank_columns, self.links), ""]
