@@ -22,6 +22,8 @@ Run::
     python benchmarks/gap_thirdparty.py --inspect DIR              # sanity: ingest, airborne,
                                                                    # excitation (no gap)
     python benchmarks/gap_thirdparty.py --score DIR --jobs 2       # runs etsid gap per pair
+    python benchmarks/gap_thirdparty.py --detectability DIR        # oracle: does the true
+                                                                   # law show in the logs
 
 ``--score`` prints, per simulator and overall: named correctly X/N, false positives on the
 no-effect pairs, the confusion matrix, a per-effect table and, for the out-of-vocabulary
@@ -315,6 +317,64 @@ def score(out: Path, jobs: int, only_sims: list[str] | None) -> None:
         report(rows, "all simulators")
 
 
+def detectability_one(entry: dict[str, Any], out: str) -> str:
+    """Whether a pair's hidden effect shows in its logs at all: the TRUE law (an oracle the
+    analysis does not have) fitted on REAL's fit part, its parameter's distance from "no
+    effect" in standard errors, and what it removes on the held-out part (floor units,
+    summed over its channels). A law that is not 3 standard errors from no effect, or
+    removes less than one floor unit held out, does not show in these logs (either the
+    effect is below their noise or the vocabulary's law does not take its shape)."""
+    from etsid.gap import run as gap_run
+    from etsid.gap.candidates import LIBRARY, Context
+    from etsid.gap.fitting import Scorer, channels_of, fit_candidates
+    from etsid.gap.nominal import measured
+    from etsid.ingest import read_log
+
+    name = expected_name(entry["label"])
+    cands = [c for c in LIBRARY if c.name == name]
+    if not cands:
+        return f"{entry['id']:20s} {entry['label']:24s} (no single law)"
+    sim, real = gap_run.prepare_pair(read_log(Path(out) / entry["sim_log"]),
+                                     read_log(Path(out) / entry["real_log"]), "sim", "real")
+    floors = gap_run.nominal_and_floors(sim, real, None)
+    yr = measured(real)
+    floors.nominal.channels = tuple(c for c in floors.nominal.channels if c in yr)
+    gap_run.restrict_to_envelope(sim, real)
+    v_ref = float(np.nanmean(sim.vbat[sim.airborne])) if "vbat" in sim.have else None
+    ctx = Context(real, floors.nominal, v_ref, gap_run._rotor_dirs(floors.nominal, real), None)
+    scorer = Scorer(ctx, yr, floors.sigma)
+    fit, hold = gap_run.split_evidence(real, scorer.residuals(), floors.sigma)
+    best = None
+    for cand in cands:
+        if not cand.available(ctx):
+            continue
+        f = fit_candidates((cand,), scorer, fit)
+        chans = channels_of((cand,), scorer)
+        gain = (sum(scorer.zscores(None, hold, chans).values())
+                - sum(scorer.zscores(f.mods, hold, chans).values()))
+        nulls = [ctx.nominal.tau if cand.name == "motor_lag" else
+                 (p.null if p.null is not None else p.x0) for p in cand.params]
+        t = max(abs(float(v) - n) / float(e) if np.isfinite(e) and e > 0 else 0.0
+                for v, n, e in zip(f.theta, nulls, f.stderr, strict=True))
+        if best is None or gain > best[0]:
+            best = (gain, t, f.theta)
+    if best is None:
+        return f"{entry['id']:20s} {entry['label']:24s} (law not available: log lacks data)"
+    gain, t, theta = best
+    verdict = "shows" if t >= 3.0 and gain >= 1.0 else "NOT SHOWN"
+    return (f"{entry['id']:20s} {entry['label']:24s} {verdict:12s} {t:6.1f} SE from no "
+            f"effect, held-out gain {gain:7.2f} floor units, fitted "
+            f"{np.array2string(np.asarray(theta), precision=3)}")
+
+
+def detectability(out: Path, jobs: int) -> None:
+    entries = [e for e in json.loads((out / "labels.json").read_text())["pairs"]
+               if e["label"] not in OUT_OF_VOCABULARY and e["label"] != "none"]
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        for line in pool.map(detectability_one, entries, [str(out)] * len(entries)):
+            print(line, flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     mode = ap.add_mutually_exclusive_group(required=True)
@@ -322,6 +382,8 @@ def main() -> None:
     mode.add_argument("--inspect", type=Path, metavar="DIR",
                       help="sanity figures of the written logs (no gap analysis)")
     mode.add_argument("--score", type=Path, metavar="DIR", help="run etsid gap on every pair")
+    mode.add_argument("--detectability", type=Path, metavar="DIR",
+                      help="oracle: does each pair's true law show in its logs at all")
     ap.add_argument("--sims", default=",".join(SIMULATORS),
                     help=f"comma-separated simulators (default {','.join(SIMULATORS)})")
     ap.add_argument("--seeds", default=",".join(map(str, DEFAULT_SEEDS)),
@@ -339,6 +401,8 @@ def main() -> None:
         generate(args.generate, sims, seeds, only, args.jobs)
     elif args.inspect:
         inspect(args.inspect, args.jobs)
+    elif args.detectability:
+        detectability(args.detectability, args.jobs)
     else:
         score(args.score, args.jobs, sims if args.sims != ",".join(SIMULATORS) else None)
 
