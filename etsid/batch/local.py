@@ -59,7 +59,7 @@ def worker_context(command: str, preload: tuple[str, ...] = ()) -> Any:
     ctx = multiprocessing.get_context("forkserver")
     warm = ["etsid.batch.preload_identify"] if command == "identify" else []
     ctx.set_forkserver_preload(["etsid.batch.preload_server", *preload, "etsid.batch.worker",
-                                *tasks.PRELOAD, *warm])
+                                *tasks.PRELOAD, *warm, "etsid.batch.preload_freeze"])
     # start the server with Ctrl-C ignored: it and the workers it forks inherit that, so
     # Ctrl-C reaches only this process, which stops the pool
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -116,3 +116,49 @@ def test_cli_cluster_with_a_killed_worker_gives_one_row_per_log_as_the_local_run
         mine = row.drop(labels=drop)
         want = want.drop(labels=[c for c in drop if c != "input"])
         assert mine.equals(want[mine.index]), row["input"]
+
+
+def test_host_preload_forks_the_dask_workers_of_a_host_from_one_warm_server(
+        fleet: Path, tmp_path: Path) -> None:
+    """``dask worker --nworkers 2 --preload-nanny etsid.batch.dask_host``: both worker
+    processes are children of one fork server (not of the nanny), warm and with the
+    server's objects frozen before their first task, and they run a batch whose rows are
+    the local run's."""
+    from dask.distributed import Client
+
+    def worker_facts() -> tuple[int, bool, int]:  # local: sent to the workers by value
+        """(parent pid, warm for identify, objects frozen) of the worker it runs in."""
+        import gc
+        import os
+
+        from etsid.batch import tasks
+
+        return os.getppid(), "identify" in tasks.WARMED, gc.get_freeze_count()
+
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs = [_dask("scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard",
+                   log=tmp_path / "scheduler.txt")]
+    try:
+        procs.append(_dask("worker", address, "--nworkers", "2", "--nthreads", "1",
+                           "--preload-nanny", "etsid.batch.dask_host", "--no-dashboard",
+                           "--host", "127.0.0.1", log=tmp_path / "worker.txt"))
+        with Client(address, timeout="60s") as client:
+            client.wait_for_workers(2, timeout=120)
+            facts = list(client.run(worker_facts).values())
+        parents = {parent for parent, _, _ in facts}
+        assert len(facts) == 2 and len(parents) == 1, facts
+        assert parents != {procs[1].pid}  # not started by the nanny itself
+        assert all(warm and frozen > 0 for _, warm, frozen in facts), facts
+        logs = [str(fleet / "a.tlog"), str(fleet / "d.mcap"), str(fleet / "broken.tlog")]
+        spec = BatchSpec("ingest", read_options=ReadOptions())
+        run_batch(logs, spec, tmp_path / "dask", jobs=2, scheduler=address)
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+            proc.wait(timeout=60)
+    run_batch(logs, spec, tmp_path / "local", jobs=1)
+    drop = list(VOLATILE)
+    got = read_results(tmp_path / "dask").drop(columns=drop)
+    assert got.equals(read_results(tmp_path / "local").drop(columns=drop))
+    assert got["status"].tolist().count("error") == 1
