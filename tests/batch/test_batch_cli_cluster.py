@@ -12,6 +12,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 import pytest
@@ -123,7 +124,8 @@ def test_host_preload_forks_the_dask_workers_of_a_host_from_one_warm_server(
     """``dask worker --nworkers 2 --preload-nanny etsid.batch.dask_host``: both worker
     processes are children of one fork server (not of the nanny), warm and with the
     server's objects frozen before their first task, and they run a batch whose rows are
-    the local run's."""
+    the local run's; etsid's worker plugin stops the profiler and slows the event loop's
+    callbacks while it is installed, and restores them when it is removed."""
     from dask.distributed import Client
 
     def worker_facts() -> tuple[int, bool, int]:  # local: sent to the workers by value
@@ -134,6 +136,11 @@ def test_host_preload_forks_the_dask_workers_of_a_host_from_one_warm_server(
         from etsid.batch import tasks
 
         return os.getppid(), "identify" in tasks.WARMED, gc.get_freeze_count()
+
+    def callbacks(dask_worker: Any) -> dict[str, tuple[float, bool]]:
+        """The worker's periodic callbacks: name → (interval ms, running)."""
+        return {name: (callback.callback_time, callback.is_running())
+                for name, callback in dask_worker.periodic_callbacks.items()}
 
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
@@ -153,6 +160,15 @@ def test_host_preload_forks_the_dask_workers_of_a_host_from_one_warm_server(
         logs = [str(fleet / "a.tlog"), str(fleet / "d.mcap"), str(fleet / "broken.tlog")]
         spec = BatchSpec("ingest", read_options=ReadOptions())
         run_batch(logs, spec, tmp_path / "dask", jobs=2, scheduler=address)
+        with Client(address, timeout="60s") as client:
+            # while etsid's plugin is installed: no profiler, a quieter event loop
+            during = list(client.run(callbacks).values())
+            client.unregister_worker_plugin("etsid-warm")
+            after = list(client.run(callbacks).values())
+        assert all(c["tick"] == (1000.0, True) and c["memory_monitor"] == (1000.0, True)
+                   and not c["profile"][1] for c in during), during
+        assert all(c["tick"] == (20.0, True) and c["memory_monitor"] == (100.0, True)
+                   and c["profile"][1] for c in after), after
     finally:
         for proc in reversed(procs):
             proc.terminate()
