@@ -150,6 +150,7 @@ def merge(a: Mods, b: Mods) -> Mods:
                 mass=a.mass * b.mass,
                 offset=offset, drag=a.drag + b.drag,
                 drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
+                spin_torque=a.spin_torque + b.spin_torque,
                 damping=a.damping + b.damping,
                 wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]))
 
@@ -163,6 +164,21 @@ def ground_ratio(z: np.ndarray, radius: float, exponent: float = 2.0) -> np.ndar
     x = radius / (4.0 * np.maximum(z, 1e-3))
     den = np.maximum(1.0 - x**exponent, 1.0 / GE_MAX_RATIO)
     return 1.0 / den
+
+
+def ground_ratio_exp(z: np.ndarray, excess: float, decay: float) -> np.ndarray:
+    """T_IGE/T_OGE = 1 + a e^(−z/λ) (z, λ in m), clipped at :data:`GE_MAX_RATIO`: the
+    exponential form some simulators and fits use, which decays faster far from the ground
+    and stays finite at it."""
+    return np.minimum(1.0 + excess * np.exp(-np.maximum(z, 0.0) / max(decay, 1e-6)),
+                      GE_MAX_RATIO)
+
+
+def ground_excess(theta: np.ndarray, exponential: bool):
+    """z (m) → thrust excess ratio − 1 of a fitted ground-effect law (either form)."""
+    if exponential:
+        return lambda z: ground_ratio_exp(z, float(theta[0]), float(theta[1])) - 1.0
+    return lambda z: ground_ratio(z, float(theta[0]), float(theta[1])) - 1.0
 
 
 def hub_heights(ctx: Context, arm: float) -> np.ndarray:
@@ -182,6 +198,16 @@ def _ground_effect(theta: np.ndarray, ctx: Context) -> Mods:
     if ctx.arm is not None and ctx.rotor_dirs is not None:
         return Mods(thrust_gain=ground_ratio(hub_heights(ctx, ctx.arm), radius, n))
     return Mods(thrust_gain=ground_ratio(ctx.flight.alt, radius, n))
+
+
+def _ground_effect_exp(theta: np.ndarray, ctx: Context) -> Mods:
+    """Exponential law per hub: at the vehicle file's arm, else at the fitted ``theta[2]``
+    (0: every hub at the logged height, no restoring moment)."""
+    excess, decay = theta[0], theta[1]
+    arm = ctx.arm if ctx.arm is not None else float(theta[2])
+    if arm > 0 and ctx.rotor_dirs is not None:
+        return Mods(thrust_gain=ground_ratio_exp(hub_heights(ctx, arm), excess, decay))
+    return Mods(thrust_gain=ground_ratio_exp(ctx.flight.alt, excess, decay))
 
 
 def ground_search(ctx: Context) -> SearchMap:
@@ -265,6 +291,17 @@ LIBRARY: tuple[Candidate, ...] = (
         "effective radius R and decay exponent n)",
         _ground_effect, ("alt",), ground_search),
     Candidate(
+        "ground_effect",
+        (Param("excess", "1", 0.0, 1.0, 0.2, 0.0), Param("decay", "m", 0.005, 2.0, 0.2),
+         Param("arm", "m", 0.0, 1.5, 0.0, 0.0)),
+        ("az", "p", "q"),
+        "thrust excess that grows as the hubs near the ground, independent of command "
+        "(exponential form: finite at the ground, gone within a few decay lengths); a "
+        "tilted vehicle's lower hubs gain more, a restoring moment",
+        "T_i = T_i,nom (1 + a e^(−z_i/λ)), z_i the height of hub i (excess a at the ground, "
+        "decay length λ; hubs at the vehicle file's arm, else at a fitted effective arm)",
+        _ground_effect_exp, ("alt",)),
+    Candidate(
         "thrust_scale", (Param("scale", "1", 0.4, 2.0, 1.0, 1.0),), ("az", "p", "q"),
         "thrust everywhere too high or low by the same factor: vertical force and roll/pitch "
         "authority change together, yaw does not",
@@ -333,6 +370,12 @@ LIBRARY: tuple[Candidate, ...] = (
         "Q_spin,i = s · I_rotor,nom dΩ_i/dt",
         lambda th, ctx: Mods(spinup=th[0])),
     Candidate(
+        "rotor_inertia", (Param("added", "rad/s² per 1/s", -5.0, 5.0, 0.0, 0.0),), ("r",),
+        "yaw kicks when the motors speed up or slow down where the simulation has none (a "
+        "simulator that neglects rotor inertia); steady yaw authority unchanged",
+        "ṙ += c Σ_i sgn(h_i) dΩ_i/dt (h_i: rotor i's yaw-torque coefficient in SIM)",
+        lambda th, ctx: Mods(spin_torque=th[0])),
+    Candidate(
         "rate_damping", (Param("damping", "1/s", -5.0, 20.0, 0.0, 0.0),), ("p", "q"),
         "roll and pitch rates die out faster (or slower) than simulated, in proportion to "
         "the rate: the rotors' aerodynamic damping of a rotating rotor plane (blade flapping)",
@@ -361,5 +404,9 @@ LIBRARY: tuple[Candidate, ...] = (
                                      "ax": th[0], "ay": th[1], "az": th[2]}), ("vel",)),
 )
 
-BY_NAME = {c.name: c for c in LIBRARY if c.motor in (None, 0)}
+BY_NAME: dict[str, Candidate] = {
+    name: next(c for c in LIBRARY if c.name == name)
+    for name in dict.fromkeys(c.name for c in LIBRARY)}
+"""Name → the first candidate of that name (ground effect's Cheeseman–Bennett form,
+motor 1's weak motor)."""
 VOCABULARY = (*BY_NAME, "unexplained")

@@ -8,6 +8,7 @@ from the curvature of ``J`` with the effective sample count of low-passed residu
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,22 +136,26 @@ def _start(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray) -> np
 GRID_POINTS = 7
 """Points per parameter of the coarse grid that starts a single candidate's local search
 (a law such as ground effect saturates far from its optimum, where the objective is flat)."""
+GRID_POINTS_3 = 5
+"""The same for a three-parameter law (5³ points)."""
 
 
 def _grid_start(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
                 hi: np.ndarray) -> np.ndarray:
-    """The best point of a coarse grid over the parameters of a single two-parameter law
-    (offsets excluded: their start is the mean residual), else ``x0``."""
-    if len(cands) != 1 or x0.size != 2:
+    """The best point of a coarse grid over the parameters of a single two-parameter law,
+    or of the three-parameter ground-effect law (offsets and biases excluded: their start
+    is the mean residual), else ``x0``."""
+    if len(cands) != 1 or not (x0.size == 2 or (x0.size == 3
+                                                 and cands[0].name == "ground_effect")):
         return x0
-    axes = [np.geomspace(a, b, GRID_POINTS) if a > 0 else np.linspace(a, b, GRID_POINTS)
+    points = GRID_POINTS if x0.size == 2 else GRID_POINTS_3
+    axes = [np.geomspace(a, b, points) if a > 0 else np.linspace(a, b, points)
             for a, b in zip(lo, hi, strict=True)]
     best, best_val = x0, f(x0)
-    for u in axes[0]:
-        for v in axes[1]:
-            val = f(np.array([u, v]))
-            if val < best_val:
-                best, best_val = np.array([u, v]), val
+    for point in itertools.product(*axes):
+        val = f(np.array(point))
+        if val < best_val:
+            best, best_val = np.array(point), val
     return best
 
 

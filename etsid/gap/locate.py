@@ -3,11 +3,11 @@ scheduling variable (height, speed, thrust, command rate, battery voltage, time)
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from etsid.gap.candidates import ground_ratio
 from etsid.gap.nominal import LABELS, UNITS
 from etsid.gap.signals import Flight, derivative, lowpass, true_runs
 
@@ -148,9 +148,9 @@ def _zr_text(lo: float, hi: float, radius: float | None, effective: bool) -> str
     return f" (z/R {lo / radius:.2g}–{hi / radius:.2g})"
 
 
-def ground_band(channel: str, resid: np.ndarray, flight: Flight, law_radius: float,
-                exponent: float, eta2: float, radius: float | None = None,
-                effective: bool = False) -> Regime:
+def ground_band(channel: str, resid: np.ndarray, flight: Flight,
+                excess_of: Callable[[np.ndarray], np.ndarray], eta2: float,
+                radius: float | None = None, effective: bool = False) -> Regime:
     """The ground-effect band from the FITTED law: the flown heights where its thrust
     excess is at least half its largest value over the flight.
 
@@ -166,8 +166,9 @@ def ground_band(channel: str, resid: np.ndarray, flight: Flight, law_radius: flo
         Residual (measured − nominal) over the whole flight, in the channel's unit.
     flight : Flight
         REAL, for its heights (m).
-    law_radius, exponent : float
-        The fitted law's effective radius (m) and decay exponent (:func:`ground_ratio`).
+    excess_of : callable
+        Height (m) → the fitted law's thrust excess (ratio − 1;
+        :func:`etsid.gap.candidates.ground_excess`).
     eta2 : float
         Share of the residual variance the height bins explain (kept for gap.json).
     radius : float, optional
@@ -180,7 +181,7 @@ def ground_band(channel: str, resid: np.ndarray, flight: Flight, law_radius: flo
     z_lo = float(np.quantile(z, LOWEST_FLOWN_QUANTILE))
     z_top = float(z.max())
     grid = np.linspace(z_lo, z_top, 2001)
-    excess = ground_ratio(grid, law_radius, exponent) - 1.0
+    excess = excess_of(grid)
     peak = float(excess[0])
     inside_law = excess >= 0.5 * peak
     hi = float(grid[np.flatnonzero(inside_law)[-1]]) if peak > 0 else z_top

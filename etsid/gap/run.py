@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import GapError
-from etsid.gap.candidates import LIBRARY, Context
+from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.fitting import Scorer
 from etsid.gap.floors import channel_floors
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
@@ -314,16 +314,15 @@ def leftovers(scorer: Scorer, real: Flight, sel: Selection, mis: Mismatch,
 
 
 def locate(real: Flight, main: str, res0: dict[str, np.ndarray], sigma: float,
-           radius: float | None, effective: bool, ground_theta: np.ndarray | None
-           ) -> dict[str, Any]:
-    """The regime of the main channel's residual (from the fitted law when ground effect is
-    named) and its time segments."""
+           radius: float | None, effective: bool,
+           ground_law: Callable[[np.ndarray], np.ndarray] | None) -> dict[str, Any]:
+    """The regime of the main channel's residual (from the fitted law, height → thrust
+    excess, when ground effect is named) and its time segments."""
     reg = locate_channel(main, res0[main], sigma, real, radius, effective)
     basis = "residual bins"
-    if ground_theta is not None:
+    if ground_law is not None:
         # what the tool believes: the band where the fitted law's excess is ≥ half its peak
-        reg = ground_band(main, res0[main], real, float(ground_theta[0]),
-                          float(ground_theta[1]), reg.eta2, radius, effective)
+        reg = ground_band(main, res0[main], real, ground_law, reg.eta2, radius, effective)
         basis = "fitted law"
     with_radius = reg.variable == "alt" and radius
     return {"channel": main, "variable": reg.variable,
@@ -479,14 +478,16 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     scorer, hold = series["scorer"], series["hold"]
     res0 = series["res_before"]
     effects: list[dict[str, Any]] = []
-    radius, ground_theta = info.get("radius"), None
+    radius, ground_law = info.get("radius"), None
     if sel is not None and sel.chosen:
         for cand, theta, err in sel.chosen.fit.split():
             single = next((s for s in sel.ranked if s.fit.candidates == (cand,)), None)
             effects.append(effect_entry(cand, theta, err, single, sel, scorer, hold, res0))
             if cand.name == "ground_effect":
-                ground_theta = theta
-                radius = radius if radius is not None else float(theta[0])
+                exponential = cand.params[0].name == "excess"  # no radius in that form
+                ground_law = ground_excess(theta, exponential)
+                if radius is None and not exponential:
+                    radius = float(theta[0])
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)
@@ -522,7 +523,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
         return GapResult(data, sim, real, nominal, series)
     main = mis.channels[0]
     regime = locate(real, main, res0, scorer.sigma[main], radius,
-                    info.get("radius") is None, ground_theta)
+                    info.get("radius") is None, ground_law)
     regime.update(located_by_driver(effects, real) or {})
     segs = regime.pop("segments")
     what = ", ".join(f"{LABELS[c]} {np.sqrt(max(mis.z_all.get(c, 0), mis.z_hold.get(c, 0))):.1f}×"

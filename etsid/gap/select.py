@@ -19,7 +19,7 @@ import numpy as np
 from etsid.ets import ETS
 from etsid.gap.candidates import LIBRARY, Candidate
 from etsid.gap.fitting import Fit, Scorer, fit_candidates
-from etsid.gap.nominal import Mods
+from etsid.gap.nominal import SENSOR_CHANNELS, Mods
 from etsid.gap.verdict import BoundHit, at_bound, worsened
 
 PARAM_PENALTY = 0.02
@@ -216,33 +216,47 @@ def _companions(best: Scored, ranked: list[Scored], left: list[str], scorer: Sco
     return [s for _, s in out[:PAIR_POOL]]
 
 
-ROLL_PITCH_MARGIN = 1.0
-"""Floor units (mean square, roll + pitch, held out) by which a thrust scale must leave roll
-and pitch worse than a mass change for the two to be told apart."""
+LOOK_ALIKES = (("mass", "thrust_scale"), ("weak_motor", "torque_offset"))
+"""Pairs of effects whose signatures differ only in channels that need not be mismatched:
+a payload leaves roll/pitch authority alone where a thrust scale does not; a weak motor
+takes collective thrust away where a torque offset does not."""
+LOOK_ALIKE_MARGIN = 1.0
+"""Floor units (mean square, held out, summed over the dynamic channels) by which one of a
+look-alike pair must leave less excess than the other to be preferred at about the same
+score (within :data:`MIN_EXTRA_SHARE`)."""
+DEFAULT_OF = {"mass": "thrust_scale"}
+"""The answer when a look-alike pair is not told apart (the thrust scale's words give the
+mass reading too); pairs without an entry keep the better score."""
 
 
-def _roll_pitch(s: Scored) -> float:
-    return s.z_after.get("p", 0.0) + s.z_after.get("q", 0.0)
+def _dynamic_excess(s: Scored) -> float:
+    """Held-out excess left on every non-sensor channel, focus or not."""
+    return float(sum(max(v - 1.0, 0.0) for c, v in s.z_after.items()
+                     if c not in SENSOR_CHANNELS))
 
 
-def _thrust_or_mass(usable: list[Scored], sel: Selection) -> Scored:
-    """The best usable fit, except between a mass change and a thrust scale of about the
-    same score (within :data:`MIN_EXTRA_SHARE`): the mass change only where the thrust
-    scale leaves roll and pitch worse by :data:`ROLL_PITCH_MARGIN` (a payload leaves their
-    authority alone), else the thrust scale, whose words give both readings."""
+def _look_alike(usable: list[Scored], sel: Selection) -> Scored:
+    """The best usable fit, unless its look-alike (:data:`LOOK_ALIKES`) scores about the
+    same: then the one leaving less excess over all dynamic channels by
+    :data:`LOOK_ALIKE_MARGIN`, else :data:`DEFAULT_OF` (with a note that they were not
+    told apart)."""
     best = usable[0]
-    if best.fit.name not in ("mass", "thrust_scale"):
+    pair = next((p for p in LOOK_ALIKES if best.fit.name in p), None)
+    if pair is None:
         return best
-    other = next((s for s in usable if s.fit.name in ("mass", "thrust_scale")
-                  and s.fit.name != best.fit.name), None)
+    twin = pair[1] if best.fit.name == pair[0] else pair[0]
+    other = next((s for s in usable if s.fit.name == twin), None)
     if other is None or best.score - other.score >= MIN_EXTRA_SHARE:
         return best
-    mass, scale = (best, other) if best.fit.name == "mass" else (other, best)
-    if _roll_pitch(scale) - _roll_pitch(mass) >= ROLL_PITCH_MARGIN:
-        return mass
-    sel.notes.append(f"mass and thrust scale explain as much (shares {mass.share:.3f}, "
-                     f"{scale.share:.3f}): roll and pitch do not tell them apart")
-    return scale
+    left_best, left_other = _dynamic_excess(best), _dynamic_excess(other)
+    if left_other <= left_best - LOOK_ALIKE_MARGIN:
+        return other
+    if left_best <= left_other - LOOK_ALIKE_MARGIN:
+        return best
+    default = DEFAULT_OF.get(best.fit.name) or DEFAULT_OF.get(twin)
+    sel.notes.append(f"{best.fit.name} and {twin} explain as much (shares {best.share:.3f}, "
+                     f"{other.share:.3f}): the data do not tell them apart")
+    return other if default == twin else best
 
 
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
@@ -276,7 +290,7 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     usable = [s for s in fit_well if s.admissible]
     if not usable:
         return sel
-    best = _thrust_or_mass(usable, sel)
+    best = _look_alike(usable, sel)
     chosen = best
     left = [c for c in focus if best.z_after.get(c, 0.0) > STRONG_LEFT * z_left]
     if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:

@@ -104,6 +104,9 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
                 f"×{1 / p['ratio']:.3g}, roll/pitch authority unchanged; mass)")
     if name == "yaw_torque_scale":
         return f"×{p['scale']:.3g} yaw torque at the same command (yaw torque scale)"
+    if name == "rotor_inertia" and "added" in p:
+        return (f"a yaw spin-up torque of {p['added']:+.2g} rad/s² per unit rotor-speed rate "
+                f"that {sim} lacks (rotor inertia)")
     if name == "rotor_inertia":
         return (f"×{p['scale']:.3g} the rotors' spin-up torque in yaw (rotor inertia "
                 f"{p['scale']:.3g}× SIM's)")
@@ -113,6 +116,9 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
     if name == "rotor_drag":
         return (f"horizontal drag {p['drag']:.2g} 1/s against the body velocity, with a moment "
                 f"of {p['moment']:+.2g} rad/s² per m/s (rotor drag)")
+    if name == "ground_effect" and "excess" in p:
+        return (f"ground effect (exponential law, ×{1 + p['excess']:.3g} thrust at the ground "
+                f"decaying over {p['decay']:.2g} m)")
     if name == "ground_effect":
         return (f"ground effect ({LAW['ground_effect']}, fitted R = {p['R']:.2g} m, exponent "
                 f"= {p['exponent']:.3g})")
