@@ -2,6 +2,7 @@
 
 Run:  python benchmarks/batch.py --logs 100 --broken 4 --fleet FLEET   (once: the fleet)
       python benchmarks/batch_dask.py FLEET [--jobs 2] [--repeat 2] [--before DIR]
+          [--schedulers local,processes,cli,cli-host]
 
 Each batch (``run_batch`` of ``etsid batch identify``, as the CLI calls it) runs in a child
 process, local pool and Dask LocalCluster back to back in each round. For Dask the child
@@ -23,6 +24,22 @@ prints the breakdown of the batch's wall time:
 Also per-log CPU (the worker's CPU time during each log, median) and peak worker memory
 (VmHWM per log; max and median). ``--before DIR`` runs the same on another etsid checkout
 (``git archive REV | tar -x -C DIR``) so a change is measured back to back with it.
+
+Memory, compared fairly: a pool worker is forked from a server and shares its pages, so
+its resident memory (RSS) counts only the shared pages it touched, while a process started
+on its own counts every page of the libraries it loaded. The child samples every process
+it started (not the scheduler) every second with psutil's ``memory_full_info`` and
+reports, per worker process (median over the workers), the peak RSS, USS (pages only it
+holds: what it costs on its own) and PSS (RSS with each shared page divided among the
+processes sharing it), and the peak of the summed PSS of all of them (workers, fork
+server, nannies) per worker. ``cli-host`` is the command-line cluster started as
+docs/batch.md recommends: one ``dask worker --nworkers JOBS --preload-nanny
+etsid.batch.dask_host``.
+
+The 1-min load average before and after each run is printed with it: on a shared machine
+a round whose load is far above the batch's own ``jobs`` compares the engines under an
+unknown share of the cores. The summary gives each Dask run against the pool of the same
+round (throughput = pool wall / Dask wall), median and range over the rounds.
 """
 
 from __future__ import annotations
@@ -245,6 +262,8 @@ def main() -> None:
     for round_ in range(args.repeat):
         for label, code in codes:
             for scheduler in args.schedulers.split(","):
+                if scheduler == "cli-host" and not (code / "etsid/batch/dask_host.py").exists():
+                    continue  # a checkout from before the host preload
                 t0, load = time.perf_counter(), os.getloadavg()[0]
                 got = run_child(code, args.fleet, args.jobs, scheduler, work)
                 # the 1-min load average before and after (the batch itself adds ~jobs)
