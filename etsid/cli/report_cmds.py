@@ -36,8 +36,11 @@ def report(run_dir: Path, fmt: str) -> None:
     key figures, the best and worst flights linked to their own reports, failures by cause.
     On a directory of `etsid gap` or `etsid control`, their reports.
     """
+    from etsid.batch.pool import WarmPool
+
     try:
-        result = make_report(run_dir, fmt, say)
+        # a fleet report's ranked flights: their reports written by warm worker processes
+        result = make_report(run_dir, fmt, say, run_with=WarmPool)
     finally:
         done()
     names = ["index.html (interactive; open it in a browser)", "report.md",

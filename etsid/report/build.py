@@ -72,7 +72,8 @@ def _default_save_settings(fig: Any) -> bool:
             and not rcParams["savefig.transparent"])
 
 
-def make_report(run_dir: str | Path, fmt: str = "png", say: Say = quiet) -> Report:
+def make_report(run_dir: str | Path, fmt: str = "png", say: Say = quiet,
+                run_with: Any = None) -> Report:
     """Write RUN_DIR/report/: one figure per entry of :data:`FIGURES`, index.html, report.md.
 
     Parameters
@@ -86,6 +87,9 @@ def make_report(run_dir: str | Path, fmt: str = "png", say: Say = quiet) -> Repo
         writes PNG copies to embed.
     say
         Called with a line before each step that can take seconds.
+    run_with
+        For a batch directory: what writes the ranked flights' own reports
+        (:data:`etsid.report.parallel.Runner`; default: this process).
 
     Raises
     ------
@@ -103,7 +107,7 @@ def make_report(run_dir: str | Path, fmt: str = "png", say: Say = quiet) -> Repo
     from etsid.report.fleet import is_batch_dir, make_fleet_report
 
     if is_batch_dir(run_dir):  # a directory written by etsid batch: the fleet report
-        return make_fleet_report(run_dir, fmt, say)
+        return make_fleet_report(run_dir, fmt, say, run_with)
     if is_control_run(run_dir):  # written by ``etsid control``
         return make_control_report(run_dir, fmt, say)
     try:

@@ -25,12 +25,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from etsid.batch.run import default_jobs
 from etsid.errors import EtsidError
 from etsid.report.build import Report, save_figure
 from etsid.report.figures import WIDTH, style
 from etsid.report.page import markdown_safe
-from etsid.report.parallel import ReportPool
+from etsid.report.parallel import PRELOAD, InProcess, Runner, write_report
 
 FIGURES = {
     "duration_s": "log duration, s",
@@ -234,8 +233,13 @@ def summary_lines(meta: dict[str, Any], frame: pd.DataFrame) -> list[str]:
     return lines
 
 
-def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None) -> Report:
+def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None,
+                      run_with: Runner | None = None) -> Report:
     """Write ``DIR/report/``: index.html, report.md and the distributions figure.
+
+    The ranked flights' own reports that are missing are written by ``run_with`` (default:
+    here, one after the other; ``etsid report`` passes :class:`etsid.batch.pool.WarmPool`,
+    worker processes that write them while this process draws the fleet's page).
 
     The report is written into a staging folder beside it and put in place whole: an
     interrupted report leaves the previous one (or none), never half of one.
@@ -257,7 +261,8 @@ def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None) 
         raise EtsidError(f"{batch_dir}: cannot write a report there "
                          f"({err.strerror or err})") from err
     try:
-        report = _write_fleet(batch_dir, meta, frame, staging, fmt, say or (lambda _: None))
+        report = _write_fleet(batch_dir, meta, frame, staging, fmt, say or (lambda _: None),
+                              run_with or InProcess)
         staging.chmod(0o777 & ~_umask())
         _replace(staging, batch_dir / "report")
     except BaseException:
@@ -277,7 +282,7 @@ def _umask() -> int:
 
 
 def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out: Path,
-                 fmt: str, say: Any = print) -> Report:
+                 fmt: str, say: Any = print, run_with: Runner = InProcess) -> Report:
     """Every part of the fleet report into ``out``."""
     command = str(meta.get("command"))
     report = Report(out)
@@ -287,14 +292,16 @@ def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out
     if missing:  # written by worker processes while this one draws the fleet's page
         say(f"fleet report: writing the own reports of {len(missing)} of the "
             f"{len(best) + len(worst)} ranked flights (each links to its report) …")
-    pool = ReportPool(missing, default_jobs())
+    pool = run_with(write_report, [str(d) for d in missing], PRELOAD)
     try:
         image, interactive = _draw(frame, figure, report, fmt)
     except BaseException:
         pool.close(cancel=True)
         raise
-    failed = pool.results(lambda done, run_dir: say(
-        f"fleet report: {done}/{len(missing)} flight reports written ({run_dir.name})"))
+    outcomes = pool.results(lambda done, run_dir: say(
+        f"fleet report: {done}/{len(missing)} flight reports written ({Path(run_dir).name})"))
+    failed = {d: ("the process writing its report died" if isinstance(why, BaseException)
+                  else why) for d, why in zip(missing, outcomes, strict=True)}
     links = {}
     unreported = {}
     for item, run_dir in flights.items():
