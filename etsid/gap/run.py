@@ -27,7 +27,9 @@ from etsid.gap.fitting import Scorer
 from etsid.gap.floors import channel_floors
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.nominal import (
+    GYRO_CHANNELS,
     LABELS,
+    RATE_CHANNELS,
     SENSOR_CHANNELS,
     UNITS,
     NominalModel,
@@ -470,6 +472,28 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                     unexplained, info)
 
 
+SUSPECT_CONFIDENCE = 0.5
+"""Highest confidence of an angular-acceleration effect named while the gyro itself
+disagrees with the attitude."""
+
+
+def suspect_gyro(effects: list[dict[str, Any]], left: dict[str, Any]) -> None:
+    """Caveat the effects on roll/pitch/yaw angular acceleration when a gyro-vs-attitude
+    channel is still mismatched after them: a gyro scale-factor error (outside the
+    vocabulary) reads every rate, so every angular acceleration, high by one factor — an
+    inertia scale by another name (third-party set 300: a 10-15 % gyro scale named
+    inertia_scale at confidence 1.0)."""
+    gyro = [c for c in GYRO_CHANNELS if c in left]
+    if not gyro:
+        return
+    for e in effects:
+        chans = set(e.get("channels", []))
+        if chans & set(RATE_CHANNELS) and not chans & set(GYRO_CHANNELS):
+            e["caveat"] = (f"the gyro also disagrees with the attitude ({', '.join(gyro)}): "
+                           "a gyro scale-factor error would look the same")
+            e["confidence"] = min(float(e["confidence"]), SUSPECT_CONFIDENCE)
+
+
 def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalModel,
              series: dict[str, Any], notes: list[str], mis: Mismatch, sel: Selection | None,
              left: dict[str, dict[str, float]], res1: dict[str, np.ndarray],
@@ -488,6 +512,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                 ground_law = ground_excess(theta, exponential)
                 if radius is None and not exponential:
                     radius = float(theta[0])
+    suspect_gyro(effects, left)
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)

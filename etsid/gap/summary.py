@@ -147,7 +147,8 @@ def summary_sentence(data: dict[str, Any]) -> str:
     names = [e for e in data["effects"] if e["name"] != "unexplained"]
     if names:
         parts.append("Missing physics: " + "; ".join(
-            f"{_words(e, sim, real)}, confidence {e['confidence']:.2f}" for e in names) + ".")
+            f"{_words(e, sim, real)}, confidence {e['confidence']:.2f}"
+            + (f" ({e['caveat']})" if e.get("caveat") else "") for e in names) + ".")
     else:
         parts.append("No named effect explains it on held-out data.")
     for text in data.get("beyond_range", []):
