@@ -289,7 +289,7 @@ def _write_fleet(batch_dir: Path, meta: dict[str, Any], frame: pd.DataFrame, out
     figure, best, worst = ranking(frame)
     flights = flight_reports(batch_dir, pd.concat([best, worst]), command)
     missing = [d for d in flights.values() if not (d / "report" / "index.html").is_file()]
-    if missing:  # written by worker processes while this one draws the fleet's page
+    if missing:  # by run_with: with worker processes, while this one draws the page
         say(f"fleet report: writing the own reports of {len(missing)} of the "
             f"{len(best) + len(worst)} ranked flights (each links to its report) …")
     pool = run_with(write_report, [str(d) for d in missing], PRELOAD)
