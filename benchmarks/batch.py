@@ -121,8 +121,11 @@ def time_report(batch_dir: Path, fresh: bool) -> None:
             shutil.rmtree(old)
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
+    # PYTHONSAFEPATH: `python -m` would put the current directory first on sys.path, and
+    # run from a checkout the report would be that checkout's, not PYTHONPATH's etsid
     done = subprocess.run([sys.executable, "-m", "etsid", "report", str(batch_dir)],
-                          capture_output=True, text=True)
+                          capture_output=True, text=True,
+                          env={**os.environ, "PYTHONSAFEPATH": "1"})
     wall = time.perf_counter() - t0
     flights = len(list((batch_dir / "runs").glob("*/*/report/index.html")))
     print(f"etsid report {batch_dir.name} ({'from scratch' if fresh else 'again'}): "
