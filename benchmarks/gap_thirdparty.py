@@ -22,6 +22,7 @@ Run::
     python benchmarks/gap_thirdparty.py --inspect DIR              # sanity: ingest, airborne,
                                                                    # excitation (no gap)
     python benchmarks/gap_thirdparty.py --score DIR --jobs 2       # runs etsid gap per pair
+    python benchmarks/gap_thirdparty.py --timing DIR               # CPU s per pair, one core
     python benchmarks/gap_thirdparty.py --detectability DIR        # oracle: does the true
                                                                    # law show in the logs
 
@@ -375,6 +376,24 @@ def detectability(out: Path, jobs: int) -> None:
             print(line, flush=True)
 
 
+def timing(out: Path) -> None:
+    """CPU seconds of ``etsid gap`` per pair on one core (every fourth pair, in this
+    process), with the two flights' durations."""
+    from etsid.gap.run import run_gap
+
+    entries = json.loads((out / "labels.json").read_text())["pairs"][::4]
+    spent = []
+    for e in entries:
+        t0 = time.process_time()
+        data = run_gap(out / e["sim_log"], out / e["real_log"]).data
+        cpu = time.process_time() - t0
+        spent.append(cpu)
+        print(f"{e['id']:20s} {e['label']:24s} flights {e['truth']['durations_s'][0]:5.1f} + "
+              f"{e['truth']['durations_s'][1]:5.1f} s  {data['verdict']:12s} cpu {cpu:5.1f} s",
+              flush=True)
+    print(f"{len(spent)} pairs: median {np.median(spent):.1f} s, max {max(spent):.1f} s CPU")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     mode = ap.add_mutually_exclusive_group(required=True)
@@ -382,6 +401,8 @@ def main() -> None:
     mode.add_argument("--inspect", type=Path, metavar="DIR",
                       help="sanity figures of the written logs (no gap analysis)")
     mode.add_argument("--score", type=Path, metavar="DIR", help="run etsid gap on every pair")
+    mode.add_argument("--timing", type=Path, metavar="DIR",
+                      help="CPU time of etsid gap per pair on one core (every 4th pair)")
     mode.add_argument("--detectability", type=Path, metavar="DIR",
                       help="oracle: does each pair's true law show in its logs at all")
     ap.add_argument("--sims", default=",".join(SIMULATORS),
@@ -401,6 +422,8 @@ def main() -> None:
         generate(args.generate, sims, seeds, only, args.jobs)
     elif args.inspect:
         inspect(args.inspect, args.jobs)
+    elif args.timing:
+        timing(args.timing)
     elif args.detectability:
         detectability(args.detectability, args.jobs)
     else:
