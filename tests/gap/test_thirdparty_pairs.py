@@ -53,3 +53,31 @@ def test_thrust_scaled_recording_hovers_at_a_higher_command(tmp_path: Path) -> N
         commands.append(command)
     ratio = commands[1] / commands[0]
     assert ratio == pytest.approx(1.0 / np.sqrt(SCALE), abs=0.025), commands
+
+
+def _gap_on_pair(label: str, seed: int) -> dict:
+    """etsid gap on one PyFlyt pair of the benchmark's development seed 900."""
+    import gap_thirdparty
+
+    from etsid.gap.run import analyse
+
+    sim, real, _truth = gap_thirdparty.make_pair("pyflyt", label, seed)
+    return analyse(sim, real, "sim", "real").data
+
+
+def test_pyflyt_ground_effect_is_named_in_its_exponential_form() -> None:
+    """PyFlyt's Crazyflie hovering 3-10 cm up with a per-rotor T(1 + a e^(-b z/R)) law (not
+    etsid's): named ground effect, not a thrust scale, with a decay length of centimetres
+    (R/b ≈ 0.023 m / 0.5-0.65)."""
+    data = _gap_on_pair("ground_effect", 900090)
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    assert names == ["ground_effect"], data["summary"]
+    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
+    assert 0.01 < p["decay"] < 0.1, p
+    assert data["mismatch"]["regime"]["variable"] == "alt"
+
+
+def test_its_look_alike_a_pyflyt_thrust_scale_is_not_ground_effect() -> None:
+    data = _gap_on_pair("thrust_scale", 900010)
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    assert names == ["thrust_scale"], data["summary"]
