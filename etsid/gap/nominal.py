@@ -214,18 +214,18 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         # collective thrust makes no moment: only differences between rotors enter
         mom = thrust - thrust.mean(axis=1, keepdims=True)
         tq = pw * qg
-        dom = derivative(om, fs) * mods.spinup
+        spin = derivative(om, fs)
+        dom = spin * mods.spinup
         yaw = np.column_stack([tq - tq.mean(axis=1, keepdims=True),
                                dom - dom.mean(axis=1, keepdims=True)])
-        spin = derivative(om, fs)
         om_mean = om.mean(axis=1)
     else:  # stick commands: collective and three moment demands
         omt = np.clip(m_eff[:, 0], 0.0, 1.0) + k
         s = omt**2 * tg.mean(axis=1)
         mom = m_eff[:, 1:] * (omt * tg.mean(axis=1))[:, None]
-        yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
-                               derivative(m_eff[:, 3:4], fs) * mods.spinup])
         spin = derivative(m_eff[:, 3:4], fs)
+        yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
+                               spin * mods.spinup])
         om_mean = omt
     out = {
         "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
