@@ -227,10 +227,13 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
                                spin * mods.spinup])
         om_mean = omt
+    air = np.linalg.norm(va, axis=1)
     out = {
         "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
-        "ax": np.column_stack([om_mean * va[:, 0], np.abs(va[:, 0]) * va[:, 0], one]),
-        "ay": np.column_stack([om_mean * va[:, 1], np.abs(va[:, 1]) * va[:, 1], one]),
+        "ax": np.column_stack([om_mean * va[:, 0], np.abs(va[:, 0]) * va[:, 0], one,
+                               air * va[:, 0]]),
+        "ay": np.column_stack([om_mean * va[:, 1], np.abs(va[:, 1]) * va[:, 1], one,
+                               air * va[:, 1]]),
         # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
         "p": np.column_stack([mom, q * r, p, one]),
         "q": np.column_stack([mom, p * r, q, one]),
@@ -256,6 +259,9 @@ class NominalModel:
         Channels the simulation log supports.
     delay : float
         Command-to-motor delay of the simulation's own log, s (a logging or mixing step).
+    speed : float
+        Highest horizontal speed the simulation flew (99th percentile of the fit samples),
+        m/s: its drag terms are extrapolated beyond it.
     """
 
     k: float
@@ -263,6 +269,18 @@ class NominalModel:
     coef: dict[str, np.ndarray]
     channels: tuple[str, ...]
     delay: float = 0.0
+    speed: float = np.inf
+
+    def beyond_speed(self, flight: Flight, wind: tuple[float, float], mask: np.ndarray
+                     ) -> tuple[float, float]:
+        """(share of ``mask``, highest speed in m/s) of ``flight``'s horizontal air speed
+        under ``wind`` beyond what this model was fitted on (:attr:`speed` × 1.2 + 0.5 m/s,
+        the margin of the evidence's own speed envelope)."""
+        va = air_velocity(flight, wind)[mask]
+        if not va.size:
+            return 0.0, 0.0
+        air = np.hypot(va[:, 0], va[:, 1])
+        return float(np.mean(air > self.speed * 1.2 + 0.5)), float(np.quantile(air, 0.99))
 
     def predict(self, flight: Flight, mods: Mods | None = None,
                 channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
@@ -305,6 +323,10 @@ class NominalModel:
         return out
 
 
+QUADRATIC_SPEED = 2.0
+"""m/s: a simulation flown slower than this leaves its speed-squared terms unfitted (their
+coefficient is 0): the drag law's shape is not determined."""
+
 RIDGE = 1e-3
 """Ridge weight on the normalised regressors (× sample count). A mixer drives the motors
 only along its roll, pitch, yaw and collective patterns, so per-motor moment coefficients
@@ -325,17 +347,17 @@ def _solve(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
     """Regressors the simulation does not excite enough to extrapolate from (their
     coefficient is fixed at 0): vertical-speed terms below 0.3 m/s of climb-rate spread,
-    speed-squared terms below 2 m/s of horizontal speed."""
+    speed-squared terms below :data:`QUADRATIC_SPEED` of horizontal speed."""
     vb = flight.v_body[mask]
     speed = float(np.max(np.hypot(vb[:, 0], vb[:, 1]))) if vb.size else 0.0
     climb = float(np.std(vb[:, 2])) * 4.0 if vb.size else 0.0
     out: dict[str, list[int]] = {"az": [], "ax": [], "ay": []}
     if climb < 0.3:
         out["az"].append(1)
-    if speed < 2.0:
+    if speed < QUADRATIC_SPEED:
         out["az"].append(3)
-        out["ax"].append(1)
-        out["ay"].append(1)
+        out["ax"] += [1, 3]
+        out["ay"] += [1, 3]
     return out
 
 
@@ -401,4 +423,6 @@ def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None 
             best = (float(r.fun), float(r.x), delay)
     _, tau, delay = best
     coef = fit_coefficients(flight, mask, k, tau, channels, delay)
-    return NominalModel(k, tau, coef, channels, delay)
+    vb = flight.v_body[mask]
+    speed = float(np.quantile(np.hypot(vb[:, 0], vb[:, 1]), 0.99)) if vb.size else 0.0
+    return NominalModel(k, tau, coef, channels, delay, speed)
