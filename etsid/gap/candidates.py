@@ -370,7 +370,8 @@ LIBRARY: tuple[Candidate, ...] = (
         "Q_spin,i = s · I_rotor,nom dΩ_i/dt",
         lambda th, ctx: Mods(spinup=th[0])),
     Candidate(
-        "rotor_inertia", (Param("added", "rad/s² per 1/s", -5.0, 5.0, 0.0, 0.0),), ("r",),
+        # c ≥ 0: a rotor spun up pushes the body back the way its drag torque does
+        "rotor_inertia", (Param("added", "rad/s² per 1/s", 0.0, 5.0, 0.0, 0.0),), ("r",),
         "yaw kicks when the motors speed up or slow down where the simulation has none (a "
         "simulator that neglects rotor inertia); steady yaw authority unchanged",
         "ṙ += c Σ_i sgn(h_i) dΩ_i/dt (h_i: rotor i's yaw-torque coefficient in SIM)",

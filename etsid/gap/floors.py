@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import welch
 
-from etsid.gap.nominal import measured
+from etsid.gap.nominal import NominalModel, fit_nominal, measured
 from etsid.gap.signals import ANTIALIAS_SHARE, Flight, true_runs
 
 NOISE_BAND_HZ = 12.0
@@ -113,3 +113,20 @@ def channel_floors(sim_error: dict[str, float], real: Flight) -> tuple[dict[str,
         key = max(terms, key=terms.get)
         sigma[c], source[c] = max(terms[key], 1e-12), key
     return sigma, source
+
+
+def own_predictability(real: Flight, nominal: NominalModel, channels: list[str],
+                       fit: np.ndarray, hold: np.ndarray) -> dict[str, tuple[float, float]]:
+    """Channel → (held-out RMSE of SIM's nominal model on REAL, held-out RMSE of the same
+    model structure refitted on REAL's ``fit`` part), both in the channel's units.
+
+    Where a refit on REAL itself predicts REAL's held-out part no better than SIM's model,
+    the excess is not a law SIM lacks (a refit would have taken that up, as it does an
+    inertia, a lag or a delay) but REAL's own unpredictability at that structure: more
+    noise, turbulence or vibration, or dynamics faster than its log resolves."""
+    own = fit_nominal(real, fit, k=nominal.k)
+    y = measured(real)
+    pred_sim, pred_own = nominal.predict(real), own.predict(real)
+    return {c: (float(np.sqrt(np.mean((y[c] - pred_sim[c])[hold] ** 2))),
+                float(np.sqrt(np.mean((y[c] - pred_own[c])[hold] ** 2))))
+            for c in channels if c in pred_sim and c in pred_own}
