@@ -151,7 +151,7 @@ def merge(a: Mods, b: Mods) -> Mods:
                 offset=offset, drag=a.drag + b.drag,
                 drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
                 spin_torque=a.spin_torque + b.spin_torque,
-                damping=a.damping + b.damping,
+                damping=a.damping + b.damping, yaw_damping=a.yaw_damping + b.yaw_damping,
                 wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]))
 
 
@@ -377,11 +377,13 @@ LIBRARY: tuple[Candidate, ...] = (
         "ṙ += c Σ_i sgn(h_i) dΩ_i/dt (h_i: rotor i's yaw-torque coefficient in SIM)",
         lambda th, ctx: Mods(spin_torque=th[0])),
     Candidate(
-        "rate_damping", (Param("damping", "1/s", -5.0, 20.0, 0.0, 0.0),), ("p", "q"),
-        "roll and pitch rates die out faster (or slower) than simulated, in proportion to "
-        "the rate: the rotors' aerodynamic damping of a rotating rotor plane (blade flapping)",
-        "ṗ = ṗ_nom − d p, q̇ = q̇_nom − d q",
-        lambda th, ctx: Mods(damping=th[0])),
+        "rate_damping", (Param("damping", "1/s", -5.0, 20.0, 0.0, 0.0),
+                         Param("yaw", "1/s", -5.0, 20.0, 0.0, 0.0)), ("p", "q", "r"),
+        "body rates die out faster (or slower) than simulated, in proportion to the rate: "
+        "the rotors' aerodynamic damping of a rotating rotor plane (blade flapping) in roll "
+        "and pitch, and its own factor in yaw (the rotors' drag meeting a yawing airflow)",
+        "ṗ = ṗ_nom − d p, q̇ = q̇_nom − d q, ṙ = ṙ_nom − d_r r",
+        lambda th, ctx: Mods(damping=th[0], yaw_damping=th[1])),
     Candidate(
         "wind", (Param("north", "m/s", -15.0, 15.0, 0.0, 0.0),
                  Param("east", "m/s", -15.0, 15.0, 0.0, 0.0),

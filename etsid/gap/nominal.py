@@ -94,6 +94,8 @@ class Mods:
         Multiplier on the rotors' spin-up reaction torque (∝ rotor inertia) in r.
     damping : float
         Extra rate damping of roll and pitch, 1/s (ṗ −= d p, q̇ −= d q).
+    yaw_damping : float
+        Extra rate damping of yaw, 1/s (ṙ −= d_r r).
     wind : tuple of float
         Steady wind (north, east), m/s: the drag terms see the air-relative velocity.
     """
@@ -110,6 +112,7 @@ class Mods:
     spinup: float = 1.0
     spin_torque: float = 0.0
     damping: float = 0.0
+    yaw_damping: float = 0.0
     wind: tuple[float, float] = (0.0, 0.0)
 
 
@@ -124,19 +127,28 @@ def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> 
     return out
 
 
+def _wind_axes(flight: Flight) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 3) body-axis components of a unit wind towards north and towards east
+    (``Rᵀ`` of NED → body, ZYX); kept on the flight for as long as its attitude array is the
+    same object (a wind fit evaluates them hundreds of times)."""
+    cached = flight.__dict__.get("_wind_axes")
+    if cached is not None and cached[0] is flight.att:
+        return cached[1], cached[2]
+    phi, th, psi = flight.att[:, 0], flight.att[:, 1], flight.att[:, 2]
+    sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(th), np.cos(th)
+    sp, cp = np.sin(psi), np.cos(psi)
+    north = np.column_stack([ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp])
+    east = np.column_stack([ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp])
+    flight.__dict__["_wind_axes"] = (flight.att, north, east)
+    return north, east
+
+
 def air_velocity(flight: Flight, wind: tuple[float, float]) -> np.ndarray:
     """(n, 3) body-axis velocity relative to a steady horizontal wind (north, east), m/s."""
     if not any(wind):
         return flight.v_body
-    phi, th, psi = flight.att[:, 0], flight.att[:, 1], flight.att[:, 2]
-    wn, we = wind
-    # Rᵀ (wn, we, 0): NED → body (ZYX)
-    x = np.cos(th) * (np.cos(psi) * wn + np.sin(psi) * we)
-    y = (np.sin(phi) * np.sin(th) * np.cos(psi) - np.cos(phi) * np.sin(psi)) * wn \
-        + (np.sin(phi) * np.sin(th) * np.sin(psi) + np.cos(phi) * np.cos(psi)) * we
-    z = (np.cos(phi) * np.sin(th) * np.cos(psi) + np.sin(phi) * np.sin(psi)) * wn \
-        + (np.cos(phi) * np.sin(th) * np.sin(psi) - np.sin(phi) * np.cos(psi)) * we
-    return flight.v_body - np.column_stack([x, y, z])
+    north, east = _wind_axes(flight)
+    return flight.v_body - (wind[0] * north + wind[1] * east)
 
 
 def euler_body_rates(att: np.ndarray, fs: float) -> np.ndarray:
@@ -201,7 +213,8 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     m_eff = motor_response(flight.motors, fs, tau_eff, delay + mods.delay)
     p, q, r = flight.rates.T
     vb = flight.v_body
-    va = air_velocity(flight, mods.wind)  # horizontal drag sees the air, not the ground
+    # horizontal drag sees the air, not the ground
+    va = air_velocity(flight, mods.wind) if "ax" in channels or "ay" in channels else vb
     vh2 = vb[:, 0] ** 2 + vb[:, 1] ** 2
     tg = _column_gain(mods.thrust_gain, p.size)
     qg = _column_gain(mods.torque_gain, p.size)
@@ -227,20 +240,26 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
         yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
                                spin * mods.spinup])
         om_mean = omt
-    air = np.linalg.norm(va, axis=1)
-    out = {
-        "az": np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
-        "ax": np.column_stack([om_mean * va[:, 0], np.abs(va[:, 0]) * va[:, 0], one,
-                               air * va[:, 0]]),
-        "ay": np.column_stack([om_mean * va[:, 1], np.abs(va[:, 1]) * va[:, 1], one,
-                               air * va[:, 1]]),
+    build = {
+        "az": lambda: np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
+        "ax": lambda: _drag_columns(om_mean, va, 0),
+        "ay": lambda: _drag_columns(om_mean, va, 1),
         # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
-        "p": np.column_stack([mom, q * r, p, one]),
-        "q": np.column_stack([mom, p * r, q, one]),
-        "r": np.column_stack([yaw, p * q, r, one]),
-        "spin": spin,
+        "p": lambda: np.column_stack([mom, q * r, p, one]),
+        "q": lambda: np.column_stack([mom, p * r, q, one]),
+        "r": lambda: np.column_stack([yaw, p * q, r, one]),
     }
+    out = {c: make() for c, make in build.items() if c in channels}
+    out["spin"] = spin
     return out
+
+
+def _drag_columns(om_mean: np.ndarray, va: np.ndarray, j: int) -> np.ndarray:
+    """Regressors of the horizontal specific force along body axis ``j``: rotor drag
+    ``Ω̄ v``, per-axis and whole-speed quadratic drag ``|v_j| v_j`` and ``|v| v_j``, offset."""
+    v = va[:, j]
+    return np.column_stack([om_mean * v, np.abs(v) * v, np.ones_like(v),
+                            np.linalg.norm(va, axis=1) * v])
 
 
 @dataclass
@@ -307,6 +326,8 @@ class NominalModel:
                 y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
             if mods.damping and c in ("p", "q"):
                 y = y - mods.damping * flight.rates[:, 0 if c == "p" else 1]
+            if mods.yaw_damping and c == "r":
+                y = y - mods.yaw_damping * flight.rates[:, 2]
             if mods.drag_moment and c in ("p", "q"):
                 sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]

@@ -113,8 +113,8 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
         return (f"×{p['scale']:.3g} the rotors' spin-up torque in yaw (rotor inertia "
                 f"{p['scale']:.3g}× SIM's)")
     if name == "rate_damping":
-        return (f"roll and pitch rates damped by {p['damping']:+.2g} 1/s more than in "
-                f"{sim} (rate damping)")
+        return (f"roll and pitch rates damped by {p['damping']:+.2g} 1/s, yaw rate by "
+                f"{p['yaw']:+.2g} 1/s more than in {sim} (rate damping)")
     if name == "rotor_drag":
         return (f"horizontal drag {p['drag']:.2g} 1/s against the body velocity, with a moment "
                 f"of {p['moment']:+.2g} rad/s² per m/s (rotor drag)")

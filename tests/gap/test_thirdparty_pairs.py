@@ -99,23 +99,56 @@ def test_a_wind_beyond_the_speeds_sim_flew_gets_no_drag_companion() -> None:
     assert "extrapolated" in wind.get("caveat", ""), wind
 
 
+def _logged_multirotor_pair(label: str, seed: int, tmp_path: Path) -> tuple:
+    """(SIM, REAL) FlightTables of one multirotor-package pair, written to the benchmark's
+    own MAVLink logs and read back (as the benchmark scores them)."""
+    import gap_thirdparty
+    from thirdparty import multirotor_pairs as mr
+
+    tables = gap_thirdparty.make_pair("multirotor", label, seed)[:2]
+    return tuple(read_log(write_log(t, tmp_path / f"{n}{mr.LOG_SUFFIX}", rates=mr.LOG_RATES))
+                 for n, t in zip(("sim", "real"), tables, strict=True))
+
+
+def test_rate_damping_is_named_in_roll_pitch_and_yaw(tmp_path: Path) -> None:
+    """The octocopter with 3.9 1/s more rate damping on every axis (set 306, seen): named
+    rate damping alone, roll/pitch and yaw factors within 15 % (it was named with a yaw torque
+    scale as companion while the law had no yaw term)."""
+    from etsid.gap.run import analyse
+
+    sim, real = _logged_multirotor_pair("rate_damping", 306140, tmp_path)
+    data = analyse(sim, real, "sim", "real").data
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    assert names == ["rate_damping"], data["summary"]
+    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
+    assert p["damping"] == pytest.approx(3.886, rel=0.15), p
+    assert p["yaw"] == pytest.approx(3.886, rel=0.15), p
+
+
+def test_its_look_alike_an_inertia_scale_is_not_rate_damping(tmp_path: Path) -> None:
+    """×1.43 inertia (set 305, seen) also shrinks the angular accelerations, by one factor
+    whatever the rate: named inertia_scale, not rate damping."""
+    from etsid.gap.run import analyse
+
+    sim, real = _logged_multirotor_pair("inertia_scale", 305050, tmp_path)
+    data = analyse(sim, real, "sim", "real").data
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    assert names == ["inertia_scale"], data["summary"]
+    scale = data["effects"][0]["parameters"]["scale"]["value"]
+    assert scale == pytest.approx(1.427, rel=0.1)
+
+
 def test_a_less_predictable_recording_is_consistent_not_a_mismatch(tmp_path: Path) -> None:
     """The multirotor package's octocopter flown twice with nothing changed (set 301, seen):
     REAL's roll and pitch accelerations sit ≈ 2.2× their floors, and the nominal model
     refitted on REAL itself predicts them no better than SIM's does, so nothing a model
     could learn is missing: consistent, and said why. Its look-alike, the same REAL with its
     motor log one sample late (a 20 ms delay: a law), is predicted better by the refit."""
-    import gap_thirdparty
-    from thirdparty import multirotor_pairs as mr
-
     from etsid.gap import run
     from etsid.gap.floors import own_predictability
     from etsid.gap.nominal import measured
 
-    tables = gap_thirdparty.make_pair("multirotor", "none", 301230)[:2]
-    sim_table, real_table = (  # through the benchmark's own MAVLink log and back
-        read_log(write_log(t, tmp_path / f"{n}{mr.LOG_SUFFIX}", rates=mr.LOG_RATES))
-        for n, t in zip(("sim", "real"), tables, strict=True))
+    sim_table, real_table = _logged_multirotor_pair("none", 301230, tmp_path)
     data = run.analyse(sim_table, real_table, "sim", "real").data
     assert data["verdict"] == "consistent", data["summary"]
     assert "less predictable" in data["reason"], data["reason"]
