@@ -23,6 +23,8 @@ Run::
                                                                    # excitation (no gap)
     python benchmarks/gap_thirdparty.py --score DIR --jobs 2       # runs etsid gap per pair
     python benchmarks/gap_thirdparty.py --timing DIR               # CPU s per pair, one core
+    python benchmarks/gap_thirdparty.py --generate DIR --seeds 308 --duration 90 --jobs 2
+                                                                   # 90 s flights (speed)
     python benchmarks/gap_thirdparty.py --detectability DIR        # oracle: does the true
                                                                    # law show in the logs
 
@@ -95,9 +97,11 @@ def airborne_share(rec: Any) -> float:
     return float(np.mean(rec.pos[:, 2] - rec.ground_height > 0.03))
 
 
-def make_pair(sim_name: str, label: str, seed: int) -> tuple[Any, Any, dict[str, Any]]:
-    """(SIM FlightTable, REAL FlightTable, truth) of one concealed pair. An effect that keeps
-    REAL on the ground is drawn again (up to :data:`REDRAWS` times; ``truth["redraws"]``)."""
+def make_pair(sim_name: str, label: str, seed: int, duration: float | None = None
+              ) -> tuple[Any, Any, dict[str, Any]]:
+    """(SIM FlightTable, REAL FlightTable, truth) of one concealed pair, each flight
+    ``duration`` s long (default: drawn from :data:`DURATIONS`). An effect that keeps REAL on
+    the ground is drawn again (up to :data:`REDRAWS` times; ``truth["redraws"]``)."""
     mod = simulator(sim_name)
     for attempt in range(REDRAWS + 1):
         rng = np.random.default_rng(seed + 104729 * attempt)
@@ -106,6 +110,8 @@ def make_pair(sim_name: str, label: str, seed: int) -> tuple[Any, Any, dict[str,
         kind_sim, kind_real = mod.flight_kind(label, rng)
         lo, hi = DURATIONS[sim_name]
         d_sim, d_real = rng.uniform(lo, hi), rng.uniform(lo, hi)
+        if duration is not None:
+            d_sim = d_real = float(duration)
         s_sim = mod.sensors(rng, False, {})
         s_real = mod.sensors(rng, True, sensor_overrides)
         rec_sim = mod.fly(kind_sim, d_sim, seed, vehicle, {}, s_sim)
@@ -152,7 +158,7 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
 
     t0 = time.time()
     mod = simulator(job["sim"])
-    sim, real, truth = make_pair(job["sim"], job["label"], job["seed"])
+    sim, real, truth = make_pair(job["sim"], job["label"], job["seed"], job.get("duration"))
     folder = Path(out) / job["id"]
     folder.mkdir(parents=True, exist_ok=True)
     paths = {}
@@ -172,9 +178,9 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
 
 
 def generate(out: Path, sims: list[str], seeds: list[int], only: list[str] | None,
-             jobs: int) -> None:
+             jobs: int, duration: float | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    todo = pair_jobs(sims, seeds, only)
+    todo = [dict(j, duration=duration) if duration else j for j in pair_jobs(sims, seeds, only)]
     entries = []
     t0 = time.time()
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
@@ -411,6 +417,8 @@ def main() -> None:
                     help="comma-separated seed sets, 24 pairs per simulator each (default 300)")
     ap.add_argument("--only", default=None, help="comma-separated labels (diagnosis)")
     ap.add_argument("--jobs", type=int, default=1, help="parallel processes")
+    ap.add_argument("--duration", type=float, default=None,
+                    help="fly every flight this long, s (e.g. 90 for the speed target)")
     args = ap.parse_args()
     sims = [s for s in args.sims.split(",") if s]
     for s in sims:
@@ -419,7 +427,7 @@ def main() -> None:
     if args.generate:
         seeds = [int(s) for s in args.seeds.split(",")]
         only = args.only.split(",") if args.only else None
-        generate(args.generate, sims, seeds, only, args.jobs)
+        generate(args.generate, sims, seeds, only, args.jobs, args.duration)
     elif args.inspect:
         inspect(args.inspect, args.jobs)
     elif args.timing:
