@@ -102,6 +102,8 @@ def test_a_wind_beyond_the_speeds_sim_flew_gets_no_drag_companion() -> None:
 def _logged_multirotor_pair(label: str, seed: int, tmp_path: Path) -> tuple:
     """(SIM, REAL) FlightTables of one multirotor-package pair, written to the benchmark's
     own MAVLink logs and read back (as the benchmark scores them)."""
+    pytest.importorskip("multirotor", reason="third-party simulator multirotor not installed "
+                                             "(pip install -e '.[test]')")
     import gap_thirdparty
     from thirdparty import multirotor_pairs as mr
 
