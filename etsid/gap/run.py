@@ -515,7 +515,7 @@ def unpredictable(real: Flight, nominal: NominalModel, mis: Mismatch, sel: Selec
 
 SUSPECT_CONFIDENCE = 0.5
 """Highest confidence of an angular-acceleration effect named while the gyro itself
-disagrees with the attitude."""
+disagrees with the attitude, and of an effect the data do not tell from its look-alike."""
 
 
 def suspect_gyro(effects: list[dict[str, Any]], left: dict[str, Any]) -> None:
@@ -574,6 +574,12 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                     radius = float(theta[0])
     suspect_gyro(effects, left)
     extrapolated_wind(effects, scorer, hold, sim.name, real.name)
+    if sel is not None and sel.look_alike:
+        named_as, twin = sel.look_alike
+        for e in effects:
+            if e["name"] == named_as and "caveat" not in e:
+                e["caveat"] = f"a {twin.replace('_', ' ')} explains the data as well"
+                e["confidence"] = min(float(e["confidence"]), SUSPECT_CONFIDENCE)
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)

@@ -122,6 +122,8 @@ class Selection:
     companion_share: float | None = None
     """For a chosen pair: the share of the first effect's held-out excess on the focus
     channels that the second removes (its evidence)."""
+    look_alike: tuple[str, str] | None = None
+    """(named effect, its look-alike) when the data did not tell the two apart."""
 
 
 def excess(z: dict[str, float]) -> float:
@@ -289,7 +291,9 @@ def _look_alike(usable: list[Scored], sel: Selection) -> Scored:
     default = DEFAULT_OF.get(best.fit.name) or DEFAULT_OF.get(twin)
     sel.notes.append(f"{best.fit.name} and {twin} explain as much (shares {best.share:.3f}, "
                      f"{other.share:.3f}): the data do not tell them apart")
-    return other if default == twin else best
+    named = other if default == twin else best
+    sel.look_alike = (named.fit.name, twin if named is best else best.fit.name)
+    return named
 
 
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
