@@ -554,6 +554,19 @@ def extrapolated_wind(effects: list[dict[str, Any]], scorer: Scorer, hold: np.nd
                            "and is uncertain (the direction less so)")
 
 
+def undecided_look_alike(effects: list[dict[str, Any]], sel: Selection | None) -> None:
+    """Caveat an effect the data did not tell from its look-alike (``sel.look_alike``) with
+    the other's name, at most :data:`SUSPECT_CONFIDENCE` (PyFlyt set 307: a motor at 84 %
+    thrust named a torque offset at 0.49 with no word of the weak motor)."""
+    if sel is None or not sel.look_alike:
+        return
+    named_as, twin = sel.look_alike
+    for e in effects:
+        if e["name"] == named_as and "caveat" not in e:
+            e["caveat"] = f"a {twin.replace('_', ' ')} explains the data as well"
+            e["confidence"] = min(float(e["confidence"]), SUSPECT_CONFIDENCE)
+
+
 def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalModel,
              series: dict[str, Any], notes: list[str], mis: Mismatch, sel: Selection | None,
              left: dict[str, dict[str, float]], res1: dict[str, np.ndarray],
@@ -574,12 +587,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                     radius = float(theta[0])
     suspect_gyro(effects, left)
     extrapolated_wind(effects, scorer, hold, sim.name, real.name)
-    if sel is not None and sel.look_alike:
-        named_as, twin = sel.look_alike
-        for e in effects:
-            if e["name"] == named_as and "caveat" not in e:
-                e["caveat"] = f"a {twin.replace('_', ' ')} explains the data as well"
-                e["confidence"] = min(float(e["confidence"]), SUSPECT_CONFIDENCE)
+    undecided_look_alike(effects, sel)
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)
