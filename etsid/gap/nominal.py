@@ -292,14 +292,19 @@ class NominalModel:
 
     def beyond_speed(self, flight: Flight, wind: tuple[float, float], mask: np.ndarray
                      ) -> tuple[float, float]:
-        """(share of ``mask``, highest speed in m/s) of ``flight``'s horizontal air speed
-        under ``wind`` beyond what this model was fitted on (:attr:`speed` × 1.2 + 0.5 m/s,
-        the margin of the evidence's own speed envelope)."""
+        """(share of ``mask`` beyond :attr:`speed_limit`, 99th-percentile speed in m/s) of
+        ``flight``'s horizontal air speed under ``wind``."""
         va = air_velocity(flight, wind)[mask]
         if not va.size:
             return 0.0, 0.0
         air = np.hypot(va[:, 0], va[:, 1])
-        return float(np.mean(air > self.speed * 1.2 + 0.5)), float(np.quantile(air, 0.99))
+        return float(np.mean(air > self.speed_limit)), float(np.quantile(air, 0.99))
+
+    @property
+    def speed_limit(self) -> float:
+        """Horizontal speed beyond which the model extrapolates, m/s: :attr:`speed` ×
+        :data:`ENVELOPE_FACTOR` + :data:`SPEED_MARGIN`."""
+        return self.speed * ENVELOPE_FACTOR + SPEED_MARGIN
 
     def predict(self, flight: Flight, mods: Mods | None = None,
                 channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
@@ -343,6 +348,11 @@ class NominalModel:
                 out[c] = np.full(flight.n, mods.offset.get(c, 0.0))
         return out
 
+
+ENVELOPE_FACTOR = 1.2
+SPEED_MARGIN = 0.5
+"""m/s: the nominal model is trusted up to ENVELOPE_FACTOR × the fastest (99th percentile)
+horizontal speed the simulation flew, plus this margin; beyond it, it extrapolates."""
 
 QUADRATIC_SPEED = 2.0
 """m/s: a simulation flown slower than this leaves its speed-squared terms unfitted (their

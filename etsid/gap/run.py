@@ -27,6 +27,7 @@ from etsid.gap.fitting import Scorer
 from etsid.gap.floors import channel_floors, own_predictability
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.nominal import (
+    ENVELOPE_FACTOR,
     GYRO_CHANNELS,
     LABELS,
     RATE_CHANNELS,
@@ -68,9 +69,9 @@ CALM_QUANTILE = 1.0 / 3.0
 (highest) third."""
 SIM_FIT_SHARE = 0.7
 FIT_SHARE = 0.6
-SPEED_MARGIN = 0.5
 CLIMB_MARGIN = 0.15
-"""m/s: REAL is compared only within SIM's speed and climb-rate range plus these."""
+"""m/s: REAL is compared only within SIM's climb-rate range (× ENVELOPE_FACTOR) plus this;
+the horizontal speed's limit is the nominal model's (:attr:`NominalModel.speed_limit`)."""
 
 
 @dataclass
@@ -223,13 +224,13 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     return Floors(fit_nominal(sim, k=k), sigma, source)
 
 
-def restrict_to_envelope(sim: Flight, real: Flight) -> str | None:
-    """Drop REAL samples faster than SIM ever flew (plus a margin) from the evidence; the
-    note saying how much, or None."""
-    sim_speed = np.hypot(sim.v_body[:, 0], sim.v_body[:, 1])[sim.airborne]
+def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
+    """Drop REAL samples faster than SIM ever flew (``nominal.speed_limit``, and a climb rate
+    with its own margin) from the evidence; the note saying how much, or None."""
     real_speed = np.hypot(real.v_body[:, 0], real.v_body[:, 1])
-    limit = float(np.quantile(sim_speed, 0.99)) * 1.2 + SPEED_MARGIN
-    climb = float(np.quantile(np.abs(sim.v_body[sim.airborne, 2]), 0.99)) * 1.2 + CLIMB_MARGIN
+    limit = nominal.speed_limit
+    climb = float(np.quantile(np.abs(sim.v_body[sim.airborne, 2]), 0.99)) * ENVELOPE_FACTOR \
+        + CLIMB_MARGIN
     outside = real.airborne & ((real_speed > limit) | (np.abs(real.v_body[:, 2]) > climb))
     if not np.any(outside):
         return None
@@ -435,7 +436,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                      f"{sim_name}'s model error) on {', '.join(raised)}")
     if twin:
         notes.append(f"{twin}: differences after that are the twin's, not physics alone")
-    envelope = restrict_to_envelope(sim, real)
+    envelope = restrict_to_envelope(sim, real, floors.nominal)
     if envelope:
         notes.append(envelope)
         if real.airborne_s < MIN_AIRBORNE_S:
