@@ -87,6 +87,8 @@ def _index(data: bytes) -> tuple[list[list[int]], dataflash_index.IndexStats]:
 @pytest.mark.parametrize("log", [BIN, ROOT.parent / "shared" / "data" / "logs" /
                                  "ardupilot_copter33_loiter_acro_flips_real.bin"])
 def test_the_dataflash_indexer_equals_pymavlinks_on_a_real_log(log: Path) -> None:
+    if not log.exists():  # ../shared is the workplace's data, not in a user's clone
+        pytest.skip(f"{log} not available")
     data = log.read_bytes()
     offsets, stats = _index(data)
     assert offsets == _pymavlink_offsets(data)
