@@ -27,6 +27,8 @@ Run::
                                                                    # 90 s flights (speed)
     python benchmarks/gap_thirdparty.py --detectability DIR        # oracle: does the true
                                                                    # law show in the logs
+    python benchmarks/gap_thirdparty.py --generate DIR --seeds 950 --sims pyflyt --excite
+                                          # PyFlyt flights with 3-2-1-1 inputs at the mixer
 
 ``--score`` prints, per simulator and overall: named correctly X/N, false positives on the
 no-effect pairs, the confusion matrix, a per-effect table and, for the out-of-vocabulary
@@ -158,6 +160,8 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
 
     t0 = time.time()
     mod = simulator(job["sim"])
+    if hasattr(mod, "excite_flights"):
+        mod.excite_flights = bool(job.get("excite"))
     sim, real, truth = make_pair(job["sim"], job["label"], job["seed"], job.get("duration"))
     folder = Path(out) / job["id"]
     folder.mkdir(parents=True, exist_ok=True)
@@ -178,9 +182,10 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
 
 
 def generate(out: Path, sims: list[str], seeds: list[int], only: list[str] | None,
-             jobs: int, duration: float | None = None) -> None:
+             jobs: int, duration: float | None = None, excite: bool = False) -> None:
     out.mkdir(parents=True, exist_ok=True)
     todo = [dict(j, duration=duration) if duration else j for j in pair_jobs(sims, seeds, only)]
+    todo = [dict(j, excite=True) if excite else j for j in todo]
     entries = []
     t0 = time.time()
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
@@ -346,7 +351,7 @@ def detectability_one(entry: dict[str, Any], out: str) -> str:
     floors = gap_run.nominal_and_floors(sim, real, None)
     yr = measured(real)
     floors.nominal.channels = tuple(c for c in floors.nominal.channels if c in yr)
-    gap_run.restrict_to_envelope(sim, real)
+    gap_run.restrict_to_envelope(sim, real, floors.nominal)
     v_ref = float(np.nanmean(sim.vbat[sim.airborne])) if "vbat" in sim.have else None
     ctx = Context(real, floors.nominal, v_ref, gap_run._rotor_dirs(floors.nominal, real), None)
     scorer = Scorer(ctx, yr, floors.sigma)
@@ -419,6 +424,8 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="parallel processes")
     ap.add_argument("--duration", type=float, default=None,
                     help="fly every flight this long, s (e.g. 90 for the speed target)")
+    ap.add_argument("--excite", action="store_true",
+                    help="PyFlyt: fly 3-2-1-1 inputs at the mixer (identification flights)")
     args = ap.parse_args()
     sims = [s for s in args.sims.split(",") if s]
     for s in sims:
@@ -427,7 +434,7 @@ def main() -> None:
     if args.generate:
         seeds = [int(s) for s in args.seeds.split(",")]
         only = args.only.split(",") if args.only else None
-        generate(args.generate, sims, seeds, only, args.jobs, args.duration)
+        generate(args.generate, sims, seeds, only, args.jobs, args.duration, args.excite)
     elif args.inspect:
         inspect(args.inspect, args.jobs)
     elif args.timing:

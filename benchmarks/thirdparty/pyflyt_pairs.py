@@ -81,6 +81,7 @@ def _quadx_class() -> type:
             self.soc = fx.get("soc0", 0.95)
             self.vbat = V_FULL
             self.spin = np.sign(self.motors.torque_coef[:, 0])
+            self.injection = np.zeros(3)
 
         def update_control(self) -> None:
             true = self.state
@@ -91,6 +92,11 @@ def _quadx_class() -> type:
                 super().update_control()
             finally:
                 self.state = true
+            if np.any(self.injection) and self.mode != -1:
+                # system-identification input at the mixer (ArduPilot's SystemID mode
+                # injects there too): roll, pitch and yaw commands added to the cascade's
+                self.pwm = np.clip(self.pwm + self.motor_map[:, :3] @ self.injection,
+                                   0.05, 1.0)
 
         def update_physics(self) -> None:
             fx, dt = self.fx, self.physics_period
@@ -252,6 +258,39 @@ def _profile(kind: str, duration: float, rng: np.random.Generator, rest: float
     return t, sp
 
 
+EXCITATION_PWM = {"roll": (0.010, 0.016), "pitch": (0.010, 0.016), "yaw": (0.04, 0.06)}
+"""Amplitude range of the 3-2-1-1 inputs at the mixer, throttle units (hover ≈ 0.38):
+30-50 rad/s² in roll and pitch against PyFlyt's 3-4 rad/s² of motor-noise acceleration."""
+EXCITATION_PERIOD = (1.8, 3.0)
+"""Time between the starts of two manoeuvres, s."""
+EXCITATION_PULSE = (0.04, 0.09)
+"""Unit pulse of a 3-2-1-1 input, s (the whole input lasts 7 units)."""
+excite_flights = False
+"""Fly the 3-2-1-1 inputs (``gap_thirdparty.py --excite``; dev set 950). The scored sets
+300-309 fly without them."""
+
+
+def excitation(t: np.ndarray, manoeuvre: tuple[float, float], seed: int) -> np.ndarray:
+    """(n, 3) roll, pitch, yaw mixer inputs, throttle units: 3-2-1-1 inputs (the flight-test
+    sequence of pulses 3, 2, 1 and 1 units long with alternating sign) on one axis at a
+    time, cycling roll, pitch, yaw, inside the ``manoeuvre`` window (s). Drawn from their
+    own generator so that the rest of a flight is the same with or without them."""
+    rng = np.random.default_rng(seed + 3571)
+    out = np.zeros((t.size, 3))
+    start, axis = manoeuvre[0] + rng.uniform(0.0, 1.0), int(rng.integers(0, 3))
+    while start < manoeuvre[1] - 1.0:
+        unit = rng.uniform(*EXCITATION_PULSE)
+        amp = rng.uniform(*EXCITATION_PWM[("roll", "pitch", "yaw")[axis]]) * \
+            rng.choice([-1.0, 1.0])
+        edges = start + unit * np.cumsum([0, 3, 2, 1, 1])
+        for k in range(4):
+            inside = (t >= edges[k]) & (t < edges[k + 1])
+            out[inside, axis] = amp * (-1) ** k
+        start += rng.uniform(*EXCITATION_PERIOD)
+        axis = (axis + 1) % 3
+    return out
+
+
 def fly(kind: str, duration: float, seed: int, vehicle: dict[str, float],
         fx: dict[str, Any], sensors: Sensors) -> Record:
     """One flight of ``duration`` s (profile ``kind``: hover, low or forward) with physics
@@ -265,13 +304,14 @@ def fly(kind: str, duration: float, seed: int, vehicle: dict[str, float],
                  drone_options={"control_hz": CONTROL_HZ}, render=False,
                  physics_hz=PHYSICS_HZ, seed=seed)
     try:
-        return _fly(env, kind, duration, rng, vehicle, fx, sensors)
+        return _fly(env, kind, duration, rng, vehicle, fx, sensors, seed)
     finally:
         env.disconnect()
 
 
 def _fly(env: Any, kind: str, duration: float, rng: np.random.Generator,
-         vehicle: dict[str, float], fx: dict[str, Any], sensors: Sensors) -> Record:
+         vehicle: dict[str, float], fx: dict[str, Any], sensors: Sensors, seed: int
+         ) -> Record:
     drone = env.drones[0]
     mass, inertia = env.getDynamicsInfo(drone.Id, -1)[0], np.array(
         env.getDynamicsInfo(drone.Id, -1)[2])
@@ -317,7 +357,10 @@ def _fly(env: Any, kind: str, duration: float, rng: np.random.Generator,
     pos, vel, rot = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
     rates, pwm, vbat = np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n)
     idle_from = duration - 2.0  # landed: the motors are stopped (direct pwm mode)
+    inputs = excitation(t, (4.0, duration - 6.0), seed) if excite_flights and \
+        kind != "low" else np.zeros((n, 3))
     for i in range(n):
+        drone.injection = inputs[i]
         if t[i] >= idle_from and drone.mode != -1:
             env.set_mode(-1)
         env.set_setpoint(0, sp[i] if t[i] < idle_from else np.zeros(4))

@@ -19,6 +19,7 @@ import numpy as np
 from etsid.ets import ETS
 from etsid.gap.candidates import LIBRARY, Candidate
 from etsid.gap.fitting import Fit, Scorer, fit_candidates
+from etsid.gap.floors import response_gains
 from etsid.gap.nominal import QUADRATIC_SPEED, SENSOR_CHANNELS, Mods
 from etsid.gap.verdict import BoundHit, at_bound, worsened
 
@@ -373,6 +374,60 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
             chosen, best_left = joint, share_left
             sel.companion_share = share_left
     sel.chosen = chosen
+    return sel
+
+
+MIN_RESPONSE_SHARE = 0.1
+"""Response tier: least share of the held-out response shift (:func:`response_share`) an
+effect must remove to be named; it must also explain :data:`MIN_SHARE` of the held-out
+excess. A gain (inertia, yaw-torque scale) removes 40-70 % of the shift, a law with its own
+shape (rate damping, rotor spin-up torque) 10-50 % while fitting the residual better
+(third-party sets 305-307 and 950)."""
+
+
+def response_share(s: Scored, scorer: Scorer, hold: np.ndarray,
+                   before: dict[str, tuple[float, float]]) -> float:
+    """Mean over the shifted channels of the share of their held-out gain shift
+    ``|g − 1|`` that the fitted effect removes (an overshoot past 1 counts against it)."""
+    after = response_gains(scorer.ctx.flight, scorer.ctx.nominal, scorer.measured,
+                           tuple(before), s.fit.mods, hold)
+    shares = [1.0 - abs(after[c][0] - 1.0) / max(abs(g - 1.0), 1e-9)
+              for c, (g, _) in before.items() if c in after]
+    return float(np.mean(shares)) if shares else 0.0
+
+
+def select_response(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
+                    focus: tuple[str, ...], library: tuple[Candidate, ...] = LIBRARY
+                    ) -> Selection:
+    """The response tier's search: every candidate acting on the shifted ``focus``
+    channels, fitted on ``fit_mask`` and ranked by held-out score. The best admissible one
+    that explains :data:`MIN_SHARE` of the held-out excess and removes
+    :data:`MIN_RESPONSE_SHARE` of the held-out response shift is named, alone; a runner-up
+    within :data:`MIN_EXTRA_SHARE` of its score is its undecided look-alike."""
+    z0 = scorer.zscores(None, hold)
+    e0 = excess({c: v for c, v in z0.items() if c in focus})
+    before = response_gains(scorer.ctx.flight, scorer.ctx.nominal, scorer.measured, focus,
+                            None, hold)
+    ranked = []
+    for cand in library:
+        if not cand.available(scorer.ctx) or not set(cand.channels) & set(focus):
+            continue
+        s = score_fit(fit_candidates((cand,), scorer, fit_mask), scorer, hold, z0, e0, focus)
+        ranked.append((response_share(s, scorer, hold, before), s))
+    ranked.sort(key=lambda rs: rs[1].score, reverse=True)
+    sel = Selection(z0, e0, [s for _, s in ranked], None)
+    for share, s in ranked:
+        sel.notes.append(f"response tier {s.fit.name}: removes {share:.2f} of the held-out "
+                         f"response shift, share {s.share:.3f}")
+    fit_well = [s for share, s in ranked
+                if share >= MIN_RESPONSE_SHARE and s.share >= MIN_SHARE]
+    sel.refused = [s for s in fit_well if not s.admissible]
+    usable = [s for s in fit_well if s.admissible]
+    if usable:
+        sel.chosen = usable[0]
+        twin = next((s for s in usable[1:] if s.fit.name != usable[0].fit.name), None)
+        if twin is not None and usable[0].score - twin.score < MIN_EXTRA_SHARE:
+            sel.look_alike = (usable[0].fit.name, twin.fit.name)
     return sel
 
 

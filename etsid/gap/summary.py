@@ -144,6 +144,11 @@ def summary_sentence(data: dict[str, Any]) -> str:
     regime = mis["regime"]
     sizes = ", ".join(f"{LABELS[c]} {_size(data, c):.1f}×" for c in mis["channels"])
     parts = [f"Mismatch: {sizes} its floor."]
+    if mis.get("response"):
+        gains = ", ".join(f"{LABELS[c]} {v['gain']:.2f}× ({v['t']:+.0f} SE)"
+                          for c, v in mis["response"].items())
+        parts = [f"Mismatch in response, every channel within its floor: {gains} {sim}'s "
+                 "prediction."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]

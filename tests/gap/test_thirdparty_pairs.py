@@ -185,3 +185,42 @@ def test_a_less_predictable_recording_is_consistent_not_a_mismatch(tmp_path: Pat
         ratios[name] = max(own / theirs for theirs, own in errors.values())
     assert ratios["none"] > 1.0 - run.REFIT_GAIN, ratios
     assert ratios["late"] < 1.0 - run.REFIT_GAIN, ratios
+
+
+def test_a_yaw_torque_change_within_the_floors_is_named_from_the_response(
+        tmp_path: Path) -> None:
+    """The octocopter's yaw torque ×1.47 (set 307, seen): yaw acceleration stays within 2× its
+    floor, so no channel is mismatched, but REAL's yaw acceleration follows SIM's prediction
+    with a gain of ≈ 1.45 at more than 20 standard errors. The response tier names the yaw
+    torque scale and says the gain (it was called consistent)."""
+    from etsid.gap.run import analyse
+
+    sim, real = _logged_pair("multirotor", "yaw_torque_scale", 307150, tmp_path)
+    data = analyse(sim, real, "sim", "real").data
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    assert names == ["yaw_torque_scale"], data["summary"]
+    gain = data["mismatch"]["response"]["r"]
+    assert gain["gain"] == pytest.approx(1.45, abs=0.1) and gain["t"] > 10.0, gain
+    scale = data["effects"][0]["parameters"]["scale"]["value"]
+    assert scale == pytest.approx(1.469, rel=0.1), scale
+    assert "Mismatch in response" in data["summary"]
+
+
+def test_its_look_alike_a_noisy_no_effect_crazyflie_is_no_response_shift(
+        tmp_path: Path) -> None:
+    """PyFlyt's Crazyflie flown twice with nothing changed (set 305, seen), the no-effect pair
+    whose pitch gain strays most (≈ 0.88 at 4 standard errors): within the response tier's
+    thresholds, consistent."""
+    from etsid.gap import run
+    from etsid.gap.floors import response_gains
+    from etsid.gap.nominal import measured
+
+    sim_table, real_table = _logged_pair("pyflyt", "none", 305170, tmp_path)
+    data = run.analyse(sim_table, real_table, "sim", "real").data
+    assert data["verdict"] == "consistent", data["summary"]
+    sim, real = run.prepare_pair(sim_table, real_table, "sim", "real")
+    nominal = run.nominal_and_floors(sim, real, None).nominal
+    gains = response_gains(real, nominal, measured(real), run.RESPONSE_CHANNELS)
+    assert set(gains) == {"p", "q", "r"}
+    assert all(abs(g - 1.0) < run.RESPONSE_SHIFT or abs(t) < run.RESPONSE_T
+               for g, t in gains.values()), gains
