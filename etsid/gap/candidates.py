@@ -371,7 +371,7 @@ LIBRARY: tuple[Candidate, ...] = (
         lambda th, ctx: Mods(spinup=th[0])),
     Candidate(
         # c ≥ 0: a rotor spun up pushes the body back the way its drag torque does
-        "rotor_inertia", (Param("added", "rad/s² per 1/s", 0.0, 5.0, 0.0, 0.0),), ("r",),
+        "rotor_inertia", (Param("added", "rad/s² per 1/s", 0.0, 20.0, 0.0, 0.0),), ("r",),
         "yaw kicks when the motors speed up or slow down where the simulation has none (a "
         "simulator that neglects rotor inertia); steady yaw authority unchanged",
         "ṙ += c Σ_i sgn(h_i) dΩ_i/dt (h_i: rotor i's yaw-torque coefficient in SIM)",
