@@ -142,7 +142,7 @@ def response_gains(real: Flight, nominal: NominalModel, y: dict[str, np.ndarray]
 
     On SIM's own log the slope is 1 by construction. Where actuator noise dominates the
     model error (a 27 g quadrotor whose motors jitter by 2 % each physics step) an inertia,
-    a rate damping or a yaw-torque change moves this gain by 15-25 % while the RMSE stays
+    a rate damping or a yaw-torque change moves this gain by 15-35 % while the RMSE stays
     within the floor: the noise shrinks with the response."""
     pred = nominal.predict(real, mods, channels)
     mask = real.airborne if mask is None else mask

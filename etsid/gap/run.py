@@ -547,8 +547,9 @@ def unpredictable(real: Flight, nominal: NominalModel, mis: Mismatch, sel: Selec
                   unexplained: dict | None, fit: np.ndarray, hold: np.ndarray
                   ) -> dict[str, tuple[float, float]] | None:
     """The refit check of :data:`UNPREDICTABLE_Z`: channel → (SIM model's, REAL refit's)
-    held-out RMSE when the whole mismatch is REAL's own unpredictability, else None."""
-    if sel.chosen or unexplained is not None or not mis.channels:
+    held-out RMSE when the whole mismatch is REAL's own unpredictability, else None (always
+    None in the response tier, whose channels are within their floors)."""
+    if sel.chosen or unexplained is not None or not mis.channels or mis.gains:
         return None
     if any(c in SENSOR_CHANNELS for c in mis.channels):
         return None
@@ -643,12 +644,14 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     if sel is not None:
         for s in sel.refused:
             notes.append(f"not kept: {s.fit.name} ({s.why_not()})")
-        if mis.gains and sel.chosen:
+        if mis.gains:
             notes.append("response tier: " + ", ".join(
                 f"{LABELS[c]} {g:.2f}× {sim.name}'s prediction ({t:+.0f} SE)"
                 for c, (g, t) in mis.gains.items())
-                + f" with every channel within its floor; the floors of these channels are "
-                f"{real.name}'s own refit error")
+                + " with every channel within its floor; " + (
+                    f"the floors of these channels are {real.name}'s own refit error"
+                    if sel.chosen else "no named effect explains it, so it is not a "
+                    "finding"))
         elif mis.small and sel.chosen:
             notes.append(f"small but structured mismatch: {', '.join(mis.channels)} between "
                          f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× their "
