@@ -161,6 +161,17 @@ def euler_body_rates(att: np.ndarray, fs: float) -> np.ndarray:
     return np.column_stack([p, q, r])
 
 
+def _kinematic_rates(flight: Flight) -> np.ndarray:
+    """(n, 3) filtered body rates implied by the attitude (rad/s), the gyro channels'
+    prediction; kept on the flight for as long as its attitude array is the same object."""
+    cached = flight.__dict__.get("_kinematic_rates")
+    if cached is not None and cached[0] is flight.att:
+        return cached[1]
+    kin = lowpass(euler_body_rates(flight.att, flight.fs), flight.fs, CUTOFF_HZ["gyro_p"])
+    flight.__dict__["_kinematic_rates"] = (flight.att, kin)
+    return kin
+
+
 def kinematic_specific_force(flight: Flight) -> np.ndarray:
     """(n, 3) specific force in body axes (m/s²) implied by the body velocity, the body
     rates and the attitude: ``v̇_b + ω × v_b − Rᵀ (0, 0, g)``."""
@@ -194,6 +205,36 @@ def measured(flight: Flight) -> dict[str, np.ndarray]:
     return out
 
 
+MOTOR_TERMS_CACHED = 8
+"""Motor-law terms kept per flight (a fit that varies only gains reuses one entry; a delay
+or lag fit evaluates a few dozen values)."""
+
+
+def _motor_terms(flight: Flight, k: float, tau: float, delay: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(motor response, rotor speed Ω ∝ m + k, Ω², dΩ/dt per s) of ``flight`` under lag
+    ``tau`` s and delay ``delay`` s; for stick commands Ω and its powers are of the
+    collective (column 0) and dΩ/dt is the yaw demand's rate. Kept on the flight for as
+    long as its motor array is the same object: a fit evaluates them thousands of times."""
+    cache = flight.__dict__.setdefault("_motor_terms", {})
+    key = (id(flight.motors), float(k), float(tau), float(delay))
+    hit = cache.get(key)
+    if hit is not None and hit[0] is flight.motors:
+        return hit[1]
+    m_eff = motor_response(flight.motors, flight.fs, tau, delay)
+    if flight.inputs == "motors":
+        om = np.clip(m_eff, 0.0, 1.0) + k
+        spin = derivative(om, flight.fs)
+    else:
+        om = np.clip(m_eff[:, :1], 0.0, 1.0) + k
+        spin = derivative(m_eff[:, 3:4], flight.fs)
+    terms = (m_eff, om, om**2, spin)
+    if len(cache) >= MOTOR_TERMS_CACHED:
+        cache.pop(next(iter(cache)))
+    cache[key] = (flight.motors, terms)
+    return terms
+
+
 def _column_gain(gain: float | np.ndarray, n: int) -> np.ndarray:
     g = np.asarray(gain, dtype=float)
     if g.ndim == 0:
@@ -206,11 +247,10 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
              ) -> dict[str, np.ndarray]:
     """Unfiltered regressors of the channels (n, n_features) under ``mods`` (``delay``, s:
     the nominal command-to-motor delay, to which ``mods.delay`` adds)."""
-    fs = flight.fs
     if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
         return {}
     tau_eff = tau if mods.tau is None else mods.tau
-    m_eff = motor_response(flight.motors, fs, tau_eff, delay + mods.delay)
+    m_eff, om, pw, spin = _motor_terms(flight, k, tau_eff, delay + mods.delay)
     p, q, r = flight.rates.T
     vb = flight.v_body
     # horizontal drag sees the air, not the ground
@@ -220,23 +260,19 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     qg = _column_gain(mods.torque_gain, p.size)
     one = np.ones_like(p)
     if flight.inputs == "motors":
-        om = np.clip(m_eff, 0.0, 1.0) + k
-        pw = om**2
         thrust = pw * tg
         s = thrust.sum(axis=1)
         # collective thrust makes no moment: only differences between rotors enter
         mom = thrust - thrust.mean(axis=1, keepdims=True)
         tq = pw * qg
-        spin = derivative(om, fs)
         dom = spin * mods.spinup
         yaw = np.column_stack([tq - tq.mean(axis=1, keepdims=True),
                                dom - dom.mean(axis=1, keepdims=True)])
         om_mean = om.mean(axis=1)
     else:  # stick commands: collective and three moment demands
-        omt = np.clip(m_eff[:, 0], 0.0, 1.0) + k
-        s = omt**2 * tg.mean(axis=1)
+        omt = om[:, 0]
+        s = pw[:, 0] * tg.mean(axis=1)
         mom = m_eff[:, 1:] * (omt * tg.mean(axis=1))[:, None]
-        spin = derivative(m_eff[:, 3:4], fs)
         yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
                                spin * mods.spinup])
         om_mean = omt
@@ -314,6 +350,7 @@ class NominalModel:
                                                              if c in self.channels)
         feats = features(flight, self.k, self.tau, mods, chans, self.delay)
         out: dict[str, np.ndarray] = {}
+        raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
                 continue
@@ -336,10 +373,15 @@ class NominalModel:
             if mods.drag_moment and c in ("p", "q"):
                 sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]
-            out[c] = lowpass(y, flight.fs, CUTOFF_HZ[c]) + mods.offset.get(c, 0.0)
+            raw[c] = y
+        # one filter call per cut-off: filtering is column-wise, the columns share it
+        for cutoff in {CUTOFF_HZ[c] for c in raw}:
+            group = [c for c in raw if CUTOFF_HZ[c] == cutoff]
+            filtered = lowpass(np.column_stack([raw[c] for c in group]), flight.fs, cutoff)
+            for j, c in enumerate(group):
+                out[c] = filtered[:, j] + mods.offset.get(c, 0.0)
         if any(c in chans for c in GYRO_CHANNELS):
-            kin = lowpass(euler_body_rates(flight.att, flight.fs), flight.fs,
-                          CUTOFF_HZ["gyro_p"])
+            kin = _kinematic_rates(flight)
             for j, c in enumerate(GYRO_CHANNELS):
                 if c in chans:
                     out[c] = kin[:, j] + mods.offset.get(c, 0.0)
