@@ -18,9 +18,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import welch
 
-from etsid.gap.nominal import CUTOFF_HZ, Mods, NominalModel, fit_nominal, measured
-from etsid.gap.signals import ANTIALIAS_SHARE, Flight, true_runs
+from etsid.gap.nominal import RATE_CHANNELS, Mods, NominalModel, fit_nominal, measured
+from etsid.gap.signals import ANTIALIAS_SHARE, Flight, derivative, true_runs
 
+RATE_INDEX = {c: j for j, c in enumerate(RATE_CHANNELS)}
+MIN_REFERENCE_T = 10.0
+"""A response gain needs SIM's own broadband slope this many standard errors above zero
+(a channel whose commands barely drive it has no gain to compare)."""
 NOISE_BAND_HZ = 12.0
 """Lower edge of the band read for sensor noise, Hz (above the 8 Hz analysis band and
 the airframe's rigid-body response); the upper edge is 90 % of the anti-alias cut-off."""
@@ -132,32 +136,55 @@ def own_predictability(real: Flight, nominal: NominalModel, channels: list[str],
             for c in channels if c in pred_sim and c in pred_own}
 
 
-def response_gains(real: Flight, nominal: NominalModel, y: dict[str, np.ndarray],
-                   channels: tuple[str, ...], mods: Mods | None = None,
-                   mask: np.ndarray | None = None) -> dict[str, tuple[float, float]]:
-    """Channel → (gain, t): the least-squares slope of REAL's measured channel on SIM's
-    model prediction (under effects ``mods``) over ``mask`` (default: REAL's airborne
-    samples), both demeaned, and its distance from 1 in standard errors (effective
-    samples: two per period of the channel's cut-off).
-
-    On SIM's own log the slope is 1 by construction. Where actuator noise dominates the
-    model error (a 27 g quadrotor whose motors jitter by 2 % each physics step) an inertia,
-    a rate damping or a yaw-torque change moves this gain by 15-35 % while the RMSE stays
-    within the floor: the noise shrinks with the response."""
-    pred = nominal.predict(real, mods, channels)
-    mask = real.airborne if mask is None else mask
+def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str, ...],
+                     mods: Mods | None = None, mask: np.ndarray | None = None
+                     ) -> dict[str, tuple[float, float]]:
+    """Channel → (slope, standard error): the least-squares slope of ``flight``'s measured
+    angular acceleration (the gyro's unfiltered derivative) on the model's broadband
+    prediction (:meth:`~etsid.gap.nominal.NominalModel.predict_broadband` under ``mods``)
+    over ``mask`` (default: the airborne samples), both demeaned; one effective sample per
+    log sample."""
+    pred = nominal.predict_broadband(flight, mods, channels)
+    mask = flight.airborne if mask is None else mask
+    acc = derivative(flight.rates, flight.fs)
     out: dict[str, tuple[float, float]] = {}
-    for c in channels:
-        if c not in y or c not in pred:
-            continue
-        yc, xc = y[c][mask], pred[c][mask]
+    for c, x_all in pred.items():
+        yc, xc = acc[mask, RATE_INDEX[c]], x_all[mask]
         ok = np.isfinite(yc) & np.isfinite(xc)
         yc, xc = yc[ok] - np.mean(yc[ok]), xc[ok] - np.mean(xc[ok])
         sxx = float(xc @ xc)
         if yc.size < 10 or sxx <= 0.0:
             continue
         slope = float(xc @ yc) / sxx
-        n_eff = max(yc.size * 2.0 * CUTOFF_HZ[c] / real.fs, 2.0)
-        se = float(np.sqrt(np.var(yc - slope * xc) / (np.var(xc) * n_eff)))
-        out[c] = (slope, (slope - 1.0) / se if se > 0 else 0.0)
+        out[c] = (slope, float(np.sqrt(np.var(yc - slope * xc) / (np.var(xc) * yc.size))))
+    return out
+
+
+def response_gains(real: Flight, nominal: NominalModel, channels: tuple[str, ...],
+                   mods: Mods | None = None, mask: np.ndarray | None = None
+                   ) -> dict[str, tuple[float, float]]:
+    """Channel → (gain, t): REAL's broadband slope (:func:`broadband_slopes`, under effects
+    ``mods``, over ``mask``) over SIM's own (``nominal.reference``), and its distance from 1
+    in standard errors of the ratio. Channels whose SIM slope is not
+    :data:`MIN_REFERENCE_T` standard errors above zero are left out.
+
+    A response changed by an inertia, a rate damping or a yaw-torque change moves this
+    gain while the RMSE may stay within the floor: where actuator noise dominates the model
+    error (a 27 g quadrotor whose motors jitter by 2 % each physics step) the noise
+    shrinks with the response. The gain is read over the whole band, not the 8 Hz analysis
+    band: a rate loop answers its own disturbances within its bandwidth, so there the
+    commands are partly a reaction to the very noise they are fitted against (closed-loop
+    bias that differs from flight to flight), while above it the commands lead the response
+    and SIM's slope and REAL's carry the same bias, which their ratio cancels. On the
+    third-party sets' no-effect Crazyflie pairs the 8 Hz gain of yaw spread over 0.79-1.25,
+    this ratio over 0.89-1.08."""
+    mine = broadband_slopes(real, nominal, channels, mods, mask)
+    out: dict[str, tuple[float, float]] = {}
+    for c, (slope, se) in mine.items():
+        ref = nominal.reference.get(c)
+        if ref is None or ref[1] <= 0.0 or ref[0] < MIN_REFERENCE_T * ref[1] or slope == 0.0:
+            continue
+        gain = slope / ref[0]
+        se_gain = abs(gain) * float(np.hypot(se / slope, ref[1] / ref[0]))
+        out[c] = (gain, (gain - 1.0) / se_gain if se_gain > 0 else 0.0)
     return out

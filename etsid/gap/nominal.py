@@ -317,6 +317,9 @@ class NominalModel:
     speed : float
         Highest horizontal speed the simulation flew (99th percentile of the fit samples),
         m/s: its drag terms are extrapolated beyond it.
+    reference : dict
+        Angular-acceleration channel → (slope, standard error) of the simulation's own
+        broadband response (:func:`etsid.gap.floors.broadband_slopes`); empty until set.
     """
 
     k: float
@@ -325,6 +328,7 @@ class NominalModel:
     channels: tuple[str, ...]
     delay: float = 0.0
     speed: float = np.inf
+    reference: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def beyond_speed(self, flight: Flight, wind: tuple[float, float], mask: np.ndarray
                      ) -> tuple[float, float]:
@@ -348,8 +352,39 @@ class NominalModel:
         mods = mods or Mods()
         chans = self.channels if channels is None else tuple(c for c in channels
                                                              if c in self.channels)
-        feats = features(flight, self.k, self.tau, mods, chans, self.delay)
+        raw = self._unfiltered(flight, mods, chans, self.tau, self.delay)
         out: dict[str, np.ndarray] = {}
+        # one filter call per cut-off: filtering is column-wise, the columns share it
+        for cutoff in {CUTOFF_HZ[c] for c in raw}:
+            group = [c for c in raw if CUTOFF_HZ[c] == cutoff]
+            filtered = lowpass(np.column_stack([raw[c] for c in group]), flight.fs, cutoff)
+            for j, c in enumerate(group):
+                out[c] = filtered[:, j] + mods.offset.get(c, 0.0)
+        if any(c in chans for c in GYRO_CHANNELS):
+            kin = _kinematic_rates(flight)
+            for j, c in enumerate(GYRO_CHANNELS):
+                if c in chans:
+                    out[c] = kin[:, j] + mods.offset.get(c, 0.0)
+        for c in KIN_CHANNELS:
+            if c in chans:
+                out[c] = np.full(flight.n, mods.offset.get(c, 0.0))
+        return out
+
+    def predict_broadband(self, flight: Flight, mods: Mods | None = None,
+                          channels: tuple[str, ...] = RATE_CHANNELS) -> dict[str, np.ndarray]:
+        """Unfiltered prediction of the angular accelerations (rad/s²) with the rotors acting
+        on the logged command at once: no nominal lag or delay (those of ``mods`` still act).
+
+        Above the 8 Hz analysis band a lag or a delay fitted within it is a phase guess (a
+        10 ms error is half a period at 50 Hz); the instantaneous command is the same guess
+        for SIM and REAL, and the response statistics compare the two."""
+        chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
+        return self._unfiltered(flight, mods or Mods(), chans, BROADBAND_TAU, 0.0)
+
+    def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
+                    delay: float) -> dict[str, np.ndarray]:
+        """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
+        feats = features(flight, self.k, tau, mods, chans, delay)
         raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
@@ -374,22 +409,12 @@ class NominalModel:
                 sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]
             raw[c] = y
-        # one filter call per cut-off: filtering is column-wise, the columns share it
-        for cutoff in {CUTOFF_HZ[c] for c in raw}:
-            group = [c for c in raw if CUTOFF_HZ[c] == cutoff]
-            filtered = lowpass(np.column_stack([raw[c] for c in group]), flight.fs, cutoff)
-            for j, c in enumerate(group):
-                out[c] = filtered[:, j] + mods.offset.get(c, 0.0)
-        if any(c in chans for c in GYRO_CHANNELS):
-            kin = _kinematic_rates(flight)
-            for j, c in enumerate(GYRO_CHANNELS):
-                if c in chans:
-                    out[c] = kin[:, j] + mods.offset.get(c, 0.0)
-        for c in KIN_CHANNELS:
-            if c in chans:
-                out[c] = np.full(flight.n, mods.offset.get(c, 0.0))
-        return out
+        return raw
 
+
+BROADBAND_TAU = 1e-6
+"""s: the motor lag of :meth:`NominalModel.predict_broadband` (none: the command acts at
+once)."""
 
 ENVELOPE_FACTOR = 1.2
 SPEED_MARGIN = 0.5

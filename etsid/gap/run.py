@@ -24,7 +24,7 @@ import pandas as pd
 from etsid.errors import GapError
 from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.fitting import Scorer
-from etsid.gap.floors import channel_floors, own_predictability, response_gains
+from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.nominal import (
     ENVELOPE_FACTOR,
@@ -222,7 +222,9 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     ys = measured(sim)
     own = _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()}, s_hold)
     sigma, source = channel_floors(own, real)
-    return Floors(fit_nominal(sim, k=k), sigma, source)
+    nominal = fit_nominal(sim, k=k)
+    nominal.reference = broadband_slopes(sim, nominal, RESPONSE_CHANNELS)
+    return Floors(nominal, sigma, source)
 
 
 def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
@@ -282,7 +284,7 @@ def response_tier(scorer: Scorer, real: Flight, fit: np.ndarray, hold: np.ndarra
     named effect could at best reach), so that their excess is what SIM's model loses to
     the shifted response."""
     nominal = scorer.ctx.nominal
-    gains = response_gains(real, nominal, scorer.measured, RESPONSE_CHANNELS)
+    gains = response_gains(real, nominal, RESPONSE_CHANNELS)
     shifted = sorted((c for c, (g, t) in gains.items()
                       if abs(g - 1.0) >= RESPONSE_SHIFT[c] and abs(t) >= RESPONSE_T),
                      key=lambda c: -abs(gains[c][1]))

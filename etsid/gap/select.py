@@ -396,8 +396,8 @@ def response_share(s: Scored, scorer: Scorer, hold: np.ndarray,
                    before: dict[str, tuple[float, float]]) -> float:
     """Mean over the shifted channels of the share of their held-out gain shift
     ``|g − 1|`` that the fitted effect removes (an overshoot past 1 counts against it)."""
-    after = response_gains(scorer.ctx.flight, scorer.ctx.nominal, scorer.measured,
-                           tuple(before), s.fit.mods, hold)
+    after = response_gains(scorer.ctx.flight, scorer.ctx.nominal, tuple(before), s.fit.mods,
+                           hold)
     shares = [1.0 - abs(after[c][0] - 1.0) / max(abs(g - 1.0), 1e-9)
               for c, (g, _) in before.items() if c in after]
     return float(np.mean(shares)) if shares else 0.0
@@ -413,8 +413,7 @@ def select_response(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     runner-up within :data:`RESPONSE_LOOK_ALIKE` of its score is its undecided look-alike."""
     z0 = scorer.zscores(None, hold)
     e0 = excess({c: v for c, v in z0.items() if c in focus})
-    before = response_gains(scorer.ctx.flight, scorer.ctx.nominal, scorer.measured, focus,
-                            None, hold)
+    before = response_gains(scorer.ctx.flight, scorer.ctx.nominal, focus, None, hold)
     ranked = []
     for cand in library:
         if not cand.available(scorer.ctx) or not set(cand.channels) & set(focus):

@@ -34,34 +34,62 @@ def test_blocked_split_scores_where_the_mismatch_lives() -> None:
     assert (fit | score).sum() == int(0.75 * t.size)  # a 0.5 s gap per 2 s block
 
 
-class _KnownPrediction:
-    """A nominal model whose prediction is a fixed series (the response statistic only reads
-    ``predict``)."""
+class _KnownResponse:
+    """A nominal model whose broadband prediction is a fixed series and whose reference is
+    SIM's slope (the response statistics read only these two)."""
 
-    def __init__(self, x: np.ndarray) -> None:
+    def __init__(self, x: np.ndarray, reference: dict[str, tuple[float, float]]) -> None:
         self.x = x
+        self.reference = reference
 
-    def predict(self, flight, mods=None, channels=None) -> dict[str, np.ndarray]:
+    def predict_broadband(self, flight, mods=None, channels=("p",)) -> dict[str, np.ndarray]:
         return {"p": self.x}
 
 
-def test_response_gain_recovers_a_known_gain_and_its_standard_error() -> None:
-    """y = 0.8 x + white noise at 100 Hz: the gain is 0.8 within its standard error, and the
-    t of a gain of 1 matches the textbook slope error with two samples per period of the
-    8 Hz cut-off (n_eff = N · 16 / 100)."""
+def _flight_responding(gain: float, rng: np.random.Generator, n: int = 20000,
+                       fs: float = 100.0):
+    """A flight whose roll acceleration is ``gain`` × a known command response plus the
+    derivative of white gyro noise; (flight, command response)."""
     from types import SimpleNamespace
 
-    from etsid.gap.floors import response_gains
+    from scipy.signal import butter, sosfiltfilt
+
+    smooth = sosfiltfilt(butter(2, 5.0 / (0.5 * fs), output="sos"), rng.normal(0, 3, n))
+    x = np.gradient(smooth, 1.0 / fs)
+    rates = np.zeros((n, 3))
+    rates[:, 0] = gain * smooth + rng.normal(0.0, 0.02, n)
+    return SimpleNamespace(airborne=np.ones(n, dtype=bool), fs=fs, rates=rates), x
+
+
+def test_response_gain_is_reals_broadband_slope_over_sims() -> None:
+    """SIM responds with slope 1 to its prediction, REAL with 0.8, both with gyro noise: the
+    slopes come out within 3 of their standard errors, the gain is their ratio, its t is
+    (gain - 1) over the ratio's error, and a REAL like SIM gives a gain of 1 within 3 SE."""
+    from etsid.gap.floors import broadband_slopes, response_gains
 
     rng = np.random.default_rng(3)
-    n, fs = 20000, 100.0
-    x = rng.normal(0.0, 2.0, n)
-    y = 0.8 * x + rng.normal(0.0, 1.0, n)
-    flight = SimpleNamespace(airborne=np.ones(n, dtype=bool), fs=fs)
-    gain, t = response_gains(flight, _KnownPrediction(x), {"p": y}, ("p",))["p"]
-    se = np.sqrt(1.0 / (4.0 * n * 16.0 / fs))  # σ_e² / (σ_x² n_eff)
-    assert abs(gain - 0.8) < 3 * se * np.sqrt(16.0 / fs)  # the white-noise error is smaller
-    assert t == pytest.approx((gain - 1.0) / se, rel=0.05)
-    same, t_same = response_gains(flight, _KnownPrediction(x), {"p": x + rng.normal(0, 1, n)},
-                                  ("p",))["p"]
-    assert abs(t_same) < 3.0 and same == pytest.approx(1.0, abs=0.02)
+    sim, x_sim = _flight_responding(1.0, rng)
+    ref = broadband_slopes(sim, _KnownResponse(x_sim, {}), ("p",))
+    assert abs(ref["p"][0] - 1.0) < 3 * ref["p"][1]
+    real, x_real = _flight_responding(0.8, rng)
+    slope, se = broadband_slopes(real, _KnownResponse(x_real, {}), ("p",))["p"]
+    assert abs(slope - 0.8) < 3 * se
+    gain, t = response_gains(real, _KnownResponse(x_real, ref), ("p",))["p"]
+    assert gain == pytest.approx(slope / ref["p"][0])
+    se_gain = gain * np.hypot(se / slope, ref["p"][1] / ref["p"][0])
+    assert t == pytest.approx((gain - 1.0) / se_gain)
+    assert t < -10.0
+    same, x_same = _flight_responding(1.0, rng)
+    g_same, t_same = response_gains(same, _KnownResponse(x_same, ref), ("p",))["p"]
+    assert abs(t_same) < 3.0 and g_same == pytest.approx(1.0, abs=0.02)
+
+
+def test_no_response_gain_without_a_reference_sim_responds_to() -> None:
+    """SIM's slope within 10 standard errors of zero (its commands barely drive the axis):
+    no gain is given for that axis."""
+    from etsid.gap.floors import response_gains
+
+    rng = np.random.default_rng(4)
+    real, x = _flight_responding(1.0, rng)
+    assert response_gains(real, _KnownResponse(x, {"p": (0.05, 0.01)}), ("p",)) == {}
+    assert "p" in response_gains(real, _KnownResponse(x, {"p": (1.0, 0.01)}), ("p",))
