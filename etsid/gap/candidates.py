@@ -19,6 +19,12 @@ from etsid.gap.nominal import Mods, NominalModel, air_velocity
 from etsid.gap.signals import Flight
 
 GE_MAX_RATIO = 2.0
+GRAVITY = 9.80665
+"""m/s²."""
+MAX_ESTIMATOR_TIME_S = 2.0
+"""Longest gravity-correction time constant of an attitude estimate, s (complementary
+filters run at 0.5-2 s); the bound keeps a gyro bias below the gyro's floor from leaning
+the estimate enough to pose as an accelerometer bias."""
 
 
 @dataclass(frozen=True)
@@ -243,6 +249,15 @@ def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]
     return build
 
 
+def _gyro_bias_leaning(theta: np.ndarray, ctx: Context) -> Mods:
+    """Gyro bias b (rad/s) and the lean τ_e b (rad) it leaves in an attitude estimate that
+    corrects towards gravity with time constant τ_e (s): the accelerometer then differs from
+    the velocity by g times the lean, −g τ_e b_y along x and +g τ_e b_x along y."""
+    bx, by, bz, lean = (float(v) for v in theta)
+    return Mods(offset={"gyro_p": bx, "gyro_q": by, "gyro_r": bz,
+                        "kin_x": -GRAVITY * lean * by, "kin_y": GRAVITY * lean * bx})
+
+
 def _weak_motor(index: int) -> Callable[[np.ndarray, Context], Mods]:
     def build(theta: np.ndarray, ctx: Context) -> Mods:
         n_rotors = ctx.flight.motors.shape[1]
@@ -357,6 +372,20 @@ LIBRARY: tuple[Candidate, ...] = (
         "the gyro reads a constant rate the attitude does not follow (the controller's "
         "integrator hides it in the rate loop)",
         "ω_gyro = ω_attitude + b", _offsets(("gyro_p", "gyro_q", "gyro_r")), ("roll",)),
+    Candidate(
+        # the estimator's lean: a complementary filter or an EKF that does not (yet) know
+        # the bias settles where the gravity correction cancels it
+        "gyro_bias",
+        (Param("bx", "rad/s", -0.5, 0.5, 0.0, 0.0), Param("by", "rad/s", -0.5, 0.5, 0.0, 0.0),
+         Param("bz", "rad/s", -0.5, 0.5, 0.0, 0.0),
+         Param("lean", "s", 0.0, MAX_ESTIMATOR_TIME_S, 0.0, 0.0)),
+        ("gyro_p", "gyro_q", "gyro_r", "kin_x", "kin_y"),
+        "the gyro reads a constant rate the attitude does not follow, and the attitude "
+        "estimate, pulled towards gravity, leans by that rate times its correction time: "
+        "the accelerometer then disagrees with the velocity in x and y by g times the lean "
+        "(no z part, unlike an accelerometer bias)",
+        "ω_gyro = ω_attitude + b; lean = τ_e b: f − f_kin = g τ_e (−b_y, b_x, 0)",
+        _gyro_bias_leaning, ("roll", "vel")),
     Candidate(
         "yaw_torque_scale", (Param("scale", "1", 0.3, 3.0, 1.0, 1.0),), ("r",),
         "yaw authority too high or low by one factor (propeller drag torque, motor "

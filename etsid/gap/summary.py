@@ -84,8 +84,12 @@ def _words(effect: dict[str, Any], sim: str, real: str) -> str:
                 f"{p['q_offset']:+.2f}, {p['r_offset']:+.2f}) rad/s² about roll, pitch, yaw "
                 "(torque offset)")
     if name == "gyro_bias":
+        tilt = 1000 * p.get("lean", 0.0) * float(np.hypot(p["bx"], p["by"]))
+        lean = (f", and the attitude estimate leans {tilt:.0f} mrad with it (gravity correction "
+                f"time {p['lean']:.2g} s; the accelerometer shows it against the velocity)"
+                if tilt >= 1.0 else "")
         return (f"the gyro reads ({1000 * p['bx']:+.0f}, {1000 * p['by']:+.0f}, "
-                f"{1000 * p['bz']:+.0f}) mrad/s the attitude does not follow (gyro bias)")
+                f"{1000 * p['bz']:+.0f}) mrad/s the attitude does not follow{lean} (gyro bias)")
     if name == "accel_bias":
         return (f"the accelerometer reads ({p['bx']:+.2f}, {p['by']:+.2f}, {p['bz']:+.2f}) "
                 "m/s² the velocity does not follow (accelerometer bias)")
