@@ -27,13 +27,20 @@ from etsid.gap.signals import Flight
 
 PLAUSIBLE = {
     "hover thrust": (1 / 1.6, 1.6),
-    "pack voltage": (1 / 1.3, 1.3),
+    "hover thrust at equal voltage": (1 / 1.6, 1.6),
+    "pack voltage": (1 / 1.4, 1.3),
     "roll effectiveness": (0.2, 5.0),
     "pitch effectiveness": (0.2, 5.0),
 }
 """REAL/SIM ratios one airframe with a fault can reach. Hover thrust: a 20 % thrust loss
-(1.25×) plus a payload or a sagging pack, not a vehicle that needs 1.6× the thrust command;
-pack voltage: one cell in four (4S/3S = 1.33) is another pack; effectiveness: a 60 %
+(1.25×) plus a payload, not a vehicle that needs 1.6× the thrust command; where both logs
+have the pack voltage it is judged at equal voltage (``(m + k)² (V/V_sim)²``: an ESC's duty
+drives the motor at duty × V, so a pack at 0.76× needs 1.73× the command² for the same
+thrust, which is a sag, not another airframe); pack voltage: a LiPo cell reads 4.2 V
+full and drops to 3.0 V loaded when empty (PX4's empty cell at 3.5 V less its 0.3 V load
+drop, a worn pack lower), so a recording whose pack sags or runs down reaches 0.71× a
+simulation's full one; above, a pack 1.3× SIM's is not a sag but one cell in four more
+(4S/3S = 1.33), another pack; effectiveness: a 60 %
 heavier inertia with a 20 % weaker thrust is 0.5×, and each log's own fit of it moves
 with its motor lag (a lag three times SIM's gave 0.37× on a dev pair of one airframe), so
 only a factor of five says another airframe. Yaw effectiveness is reported, not judged:
@@ -91,6 +98,8 @@ def check_vehicles(sim: Flight, real: Flight, nominal: NominalModel) -> VehicleC
         v_sim = float(np.nanmedian(sim.vbat[sim.airborne]))
         v_real = float(np.nanmedian(real.vbat[real.airborne]))
         out.ratios["pack voltage"] = v_real / max(v_sim, 1e-9)
+        out.ratios["hover thrust at equal voltage"] = (out.ratios["hover thrust"]
+                                                       * out.ratios["pack voltage"] ** 2)
     own = fit_nominal(real, k=k)
     n = sim.motors.shape[1] if sim.inputs == "motors" else 3
     for name, c in AXES:
@@ -99,7 +108,8 @@ def check_vehicles(sim: Flight, real: Flight, nominal: NominalModel) -> VehicleC
             out.ratios[name] = a / b
     out.bandwidth = {"sim": nominal.tau, "real": own.tau}
     for name, ratio in out.ratios.items():
-        if name not in PLAUSIBLE:
+        if name not in PLAUSIBLE or (name == "hover thrust"
+                                     and "hover thrust at equal voltage" in out.ratios):
             continue
         lo, hi = PLAUSIBLE[name]
         if not lo < ratio < hi:

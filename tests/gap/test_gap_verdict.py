@@ -175,6 +175,39 @@ def test_another_quad_is_a_different_vehicle() -> None:
     assert "hover thrust" in data["reason"]
 
 
+def test_a_pack_run_down_to_three_quarters_is_a_sag_not_another_airframe() -> None:
+    """The hexacopter's pack with 10× its internal resistance from 45 % charge: it runs at
+    0.75× SIM's voltage and needs 1.74× SIM's hover command², the size of one cell in four
+    and of another airframe's thrust-to-weight. At equal voltage the hover thrust is SIM's:
+    one airframe with a sagging pack, named battery sag (etsid's concealed seed 22505 had
+    been answered different-vehicle)."""
+    veh = load_vehicle("tarot680")
+    data = _gap({"battery.r_internal": 10 * veh["battery"]["r_internal"],
+                 "battery.soc0": 0.45})
+    ratios = data["vehicle_check"]["ratios"]
+    assert ratios["pack voltage"] == pytest.approx(0.75, abs=0.02), ratios
+    assert ratios["hover thrust"] > 1.6, ratios
+    assert ratios["hover thrust at equal voltage"] == pytest.approx(1.0, abs=0.1), ratios
+    assert data["verdict"] == "mismatch", data["summary"]
+    assert [e["name"] for e in data["effects"]][:1] == ["battery_sag"], data["summary"]
+
+
+def test_its_look_alike_a_pack_with_a_cell_more_is_another_pack() -> None:
+    """An S500-class quad on a 4S pack against quad250 on 3S: 1.33× the voltage is no sag
+    (a recording's pack sags below a simulation's, not above it), so another pack and
+    another airframe."""
+    quad = load_vehicle("quad250")
+    s500 = quad.with_settings({
+        "mass": 1.25, "inertia.ixx": 0.011, "inertia.iyy": 0.012, "inertia.izz": 0.021,
+        "frame.arm_length": 0.25, "rotor.radius": 0.1, "rotor.chord": 0.014,
+        "rotor.inertia": 2.0e-5, "motor.omega_max": 1500.0, "motor.time_constant": 0.04,
+        "battery.cells": 4, "motor.v_ref": 14.8})
+    data = _gap(sim_vehicle=quad, real_vehicle=s500)
+    assert data["verdict"] == "different-vehicle", data["summary"]
+    assert data["vehicle_check"]["ratios"]["pack voltage"] > 1.3
+    assert any("pack voltage" in e for e in data["vehicle_check"]["evidence"])
+
+
 def test_a_delay_is_said_as_a_later_response() -> None:
     data = _gap({"time_delay": 0.08})
     _general_rules_hold(data)
