@@ -113,6 +113,20 @@ def _logged_pair(simulator: str, label: str, seed: int, tmp_path: Path) -> tuple
                  for n, t in zip(("sim", "real"), tables, strict=True))
 
 
+def _named(simulator: str, label: str, seed: int, tmp_path: Path
+           ) -> tuple[list[str], dict, dict]:
+    """(names of the effects named, the first one's parameter values, gap.json) of one
+    benchmark pair."""
+    from etsid.gap.run import analyse
+
+    sim, real = _logged_pair(simulator, label, seed, tmp_path)
+    data = analyse(sim, real, "sim", "real").data
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    params = ({k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
+              if data["effects"] else {})
+    return names, params, data
+
+
 def test_look_alikes_the_data_do_not_tell_apart_are_both_said(tmp_path: Path) -> None:
     """PyFlyt's motor 4 at 84 % thrust on a hovering Crazyflie (set 307, seen): its trims
     shift as under a torque offset and its 4 % collective loss is within the floors. The
@@ -133,13 +147,8 @@ def test_rate_damping_is_named_in_roll_pitch_and_yaw(tmp_path: Path) -> None:
     """The octocopter with 3.9 1/s more rate damping on every axis (set 306, seen): named
     rate damping alone, roll/pitch and yaw factors within 15 % (it was named with a yaw torque
     scale as companion while the law had no yaw term)."""
-    from etsid.gap.run import analyse
-
-    sim, real = _logged_pair("multirotor", "rate_damping", 306140, tmp_path)
-    data = analyse(sim, real, "sim", "real").data
-    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    names, p, data = _named("multirotor", "rate_damping", 306140, tmp_path)
     assert names == ["rate_damping"], data["summary"]
-    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
     assert p["damping"] == pytest.approx(3.886, rel=0.15), p
     assert p["yaw"] == pytest.approx(3.886, rel=0.15), p
 
@@ -163,13 +172,8 @@ def test_a_gyro_bias_leaning_the_attitude_estimate_is_one_effect(tmp_path: Path)
     accelerometer also disagrees with the velocity in x and y. Named gyro bias alone, with
     the estimator's correction time near 1 s (it was named with an accelerometer-bias
     companion)."""
-    from etsid.gap.run import analyse
-
-    sim, real = _logged_pair("pyflyt", "gyro_bias", 302070, tmp_path)
-    data = analyse(sim, real, "sim", "real").data
-    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    names, p, data = _named("pyflyt", "gyro_bias", 302070, tmp_path)
     assert names == ["gyro_bias"], data["summary"]
-    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
     assert p["bx"] == pytest.approx(-0.0202, abs=0.004) and p["by"] == pytest.approx(
         -0.0281, abs=0.004), p
     assert p["lean"] == pytest.approx(1.0, abs=0.2), p
@@ -181,13 +185,8 @@ def test_its_look_alike_an_accelerometer_bias_is_not_a_leaning_gyro_bias(
     """PyFlyt's accelerometer off by (0.13, -0.11, 0.50) m/s² (set 305, seen): x and y as a
     lean would show, but the gyro agrees with the attitude and z is off too. Named
     accelerometer bias alone."""
-    from etsid.gap.run import analyse
-
-    sim, real = _logged_pair("pyflyt", "accel_bias", 305110, tmp_path)
-    data = analyse(sim, real, "sim", "real").data
-    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    names, p, data = _named("pyflyt", "accel_bias", 305110, tmp_path)
     assert names == ["accel_bias"], data["summary"]
-    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
     assert p["bz"] == pytest.approx(0.497, abs=0.1), p
 
 
