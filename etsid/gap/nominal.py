@@ -381,7 +381,7 @@ class NominalModel:
         for SIM and REAL, and the response statistics compare the two. Yaw leaves out SIM's
         own spin-up terms: fitted on the command's derivative, whose content up there is
         mostly the command's jitter, they carry SIM's noise into the prediction (a no-effect
-        Crazyflie pair's yaw gain reached 0.70 with them, 0.89 without) and dilute a changed
+        Crazyflie pair's yaw gain reached 0.70 with them, 1.00 without) and dilute a changed
         reaction torque; a changed or added spin-up torque shows as a changed response to
         the reaction torque instead."""
         chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
