@@ -136,13 +136,20 @@ def own_predictability(real: Flight, nominal: NominalModel, channels: list[str],
             for c in channels if c in pred_sim and c in pred_own}
 
 
-def _slopes(y: np.ndarray, x: dict[str, np.ndarray], mask: np.ndarray
-            ) -> dict[str, tuple[float, float]]:
-    """Channel → (least-squares slope of ``y[:, axis]`` on ``x[c]`` over ``mask``, both
-    demeaned, and its standard error with one effective sample per sample)."""
+def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str, ...],
+                     mods: Mods | None = None, mask: np.ndarray | None = None
+                     ) -> dict[str, tuple[float, float]]:
+    """Channel → (slope, standard error): the least-squares slope of ``flight``'s measured
+    angular acceleration (the gyro's unfiltered derivative) on the model's broadband
+    prediction (:meth:`~etsid.gap.nominal.NominalModel.predict_broadband` under ``mods``)
+    over ``mask`` (default: the airborne samples), both demeaned; one effective sample per
+    log sample."""
+    pred = nominal.predict_broadband(flight, mods, channels)
+    mask = flight.airborne if mask is None else mask
+    acc = derivative(flight.rates, flight.fs)
     out: dict[str, tuple[float, float]] = {}
-    for c, x_all in x.items():
-        yc, xc = y[mask, RATE_INDEX[c]], x_all[mask]
+    for c, x_all in pred.items():
+        yc, xc = acc[mask, RATE_INDEX[c]], x_all[mask]
         ok = np.isfinite(yc) & np.isfinite(xc)
         yc, xc = yc[ok] - np.mean(yc[ok]), xc[ok] - np.mean(xc[ok])
         sxx = float(xc @ xc)
@@ -153,27 +160,13 @@ def _slopes(y: np.ndarray, x: dict[str, np.ndarray], mask: np.ndarray
     return out
 
 
-def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str, ...],
-                     mask: np.ndarray | None = None) -> dict[str, tuple[float, float]]:
-    """Channel → (slope, standard error): the least-squares slope of ``flight``'s measured
-    angular acceleration (the gyro's unfiltered derivative) on the model's broadband
-    prediction (:meth:`~etsid.gap.nominal.NominalModel.predict_broadband`) over ``mask``
-    (default: the airborne samples), both demeaned; one effective sample per log sample."""
-    mask = flight.airborne if mask is None else mask
-    return _slopes(derivative(flight.rates, flight.fs),
-                   nominal.predict_broadband(flight, None, channels), mask)
-
-
 def response_gains(real: Flight, nominal: NominalModel, channels: tuple[str, ...],
                    mods: Mods | None = None, mask: np.ndarray | None = None
                    ) -> dict[str, tuple[float, float]]:
-    """Channel → (gain, t): REAL's broadband slope (:func:`broadband_slopes`, over ``mask``)
-    over SIM's own (``nominal.reference``), and its distance from 1 in standard errors of
-    the ratio. Under effects ``mods`` the gain is further divided by the slope the effects
-    put on the prediction themselves (the changed prediction's slope on the unchanged one:
-    1/s for an inertia s times SIM's, the correlation of an added spin-up torque with the
-    reaction torque): what is left is the shift they do not explain. Channels whose SIM
-    slope is not :data:`MIN_REFERENCE_T` standard errors above zero are left out.
+    """Channel → (gain, t): REAL's broadband slope (:func:`broadband_slopes`, under effects
+    ``mods``, over ``mask``) over SIM's own (``nominal.reference``), and its distance from 1
+    in standard errors of the ratio. Channels whose SIM slope is not
+    :data:`MIN_REFERENCE_T` standard errors above zero are left out.
 
     A response changed by an inertia, a rate damping or a yaw-torque change moves this
     gain while the RMSE may stay within the floor: where actuator noise dominates the model
@@ -184,28 +177,14 @@ def response_gains(real: Flight, nominal: NominalModel, channels: tuple[str, ...
     bias that differs from flight to flight), while above it the commands lead the response
     and SIM's slope and REAL's carry the same bias, which their ratio cancels. On the
     third-party sets' no-effect Crazyflie pairs the 8 Hz gain of yaw spread over 0.79-1.25,
-    this ratio over 0.89-1.11."""
-    mine = broadband_slopes(real, nominal, channels, mask)
-    if mods is not None:
-        # the slope the effects themselves put on the prediction: REAL under them is
-        # expected to show it, and only what it does not explain is left
-        mask = real.airborne if mask is None else mask
-        base = nominal.predict_broadband(real, None, channels)
-        changed = np.zeros((real.n, len(RATE_CHANNELS)))
-        for c, x in nominal.predict_broadband(real, mods, channels).items():
-            changed[:, RATE_INDEX[c]] = x
-        expected = _slopes(changed, base, mask)
+    this ratio over 0.89-1.08."""
+    mine = broadband_slopes(real, nominal, channels, mods, mask)
     out: dict[str, tuple[float, float]] = {}
     for c, (slope, se) in mine.items():
         ref = nominal.reference.get(c)
         if ref is None or ref[1] <= 0.0 or ref[0] < MIN_REFERENCE_T * ref[1] or slope == 0.0:
             continue
         gain = slope / ref[0]
-        if mods is not None:
-            model_slope = expected.get(c, (1.0, 0.0))[0]
-            if model_slope == 0.0:
-                continue
-            gain /= model_slope
         se_gain = abs(gain) * float(np.hypot(se / slope, ref[1] / ref[0]))
         out[c] = (gain, (gain - 1.0) / se_gain if se_gain > 0 else 0.0)
     return out

@@ -373,43 +373,23 @@ class NominalModel:
     def predict_broadband(self, flight: Flight, mods: Mods | None = None,
                           channels: tuple[str, ...] = RATE_CHANNELS) -> dict[str, np.ndarray]:
         """Unfiltered prediction of the angular accelerations (rad/s²) with the rotors acting
-        on the logged command at once: no nominal lag or delay; under ``mods``, plus what
-        they change in the full prediction (their own lag or delay acting).
+        on the logged command at once: no nominal lag or delay (those of ``mods`` still act).
 
         Above the 8 Hz analysis band a lag or a delay fitted within it is a phase guess (a
         10 ms error is half a period at 50 Hz); the instantaneous command is the same guess
-        for SIM and REAL, and the response statistics compare the two. Yaw leaves out SIM's
-        own spin-up terms: fitted on the command's derivative, whose content up there is
-        mostly the command's jitter, they carry SIM's noise into the prediction (a no-effect
-        Crazyflie pair's yaw gain reached 0.70 with them, 1.00 without) and dilute a changed
-        reaction torque; a changed or added spin-up torque shows as a changed response to
-        the reaction torque instead."""
+        for SIM and REAL, and the response statistics compare the two."""
         chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
-        base = self._unfiltered(flight, Mods(), chans, BROADBAND_TAU, 0.0, own_spin=False)
-        if mods is None:
-            return base
-        # what the effects change, SIM's spin-up terms included (a scaled rotor inertia)
-        changed = self._unfiltered(flight, mods, chans, BROADBAND_TAU, 0.0)
-        nominal = self._unfiltered(flight, Mods(), chans, BROADBAND_TAU, 0.0)
-        return {c: base[c] + changed[c] - nominal[c] for c in base}
+        return self._unfiltered(flight, mods or Mods(), chans, BROADBAND_TAU, 0.0)
 
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
-                    delay: float, own_spin: bool = True) -> dict[str, np.ndarray]:
-        """The model channels of ``chans`` before the analysis low-pass (no offsets);
-        without ``own_spin`` the yaw channel leaves out SIM's fitted spin-up terms (an added
-        spin-up torque of ``mods`` still acts)."""
+                    delay: float) -> dict[str, np.ndarray]:
+        """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
         feats = features(flight, self.k, tau, mods, chans, delay)
         raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
                 continue
-            coef = self.coef[c]
-            if c == "r" and not own_spin:
-                n_spin = feats["spin"].shape[1]
-                n_torque = flight.motors.shape[1] if flight.inputs == "motors" else 3
-                coef = coef.copy()
-                coef[n_torque:n_torque + n_spin] = 0.0
-            y = feats[c] @ coef  # filtering is linear: filter the sum once
+            y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
