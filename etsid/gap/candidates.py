@@ -15,12 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from etsid.gap.nominal import Mods, NominalModel, air_velocity
+from etsid.gap.nominal import GRAVITY, Mods, NominalModel, air_velocity
 from etsid.gap.signals import Flight
 
 GE_MAX_RATIO = 2.0
-GRAVITY = 9.80665
-"""m/s²."""
 MAX_ESTIMATOR_TIME_S = 2.0
 """Longest gravity-correction time constant of an attitude estimate, s (complementary
 filters run at 0.5-2 s); the bound keeps a gyro bias below the gyro's floor from leaning
