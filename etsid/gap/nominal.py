@@ -381,15 +381,30 @@ class NominalModel:
         chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
         return self._unfiltered(flight, mods or Mods(), chans, BROADBAND_TAU, 0.0)
 
+    def broadband_spin(self, flight: Flight, mods: Mods | None = None) -> np.ndarray | None:
+        """The rotors' spin-up reaction within :meth:`predict_broadband`'s yaw channel
+        (rad/s²), or None without one: kept apart when the yaw response is compared, since
+        a simulation without rotor inertia still fits a (noise-driven) spin-up coefficient."""
+        if "r" not in self.channels:
+            return None
+        return self._unfiltered(flight, mods or Mods(), ("r",), BROADBAND_TAU, 0.0,
+                                spin_only=True)["r"]
+
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
-                    delay: float) -> dict[str, np.ndarray]:
-        """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
+                    delay: float, spin_only: bool = False) -> dict[str, np.ndarray]:
+        """The model channels of ``chans`` before the analysis low-pass (no offsets);
+        ``spin_only``: of the yaw channel only its rotor spin-up part."""
         feats = features(flight, self.k, tau, mods, chans, delay)
         raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
                 continue
-            y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
+            if spin_only:
+                n_spin = feats["spin"].shape[1]
+                first = feats[c].shape[1] - 3 - n_spin  # yaw: [torques, spin-ups, pq, r, 1]
+                y = feats[c][:, first:first + n_spin] @ self.coef[c][first:first + n_spin]
+            else:
+                y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
@@ -397,6 +412,9 @@ class NominalModel:
                 y = y + mods.spin_torque * (feats["spin"] @ signs)
             if c in RATE_CHANNELS:
                 y = y / mods.inertia
+            if spin_only:
+                raw[c] = y
+                continue
             elif mods.mass != 1.0:
                 y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:

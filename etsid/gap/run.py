@@ -263,7 +263,7 @@ class Mismatch:
 
 
 RESPONSE_CHANNELS = ("p", "q", "r")
-RESPONSE_SHIFT = {"p": 0.15, "q": 0.15, "r": 0.30}
+RESPONSE_SHIFT = {"p": 0.175, "q": 0.175, "r": 0.17}
 RESPONSE_T = 5.0
 """Response tier: with no channel above its floor, an angular acceleration whose broadband
 gain on SIM's prediction (:func:`etsid.gap.floors.response_gains`) differs from 1 by at least
