@@ -15,6 +15,7 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from etsid.gap.candidates import Candidate, Context, merge
+from etsid.gap.floors import response_gains
 from etsid.gap.nominal import CUTOFF_HZ, Mods
 
 
@@ -95,6 +96,40 @@ class Scorer:
     def objective(self, mods: Mods, mask: np.ndarray, channels: tuple[str, ...]) -> float:
         """Sum of the normalised mean squared residuals of ``channels`` over ``mask``."""
         return float(sum(self.zscores(mods, mask, channels).values()))
+
+    def stderr(self, objective: float, curvature: float, mask: np.ndarray) -> float:
+        """Gauss–Newton standard error of a parameter from the objective at the optimum and
+        its curvature there (effective samples: the low-passed residuals over ``mask``)."""
+        fs = self.ctx.flight.fs
+        n_eff = max(float(np.sum(mask)) * 2.0 * min(CUTOFF_HZ.values()) / fs, 1.0)
+        return float(np.sqrt(2.0 * max(objective, 1e-12) / (n_eff * curvature)))
+
+
+class ResponseScorer(Scorer):
+    """A :class:`Scorer` whose objective is the broadband response mismatch
+    ``χ² = Σ_c t_c²`` over the angular-acceleration ``channels``, ``t_c`` the distance of
+    REAL's gain from 1 in standard errors (:func:`etsid.gap.floors.response_gains`): the
+    response tier fits its candidates in the band it detects in. Held-out z scores stay
+    those of the analysis band."""
+
+    def __init__(self, base: Scorer, channels: tuple[str, ...]) -> None:
+        super().__init__(base.ctx, base.measured, base.sigma)
+        self.response_channels = channels
+
+    def mismatch(self, mods: Mods | None, mask: np.ndarray) -> float:
+        """χ² of the response gains under ``mods`` over ``mask``."""
+        gains = response_gains(self.ctx.flight, self.ctx.nominal, self.response_channels,
+                               mods, mask)
+        return float(sum(t * t for _, t in gains.values()))
+
+    def objective(self, mods: Mods, mask: np.ndarray, channels: tuple[str, ...]) -> float:
+        """:meth:`mismatch` (``channels`` is ignored: every response channel counts, so an
+        effect that removes one shift by making another is fitted against)."""
+        return self.mismatch(mods, mask)
+
+    def stderr(self, objective: float, curvature: float, mask: np.ndarray) -> float:
+        """From the χ² curvature: Δχ² = 1 at one standard error."""
+        return float(np.sqrt(2.0 / curvature))
 
 
 def _mods(cands: tuple[Candidate, ...], theta: np.ndarray, ctx: Context) -> Mods:
@@ -235,8 +270,6 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
 
 def _stderr(f, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray, scorer: Scorer,
             mask: np.ndarray) -> np.ndarray:
-    fs = scorer.ctx.flight.fs
-    n_eff = max(float(np.sum(mask)) * 2.0 * min(CUTOFF_HZ.values()) / fs, 1.0)
     j0 = f(theta)
     out = np.empty(theta.size)
     for i in range(theta.size):
@@ -246,5 +279,5 @@ def _stderr(f, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray, scorer: Scorer
         tm[i] = max(theta[i] - h, lo[i])
         d = (tp[i] - tm[i]) / 2.0
         curv = (f(tp) - 2 * j0 + f(tm)) / max(d * d, 1e-18)
-        out[i] = np.sqrt(2.0 * max(j0, 1e-12) / (n_eff * curv)) if curv > 0 else np.inf
+        out[i] = scorer.stderr(j0, curv, mask) if curv > 0 else np.inf
     return out

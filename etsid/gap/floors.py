@@ -144,10 +144,11 @@ def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str,
     prediction (:meth:`~etsid.gap.nominal.NominalModel.predict_broadband` under ``mods``)
     over ``mask`` (default: the airborne samples), both demeaned.
 
-    Yaw's rotor spin-up part (:meth:`~etsid.gap.nominal.NominalModel.broadband_spin`) is a
-    second regressor with a slope of its own: its coefficient is fitted on SIM's motor
-    noise wherever SIM has no rotor inertia, and how much of it a flight carries depends on
-    how its motors jitter, not on its response to the commands.
+    SIM's own rotor spin-up part of yaw
+    (:meth:`~etsid.gap.nominal.NominalModel.broadband_spin`) is a second regressor with a
+    slope of its own: its coefficient is fitted on SIM's motor noise wherever SIM has no
+    rotor inertia, and how much of it a flight carries depends on how its motors jitter,
+    not on its response to the commands. (An effect's spin-up torque stays in the first.)
 
     The standard error is the larger of the regression's (one effective sample per log
     sample) and the spread of the slope over :data:`BLOCKS` contiguous blocks of ``mask``
@@ -155,7 +156,7 @@ def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str,
     answers depends on what it flew (on etsid's own simulator SIM's blocks spread by
     0.1-0.3 in roll and pitch and more in yaw, against 0.02-0.05 on the third-party ones)."""
     pred = nominal.predict_broadband(flight, mods, channels)
-    spin = nominal.broadband_spin(flight, mods) if "r" in pred else None
+    spin = nominal.broadband_spin(flight) if "r" in pred else None
     mask = flight.airborne if mask is None else mask
     acc = derivative(flight.rates, flight.fs)
     out: dict[str, tuple[float, float]] = {}

@@ -381,13 +381,14 @@ class NominalModel:
         chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
         return self._unfiltered(flight, mods or Mods(), chans, BROADBAND_TAU, 0.0)
 
-    def broadband_spin(self, flight: Flight, mods: Mods | None = None) -> np.ndarray | None:
-        """The rotors' spin-up reaction within :meth:`predict_broadband`'s yaw channel
-        (rad/s²), or None without one: kept apart when the yaw response is compared, since
-        a simulation without rotor inertia still fits a (noise-driven) spin-up coefficient."""
+    def broadband_spin(self, flight: Flight) -> np.ndarray | None:
+        """SIM's own rotor spin-up reaction within :meth:`predict_broadband`'s yaw channel
+        (rad/s², no effect applied), or None without one: kept apart when the yaw response
+        is compared, since a simulation without rotor inertia still fits a (noise-driven)
+        spin-up coefficient. An effect's own spin-up torque stays in the response."""
         if "r" not in self.channels:
             return None
-        return self._unfiltered(flight, mods or Mods(), ("r",), BROADBAND_TAU, 0.0,
+        return self._unfiltered(flight, Mods(), ("r",), BROADBAND_TAU, 0.0,
                                 spin_only=True)["r"]
 
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
@@ -412,11 +413,11 @@ class NominalModel:
                 y = y + mods.spin_torque * (feats["spin"] @ signs)
             if c in RATE_CHANNELS:
                 y = y / mods.inertia
+            elif mods.mass != 1.0:
+                y = y / mods.mass
             if spin_only:
                 raw[c] = y
                 continue
-            elif mods.mass != 1.0:
-                y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
             if mods.damping and c in ("p", "q"):

@@ -31,6 +31,12 @@ def _confidence(name: str, sel: Any) -> float:
     parts = chosen.fit.name.split("+")
     if len(parts) == 2 and name == parts[1] and sel.companion_share is not None:
         return float(np.clip(min(sel.companion_share, _confidence(parts[0], sel)), 0.0, 1.0))
+    if sel.response:  # the response tier: by the share of the response mismatch removed
+        own = sel.response.get(name, 0.0)
+        best_alt = max((v for k, v in sel.response.items() if k != name), default=0.0)
+        if own <= 0:
+            return 0.0
+        return float(np.clip((own - max(best_alt, 0.0)) / own + 0.5 * min(own, 1.0), 0.0, 1.0))
     alts = [s for s in sel.ranked if name not in s.fit.name.split("+")]
     best_alt = max((s.score for s in alts), default=0.0)
     own = next((s.score for s in sel.ranked if s.fit.name == name), chosen.score)
