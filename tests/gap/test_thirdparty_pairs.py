@@ -256,3 +256,25 @@ def test_its_look_alike_a_noisy_no_effect_crazyflie_is_no_response_shift(
     assert set(gains) == {"p", "q", "r"}
     assert all(abs(g - 1.0) < run.RESPONSE_SHIFT[c] or abs(t) < run.RESPONSE_T
                for c, (g, t) in gains.items()), gains
+
+
+def test_a_crazyflie_yaw_torque_change_is_fitted_to_the_response(tmp_path: Path) -> None:
+    """PyFlyt's Crazyflie with ×0.575 yaw torque (set 306, seen): within the floors, the yaw
+    gain is shifted. Fitted in the 8 Hz band, where the motors' noise dominates, its scale
+    came out ×0.736 (28 % off); fitted to the broadband response it is within 15 % (×0.64:
+    the yaw response also holds terms a torque scale leaves alone, such as drag damping)."""
+    names, params, data = _named("pyflyt", "yaw_torque_scale", 306150, tmp_path)
+    assert names == ["yaw_torque_scale"], data["summary"]
+    assert params["scale"] == pytest.approx(0.575, rel=0.15), params
+    assert "Mismatch in response" in data["summary"]
+
+
+def test_its_look_alike_a_crazyflie_rotor_inertia_is_said_undecided(tmp_path: Path) -> None:
+    """A rotor inertia added to the Crazyflie (set 302, seen) moves the same yaw gain, since
+    its spin-up torque follows the reaction torques: the response tier cannot tell it from
+    a yaw torque scale, and the verdict names one with the other as its look-alike rather
+    than a confident single law."""
+    names, _, data = _named("pyflyt", "rotor_inertia", 302160, tmp_path)
+    assert len(names) == 1 and names[0] in ("rotor_inertia", "yaw_torque_scale"), names
+    other = "yaw torque" if names[0] == "rotor_inertia" else "rotor inertia"
+    assert other in data["summary"].replace("_", " "), data["summary"]
