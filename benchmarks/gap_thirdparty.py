@@ -387,12 +387,13 @@ def detectability(out: Path, jobs: int) -> None:
             print(line, flush=True)
 
 
-def timing(out: Path) -> None:
-    """CPU seconds of ``etsid gap`` per pair on one core (every fourth pair, in this
-    process), with the two flights' durations."""
+def timing(out: Path, only: list[str] | None = None) -> None:
+    """CPU seconds of ``etsid gap`` per pair on one core (every fourth pair, or every pair
+    whose label is in ``only``, in this process), with the two flights' durations."""
     from etsid.gap.run import run_gap
 
-    entries = json.loads((out / "labels.json").read_text())["pairs"][::4]
+    entries = json.loads((out / "labels.json").read_text())["pairs"]
+    entries = [e for e in entries if e["label"] in only] if only else entries[::4]
     spent = []
     for e in entries:
         t0 = time.process_time()
@@ -438,7 +439,7 @@ def main() -> None:
     elif args.inspect:
         inspect(args.inspect, args.jobs)
     elif args.timing:
-        timing(args.timing)
+        timing(args.timing, args.only.split(",") if args.only else None)
     elif args.detectability:
         detectability(args.detectability, args.jobs)
     else:

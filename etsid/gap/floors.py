@@ -158,7 +158,7 @@ def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str,
     pred = nominal.predict_broadband(flight, mods, channels)
     spin = nominal.broadband_spin(flight) if "r" in pred else None
     mask = flight.airborne if mask is None else mask
-    acc = derivative(flight.rates, flight.fs)
+    acc = _angular_acceleration(flight)
     out: dict[str, tuple[float, float]] = {}
     for c, x_all in pred.items():
         cols = [x_all] if c != "r" or spin is None else [x_all - spin, spin]
@@ -174,6 +174,17 @@ def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str,
             else 0.0
         out[c] = (whole[0], max(whole[1], spread))
     return out
+
+
+def _angular_acceleration(flight: Flight) -> np.ndarray:
+    """The gyro's unfiltered derivative (n, 3), rad/s², kept on the flight (a fit reads it
+    hundreds of times)."""
+    hit = flight.__dict__.get("_angular_acceleration")
+    if hit is not None and hit[0] is flight.rates:
+        return hit[1]
+    acc = derivative(flight.rates, flight.fs)
+    flight.__dict__["_angular_acceleration"] = (flight.rates, acc)
+    return acc
 
 
 BLOCKS = 4

@@ -388,8 +388,15 @@ class NominalModel:
         spin-up coefficient. An effect's own spin-up torque stays in the response."""
         if "r" not in self.channels:
             return None
-        return self._unfiltered(flight, Mods(), ("r",), BROADBAND_TAU, 0.0,
+        # the same for every effect a fit tries: kept on the flight for this model
+        cache = flight.__dict__.setdefault("_broadband_spin", {})
+        hit = cache.get(id(self))
+        if hit is not None and hit[0] is self and hit[1] is flight.motors:
+            return hit[2]
+        spin = self._unfiltered(flight, Mods(), ("r",), BROADBAND_TAU, 0.0,
                                 spin_only=True)["r"]
+        cache[id(self)] = (self, flight.motors, spin)
+        return spin
 
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
                     delay: float, spin_only: bool = False) -> dict[str, np.ndarray]:
