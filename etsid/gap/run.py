@@ -41,6 +41,7 @@ from etsid.gap.result import SCHEMA_NAME, write_gap_json
 from etsid.gap.select import (
     ENVELOPE_SHARE,
     MIN_SHARE,
+    RESPONSE_CHANNELS,
     Scored,
     Selection,
     fit_unexplained,
@@ -262,7 +263,6 @@ class Mismatch:
     """Response tier: channel → (gain of REAL on SIM's prediction, t) of the shifted ones."""
 
 
-RESPONSE_CHANNELS = ("p", "q", "r")
 RESPONSE_SHIFT = {"p": 0.175, "q": 0.175, "r": 0.17}
 RESPONSE_T = 5.0
 """Response tier: with no channel above its floor, an angular acceleration whose broadband

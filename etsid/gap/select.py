@@ -381,6 +381,7 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
 
 
 RESPONSE_CHANNELS = ("p", "q", "r")
+"""The angular accelerations whose broadband gains the response tier compares."""
 MIN_RESPONSE_SHARE = 0.5
 """Response tier: least share of the held-out response mismatch (χ² of the broadband
 gains of roll, pitch and yaw, :class:`~etsid.gap.fitting.ResponseScorer`) an effect must
@@ -438,17 +439,18 @@ def select_response(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
             continue
         fit = fit_candidates((cand,), resp, fit_mask)
         s = score_fit(fit, scorer, hold, z0, e0, focus)
-        ranked.append((1.0 - resp.mismatch(fit.mods, hold) / max(chi0, 1e-12), s))
-    ranked.sort(key=lambda rs: rs[0], reverse=True)
-    sel = Selection(z0, e0, [s for _, s in ranked], None)
+        ranked.append((1.0 - resp.mismatch(fit.mods, hold) / max(chi0, 1e-12),
+                       band_rise(s, z0, focus), s))
+    ranked.sort(key=lambda r: r[0], reverse=True)
+    sel = Selection(z0, e0, [s for _, _, s in ranked], None)
     sel.response = {}
-    for share, s in ranked:
-        if band_rise(s, z0, focus) <= RESPONSE_BAND_LOSS:
+    for share, rise, s in ranked:
+        if rise <= RESPONSE_BAND_LOSS:
             sel.response.setdefault(s.fit.name, share)
         sel.notes.append(f"response tier {s.fit.name}: removes {share:.2f} of the held-out "
-                         f"response mismatch, analysis band {band_rise(s, z0, focus):+.3f}")
-    fit_well = [(share, s) for share, s in ranked if share >= MIN_RESPONSE_SHARE
-                and band_rise(s, z0, focus) <= RESPONSE_BAND_LOSS]
+                         f"response mismatch, analysis band {rise:+.3f}")
+    fit_well = [(share, s) for share, rise, s in ranked
+                if share >= MIN_RESPONSE_SHARE and rise <= RESPONSE_BAND_LOSS]
     sel.refused = [s for _, s in fit_well if not s.admissible]
     usable = [(share, s) for share, s in fit_well if s.admissible]
     if usable:

@@ -23,10 +23,12 @@ LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
 def _confidence(name: str, sel: Any) -> float:
     """How far the effect's held-out score stands above its best alternative (plus half its
-    own share). The second effect of a pair is judged on top of the first: the share of
-    what the first left mismatched that it removes (``sel.companion_share``), and no more
-    than the first's own confidence, on which its fit rests (a different airframe's
-    thrust-to-weight read as a payload at 0.46 must not carry a rotor inertia at 0.97)."""
+    own share; in the response tier the score is its share of the response mismatch,
+    :attr:`~etsid.gap.select.Selection.response`). The second effect of a pair is judged
+    on top of the first: the share of what the first left mismatched that it removes
+    (``sel.companion_share``), and no more than the first's own confidence, on which its
+    fit rests (a different airframe's thrust-to-weight read as a payload at 0.46 must not
+    carry a rotor inertia at 0.97)."""
     chosen = sel.chosen
     parts = chosen.fit.name.split("+")
     if len(parts) == 2 and name == parts[1] and sel.companion_share is not None:
@@ -34,12 +36,10 @@ def _confidence(name: str, sel: Any) -> float:
     if sel.response:  # the response tier: by the share of the response mismatch removed
         own = sel.response.get(name, 0.0)
         best_alt = max((v for k, v in sel.response.items() if k != name), default=0.0)
-        if own <= 0:
-            return 0.0
-        return float(np.clip((own - max(best_alt, 0.0)) / own + 0.5 * min(own, 1.0), 0.0, 1.0))
-    alts = [s for s in sel.ranked if name not in s.fit.name.split("+")]
-    best_alt = max((s.score for s in alts), default=0.0)
-    own = next((s.score for s in sel.ranked if s.fit.name == name), chosen.score)
+    else:
+        alts = [s for s in sel.ranked if name not in s.fit.name.split("+")]
+        best_alt = max((s.score for s in alts), default=0.0)
+        own = next((s.score for s in sel.ranked if s.fit.name == name), chosen.score)
     if own <= 0:
         return 0.0
     return float(np.clip((own - max(best_alt, 0.0)) / own + 0.5 * min(own, 1.0), 0.0, 1.0))
