@@ -439,8 +439,8 @@ def select_response(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
             continue
         fit = fit_candidates((cand,), resp, fit_mask)
         s = score_fit(fit, scorer, hold, z0, e0, focus)
-        ranked.append((1.0 - resp.mismatch(fit.mods, hold) / max(chi0, 1e-12),
-                       band_rise(s, z0, focus), s))
+        share = 1.0 - resp.mismatch(fit.mods, hold) / chi0 if chi0 > 0 else 0.0
+        ranked.append((share, band_rise(s, z0, focus), s))
     ranked.sort(key=lambda r: r[0], reverse=True)
     sel = Selection(z0, e0, [s for _, _, s in ranked], None)
     sel.response = {}
