@@ -393,26 +393,22 @@ class NominalModel:
         hit = cache.get(id(self))
         if hit is not None and hit[0] is self and hit[1] is flight.motors:
             return hit[2]
-        spin = self._unfiltered(flight, Mods(), ("r",), BROADBAND_TAU, 0.0,
-                                spin_only=True)["r"]
+        feats = features(flight, self.k, BROADBAND_TAU, Mods(), ("r",))
+        n_spin = feats["spin"].shape[1]
+        first = feats["r"].shape[1] - 3 - n_spin  # yaw: [torques, spin-ups, pq, r, 1]
+        spin = feats["r"][:, first:first + n_spin] @ self.coef["r"][first:first + n_spin]
         cache[id(self)] = (self, flight.motors, spin)
         return spin
 
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
-                    delay: float, spin_only: bool = False) -> dict[str, np.ndarray]:
-        """The model channels of ``chans`` before the analysis low-pass (no offsets);
-        ``spin_only``: of the yaw channel only its rotor spin-up part."""
+                    delay: float) -> dict[str, np.ndarray]:
+        """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
         feats = features(flight, self.k, tau, mods, chans, delay)
         raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
                 continue
-            if spin_only:
-                n_spin = feats["spin"].shape[1]
-                first = feats[c].shape[1] - 3 - n_spin  # yaw: [torques, spin-ups, pq, r, 1]
-                y = feats[c][:, first:first + n_spin] @ self.coef[c][first:first + n_spin]
-            else:
-                y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
+            y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
@@ -422,9 +418,6 @@ class NominalModel:
                 y = y / mods.inertia
             elif mods.mass != 1.0:
                 y = y / mods.mass
-            if spin_only:
-                raw[c] = y
-                continue
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
             if mods.damping and c in ("p", "q"):
