@@ -29,6 +29,8 @@ Run::
                                                                    # law show in the logs
     python benchmarks/gap_thirdparty.py --generate DIR --seeds 950 --sims pyflyt --excite
                                           # PyFlyt flights with 3-2-1-1 inputs at the mixer
+    python benchmarks/gap_thirdparty.py --generate DIR --seeds 321 --sims pyflyt \
+        --motor-noise 0                   # ablation: PyFlyt without its motor noise
 
 ``--score`` prints, per simulator and overall: named correctly X/N, false positives on the
 no-effect pairs, the confusion matrix, a per-effect table and, for the out-of-vocabulary
@@ -162,6 +164,8 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
     mod = simulator(job["sim"])
     if hasattr(mod, "excite_flights"):
         mod.excite_flights = bool(job.get("excite"))
+    if hasattr(mod, "motor_noise_scale"):
+        mod.motor_noise_scale = float(job.get("motor_noise", 1.0))
     sim, real, truth = make_pair(job["sim"], job["label"], job["seed"], job.get("duration"))
     folder = Path(out) / job["id"]
     folder.mkdir(parents=True, exist_ok=True)
@@ -182,10 +186,12 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
 
 
 def generate(out: Path, sims: list[str], seeds: list[int], only: list[str] | None,
-             jobs: int, duration: float | None = None, excite: bool = False) -> None:
+             jobs: int, duration: float | None = None, excite: bool = False,
+             motor_noise: float = 1.0) -> None:
     out.mkdir(parents=True, exist_ok=True)
     todo = [dict(j, duration=duration) if duration else j for j in pair_jobs(sims, seeds, only)]
     todo = [dict(j, excite=True) if excite else j for j in todo]
+    todo = [dict(j, motor_noise=motor_noise) if motor_noise != 1.0 else j for j in todo]
     entries = []
     t0 = time.time()
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
@@ -427,6 +433,8 @@ def main() -> None:
                     help="fly every flight this long, s (e.g. 90 for the speed target)")
     ap.add_argument("--excite", action="store_true",
                     help="PyFlyt: fly 3-2-1-1 inputs at the mixer (identification flights)")
+    ap.add_argument("--motor-noise", type=float, default=1.0, metavar="X",
+                    help="PyFlyt: its motor noise times X (ablation; scored sets fly 1)")
     args = ap.parse_args()
     sims = [s for s in args.sims.split(",") if s]
     for s in sims:
@@ -435,7 +443,8 @@ def main() -> None:
     if args.generate:
         seeds = [int(s) for s in args.seeds.split(",")]
         only = args.only.split(",") if args.only else None
-        generate(args.generate, sims, seeds, only, args.jobs, args.duration, args.excite)
+        generate(args.generate, sims, seeds, only, args.jobs, args.duration, args.excite,
+                 args.motor_noise)
     elif args.inspect:
         inspect(args.inspect, args.jobs)
     elif args.timing:

@@ -268,6 +268,10 @@ EXCITATION_PULSE = (0.04, 0.09)
 excite_flights = False
 """Fly the 3-2-1-1 inputs (``gap_thirdparty.py --excite``; dev set 950). The scored sets
 300-309 fly without them."""
+motor_noise_scale = 1.0
+"""Factor on PyFlyt's motor noise (its ``noise_ratio``, 0.02 of the throttle per physics
+step, added inside the motor's lag state): ``gap_thirdparty.py --motor-noise`` flies the
+ablation that shows what that noise hides; every scored set flies PyFlyt's own (1)."""
 
 
 def excitation(t: np.ndarray, manoeuvre: tuple[float, float], seed: int) -> np.ndarray:
@@ -320,6 +324,7 @@ def _fly(env: Any, kind: str, duration: float, rng: np.random.Generator,
     env.changeDynamics(drone.Id, -1, mass=mass, localInertiaDiagonal=inertia.tolist())
     motors = drone.motors
     motors.tau = motors.tau * vehicle["tau"] * fx.get("tau_scale", 1.0)
+    motors.noise_ratio = motors.noise_ratio * motor_noise_scale
     motors.thrust_coef = motors.thrust_coef * fx.get("thrust_scale", 1.0)
     motors.torque_coef = motors.torque_coef * fx.get("yaw_scale", 1.0)
     if "weak_motor" in fx:
