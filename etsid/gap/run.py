@@ -26,6 +26,7 @@ from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.fitting import Scorer
 from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
+from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
 from etsid.gap.nominal import (
     ENVELOPE_FACTOR,
     GYRO_CHANNELS,
@@ -99,6 +100,8 @@ class Floors:
     nominal: NominalModel
     sigma: dict[str, float]
     source: dict[str, str]
+    loop: BandResponse | None = None
+    """SIM's band-by-band response (:mod:`etsid.gap.loop`)."""
 
 
 def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
@@ -225,7 +228,7 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     sigma, source = channel_floors(own, real)
     nominal = fit_nominal(sim, k=k)
     nominal.reference = broadband_slopes(sim, nominal, RESPONSE_CHANNELS)
-    return Floors(nominal, sigma, source)
+    return Floors(nominal, sigma, source, band_response(sim, nominal, ys))
 
 
 def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
@@ -468,6 +471,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say(f"gap: fitting the nominal model on {sim_name}; noise floors from both logs")
     floors = nominal_and_floors(sim, real, info.get("k"))
     nominal, sigma = floors.nominal, floors.sigma
+    info["loop"] = floors.loop
     yr = measured(real)
     shared = tuple(c for c in nominal.channels if c in yr)
     nominal.channels = shared
@@ -509,7 +513,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared},
             "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
-                        "channels": list(shared), "z_all": mis.z_all, "z_held_out": mis.z_hold},
+                        "channels": list(shared), "z_all": mis.z_all, "z_held_out": mis.z_hold,
+                        "loop": floors.loop.as_dict() if floors.loop else None},
             "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}
     tier = response_tier(scorer, real, r_fit, r_hold) if not mis.channels else None
     if tier is not None:
@@ -643,6 +648,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     suspect_gyro(effects, left)
     extrapolated_wind(effects, scorer, hold, sim.name, real.name)
     undecided_look_alike(effects, sel)
+    loop = info.get("loop")
+    caveat_loop_laws(effects, loop, sim.name)
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)
@@ -685,6 +692,9 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
             "beyond_range": _beyond_range(sel),
             "rmse_after": _rmse(res1, hold) if sel is not None else base["rmse_before"],
             "notes": notes}
+    hidden = could_hide(loop, sim.name, named)
+    if hidden:
+        data["could_hide"] = hidden
     if sel is not None:
         data["candidates"] = _ranking(sel)
     if verdict == "consistent":

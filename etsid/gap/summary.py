@@ -144,11 +144,21 @@ def _size(data: dict[str, Any], channel: str) -> float:
     return float(np.sqrt(z))
 
 
+def _either(words: list[str]) -> str:
+    """"a, b or c"."""
+    return ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else "".join(words)
+
+
 def summary_sentence(data: dict[str, Any]) -> str:
     """The short summary printed on stdout: the verdict, where, what (in each effect's own
     terms, with its confidence), what is left, and the held-out proof."""
+    hide = data.get("could_hide")
+    laws = _either([n.replace("_", " ") for n in hide["laws"]]) if hide else ""
     if data["verdict"] != "mismatch":
-        return f"{data['verdict'].capitalize()}: {data['reason']}."
+        return f"{data['verdict'].capitalize()}: {data['reason']}." + (
+            f" Could hide here: a change of {laws}, since {hide['why']}, and such a change "
+            "alters how the loop answers that noise rather than showing its own law."
+            if hide else "")
     sim, real = data["sim"]["file"], data["real"]["file"]
     mis = data["mismatch"]
     regime = mis["regime"]
@@ -167,7 +177,9 @@ def summary_sentence(data: dict[str, Any]) -> str:
             f"{_words(e, sim, real)}, confidence {e['confidence']:.2f}"
             + (f" ({e['caveat']})" if e.get("caveat") else "") for e in names) + ".")
     else:
-        parts.append("No named effect explains it on held-out data.")
+        parts.append("No named effect explains it on held-out data." + (
+            f" A change of {laws} may be the cause, not told apart here: {hide['why']}."
+            if hide else ""))
     for text in data.get("beyond_range", []):
         parts.append(f"Not a finding: {text} — the difference exceeds the vocabulary's range "
                      "(another airframe, or a larger effect than modelled).")

@@ -1,0 +1,122 @@
+"""SIM's band-by-band response (etsid.gap.loop): a rate loop that answers its own motor
+noise is told from one that follows its references, and the laws such a loop hides are
+said with that caveat.
+
+The loop here is a discrete one-axis rate loop: a P controller on the rate, a first-order
+motor lag, and the motor's noise added inside the lag state (as PyFlyt's motors add theirs).
+The model's prediction is the true command law, the lag of the command alone, so any
+departure of the measured response from it is the loop's answer to the noise.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy.signal import butter, lfilter
+
+from etsid.gap.loop import (
+    LOOP_CONFIDENCE,
+    LOOP_TILT,
+    BandResponse,
+    band_response,
+    caveat_loop_laws,
+    could_hide,
+)
+
+FS_SIM, FS_LOG = 400, 100
+
+
+def _fly(noise: float, kp: float, seed: int = 3, duration: float = 60.0,
+         reference: float = 0.05, tau: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """(predicted, measured) angular acceleration, rad/s², logged at 100 Hz: the loop
+    tracks a 1 Hz random rate reference of ``reference`` rad/s while ``noise`` (throttle
+    units per step) enters the motor."""
+    rng = np.random.default_rng(seed)
+    n, dt = int(duration * FS_SIM), 1.0 / FS_SIM
+    b, a = butter(2, 1.0 / (FS_SIM / 2))
+    ref = lfilter(b, a, rng.standard_normal(n))
+    ref *= reference / ref.std()
+    kicks = rng.standard_normal(n) * noise
+    rate = motor = commanded = 0.0
+    pred, meas = np.zeros(n), np.zeros(n)
+    for i in range(n):
+        u = kp * (ref[i] - rate)
+        motor += dt / tau * (u - motor) + kicks[i]
+        commanded += dt / tau * (u - commanded)
+        pred[i], meas[i] = commanded, motor
+        rate += motor * dt
+    step = FS_SIM // FS_LOG
+    return pred[::step], meas[::step]
+
+
+def _response(noise: float, kp: float) -> BandResponse:
+    pred, meas = _fly(noise, kp)
+    flight = SimpleNamespace(fs=float(FS_LOG), airborne=np.ones(pred.size, bool))
+    model = SimpleNamespace(channels=("p",), predict=lambda *_: {"p": pred})
+    return band_response(flight, model, {"p": meas})
+
+
+def test_a_loop_following_its_references_reads_unity() -> None:
+    """Without motor noise the measured response is the command law's: gain 1 in both
+    bands, not noise-driven."""
+    resp = _response(0.0, 30.0)
+    assert resp.gains["p"] == pytest.approx((1.0, 1.0), abs=0.01)
+    assert not resp.noise_driven
+
+
+def test_a_loop_answering_its_motor_noise_is_noise_driven() -> None:
+    """With noise of 0.3 per step against a 0.05 rad/s reference the commands are mostly the
+    loop's answer to the noise: the true law reads low at 1-4 Hz and high at 4-8 Hz (as
+    PyFlyt's Crazyflie, 0.7× and 1.5×), a tilt beyond LOOP_TILT."""
+    resp = _response(0.3, 30.0)
+    low, high = resp.gains["p"]
+    assert low < 0.8 and high > 1.2, resp.gains
+    assert resp.tilt >= LOOP_TILT and resp.noise_driven
+
+
+def test_its_look_alike_weak_noise_is_not_noise_driven() -> None:
+    """A tenth of that noise leaves the reading within LOOP_TILT of unity."""
+    resp = _response(0.03, 30.0)
+    assert resp.gains and resp.tilt < LOOP_TILT and not resp.noise_driven
+
+
+def test_a_band_the_commands_do_not_explain_gives_no_reading() -> None:
+    """A measurement the prediction does not explain (independent noise, coherence near 0)
+    and a stretch shorter than three Welch segments give no band gain: nothing is claimed."""
+    pred, _ = _fly(0.0, 30.0)
+    flight = SimpleNamespace(fs=float(FS_LOG), airborne=np.ones(pred.size, bool))
+    model = SimpleNamespace(channels=("p",), predict=lambda *_: {"p": pred})
+    noise = np.random.default_rng(5).standard_normal(pred.size)
+    resp = band_response(flight, model, {"p": noise})
+    assert resp.gains == {} and np.isnan(resp.tilt) and not resp.noise_driven
+    short = SimpleNamespace(fs=float(FS_LOG), airborne=np.arange(pred.size) < 600)
+    assert band_response(short, model, {"p": pred}).gains == {}
+
+
+def _noisy() -> BandResponse:
+    return BandResponse({"q": (0.72, 1.55)}, 1.55 / 0.72, "q")
+
+
+def test_a_loop_law_named_over_a_noise_driven_loop_is_caveated() -> None:
+    """An inertia scale named at 1.0 over such a loop (PyFlyt set 321: a 17 ms delay) keeps
+    its name but is said with the loop's reading, at most LOOP_CONFIDENCE; a thrust scale,
+    read from the hover command, is left alone."""
+    effects = [{"name": "inertia_scale", "confidence": 1.0},
+               {"name": "thrust_scale", "confidence": 0.95}]
+    caveat_loop_laws(effects, _noisy(), "sim.mcap")
+    assert effects[0]["confidence"] == LOOP_CONFIDENCE
+    assert "0.72×" in effects[0]["caveat"] and "time delay" in effects[0]["caveat"]
+    assert effects[1] == {"name": "thrust_scale", "confidence": 0.95}
+    quiet = [{"name": "inertia_scale", "confidence": 1.0}]
+    caveat_loop_laws(quiet, BandResponse({"q": (1.0, 1.02)}, 1.02, "q"), "sim.mcap")
+    assert quiet == [{"name": "inertia_scale", "confidence": 1.0}]
+
+
+def test_what_could_hide_is_said_unless_one_of_those_laws_is_named() -> None:
+    hidden = could_hide(_noisy(), "sim.mcap", [])
+    assert hidden is not None and "motor_lag" in hidden["laws"]
+    assert "1.55×" in hidden["why"]
+    assert could_hide(_noisy(), "sim.mcap", ["motor_lag"]) is None
+    assert could_hide(BandResponse({}, float("nan"), None), "sim.mcap", []) is None
