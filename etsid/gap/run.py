@@ -692,7 +692,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
             "beyond_range": _beyond_range(sel),
             "rmse_after": _rmse(res1, hold) if sel is not None else base["rmse_before"],
             "notes": notes}
-    hidden = could_hide(loop, sim.name, named)
+    hidden = could_hide(loop, sim.name, named) if (
+        verdict == "consistent" or set(mis.channels) & set(RATE_CHANNELS)) else None
     if hidden:
         data["could_hide"] = hidden
     if sel is not None:
