@@ -27,6 +27,7 @@ from etsid.gap.fitting import Scorer
 from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
+from etsid.gap.loop_fit import choose_loop_law
 from etsid.gap.nominal import (
     ENVELOPE_FACTOR,
     GYRO_CHANNELS,
@@ -529,6 +530,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say(f"gap: {', '.join(mis.channels)} mismatched; fitting {len(LIBRARY)} candidate "
         f"effects on the first part of {real_name}, scoring on the rest")
     sel = explain(scorer, real, mis, r_fit, r_hold)
+    if floors.loop is not None and floors.loop.noise_driven and not mis.gains:
+        say(f"gap: {sim_name}'s loop answers noise; fitting its loop laws as prediction errors")
+        sel = choose_loop_law(sel, sim, nominal, scorer, tuple(mis.channels), r_fit, r_hold)
     say("gap: leftovers, locating the regime, writing the verdict")
     left, res1, unexplained = leftovers(scorer, real, sel, mis, r_fit, r_hold,
                                         info.get("radius"))
@@ -645,6 +649,10 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                 ground_law = ground_excess(theta, exponential)
                 if radius is None and not exponential:
                     radius = float(theta[0])
+    if sel is not None and sel.loop is not None:
+        for e in effects:
+            if e["name"] == sel.loop.law.name:
+                e["evidence"] = sel.loop.evidence(sim.name, real.name)
     suspect_gyro(effects, left)
     extrapolated_wind(effects, scorer, hold, sim.name, real.name)
     undecided_look_alike(effects, sel)
@@ -698,6 +706,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
         data["could_hide"] = hidden
     if sel is not None:
         data["candidates"] = _ranking(sel)
+        if sel.loop is not None:
+            data["loop_fit"] = sel.loop.as_dict()
     if verdict == "consistent":
         data.update(mismatch=None, rmse_after=base["rmse_before"], reason=(
             f"every channel of {real.name} is within {np.sqrt(Z_MISMATCH):.0f}× its floor "

@@ -13,6 +13,7 @@ a channel afterwards is offered to an eTS residual model (``unexplained``).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -128,6 +129,9 @@ class Selection:
     """Response tier: effect name → the best share of the held-out response mismatch a law
     of that name removes, of those within :data:`RESPONSE_BAND_LOSS` (what the confidence
     is read from)."""
+    loop: Any = None
+    """The loop law named from the prediction-error fit
+    (:class:`etsid.gap.loop_fit.LoopChoice`), or None."""
 
 
 def excess(z: dict[str, float]) -> float:

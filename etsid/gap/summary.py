@@ -192,7 +192,12 @@ def summary_sentence(data: dict[str, Any]) -> str:
         parts.append(f"{lead}: {'; '.join(bits)}.")
     main = mis["channels"][0]
     b, a = data["rmse_before"].get(main), data["rmse_after"].get(main)
-    if names and b and a is not None:
+    loop = data.get("loop_fit")
+    if names and loop:
+        parts.append(f"Held-out prediction errors under {sim}'s noise model "
+                     f"{loop['innovation_ratio_before']:.2f} → "
+                     f"{loop['innovation_ratio_after']:.2f} of {sim}'s own.")
+    elif names and b and a is not None:
         parts.append(f"Held-out RMSE of {LABELS[main]} {b:.3g} → {a:.3g} {UNITS[main]} "
                      f"({100 * (a - b) / b:+.0f} %).")
     return " ".join(parts)

@@ -281,3 +281,30 @@ def test_its_look_alike_a_crazyflie_rotor_inertia_is_said_undecided(tmp_path: Pa
     other = "yaw torque" if names[0] == "rotor_inertia" else "rotor inertia"
     assert other in data["effects"][0].get("caveat", ""), data["summary"]
     assert data["effects"][0]["confidence"] <= 0.5
+
+
+def test_a_crazyflie_delay_under_its_noise_driven_loop_is_named_from_prediction_errors(
+        tmp_path: Path) -> None:
+    """PyFlyt's Crazyflie with a 16.7 ms command delay (set 321, seen): its rate loop answers
+    its motor noise (SIM reads 0.72× its model at 1-4 Hz, 1.55× at 4-8 Hz), and on the 8 Hz
+    residuals the delay fitted as a ×0.57 inertia at confidence 1.0. Fitted to the prediction
+    errors under SIM's noise model it is a delay, said at most 0.5 confident. Its size is
+    not pinned down: 5.5 ms on this flight, 13 ms on the benchmark's stored one (the loop's
+    changed answer to its noise takes up the rest, and a motor lag explains much of it)."""
+    names, params, data = _named("pyflyt", "time_delay", 321002, tmp_path)
+    assert data["nominal"]["loop"]["noise_driven"]
+    assert names == ["time_delay"], data["summary"]
+    assert 0.003 <= params["delay"] <= 0.025, params
+    assert data["loop_fit"]["innovation_ratio_after"] < data["loop_fit"][
+        "innovation_ratio_before"]
+    assert data["effects"][0]["confidence"] <= 0.5
+
+
+def test_its_look_alike_a_crazyflie_motor_lag_is_named_a_lag(tmp_path: Path) -> None:
+    """The same vehicle with its motors 3.65× slower (set 321, seen), which the 8 Hz fit named
+    a 12 ms delay: the prediction-error fit names the lag, its time constant 3.65× SIM's
+    within 25 % (SIM's own read on the whitened errors too)."""
+    names, params, data = _named("pyflyt", "motor_lag", 321020, tmp_path)
+    assert names == ["motor_lag"], data["summary"]
+    ratio = params["tau"] / data["loop_fit"]["sim_tau_s"]
+    assert ratio == pytest.approx(3.654, rel=0.25), (params, data["loop_fit"])
