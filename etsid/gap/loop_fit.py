@@ -100,7 +100,7 @@ def fit_whitened(sim: Flight, nominal: NominalModel) -> WhitenedModel:
                                                rcond=None)
                     filt = _ar_filter((y[c] - x @ coef)[mask])
                 w = _whiten(filt, y[c] - x @ coef, mask)[AR_ORDER:]
-                fits[c] = (coef, filt, float(np.mean(w ** 2)))
+                fits[c] = (coef, filt, float(np.var(w)))
             total = sum(v[2] for v in fits.values())
             if best is None or total < best[0]:
                 best = (total, delay, tau, fits)
@@ -115,16 +115,18 @@ def fit_whitened(sim: Flight, nominal: NominalModel) -> WhitenedModel:
 
 def innovation_ratio(model: WhitenedModel, flight: Flight, mods: Mods, mask: np.ndarray,
                      y: dict[str, np.ndarray] | None = None) -> float:
-    """Mean over roll and pitch of ``flight``'s whitened mean square error under ``mods``
-    over ``mask``, each over SIM's own (1 for a flight like SIM's)."""
+    """Mean over roll and pitch of ``flight``'s whitened error variance under ``mods`` over
+    ``mask``, each over SIM's own (1 for a flight like SIM's). The error's mean over
+    ``mask`` is taken out first: a constant angular acceleration (a torque offset, a weak
+    motor's trim) is no loop law."""
     y = y or _measured(flight)
     nom = model.nominal
     raw = nom._unfiltered(flight, mods, CHANNELS, nom.tau, nom.delay)
     ratios = []
     for c in CHANNELS:
         res = y[c] - lowpass(raw[c], flight.fs, CUTOFF_HZ)
-        w = _whiten(model.filters[c], res, mask)
-        ratios.append(float(np.mean(w ** 2)) / model.innovation[c])
+        w = _whiten(model.filters[c], res - np.mean(res[mask]), mask)
+        ratios.append(float(np.var(w)) / model.innovation[c])
     return float(np.mean(ratios))
 
 
@@ -183,6 +185,10 @@ def fit_loop_laws(model: WhitenedModel, real: Flight, fit: np.ndarray, hold: np.
     return LoopFit(laws, innovation_ratio(model, real, Mods(), hold, y))
 
 
+LOOP_RATIO = 1.47
+"""Innovation tier: with every channel within its floor, REAL's held-out innovation ratio at
+or beyond this (or at or below its inverse) is offered to the loop laws. Rule: 1.5× the
+largest |log| ratio of the 27 seen no-effect PyFlyt pairs (0.88-1.29)."""
 MIN_LOOP_DROP = 0.035
 """Least share of REAL's held-out innovation ratio a loop law must remove to be named from
 the prediction-error fit: 1.5× the largest any law removed on the 30 seen no-effect PyFlyt
@@ -207,8 +213,16 @@ def _theta(law: LoopLaw) -> np.ndarray:
     return np.array([law.value, 0.0] if law.name == "rate_damping" else [law.value])
 
 
+def innovation_shift(model: WhitenedModel, real: Flight, hold: np.ndarray) -> float | None:
+    """REAL's held-out innovation ratio under SIM's noise model when it is beyond
+    :data:`LOOP_RATIO` either way, else None."""
+    ratio = innovation_ratio(model, real, Mods(), hold)
+    return ratio if ratio >= LOOP_RATIO or ratio <= 1.0 / LOOP_RATIO else None
+
+
 def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: Scorer,
-                    focus: tuple[str, ...], fit: np.ndarray, hold: np.ndarray) -> Selection:
+                    focus: tuple[str, ...], fit: np.ndarray, hold: np.ndarray,
+                    model: WhitenedModel | None = None) -> Selection:
     """Where SIM's loop answers noise and roll or pitch is mismatched (``focus``) with a loop
     law of :data:`LAWS`, or nothing, named by the 8 Hz fit: the law the prediction-error fit
     prefers, if it removes at least :data:`MIN_LOOP_DROP` of REAL's held-out innovation ratio
@@ -218,7 +232,7 @@ def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: 
         return sel
     if sel.chosen is not None and sel.chosen.fit.name not in LAWS:
         return sel
-    model = fit_whitened(sim, nominal)
+    model = model or fit_whitened(sim, nominal)
     result = fit_loop_laws(model, scorer.ctx.flight, fit, hold)
     usable = [law for law in result.laws if not at_bound(_candidate(law.name), _theta(law))]
     said = ", ".join(f"{law.name} {law.value:.3g} removes {result.drop(law):.0%}"

@@ -27,7 +27,8 @@ from etsid.gap.fitting import Scorer
 from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
-from etsid.gap.loop_fit import choose_loop_law
+from etsid.gap.loop_fit import CHANNELS as LOOP_CHANNELS
+from etsid.gap.loop_fit import choose_loop_law, fit_whitened, innovation_shift
 from etsid.gap.nominal import (
     ENVELOPE_FACTOR,
     GYRO_CHANNELS,
@@ -265,6 +266,11 @@ class Mismatch:
     small: bool
     gains: dict[str, tuple[float, float]] = field(default_factory=dict)
     """Response tier: channel → (gain of REAL on SIM's prediction, t) of the shifted ones."""
+    innovation: float | None = None
+    """Innovation tier: REAL's held-out roll/pitch innovation ratio under SIM's noise model
+    (:func:`etsid.gap.loop_fit.innovation_shift`)."""
+    loop_model: Any = None
+    """The :class:`etsid.gap.loop_fit.WhitenedModel` the innovation tier read it with."""
 
 
 RESPONSE_SHIFT = {"p": 0.175, "q": 0.175, "r": 0.17}
@@ -306,6 +312,20 @@ def response_tier(scorer: Scorer, real: Flight, fit: np.ndarray, hold: np.ndarra
                           True, {c: gains[c] for c in shifted})
 
 
+def innovation_tier(sim: Flight, nominal: NominalModel, real: Flight, mis: Mismatch,
+                    hold: np.ndarray) -> Mismatch:
+    """With every channel within its floor over a loop that answers noise: roll and pitch
+    as an innovation-tier mismatch when REAL's prediction errors under SIM's noise model are
+    beyond :data:`etsid.gap.loop_fit.LOOP_RATIO` of SIM's, else ``mis`` unchanged (a
+    delay of 8-17 ms on the Crazyflie sits within the 8 Hz floors at 1.6-2.5× SIM's errors)."""
+    model = fit_whitened(sim, nominal)
+    ratio = innovation_shift(model, real, hold)
+    if ratio is None:
+        return mis
+    return Mismatch(mis.z_all, mis.z_hold, list(LOOP_CHANNELS), True, innovation=ratio,
+                    loop_model=model)
+
+
 def mismatch_scores(scorer: Scorer, real: Flight, hold: np.ndarray) -> Mismatch:
     """z per channel with nothing fitted; the mismatched channels (or, with none, the
     small-but-structured tier of non-sensor channels above ``Z_SMALL``)."""
@@ -325,6 +345,8 @@ def explain(scorer: Scorer, real: Flight, mis: Mismatch, fit: np.ndarray,
     :func:`select_response` for the response tier)."""
     if mis.gains:
         return select_response(scorer, fit, hold, tuple(mis.channels))
+    if mis.innovation is not None:  # the 8 Hz band sees nothing: the loop laws alone
+        return Selection(mis.z_hold, 0.0, [], None)
     rate = scheduling_variables(real)["command_rate"]
     calm = hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
     busy = hold & (rate >= np.quantile(rate[real.airborne], 1.0 - CALM_QUANTILE))
@@ -522,6 +544,11 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         say(f"gap: no channel above its floor, but the response of {', '.join(tier[1].channels)}"
             f" differs from {sim_name}'s model")
         scorer, mis = tier
+    elif not mis.channels and floors.loop is not None and floors.loop.noise_driven:
+        mis = innovation_tier(sim, nominal, real, mis, r_hold)
+        if mis.innovation is not None:
+            say(f"gap: no channel above its floor, but {real_name}'s prediction errors under "
+                f"{sim_name}'s noise model are {mis.innovation:.2f}× {sim_name}'s")
     series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": mis.z_all,
               "scorer": scorer}
     if not mis.channels:
@@ -532,7 +559,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     sel = explain(scorer, real, mis, r_fit, r_hold)
     if floors.loop is not None and floors.loop.noise_driven and not mis.gains:
         say(f"gap: {sim_name}'s loop answers noise; fitting its loop laws as prediction errors")
-        sel = choose_loop_law(sel, sim, nominal, scorer, tuple(mis.channels), r_fit, r_hold)
+        sel = choose_loop_law(sel, sim, nominal, scorer, tuple(mis.channels), r_fit, r_hold,
+                              mis.loop_model)
     say("gap: leftovers, locating the regime, writing the verdict")
     left, res1, unexplained = leftovers(scorer, real, sel, mis, r_fit, r_hold,
                                         info.get("radius"))
@@ -728,6 +756,9 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     if mis.gains:
         what = "response " + ", ".join(f"{LABELS[c]} {g:.2f}×" for c, (g, _) in
                                        mis.gains.items()) + f" {sim.name}'s prediction"
+    if mis.innovation is not None:
+        what = (f"roll and pitch prediction errors {mis.innovation:.2f}× {sim.name}'s under its "
+                "noise model")
     data.update(reason=what + ("" if named else "; no named effect explains "
                                "it on held-out data"),
                 mismatch={"channels": mis.channels,
@@ -736,6 +767,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     if mis.gains:
         data["mismatch"]["response"] = {c: {"gain": g, "t": t} for c, (g, t) in
                                         mis.gains.items()}
+    if mis.innovation is not None:
+        data["mismatch"]["innovation_ratio"] = mis.innovation
     data["summary"] = summary_sentence(data)
     return GapResult(data, sim, real, nominal, series)
 

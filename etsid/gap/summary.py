@@ -169,6 +169,10 @@ def summary_sentence(data: dict[str, Any]) -> str:
                           for c, v in mis["response"].items())
         parts = [f"Mismatch in response, every channel within its floor: {gains} {sim}'s "
                  "prediction."]
+    if mis.get("innovation_ratio") is not None:
+        parts = [f"Mismatch in prediction errors, every channel within its floor: roll and "
+                 f"pitch innovations {mis['innovation_ratio']:.2f}× {sim}'s under its noise "
+                 "model."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]

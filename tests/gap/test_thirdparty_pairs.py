@@ -308,3 +308,26 @@ def test_its_look_alike_a_crazyflie_motor_lag_is_named_a_lag(tmp_path: Path) -> 
     assert names == ["motor_lag"], data["summary"]
     ratio = params["tau"] / data["loop_fit"]["sim_tau_s"]
     assert ratio == pytest.approx(3.654, rel=0.25), (params, data["loop_fit"])
+
+
+def test_a_crazyflie_delay_within_the_floors_is_found_in_its_prediction_errors(
+        tmp_path: Path) -> None:
+    """A delayed Crazyflie whose angular accelerations all stay within their 8 Hz floors
+    (drawn for this test with seed 302022): its prediction errors under SIM's noise model
+    are 1.7× SIM's, beyond LOOP_RATIO, and the delay is named from them."""
+    from etsid.gap.loop_fit import LOOP_RATIO
+
+    names, params, data = _named("pyflyt", "time_delay", 302022, tmp_path)
+    assert data["mismatch"]["innovation_ratio"] >= LOOP_RATIO, data["summary"]
+    assert "every channel within its floor" in data["summary"]
+    assert names == ["time_delay"], data["summary"]
+    assert params["delay"] > 0.002, params
+
+
+def test_its_look_alike_a_no_effect_crazyflie_stays_consistent(tmp_path: Path) -> None:
+    """The same vehicle flown twice with nothing changed (seed 319002): within the floors and
+    within LOOP_RATIO of SIM's prediction errors, `consistent`, saying which loop laws could
+    hide under its noise-driven loop."""
+    names, _, data = _named("pyflyt", "none", 319002, tmp_path)
+    assert data["verdict"] == "consistent" and names == [], data["summary"]
+    assert "time_delay" in data["could_hide"]["laws"], data
