@@ -223,14 +223,15 @@ def innovation_shift(model: WhitenedModel, real: Flight, hold: np.ndarray) -> fl
 def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: Scorer,
                     focus: tuple[str, ...], fit: np.ndarray, hold: np.ndarray,
                     model: WhitenedModel | None = None) -> Selection:
-    """Where SIM's loop answers noise and roll or pitch is mismatched (``focus``) with a loop
-    law of :data:`LAWS`, or nothing, named by the 8 Hz fit: the law the prediction-error fit
+    """Where SIM's loop answers noise and roll or pitch is mismatched (``focus``) with only
+    laws of :data:`LAWS`, or nothing, named by the 8 Hz fit: the law the prediction-error fit
     prefers, if it removes at least :data:`MIN_LOOP_DROP` of REAL's held-out innovation ratio
     and sits at no bound; ``sel`` is changed in place (its confidence source becomes the
     laws' held-out drops, :attr:`~etsid.gap.select.Selection.response`) and returned."""
     if not set(focus) & set(CHANNELS):
         return sel
-    if sel.chosen is not None and sel.chosen.fit.name not in LAWS:
+    if sel.chosen is not None and any(part not in LAWS
+                                      for part in sel.chosen.fit.name.split("+")):
         return sel
     model = model or fit_whitened(sim, nominal)
     result = fit_loop_laws(model, scorer.ctx.flight, fit, hold)
