@@ -120,8 +120,7 @@ def innovation_ratio(model: WhitenedModel, flight: Flight, mods: Mods, mask: np.
     ``mask`` is taken out first: a constant angular acceleration (a torque offset, a weak
     motor's trim) is no loop law."""
     y = y or _measured(flight)
-    nom = model.nominal
-    raw = nom._unfiltered(flight, mods, CHANNELS, nom.tau, nom.delay)
+    raw = model.nominal.predict_unfiltered(flight, mods, CHANNELS)
     ratios = []
     for c in CHANNELS:
         res = y[c] - lowpass(raw[c], flight.fs, CUTOFF_HZ)

@@ -370,6 +370,13 @@ class NominalModel:
                 out[c] = np.full(flight.n, mods.offset.get(c, 0.0))
         return out
 
+    def predict_unfiltered(self, flight: Flight, mods: Mods | None = None,
+                           channels: tuple[str, ...] = RATE_CHANNELS) -> dict[str, np.ndarray]:
+        """The model's angular accelerations (rad/s²) before the analysis low-pass, with its
+        own lag and delay (those of ``mods`` added), for a fit in another band."""
+        chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
+        return self._unfiltered(flight, mods or Mods(), chans, self.tau, self.delay)
+
     def predict_broadband(self, flight: Flight, mods: Mods | None = None,
                           channels: tuple[str, ...] = RATE_CHANNELS) -> dict[str, np.ndarray]:
         """Unfiltered prediction of the angular accelerations (rad/s²) with the rotors acting
