@@ -700,6 +700,13 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                     f"the floors of these channels are {real.name}'s own refit error"
                     if sel.chosen else "no named effect explains it, so it is not a "
                     "finding"))
+        elif mis.innovation is not None:
+            notes.append(f"innovation tier: roll and pitch prediction errors "
+                         f"{mis.innovation:.2f}× {sim.name}'s under its noise model with every "
+                         "channel within its floor; " + (
+                             "a loop law fitted to them predicts the held-out part"
+                             if sel.chosen else "no loop law explains it, so it is not a "
+                             "finding"))
         elif mis.small and sel.chosen:
             notes.append(f"small but structured mismatch: {', '.join(mis.channels)} between "
                          f"{np.sqrt(Z_SMALL):.1f}× and {np.sqrt(Z_MISMATCH):.0f}× their "

@@ -320,6 +320,8 @@ def test_a_crazyflie_delay_within_the_floors_is_found_in_its_prediction_errors(
     names, params, data = _named("pyflyt", "time_delay", 302022, tmp_path)
     assert data["mismatch"]["innovation_ratio"] >= LOOP_RATIO, data["summary"]
     assert "every channel within its floor" in data["summary"]
+    assert any(n.startswith("innovation tier") for n in data["notes"]), data["notes"]
+    assert not any(n.startswith("small but structured") for n in data["notes"])
     assert names == ["time_delay"], data["summary"]
     assert params["delay"] > 0.002, params
 
