@@ -16,7 +16,7 @@ model here.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -158,30 +158,31 @@ def _bounds(name: str) -> tuple[float, float]:
     return float(param.lo), float(param.hi)
 
 
-def _mods(field: str, value: float) -> Mods:
-    return Mods(**{field: value})
+def _mods(field: str, value: float, base: Mods | None = None) -> Mods:
+    return replace(base or Mods(), **{field: value})
 
 
-def fit_loop_laws(model: WhitenedModel, real: Flight, fit: np.ndarray, hold: np.ndarray
-                  ) -> LoopFit:
+def fit_loop_laws(model: WhitenedModel, real: Flight, fit: np.ndarray, hold: np.ndarray,
+                  base: Mods | None = None) -> LoopFit:
     """Each law of :data:`LAWS` fitted to REAL's innovation ratio on ``fit`` (a grid of
-    :data:`GRID` points, then a bounded search around the best) and scored on ``hold``."""
+    :data:`GRID` points, then a bounded search around the best) and scored on ``hold``, on
+    top of ``base`` (an effect already named)."""
     y = _measured(real)
     laws = []
     for name, field in LAWS.items():
         lo, hi = _bounds(name)
         grid = np.geomspace(lo, hi, GRID) if lo > 0 else np.linspace(lo, hi, GRID)
-        vals = [innovation_ratio(model, real, _mods(field, v), fit, y) for v in grid]
+        vals = [innovation_ratio(model, real, _mods(field, v, base), fit, y) for v in grid]
         k = int(np.argmin(vals))
         a, b = grid[max(k - 1, 0)], grid[min(k + 1, GRID - 1)]
-        res = minimize_scalar(lambda v, f=field: innovation_ratio(model, real, _mods(f, v),
-                                                                  fit, y),
-                              bounds=(a, b), method="bounded", options={"xatol": 1e-4})
+        res = minimize_scalar(lambda v, f=field: innovation_ratio(
+            model, real, _mods(f, v, base), fit, y), bounds=(a, b), method="bounded",
+            options={"xatol": 1e-4})
         value = float(res.x) if res.fun < vals[k] else float(grid[k])
         laws.append(LoopLaw(name, value, float(min(res.fun, vals[k])),
-                            innovation_ratio(model, real, _mods(field, value), hold, y)))
+                            innovation_ratio(model, real, _mods(field, value, base), hold, y)))
     laws.sort(key=lambda law: law.hold_ratio)
-    return LoopFit(laws, innovation_ratio(model, real, Mods(), hold, y))
+    return LoopFit(laws, innovation_ratio(model, real, base or Mods(), hold, y))
 
 
 LOOP_RATIO = 1.47
@@ -227,10 +228,10 @@ def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: 
     prefers, if it removes at least :data:`MIN_LOOP_DROP` of REAL's held-out innovation ratio
     and sits at no bound; ``sel`` is changed in place (its confidence source becomes the
     laws' held-out drops, :attr:`~etsid.gap.select.Selection.response`) and returned."""
-    if not set(focus) & set(CHANNELS):
-        return sel
     if sel.chosen is not None and any(part not in LAWS
                                       for part in sel.chosen.fit.name.split("+")):
+        return loop_companion(sel, sim, nominal, scorer, focus, fit, hold)
+    if not set(focus) & set(CHANNELS):
         return sel
     model = model or fit_whitened(sim, nominal)
     result = fit_loop_laws(model, scorer.ctx.flight, fit, hold)
@@ -246,15 +247,56 @@ def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: 
     chosen = Fit((cand,), theta, np.full(theta.size, np.nan), cand.build(theta, scorer.ctx))
     sel.chosen = score_fit(chosen, scorer, hold, sel.z_before, sel.excess, focus)
     sel.look_alike, sel.companion_share = None, None
-    twin = next((law for law in usable[1:] if {law.name, best.name} == set(TIMING)), None)
-    if twin is not None and result.drop(twin) >= TIMING_LOOK_ALIKE * result.drop(best):
-        sel.look_alike = (best.name, twin.name)
+    _timing_twin(sel, result, usable)
     sel.response = {law.name: result.drop(law) for law in usable}
     sel.loop = LoopChoice(result, model, best)
     sel.notes.append(f"loop laws as prediction errors ({model.nominal.delay * 1e3:.0f} ms "
                      f"delay, {model.nominal.tau * 1e3:.0f} ms lag on SIM): {said} of the "
                      "held-out innovation ratio")
     return sel
+
+
+def loop_companion(sel: Selection, sim: Flight, nominal: NominalModel, scorer: Scorer,
+                   focus: tuple[str, ...], fit: np.ndarray, hold: np.ndarray) -> Selection:
+    """A timing law beside one other effect the 8 Hz fit named: when REAL's held-out
+    innovation ratio under that effect is still beyond :data:`LOOP_RATIO`, the delay or lag
+    removing the most of it (≥ :data:`MIN_LOOP_DROP`, at no bound) joins as its companion
+    (PyFlyt's thrust scale + delay pairs: the thrust scale is named from the vertical force,
+    the delay's roll and pitch stay within their floors)."""
+    first = sel.chosen
+    if first is None or len(first.fit.candidates) != 1:
+        return sel
+    model = fit_whitened(sim, nominal)
+    result = fit_loop_laws(model, scorer.ctx.flight, fit, hold, first.fit.mods)
+    if 1.0 / LOOP_RATIO < result.base_hold < LOOP_RATIO:
+        return sel
+    # only a timing law: beside a thrust-type effect (a thrust scale, a payload's higher hover
+    # throttle, a sagging pack) the loop's gain moves as under an inertia or a damping change
+    usable = [law for law in result.laws
+              if law.name in TIMING and not at_bound(_candidate(law.name), _theta(law))]
+    if not usable or result.drop(usable[0]) < MIN_LOOP_DROP:
+        return sel
+    best = usable[0]
+    cand, theta = _candidate(best.name), _theta(best)
+    field = LAWS[best.name]
+    joint = Fit((*first.fit.candidates, cand), np.concatenate([first.fit.theta, theta]),
+                np.concatenate([first.fit.stderr, np.full(theta.size, np.nan)]),
+                _mods(field, best.value, first.fit.mods))
+    sel.chosen = score_fit(joint, scorer, hold, sel.z_before, sel.excess, focus)
+    sel.companion_share = result.drop(best)
+    sel.loop = LoopChoice(result, model, best)
+    _timing_twin(sel, result, usable)
+    return sel
+
+
+def _timing_twin(sel: Selection, result: LoopFit, usable: list[LoopLaw]) -> None:
+    """Say the other timing law as the named one's look-alike when it removes at least
+    :data:`TIMING_LOOK_ALIKE` of what the named one does."""
+    best = usable[0]
+    twin = next((law for law in usable[1:] if {law.name, best.name} == set(TIMING)), None)
+    if (twin is not None and result.drop(twin) >= TIMING_LOOK_ALIKE * result.drop(best)
+            and sel.look_alike is None):  # a first effect's own look-alike is said instead
+        sel.look_alike = (best.name, twin.name)
 
 
 @dataclass
