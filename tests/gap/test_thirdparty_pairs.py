@@ -333,3 +333,24 @@ def test_its_look_alike_a_no_effect_crazyflie_stays_consistent(tmp_path: Path) -
     names, _, data = _named("pyflyt", "none", 319002, tmp_path)
     assert data["verdict"] == "consistent" and names == [], data["summary"]
     assert "time_delay" in data["could_hide"]["laws"], data
+
+
+def test_a_delay_beside_a_crazyflie_thrust_scale_joins_as_its_companion(
+        tmp_path: Path) -> None:
+    """Thrust ×1.16 and a command delay together (seed 321023): only the vertical force is
+    beyond its floor, so the 8 Hz fit names the thrust scale alone; REAL's prediction errors
+    under SIM's noise model, with that thrust scale, stay beyond LOOP_RATIO, and the delay
+    joins as its companion."""
+    names, _, data = _named("pyflyt", "thrust_scale+time_delay", 321023, tmp_path)
+    assert names == ["thrust_scale", "time_delay"], data["summary"]
+    assert data["loop_fit"]["innovation_ratio_before"] >= 1.47
+    assert data["effects"][1]["confidence"] <= 0.5
+
+
+def test_its_look_alike_a_crazyflie_thrust_scale_alone_gets_no_companion(
+        tmp_path: Path) -> None:
+    """A thrust scale alone on the same vehicle (seed 321008): its prediction errors under
+    the named thrust scale are within LOOP_RATIO of SIM's, so nothing joins it."""
+    names, _, data = _named("pyflyt", "thrust_scale", 321008, tmp_path)
+    assert names == ["thrust_scale"], data["summary"]
+    assert "loop_fit" not in data
