@@ -123,10 +123,10 @@ def _band(i: int) -> str:
     return f"{lo:g}-{hi:g} Hz"
 
 
-def hidden_laws() -> str:
-    """The laws of :data:`LOOP_SENSITIVE` in words."""
-    words = [n.replace("_", " ") for n in LOOP_SENSITIVE]
-    return ", ".join(words[:-1]) + " or " + words[-1]
+def either(names: list[str] | tuple[str, ...]) -> str:
+    """Law names in words, "a, b or c"."""
+    words = [n.replace("_", " ") for n in names]
+    return ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else "".join(words)
 
 
 def could_hide(resp: BandResponse | None, sim_name: str, named: list[str]
@@ -147,6 +147,6 @@ def caveat_loop_laws(effects: list[dict[str, Any]], resp: BandResponse | None,
         return
     for e in effects:
         if e["name"] in LOOP_SENSITIVE and "caveat" not in e:
-            e["caveat"] = (f"{loop_words(resp, sim_name)}: a change of {hidden_laws()} "
+            e["caveat"] = (f"{loop_words(resp, sim_name)}: a change of {either(LOOP_SENSITIVE)} "
                            "alters that answer and may pass for another of them")
             e["confidence"] = min(float(e["confidence"]), LOOP_CONFIDENCE)

@@ -23,7 +23,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
-from etsid.gap.candidates import LIBRARY, Candidate
+from etsid.gap.candidates import BY_NAME
 from etsid.gap.fitting import Fit, Scorer
 from etsid.gap.nominal import Mods, NominalModel, features
 from etsid.gap.select import Selection, score_fit
@@ -154,7 +154,7 @@ class LoopFit:
 
 
 def _bounds(name: str) -> tuple[float, float]:
-    param = next(c for c in LIBRARY if c.name == name).params[0]
+    param = BY_NAME[name].params[0]
     return float(param.lo), float(param.hi)
 
 
@@ -204,10 +204,6 @@ drop where it was right, and was led by 0.82-0.96 where it was not (7 pairs: a r
 off few pairs, said as such in docs/gap.md)."""
 
 
-def _candidate(name: str) -> Candidate:
-    return next(c for c in LIBRARY if c.name == name)
-
-
 def _theta(law: LoopLaw) -> np.ndarray:
     """The candidate's parameters for ``law`` (a rate damping's yaw factor 0)."""
     return np.array([law.value, 0.0] if law.name == "rate_damping" else [law.value])
@@ -235,7 +231,7 @@ def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: 
         return sel
     model = model or fit_whitened(sim, nominal)
     result = fit_loop_laws(model, scorer.ctx.flight, fit, hold)
-    usable = [law for law in result.laws if not at_bound(_candidate(law.name), _theta(law))]
+    usable = [law for law in result.laws if not at_bound(BY_NAME[law.name], _theta(law))]
     said = ", ".join(f"{law.name} {law.value:.3g} removes {result.drop(law):.0%}"
                      for law in result.laws)
     if not usable or result.drop(usable[0]) < MIN_LOOP_DROP:
@@ -243,7 +239,7 @@ def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: 
                          f"of the held-out innovation ratio ({said})")
         return sel
     best = usable[0]
-    cand, theta = _candidate(best.name), _theta(best)
+    cand, theta = BY_NAME[best.name], _theta(best)
     chosen = Fit((cand,), theta, np.full(theta.size, np.nan), cand.build(theta, scorer.ctx))
     sel.chosen = score_fit(chosen, scorer, hold, sel.z_before, sel.excess, focus)
     sel.look_alike, sel.companion_share = None, None
@@ -273,11 +269,11 @@ def loop_companion(sel: Selection, sim: Flight, nominal: NominalModel, scorer: S
     # only a timing law: beside a thrust-type effect (a thrust scale, a payload's higher hover
     # throttle, a sagging pack) the loop's gain moves as under an inertia or a damping change
     usable = [law for law in result.laws
-              if law.name in TIMING and not at_bound(_candidate(law.name), _theta(law))]
+              if law.name in TIMING and not at_bound(BY_NAME[law.name], _theta(law))]
     if not usable or result.drop(usable[0]) < MIN_LOOP_DROP:
         return sel
     best = usable[0]
-    cand, theta = _candidate(best.name), _theta(best)
+    cand, theta = BY_NAME[best.name], _theta(best)
     field = LAWS[best.name]
     joint = Fit((*first.fit.candidates, cand), np.concatenate([first.fit.theta, theta]),
                 np.concatenate([first.fit.stderr, np.full(theta.size, np.nan)]),
@@ -309,7 +305,7 @@ class LoopChoice:
 
     def evidence(self, sim_name: str, real_name: str) -> str:
         """The named effect's evidence sentence."""
-        signature = _candidate(self.law.name).signature
+        signature = BY_NAME[self.law.name].signature
         return (f"{signature[0].upper()}{signature[1:]}; {sim_name}'s loop answers noise its "
                 f"log does not hold, so the law was fitted to {real_name}'s prediction errors "
                 f"under {sim_name}'s noise model (roll/pitch laws refitted on whitened errors): "

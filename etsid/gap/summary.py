@@ -8,6 +8,7 @@ import numpy as np
 
 from etsid.gap.candidates import Candidate
 from etsid.gap.fitting import Scorer
+from etsid.gap.loop import either
 from etsid.gap.nominal import LABELS, UNITS
 
 NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
@@ -144,16 +145,11 @@ def _size(data: dict[str, Any], channel: str) -> float:
     return float(np.sqrt(z))
 
 
-def _either(words: list[str]) -> str:
-    """"a, b or c"."""
-    return ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else "".join(words)
-
-
 def summary_sentence(data: dict[str, Any]) -> str:
     """The short summary printed on stdout: the verdict, where, what (in each effect's own
     terms, with its confidence), what is left, and the held-out proof."""
     hide = data.get("could_hide")
-    laws = _either([n.replace("_", " ") for n in hide["laws"]]) if hide else ""
+    laws = either(hide["laws"]) if hide else ""
     if data["verdict"] != "mismatch":
         return f"{data['verdict'].capitalize()}: {data['reason']}." + (
             f" Could hide here: a change of {laws}, since {hide['why']}, and such a change "
