@@ -2,46 +2,28 @@
 
 Where SIM's rate loop mostly answers noise its log does not hold (:mod:`etsid.gap.loop`),
 the least-squares command law is biased and the 8 Hz residuals cannot tell a delay, a
-motor lag, an inertia or a rate-damping change apart. Here the roll and pitch laws are
-refitted on SIM with a noise model: each channel's residual is whitened by an
-autoregressive filter fitted to it (generalised least squares, iterated), and SIM's
-command delay and motor lag are searched on that whitened error. Each loop law is then
-fitted to REAL's whitened error (the innovations under SIM's noise model) on the fit part
-and scored on the held-out part. The direct prediction-error method is consistent in a
-closed loop when its noise model is right (Ljung, *System Identification*, 2nd ed., 1999,
-ch. 13); an autoregressive filter of order :data:`AR_ORDER` at the log's rate is that
-model here.
+motor lag, an inertia or a rate-damping change apart. Each loop law is fitted to REAL's
+whitened error (the innovations under SIM's noise model, :mod:`etsid.gap.whiten`) on the
+fit part and scored on the held-out part.
 """
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize_scalar
-from scipy.signal import lfilter
 
 from etsid.gap.candidates import BY_NAME
+from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
 from etsid.gap.fitting import Fit, Scorer
-from etsid.gap.nominal import Mods, NominalModel, features
+from etsid.gap.nominal import Mods
 from etsid.gap.select import Selection, score_fit
-from etsid.gap.signals import Flight, derivative, lowpass
+from etsid.gap.signals import Flight
 from etsid.gap.verdict import at_bound
+from etsid.gap.whiten import CHANNELS, WhitenedModel, band_power, innovation_ratio, measured_rates
 
-AR_ORDER = 6
-"""Order of each channel's whitening filter (samples at the log's rate)."""
-CUTOFF_HZ = 20.0
-"""Low-pass of both the measured and the predicted angular accelerations, Hz: above the
-8 Hz band, where a loop's answer to its noise lives, below the derivative's noise."""
-GLS_ITERATIONS = 3
-"""Whitening filter and law coefficients refitted in turn this many times."""
-SIM_DELAYS_S = (0.0, 0.005, 0.01)
-SIM_TAUS_S = (0.004, 0.007, 0.012)
-"""SIM's command delay and motor lag searched on the whitened error, s."""
-CHANNELS = ("p", "q")
-"""Roll and pitch: yaw's laws (torque scale, rotor inertia) stay with the response tier."""
 LAWS = {"time_delay": "delay", "motor_lag": "tau", "inertia_scale": "inertia",
         "rate_damping": "damping"}
 """Law → the :class:`Mods` field its first parameter sets, searched within that
@@ -50,83 +32,6 @@ and pitch only: its yaw factor stays 0)."""
 GRID = 16
 """Grid points per law before the bounded refinement (geometric for a positive range)."""
 
-
-@dataclass
-class WhitenedModel:
-    """SIM's roll/pitch laws refitted on whitened errors, with each channel's noise model."""
-
-    nominal: NominalModel
-    """The nominal model with the refitted roll/pitch coefficients, delay and lag."""
-    filters: dict[str, np.ndarray]
-    """Channel → whitening filter (``[1, -a_1, …, -a_p]``)."""
-    innovation: dict[str, float]
-    """Channel → SIM's whitened mean square error, (rad/s²)²."""
-
-
-def _ar_filter(e: np.ndarray) -> np.ndarray:
-    """Least-squares autoregressive whitening filter of ``e``."""
-    p = AR_ORDER
-    x = np.column_stack([e[p - k - 1:e.size - k - 1] for k in range(p)])
-    a, *_ = np.linalg.lstsq(x, e[p:], rcond=None)
-    return np.concatenate([[1.0], -a])
-
-
-def _whiten(filt: np.ndarray, x: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """``x`` (n,) or (n, k) through ``filt``, kept over ``mask``."""
-    return lfilter(filt, [1.0], x, axis=0)[mask]
-
-
-def _measured(flight: Flight) -> dict[str, np.ndarray]:
-    acc = derivative(lowpass(flight.rates, flight.fs, CUTOFF_HZ), flight.fs)
-    return {c: acc[:, j] for j, c in enumerate(("p", "q", "r")) if c in CHANNELS}
-
-
-def fit_whitened(sim: Flight, nominal: NominalModel) -> WhitenedModel:
-    """SIM's roll/pitch laws by generalised least squares on its airborne samples, for each
-    command delay and motor lag of :data:`SIM_DELAYS_S` × :data:`SIM_TAUS_S`; the pair
-    with the smallest whitened error is kept."""
-    y = _measured(sim)
-    mask = sim.airborne
-    best: tuple[float, float, float, dict] | None = None
-    for delay in SIM_DELAYS_S:
-        for tau in SIM_TAUS_S:
-            feats = features(sim, nominal.k, tau, Mods(), CHANNELS, delay)
-            fits = {}
-            for c in CHANNELS:
-                x = lowpass(feats[c], sim.fs, CUTOFF_HZ)
-                filt = np.array([1.0])
-                for _ in range(GLS_ITERATIONS):
-                    coef, *_ = np.linalg.lstsq(_whiten(filt, x, mask), _whiten(filt, y[c], mask),
-                                               rcond=None)
-                    filt = _ar_filter((y[c] - x @ coef)[mask])
-                w = _whiten(filt, y[c] - x @ coef, mask)[AR_ORDER:]
-                fits[c] = (coef, filt, float(np.var(w)))
-            total = sum(v[2] for v in fits.values())
-            if best is None or total < best[0]:
-                best = (total, delay, tau, fits)
-    assert best is not None
-    _, delay, tau, fits = best
-    model = copy.copy(nominal)
-    model.coef = {**nominal.coef, **{c: fits[c][0] for c in CHANNELS}}
-    model.delay, model.tau = delay, tau
-    return WhitenedModel(model, {c: fits[c][1] for c in CHANNELS},
-                         {c: fits[c][2] for c in CHANNELS})
-
-
-def innovation_ratio(model: WhitenedModel, flight: Flight, mods: Mods, mask: np.ndarray,
-                     y: dict[str, np.ndarray] | None = None) -> float:
-    """Mean over roll and pitch of ``flight``'s whitened error variance under ``mods`` over
-    ``mask``, each over SIM's own (1 for a flight like SIM's). The error's mean over
-    ``mask`` is taken out first: a constant angular acceleration (a torque offset, a weak
-    motor's trim) is no loop law."""
-    y = y or _measured(flight)
-    raw = model.nominal.predict_unfiltered(flight, mods, CHANNELS)
-    ratios = []
-    for c in CHANNELS:
-        res = y[c] - lowpass(raw[c], flight.fs, CUTOFF_HZ)
-        w = _whiten(model.filters[c], res - np.mean(res[mask]), mask)
-        ratios.append(float(np.var(w)) / model.innovation[c])
-    return float(np.mean(ratios))
 
 
 @dataclass
@@ -167,7 +72,7 @@ def fit_loop_laws(model: WhitenedModel, real: Flight, fit: np.ndarray, hold: np.
     """Each law of :data:`LAWS` fitted to REAL's innovation ratio on ``fit`` (a grid of
     :data:`GRID` points, then a bounded search around the best) and scored on ``hold``, on
     top of ``base`` (an effect already named)."""
-    y = _measured(real)
+    y = measured_rates(real)
     laws = []
     for name, field in LAWS.items():
         lo, hi = _bounds(name)
@@ -197,11 +102,19 @@ pairs (0.022; docs/gap.md, step 14)."""
 
 TIMING = ("time_delay", "motor_lag")
 """The two timing laws: under a noise-driven loop each takes up much of the other's error."""
-TIMING_LOOK_ALIKE = 0.75
-"""A timing law named with the other as its undecided look-alike when the other removes at
-least this share of what it removes. On the seen sets the right one led by 0.51-0.70 of its
-drop where it was right, and was led by 0.82-0.96 where it was not (7 pairs: a rule read
-off few pairs, said as such in docs/gap.md)."""
+LAG_BAND_HZ = (0.25, 4.0)
+"""Band in which a slower motor shows: noise that enters before the motor's lag (PyFlyt's
+throttle noise; a real rotor's speed fluctuations) is integrated longer by a slower motor,
+and REAL's whitened errors gain power below the loop's answer to it. A command delay leaves
+that band alone and moves the loop's answer near its crossover (4-14 Hz) instead."""
+LAG_EXCESS = 3.3
+"""REAL's whitened roll/pitch error power in :data:`LAG_BAND_HZ` over SIM's from which the
+timing law is the motor lag, below which the delay. Rule: the geometric mean of the largest
+ratio of the 42 seen delay pairs (2.15, a thrust scale + delay) and the smallest of the 21
+seen lag pairs (5.05); no seen pair fell between, and a ratio there is said undecided
+(:data:`LAG_UNDECIDED`)."""
+LAG_UNDECIDED = (2.15, 5.05)
+"""Ratios within which the other timing law is said as the named one's look-alike."""
 
 
 def _theta(law: LoopLaw) -> np.ndarray:
@@ -216,83 +129,127 @@ def innovation_shift(model: WhitenedModel, real: Flight, hold: np.ndarray) -> fl
     return ratio if ratio >= LOOP_RATIO or ratio <= 1.0 / LOOP_RATIO else None
 
 
-def choose_loop_law(sel: Selection, sim: Flight, nominal: NominalModel, scorer: Scorer,
-                    focus: tuple[str, ...], fit: np.ndarray, hold: np.ndarray,
-                    model: WhitenedModel | None = None) -> Selection:
+def choose_loop_law(sel: Selection, sim: Flight, scorer: Scorer, focus: tuple[str, ...],
+                    fit: np.ndarray, hold: np.ndarray, model: WhitenedModel,
+                    low: LowBandReading | None = None) -> Selection:
     """Where SIM's loop answers noise and roll or pitch is mismatched (``focus``) with only
     laws of :data:`LAWS`, or nothing, named by the 8 Hz fit: the law the prediction-error fit
     prefers, if it removes at least :data:`MIN_LOOP_DROP` of REAL's held-out innovation ratio
     and sits at no bound; ``sel`` is changed in place (its confidence source becomes the
-    laws' held-out drops, :attr:`~etsid.gap.select.Selection.response`) and returned."""
+    laws' held-out drops, :attr:`~etsid.gap.select.Selection.response`) and returned.
+
+    The low band (``low``, :mod:`etsid.gap.damping`) decides first when it reads a shift: a
+    higher damping names a rate damping at the low band's value; a lower one (the loop
+    answering more noise, as behind a slower motor or a later command) names the timing law
+    the prediction-error fit prefers, whatever its drop."""
     if sel.chosen is not None and any(part not in LAWS
                                       for part in sel.chosen.fit.name.split("+")):
-        return loop_companion(sel, sim, nominal, scorer, focus, fit, hold)
+        return loop_companion(sel, sim, scorer, focus, fit, hold, model)
     if not set(focus) & set(CHANNELS):
         return sel
-    model = model or fit_whitened(sim, nominal)
     result = fit_loop_laws(model, scorer.ctx.flight, fit, hold)
     usable = [law for law in result.laws if not at_bound(BY_NAME[law.name], _theta(law))]
     said = ", ".join(f"{law.name} {law.value:.3g} removes {result.drop(law):.0%}"
                      for law in result.laws)
-    if not usable or result.drop(usable[0]) < MIN_LOOP_DROP:
+    sign = low.sign if low is not None else 0
+    if sign > 0:
+        return _low_band_damping(sel, scorer, fit, hold, focus, low, result, model)
+    if sign < 0:
+        usable = [law for law in usable if law.name in TIMING]
+    if not usable or (not sign and result.drop(usable[0]) < MIN_LOOP_DROP):
         sel.notes.append(f"loop laws as prediction errors: none removes {MIN_LOOP_DROP:.1%} "
                          f"of the held-out innovation ratio ({said})")
         return sel
-    best = usable[0]
+    best, twin, lag_ratio = usable[0], None, None
+    if best.name in TIMING:
+        best, twin, lag_ratio = _timing_by_spectrum(usable, model, sim, scorer.ctx.flight, hold)
     cand, theta = BY_NAME[best.name], _theta(best)
     chosen = Fit((cand,), theta, np.full(theta.size, np.nan), cand.build(theta, scorer.ctx))
     sel.chosen = score_fit(chosen, scorer, hold, sel.z_before, sel.excess, focus)
-    sel.look_alike, sel.companion_share = None, None
-    _timing_twin(sel, result, usable)
-    sel.response = {law.name: result.drop(law) for law in usable}
-    sel.loop = LoopChoice(result, model, best)
+    sel.look_alike = (best.name, twin.name) if twin is not None else None
+    sel.companion_share = None
+    sel.response = {law.name: max(result.drop(law), 0.0) for law in usable}
+    if sign:  # the low band found the shift
+        sel.response = {name: 0.5 + share for name, share in sel.response.items()}
+    if lag_ratio is not None:  # the spectrum, not the drops, tells the timing laws apart
+        sel.response[best.name] = max(sel.response.values()) + 0.5
+    sel.loop = LoopChoice(result, model, best, low if sign else None, lag_ratio)
     sel.notes.append(f"loop laws as prediction errors ({model.nominal.delay * 1e3:.0f} ms "
                      f"delay, {model.nominal.tau * 1e3:.0f} ms lag on SIM): {said} of the "
                      "held-out innovation ratio")
     return sel
 
 
-def loop_companion(sel: Selection, sim: Flight, nominal: NominalModel, scorer: Scorer,
-                   focus: tuple[str, ...], fit: np.ndarray, hold: np.ndarray) -> Selection:
+def _low_band_damping(sel: Selection, scorer: Scorer, fit: np.ndarray, hold: np.ndarray,
+                      focus: tuple[str, ...], low: LowBandReading, result: LoopFit,
+                      model: WhitenedModel) -> Selection:
+    """A rate damping named at the low band's value on REAL's fit part."""
+    cand = BY_NAME["rate_damping"]
+    theta = np.array([low.fit.value, 0.0])
+    chosen = Fit((cand,), theta, np.array([low.fit.stderr, np.nan]),
+                 cand.build(theta, scorer.ctx))
+    sel.chosen = score_fit(chosen, scorer, hold, sel.z_before, sel.excess, focus)
+    sel.look_alike, sel.companion_share = None, None
+    sel.response = {"rate_damping": 1.0}
+    real, mods = scorer.ctx.flight, _mods("damping", low.fit.value)
+    law = LoopLaw("rate_damping", low.fit.value, innovation_ratio(model, real, mods, fit),
+                  innovation_ratio(model, real, mods, hold))
+    sel.loop = LoopChoice(result, model, law, low)
+    return sel
+
+
+def loop_companion(sel: Selection, sim: Flight, scorer: Scorer, focus: tuple[str, ...],
+                   fit: np.ndarray, hold: np.ndarray, model: WhitenedModel) -> Selection:
     """A timing law beside one other effect the 8 Hz fit named: when REAL's held-out
-    innovation ratio under that effect is still beyond :data:`LOOP_RATIO`, the delay or lag
-    removing the most of it (≥ :data:`MIN_LOOP_DROP`, at no bound) joins as its companion
-    (PyFlyt's thrust scale + delay pairs: the thrust scale is named from the vertical force,
-    the delay's roll and pitch stay within their floors)."""
+    innovation ratio under that effect is still beyond :data:`LOOP_RATIO`, or the low band
+    under it reads a lower damping (:mod:`etsid.gap.damping`), the delay or lag removing the
+    most of it (≥ :data:`MIN_LOOP_DROP`, at no bound) joins as its companion (PyFlyt's
+    thrust scale + delay pairs: the thrust scale is named from the vertical force, the
+    delay's roll and pitch stay within their floors)."""
     first = sel.chosen
     if first is None or len(first.fit.candidates) != 1:
         return sel
-    model = fit_whitened(sim, nominal)
-    result = fit_loop_laws(model, scorer.ctx.flight, fit, hold, first.fit.mods)
-    if 1.0 / LOOP_RATIO < result.base_hold < LOOP_RATIO:
+    real = scorer.ctx.flight
+    result = fit_loop_laws(model, real, fit, hold, first.fit.mods)
+    low = low_band_reading(model, sim, real, fit, hold, first.fit.mods)
+    slower = low.sign < 0
+    if 1.0 / LOOP_RATIO < result.base_hold < LOOP_RATIO and not slower:
         return sel
     # only a timing law: beside a thrust-type effect (a thrust scale, a payload's higher hover
     # throttle, a sagging pack) the loop's gain moves as under an inertia or a damping change
     usable = [law for law in result.laws
               if law.name in TIMING and not at_bound(BY_NAME[law.name], _theta(law))]
-    if not usable or result.drop(usable[0]) < MIN_LOOP_DROP:
+    if not usable or (result.drop(usable[0]) < MIN_LOOP_DROP and not slower):
         return sel
-    best = usable[0]
+    best, twin, lag_ratio = _timing_by_spectrum(usable, model, sim, real, hold, first.fit.mods)
     cand, theta = BY_NAME[best.name], _theta(best)
     field = LAWS[best.name]
     joint = Fit((*first.fit.candidates, cand), np.concatenate([first.fit.theta, theta]),
                 np.concatenate([first.fit.stderr, np.full(theta.size, np.nan)]),
                 _mods(field, best.value, first.fit.mods))
     sel.chosen = score_fit(joint, scorer, hold, sel.z_before, sel.excess, focus)
-    sel.companion_share = result.drop(best)
-    sel.loop = LoopChoice(result, model, best)
-    _timing_twin(sel, result, usable)
+    sel.companion_share = max(result.drop(best), 0.5 if slower else 0.0)
+    sel.loop = LoopChoice(result, model, best, low if slower else None, lag_ratio)
+    if twin is not None and sel.look_alike is None:  # a first effect's own is said instead
+        sel.look_alike = (best.name, twin.name)
     return sel
 
 
-def _timing_twin(sel: Selection, result: LoopFit, usable: list[LoopLaw]) -> None:
-    """Say the other timing law as the named one's look-alike when it removes at least
-    :data:`TIMING_LOOK_ALIKE` of what the named one does."""
-    best = usable[0]
-    twin = next((law for law in usable[1:] if {law.name, best.name} == set(TIMING)), None)
-    if (twin is not None and result.drop(twin) >= TIMING_LOOK_ALIKE * result.drop(best)
-            and sel.look_alike is None):  # a first effect's own look-alike is said instead
-        sel.look_alike = (best.name, twin.name)
+def _timing_by_spectrum(usable: list[LoopLaw], model: WhitenedModel, sim: Flight,
+                        real: Flight, hold: np.ndarray, mods: Mods | None = None
+                        ) -> tuple[LoopLaw, LoopLaw | None, float]:
+    """(timing law, its undecided look-alike or None, REAL's low-band power ratio): the motor
+    lag when REAL's whitened errors (under ``mods``, held-out part) carry
+    :data:`LAG_EXCESS` × SIM's power in :data:`LAG_BAND_HZ`, else the delay. ``usable`` holds
+    the fitted timing laws; the chosen one must be among them."""
+    ratio = band_power(model, real, mods or Mods(), hold, LAG_BAND_HZ) / band_power(
+        model, sim, Mods(), sim.airborne, LAG_BAND_HZ)
+    by_name = {law.name: law for law in usable if law.name in TIMING}
+    wanted = "motor_lag" if ratio >= LAG_EXCESS else "time_delay"
+    law = by_name.get(wanted) or next(iter(by_name.values()))
+    other = next((x for name, x in by_name.items() if name != law.name), None)
+    undecided = LAG_UNDECIDED[0] <= ratio <= LAG_UNDECIDED[1] or law.name != wanted
+    return law, other if undecided else None, ratio
 
 
 @dataclass
@@ -302,16 +259,43 @@ class LoopChoice:
     fit: LoopFit
     model: WhitenedModel
     law: LoopLaw
+    low: LowBandReading | None = None
+    """The low-band reading that found the shift, when it did."""
+    lag_ratio: float | None = None
+    """REAL's whitened error power in :data:`LAG_BAND_HZ` over SIM's, for a timing law."""
 
     def evidence(self, sim_name: str, real_name: str) -> str:
         """The named effect's evidence sentence."""
         signature = BY_NAME[self.law.name].signature
-        return (f"{signature[0].upper()}{signature[1:]}; {sim_name}'s loop answers noise its "
-                f"log does not hold, so the law was fitted to {real_name}'s prediction errors "
-                f"under {sim_name}'s noise model (roll/pitch laws refitted on whitened errors): "
-                f"it removes {self.fit.drop(self.law):.0%} of {real_name}'s held-out "
-                f"innovation ratio ({self.fit.base_hold:.2f} → {self.law.hold_ratio:.2f} of "
-                f"{sim_name}'s); the 8 Hz band cannot judge it there")
+        lead = f"{signature[0].upper()}{signature[1:]}; {sim_name}'s loop answers noise its " \
+               "log does not hold"
+        drop = (f"{self.fit.drop(self.law):.0%} of {real_name}'s held-out innovation ratio "
+                f"({self.fit.base_hold:.2f} → {self.law.hold_ratio:.2f} of {sim_name}'s)")
+        if self.low is None:
+            return (f"{lead}, so the law was fitted to {real_name}'s prediction errors under "
+                    f"{sim_name}'s noise model (roll/pitch laws refitted on whitened errors)"
+                    f"{self._timing()}: it removes {drop}; the 8 Hz band cannot judge it there")
+        shift = self.low.hold
+        read = (f"below {LOW_BAND_HZ:g} Hz, where the rates follow the setpoints, "
+                f"{real_name}'s prediction errors under {sim_name}'s noise model fall with the "
+                f"rates by {shift.value:+.2g} ± {shift.stderr:.1g} /s against {sim_name}'s "
+                f"({self.low.fit.z:+.1f} SE on the fit part, {shift.z:+.1f} held out)")
+        if self.law.name == "rate_damping":
+            return f"{lead}, so the damping was read in the low band: {read}; it removes {drop}"
+        return (f"{lead}; {read}: the loop answers more noise there, as behind a slower motor "
+                f"or a later command{self._timing()}; it removes {drop}")
+
+    def _timing(self) -> str:
+        """Why this timing law and not the other."""
+        if self.lag_ratio is None:
+            return ""
+        if self.law.name == "motor_lag":
+            return (f"; its whitened errors carry {self.lag_ratio:.1f}× the simulation's "
+                    f"power below {LAG_BAND_HZ[1]:g} Hz, where a slower motor lets through more "
+                    "of the noise that enters before its lag (a delay does not)")
+        return (f"; its whitened errors carry {self.lag_ratio:.1f}× the simulation's power "
+                f"below {LAG_BAND_HZ[1]:g} Hz, less than a slower motor's noise would add "
+                f"({LAG_EXCESS:g}×), so a delay")
 
     def as_dict(self) -> dict[str, Any]:
         """gap.json's ``loop_fit``."""
@@ -319,4 +303,6 @@ class LoopChoice:
                 "innovation_ratio_before": self.fit.base_hold,
                 "innovation_ratio_after": self.law.hold_ratio,
                 "laws": [{"name": law.name, "value": law.value, "drop": self.fit.drop(law)}
-                         for law in self.fit.laws]}
+                         for law in self.fit.laws],
+                "named_from_low_band": self.low is not None,
+                "lag_band_power_ratio": self.lag_ratio}

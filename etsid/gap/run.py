@@ -23,12 +23,12 @@ import pandas as pd
 
 from etsid.errors import GapError
 from etsid.gap.candidates import LIBRARY, Context, ground_excess
+from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
 from etsid.gap.fitting import Scorer
 from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
-from etsid.gap.loop_fit import CHANNELS as LOOP_CHANNELS
-from etsid.gap.loop_fit import choose_loop_law, fit_whitened, innovation_shift
+from etsid.gap.loop_fit import choose_loop_law, innovation_shift
 from etsid.gap.nominal import (
     ENVELOPE_FACTOR,
     GYRO_CHANNELS,
@@ -63,6 +63,8 @@ from etsid.gap.verdict import (
     leftover,
     mismatched,
 )
+from etsid.gap.whiten import CHANNELS as LOOP_CHANNELS
+from etsid.gap.whiten import WhitenedModel, fit_whitened
 
 MIN_SHARE_SMALL = 0.5
 """Small but structured mismatch: with no channel above :data:`Z_MISMATCH`, channels (not
@@ -270,7 +272,10 @@ class Mismatch:
     """Innovation tier: REAL's held-out roll/pitch innovation ratio under SIM's noise model
     (:func:`etsid.gap.loop_fit.innovation_shift`)."""
     loop_model: Any = None
-    """The :class:`etsid.gap.loop_fit.WhitenedModel` the innovation tier read it with."""
+    """The :class:`etsid.gap.loop_fit.WhitenedModel` SIM's noise-driven loop is read with."""
+    low_band: Any = None
+    """Low-band tier: the rate-damping shift (:class:`etsid.gap.damping.LowBandReading`)
+    that made roll and pitch a mismatch."""
 
 
 RESPONSE_SHIFT = {"p": 0.175, "q": 0.175, "r": 0.17}
@@ -312,18 +317,29 @@ def response_tier(scorer: Scorer, real: Flight, fit: np.ndarray, hold: np.ndarra
                           True, {c: gains[c] for c in shifted})
 
 
-def innovation_tier(sim: Flight, nominal: NominalModel, real: Flight, mis: Mismatch,
+def innovation_tier(model: WhitenedModel, real: Flight, mis: Mismatch,
                     hold: np.ndarray) -> Mismatch:
     """With every channel within its floor over a loop that answers noise: roll and pitch
     as an innovation-tier mismatch when REAL's prediction errors under SIM's noise model are
     beyond :data:`etsid.gap.loop_fit.LOOP_RATIO` of SIM's, else ``mis`` unchanged (a
     delay of 8-17 ms on the Crazyflie sits within the 8 Hz floors at 1.6-2.5× SIM's errors)."""
-    model = fit_whitened(sim, nominal)
     ratio = innovation_shift(model, real, hold)
     if ratio is None:
         return mis
     return Mismatch(mis.z_all, mis.z_hold, list(LOOP_CHANNELS), True, innovation=ratio,
                     loop_model=model)
+
+
+def low_band_tier(mis: Mismatch, low: LowBandReading, model: WhitenedModel) -> Mismatch:
+    """With every channel within its floor and REAL's innovations within the innovation
+    tier: roll and pitch as a low-band mismatch when the rate-damping shift read below
+    :data:`etsid.gap.damping.LOW_BAND_HZ` is beyond :data:`etsid.gap.damping.Z_LOW_BAND` on
+    both parts of REAL (a rate damping of 5-8 /s on the Crazyflie: 1-4 % of its innovations),
+    else ``mis`` unchanged."""
+    if not low.sign:
+        return mis
+    return Mismatch(mis.z_all, mis.z_hold, list(LOOP_CHANNELS), True, loop_model=model,
+                    low_band=low)
 
 
 def mismatch_scores(scorer: Scorer, real: Flight, hold: np.ndarray) -> Mismatch:
@@ -345,8 +361,8 @@ def explain(scorer: Scorer, real: Flight, mis: Mismatch, fit: np.ndarray,
     :func:`select_response` for the response tier)."""
     if mis.gains:
         return select_response(scorer, fit, hold, tuple(mis.channels))
-    if mis.innovation is not None:  # the 8 Hz band sees nothing: the loop laws alone
-        return Selection(mis.z_hold, 0.0, [], None)
+    if mis.innovation is not None or mis.low_band is not None:
+        return Selection(mis.z_hold, 0.0, [], None)  # the 8 Hz band sees nothing: loop laws
     rate = scheduling_variables(real)["command_rate"]
     calm = hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
     busy = hold & (rate >= np.quantile(rate[real.airborne], 1.0 - CALM_QUANTILE))
@@ -540,15 +556,27 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                         "loop": floors.loop.as_dict() if floors.loop else None},
             "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}
     tier = response_tier(scorer, real, r_fit, r_hold) if not mis.channels else None
+    noisy_loop = floors.loop is not None and floors.loop.noise_driven
+    model = low = None
+    if noisy_loop and tier is None:
+        model = fit_whitened(sim, nominal)
+        low = low_band_reading(model, sim, real, r_fit, r_hold)
+        base["low_band"] = low.as_dict()
     if tier is not None:
         say(f"gap: no channel above its floor, but the response of {', '.join(tier[1].channels)}"
             f" differs from {sim_name}'s model")
         scorer, mis = tier
-    elif not mis.channels and floors.loop is not None and floors.loop.noise_driven:
-        mis = innovation_tier(sim, nominal, real, mis, r_hold)
+    elif not mis.channels and model is not None and low is not None:
+        mis = innovation_tier(model, real, mis, r_hold)
         if mis.innovation is not None:
             say(f"gap: no channel above its floor, but {real_name}'s prediction errors under "
                 f"{sim_name}'s noise model are {mis.innovation:.2f}× {sim_name}'s")
+        else:
+            mis = low_band_tier(mis, low, model)
+            if mis.low_band is not None:
+                say(f"gap: no channel above its floor, but {real_name}'s roll and pitch damping "
+                    f"below {LOW_BAND_HZ:g} Hz differs from {sim_name}'s by "
+                    f"{low.hold.value:+.2g} /s ({low.hold.z:+.1f} SE held out)")
     series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": mis.z_all,
               "scorer": scorer}
     if not mis.channels:
@@ -557,10 +585,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say(f"gap: {', '.join(mis.channels)} mismatched; fitting {len(LIBRARY)} candidate "
         f"effects on the first part of {real_name}, scoring on the rest")
     sel = explain(scorer, real, mis, r_fit, r_hold)
-    if floors.loop is not None and floors.loop.noise_driven and not mis.gains:
+    if model is not None and low is not None and not mis.gains:
         say(f"gap: {sim_name}'s loop answers noise; fitting its loop laws as prediction errors")
-        sel = choose_loop_law(sel, sim, nominal, scorer, tuple(mis.channels), r_fit, r_hold,
-                              mis.loop_model)
+        sel = choose_loop_law(sel, sim, scorer, tuple(mis.channels), r_fit, r_hold, model, low)
     say("gap: leftovers, locating the regime, writing the verdict")
     left, res1, unexplained = leftovers(scorer, real, sel, mis, r_fit, r_hold,
                                         info.get("radius"))
@@ -700,6 +727,12 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                     f"the floors of these channels are {real.name}'s own refit error"
                     if sel.chosen else "no named effect explains it, so it is not a "
                     "finding"))
+        elif mis.low_band is not None:
+            shift = mis.low_band.hold
+            notes.append(f"low-band tier: roll and pitch damping below {LOW_BAND_HZ:g} Hz "
+                         f"{shift.value:+.2g} /s against {sim.name}'s ({shift.z:+.1f} SE held "
+                         f"out, {mis.low_band.fit.z:+.1f} on the fit part) with every channel "
+                         "within its floor")
         elif mis.innovation is not None:
             notes.append(f"innovation tier: roll and pitch prediction errors "
                          f"{mis.innovation:.2f}× {sim.name}'s under its noise model with every "
@@ -766,6 +799,9 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     if mis.innovation is not None:
         what = (f"roll and pitch prediction errors {mis.innovation:.2f}× {sim.name}'s under its "
                 "noise model")
+    if mis.low_band is not None:
+        what = (f"roll and pitch damping below {LOW_BAND_HZ:g} Hz "
+                f"{mis.low_band.hold.value:+.2g} /s against {sim.name}'s")
     data.update(reason=what + ("" if named else "; no named effect explains "
                                "it on held-out data"),
                 mismatch={"channels": mis.channels,
@@ -776,6 +812,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                                         mis.gains.items()}
     if mis.innovation is not None:
         data["mismatch"]["innovation_ratio"] = mis.innovation
+    if mis.low_band is not None:
+        data["mismatch"]["low_band"] = mis.low_band.as_dict()
     data["summary"] = summary_sentence(data)
     return GapResult(data, sim, real, nominal, series)
 

@@ -169,6 +169,11 @@ def summary_sentence(data: dict[str, Any]) -> str:
         parts = [f"Mismatch in prediction errors, every channel within its floor: roll and "
                  f"pitch innovations {mis['innovation_ratio']:.2f}× {sim}'s under its noise "
                  "model."]
+    if mis.get("low_band") is not None:
+        low = mis["low_band"]
+        parts = [f"Mismatch in the low band, every channel within its floor: roll and pitch "
+                 f"damping {low['held_out']['extra_damping_per_s']:+.2g} /s against {sim}'s "
+                 f"({low['z_held_out']:+.1f} SE held out)."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]

@@ -125,11 +125,11 @@ def test_what_could_hide_is_said_unless_one_of_those_laws_is_named() -> None:
 def test_the_whitening_filter_of_an_autoregressive_noise_is_its_own() -> None:
     """The noise model of the prediction-error fit: an AR(2) noise e_t = 1.2 e_{t-1} −
     0.5 e_{t-2} + n_t is whitened by [1, −1.2, 0.5, 0, …] (order 6)."""
-    from etsid.gap.loop_fit import AR_ORDER, _ar_filter
+    from etsid.gap.whiten import AR_ORDER, ar_filter
 
     n = np.random.default_rng(2).standard_normal(20000)
     e = lfilter([1.0], [1.0, -1.2, 0.5], n)
-    filt = _ar_filter(e)
+    filt = ar_filter(e)
     assert filt.size == AR_ORDER + 1
     assert filt[:3] == pytest.approx([1.0, -1.2, 0.5], abs=0.03)
     assert np.all(np.abs(filt[3:]) < 0.03)
