@@ -24,7 +24,7 @@ import pandas as pd
 from etsid.errors import GapError
 from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
-from etsid.gap.fitting import Scorer
+from etsid.gap.fitting import Scorer, fit_candidates
 from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
@@ -48,6 +48,7 @@ from etsid.gap.select import (
     Scored,
     Selection,
     fit_unexplained,
+    score_fit,
     select,
     select_response,
 )
@@ -65,6 +66,13 @@ from etsid.gap.verdict import (
 )
 from etsid.gap.whiten import CHANNELS as LOOP_CHANNELS
 from etsid.gap.whiten import WhitenedModel, fit_whitened
+from etsid.gap.yaw_noise import (
+    ROTOR_INERTIA_ADDED,
+    YAW_BANDS_HZ,
+    YawReading,
+    quiet_yaw_evidence,
+    yaw_reading,
+)
 
 MIN_SHARE_SMALL = 0.5
 """Small but structured mismatch: with no channel above :data:`Z_MISMATCH`, channels (not
@@ -276,6 +284,8 @@ class Mismatch:
     low_band: Any = None
     """Low-band tier: the rate-damping shift (:class:`etsid.gap.damping.LowBandReading`)
     that made roll and pitch a mismatch."""
+    quiet_yaw: YawReading | None = None
+    """Yaw-noise tier: REAL's yaw command power over SIM's that made yaw a mismatch."""
 
 
 RESPONSE_SHIFT = {"p": 0.175, "q": 0.175, "r": 0.17}
@@ -330,6 +340,47 @@ def innovation_tier(model: WhitenedModel, real: Flight, mis: Mismatch,
                     loop_model=model)
 
 
+def quiet_yaw_tier(mis: Mismatch, yaw: YawReading) -> Mismatch:
+    """With every channel within its floor and neither the innovation nor the low-band tier
+    reading a change: yaw as a mismatch when REAL's yaw loop commands at most
+    :data:`etsid.gap.yaw_noise.QUIET_YAW` of SIM's power on both its parts (a rotor inertia
+    on the Crazyflie: 0.21-0.72), else ``mis`` unchanged."""
+    if not yaw.quiet:
+        return mis
+    return Mismatch(mis.z_all, mis.z_hold, ["r"], True, quiet_yaw=yaw)
+
+
+def name_rotor_inertia(sel: Selection, scorer: Scorer, fit: np.ndarray, hold: np.ndarray
+                       ) -> Selection:
+    """The yaw-noise tier's reading named a rotor inertia SIM lacks (the added form, its
+    coefficient fitted on ``fit`` for the record: the 8 Hz band does not fix it)."""
+    cand = ROTOR_INERTIA_ADDED
+    fitted = fit_candidates((cand,), scorer, fit)
+    sel.chosen = score_fit(fitted, scorer, hold, sel.z_before, sel.excess, ("r",))
+    sel.response = {cand.name: 1.0}
+    return sel
+
+
+def quiet_yaw_decides(sel: Selection, yaw: YawReading, scorer: Scorer, fit: np.ndarray,
+                      hold: np.ndarray) -> Selection:
+    """In the response tier, a yaw torque scale named with a rotor inertia as its undecided
+    look-alike becomes a rotor inertia (:func:`name_rotor_inertia`; the yaw torque scale
+    still its look-alike, both at one weight) when REAL's yaw loop commands at most
+    :data:`etsid.gap.yaw_noise.QUIET_YAW` of SIM's power: on the seen sets no yaw torque
+    scale went below 0.61, and 10 of 21 rotor inertias did."""
+    pair = {"yaw_torque_scale", "rotor_inertia"}
+    if not (yaw.quiet and sel.chosen is not None and sel.look_alike is not None
+            and set(sel.look_alike) == pair and sel.chosen.fit.name == "yaw_torque_scale"):
+        return sel
+    sel = name_rotor_inertia(sel, scorer, fit, hold)
+    sel.response = {"rotor_inertia": 1.0, "yaw_torque_scale": 1.0}
+    sel.look_alike = ("rotor_inertia", "yaw_torque_scale")
+    sel.notes.append(f"yaw torque scale and rotor inertia undecided by the response; the yaw "
+                     f"loop commands {yaw.hold:.2f}× the simulation's power, as under a rotor "
+                     "inertia")
+    return sel
+
+
 def low_band_tier(mis: Mismatch, low: LowBandReading, model: WhitenedModel) -> Mismatch:
     """With every channel within its floor and REAL's innovations within the innovation
     tier: roll and pitch as a low-band mismatch when the rate-damping shift read below
@@ -361,7 +412,7 @@ def explain(scorer: Scorer, real: Flight, mis: Mismatch, fit: np.ndarray,
     :func:`select_response` for the response tier)."""
     if mis.gains:
         return select_response(scorer, fit, hold, tuple(mis.channels))
-    if mis.innovation is not None or mis.low_band is not None:
+    if mis.innovation is not None or mis.low_band is not None or mis.quiet_yaw is not None:
         return Selection(mis.z_hold, 0.0, [], None)  # the 8 Hz band sees nothing: loop laws
     rate = scheduling_variables(real)["command_rate"]
     calm = hold & (rate <= np.quantile(rate[real.airborne], CALM_QUANTILE))
@@ -557,11 +608,12 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}
     tier = response_tier(scorer, real, r_fit, r_hold) if not mis.channels else None
     noisy_loop = floors.loop is not None and floors.loop.noise_driven
-    model = low = None
-    if noisy_loop and tier is None:
+    model = low = yaw = None
+    if noisy_loop:
         model = fit_whitened(sim, nominal)
         low = low_band_reading(model, sim, real, r_fit, r_hold)
-        base["low_band"] = low.as_dict()
+        yaw = yaw_reading(nominal, sim, real, r_fit, r_hold)
+        base["low_band"], base["yaw_command_power"] = low.as_dict(), yaw.as_dict()
     if tier is not None:
         say(f"gap: no channel above its floor, but the response of {', '.join(tier[1].channels)}"
             f" differs from {sim_name}'s model")
@@ -577,6 +629,11 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                 say(f"gap: no channel above its floor, but {real_name}'s roll and pitch damping "
                     f"below {LOW_BAND_HZ:g} Hz differs from {sim_name}'s by "
                     f"{low.hold.value:+.2g} /s ({low.hold.z:+.1f} SE held out)")
+            elif yaw is not None:
+                mis = quiet_yaw_tier(mis, yaw)
+                if mis.quiet_yaw is not None:
+                    say(f"gap: no channel above its floor, but {real_name}'s yaw loop commands "
+                        f"{yaw.hold:.2f}× {sim_name}'s power")
     series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": mis.z_all,
               "scorer": scorer}
     if not mis.channels:
@@ -585,7 +642,11 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say(f"gap: {', '.join(mis.channels)} mismatched; fitting {len(LIBRARY)} candidate "
         f"effects on the first part of {real_name}, scoring on the rest")
     sel = explain(scorer, real, mis, r_fit, r_hold)
-    if model is not None and low is not None and not mis.gains:
+    if mis.quiet_yaw is not None:
+        sel = name_rotor_inertia(sel, scorer, r_fit, r_hold)
+    elif mis.gains and yaw is not None:
+        sel = quiet_yaw_decides(sel, yaw, scorer, r_fit, r_hold)
+    elif model is not None and low is not None and not mis.gains:
         say(f"gap: {sim_name}'s loop answers noise; fitting its loop laws as prediction errors")
         sel = choose_loop_law(sel, sim, scorer, tuple(mis.channels), r_fit, r_hold, model, low)
     say("gap: leftovers, locating the regime, writing the verdict")
@@ -708,6 +769,9 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
         for e in effects:
             if e["name"] == sel.loop.law.name:
                 e["evidence"] = sel.loop.evidence(sim.name, real.name)
+    if mis.quiet_yaw is not None:
+        for e in effects:
+            e["evidence"] = quiet_yaw_evidence(mis.quiet_yaw, sim.name, real.name)
     suspect_gyro(effects, left)
     extrapolated_wind(effects, scorer, hold, sim.name, real.name)
     undecided_look_alike(effects, sel)
@@ -727,6 +791,12 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
                     f"the floors of these channels are {real.name}'s own refit error"
                     if sel.chosen else "no named effect explains it, so it is not a "
                     "finding"))
+        elif mis.quiet_yaw is not None:
+            notes.append(f"yaw-noise tier: {real.name}'s yaw loop commands "
+                         f"{mis.quiet_yaw.hold:.2f}× {sim.name}'s power at "
+                         f"{YAW_BANDS_HZ[0][0]:g}-{YAW_BANDS_HZ[-1][1]:g} Hz held out "
+                         f"({mis.quiet_yaw.fit:.2f}× on the fit part) with every channel "
+                         "within its floor")
         elif mis.low_band is not None:
             shift = mis.low_band.hold
             notes.append(f"low-band tier: roll and pitch damping below {LOW_BAND_HZ:g} Hz "
@@ -802,6 +872,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     if mis.low_band is not None:
         what = (f"roll and pitch damping below {LOW_BAND_HZ:g} Hz "
                 f"{mis.low_band.hold.value:+.2g} /s against {sim.name}'s")
+    if mis.quiet_yaw is not None:
+        what = f"yaw command power {mis.quiet_yaw.hold:.2f}× {sim.name}'s"
     data.update(reason=what + ("" if named else "; no named effect explains "
                                "it on held-out data"),
                 mismatch={"channels": mis.channels,
@@ -814,6 +886,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
         data["mismatch"]["innovation_ratio"] = mis.innovation
     if mis.low_band is not None:
         data["mismatch"]["low_band"] = mis.low_band.as_dict()
+    if mis.quiet_yaw is not None:
+        data["mismatch"]["yaw_command_power"] = mis.quiet_yaw.as_dict()
     data["summary"] = summary_sentence(data)
     return GapResult(data, sim, real, nominal, series)
 

@@ -174,6 +174,11 @@ def summary_sentence(data: dict[str, Any]) -> str:
         parts = [f"Mismatch in the low band, every channel within its floor: roll and pitch "
                  f"damping {low['held_out']['extra_damping_per_s']:+.2g} /s against {sim}'s "
                  f"({low['z_held_out']:+.1f} SE held out)."]
+    if mis.get("yaw_command_power") is not None:
+        yaw = mis["yaw_command_power"]
+        parts = [f"Mismatch in yaw noise, every channel within its floor: {real}'s yaw loop "
+                 f"commands {yaw['ratio_held_out']:.2f}× {sim}'s power held out "
+                 f"({yaw['ratio_fit']:.2f}× on the fit part)."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]
