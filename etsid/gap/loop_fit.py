@@ -19,7 +19,7 @@ from etsid.gap.candidates import BY_NAME
 from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
 from etsid.gap.fitting import Fit, Scorer
 from etsid.gap.nominal import Mods
-from etsid.gap.select import Selection, score_fit
+from etsid.gap.select import Scored, Selection, score_fit
 from etsid.gap.signals import Flight
 from etsid.gap.verdict import at_bound
 from etsid.gap.whiten import CHANNELS, WhitenedModel, band_power, innovation_ratio, measured_rates
@@ -205,8 +205,19 @@ def loop_companion(sel: Selection, sim: Flight, scorer: Scorer, focus: tuple[str
     under it reads a lower damping (:mod:`etsid.gap.damping`), the delay or lag removing the
     most of it (≥ :data:`MIN_LOOP_DROP`, at no bound) joins as its companion (PyFlyt's
     thrust scale + delay pairs: the thrust scale is named from the vertical force, the
-    delay's roll and pitch stay within their floors)."""
+    delay's roll and pitch stay within their floors). A pair of the 8 Hz fit with one loop
+    law is first taken back to its other effect (:func:`_without_loop_part`)."""
     first = sel.chosen
+    if first is not None and len(first.fit.candidates) == 2:
+        alone = _without_loop_part(sel)
+        if alone is None:
+            return sel
+        sel.notes.append(f"{first.fit.name} from the 8 Hz fit: its loop part is left to the "
+                         "loop's own readings over a loop that answers its noise")
+        sel.chosen = first = alone
+        sel.companion_share = None
+        if sel.look_alike is not None and sel.look_alike[0] != alone.fit.name:
+            sel.look_alike = None
     if first is None or len(first.fit.candidates) != 1:
         return sel
     real = scorer.ctx.flight
@@ -233,6 +244,18 @@ def loop_companion(sel: Selection, sim: Flight, scorer: Scorer, focus: tuple[str
     if twin is not None and sel.look_alike is None:  # a first effect's own is said instead
         sel.look_alike = (best.name, twin.name)
     return sel
+
+
+def _without_loop_part(sel: Selection) -> Scored | None:
+    """The other effect of a pair the 8 Hz fit named with one law of :data:`LAWS`, as it was
+    fitted alone (None for any other pair). Over a loop that answers its noise the 8 Hz fit
+    reads that loop law off the loop's answer (330-11: a thrust scale + delay came out mass
+    + an inertia ×0.61), so the loop part is left to the loop's own readings."""
+    parts = [c.name for c in sel.chosen.fit.candidates] if sel.chosen else []
+    rest = [name for name in parts if name not in LAWS]
+    if len(parts) != 2 or len(rest) != 1:
+        return None
+    return next((s for s in sel.ranked if s.fit.name == rest[0]), None)
 
 
 def _timing_by_spectrum(usable: list[LoopLaw], model: WhitenedModel, sim: Flight,
