@@ -404,3 +404,17 @@ def test_a_crazyflie_rotor_inertia_is_read_from_its_quieter_yaw_loop(tmp_path: P
     assert names == ["rotor_inertia"], data["summary"]
     assert params["added"] > 0, params
     assert data["effects"][0]["confidence"] <= 0.5
+
+
+def test_a_loop_law_paired_by_the_8hz_fit_is_left_to_the_loop(tmp_path: Path) -> None:
+    """Thrust ×1.19 and a 12.5 ms delay on the Crazyflie (seed 313180, set 313's pair 5,
+    seen): the 8 Hz fit names the thrust scale with an inertia ×0.60, the loop's answer to
+    its noise read as a law (this test fails without step 17). Taken back to the thrust
+    scale, the loop part is decided by the timing companion: the delay, as the low-band
+    power (below LAG_EXCESS) says, not a lag."""
+    from etsid.gap.loop_fit import LAG_EXCESS
+
+    names, params, data = _named("pyflyt", "thrust_scale+time_delay", 313180, tmp_path)
+    assert names == ["thrust_scale", "time_delay"], data["summary"]
+    assert params["scale"] == pytest.approx(1.186, rel=0.05), params
+    assert data["loop_fit"]["lag_band_power_ratio"] < LAG_EXCESS, data["loop_fit"]
