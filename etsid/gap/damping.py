@@ -71,11 +71,12 @@ def damping_slopes(model: WhitenedModel, flight: Flight, mask: np.ndarray,
     return out
 
 
-def damping_shift(model: WhitenedModel, sim: Flight, real: Flight, mask: np.ndarray,
-                  mods: Mods | None = None) -> DampingShift:
-    """REAL's extra rate damping over SIM's: the difference of their low-band slopes (SIM
-    over its airborne samples, REAL over ``mask`` under ``mods``), roll and pitch pooled."""
-    s = damping_slopes(model, sim, sim.airborne)
+def damping_shift(model: WhitenedModel, sim_slopes: dict[str, tuple[float, float]],
+                  real: Flight, mask: np.ndarray, mods: Mods | None = None) -> DampingShift:
+    """REAL's extra rate damping over SIM's: the difference of REAL's low-band slopes (over
+    ``mask``, under ``mods``) and SIM's (:func:`damping_slopes` over its airborne samples),
+    roll and pitch pooled."""
+    s = sim_slopes
     r = damping_slopes(model, real, mask, mods)
     per_axis = {c: (-(r[c][0] - s[c][0]), float(np.hypot(r[c][1], s[c][1])))
                 for c in CHANNELS}
@@ -116,5 +117,6 @@ class LowBandReading:
 def low_band_reading(model: WhitenedModel, sim: Flight, real: Flight, fit: np.ndarray,
                      hold: np.ndarray, mods: Mods | None = None) -> LowBandReading:
     """:func:`damping_shift` on REAL's ``fit`` and ``hold`` parts."""
-    return LowBandReading(damping_shift(model, sim, real, fit, mods),
-                          damping_shift(model, sim, real, hold, mods))
+    sim_slopes = damping_slopes(model, sim, sim.airborne)
+    return LowBandReading(damping_shift(model, sim_slopes, real, fit, mods),
+                          damping_shift(model, sim_slopes, real, hold, mods))
