@@ -422,6 +422,11 @@ def explain(scorer: Scorer, real: Flight, mis: Mismatch, fit: np.ndarray,
                   activity=(calm, busy))
 
 
+SEARCH_TRACE = ("pair ", "response tier ")
+"""Selection notes that trace the search candidate by candidate (gap.json's ``candidates``
+ranks them already); the others, the decisions and why, go to gap.json's ``notes``."""
+
+
 def _unexplained_entry(unexplained: Any, names: list[str], channel: str,
                        before: float, after: float) -> dict[str, Any]:
     return {
@@ -783,6 +788,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     if sel is not None:
         for s in sel.refused:
             notes.append(f"not kept: {s.fit.name} ({s.why_not()})")
+        notes.extend(n for n in sel.notes if not n.startswith(SEARCH_TRACE))
         if mis.gains:
             notes.append("response tier: " + ", ".join(
                 f"{LABELS[c]} {g:.2f}× {sim.name}'s prediction ({t:+.0f} SE)"

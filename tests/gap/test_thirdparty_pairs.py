@@ -416,5 +416,7 @@ def test_a_loop_law_paired_by_the_8hz_fit_is_left_to_the_loop(tmp_path: Path) ->
 
     names, params, data = _named("pyflyt", "thrust_scale+time_delay", 313180, tmp_path)
     assert names == ["thrust_scale", "time_delay"], data["summary"]
+    assert any("from the 8 Hz fit: its loop part is left" in n and "inertia_scale" in n
+               for n in data["notes"]), data["notes"]
     assert params["scale"] == pytest.approx(1.186, rel=0.05), params
     assert data["loop_fit"]["lag_band_power_ratio"] < LAG_EXCESS, data["loop_fit"]
