@@ -608,6 +608,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared},
             "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
+                        "drag_law": nominal.drag_law,
                         "channels": list(shared), "z_all": mis.z_all, "z_held_out": mis.z_hold,
                         "loop": floors.loop.as_dict() if floors.loop else None},
             "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}

@@ -56,7 +56,7 @@ def test_thrust_scaled_recording_hovers_at_a_higher_command(tmp_path: Path) -> N
 
 
 def _gap_on_pair(label: str, seed: int) -> dict:
-    """etsid gap on one PyFlyt pair of the benchmark's development seed 900."""
+    """etsid gap on one PyFlyt pair of the benchmark (label, pair seed), made in-process."""
     import gap_thirdparty
 
     from etsid.gap.run import analyse
@@ -97,6 +97,24 @@ def test_a_wind_beyond_the_speeds_sim_flew_gets_no_drag_companion() -> None:
     truth = np.degrees(np.arctan2(-2.528, -2.558)) % 360.0  # ENU (-2.53, -2.56) → 225°
     assert abs((towards - truth + 180.0) % 360.0 - 180.0) < 30.0, p
     assert "extrapolated" in wind.get("caveat", ""), wind
+
+
+def test_a_wind_on_an_axis_sim_barely_flew_is_found_through_one_drag_law() -> None:
+    """Third-party pair 334-16 (fresh in session 9, answered `consistent` then): SIM flew
+    its Crazyflie ≤ 0.9 m/s sideways, where PyFlyt's quadratic body drag is below the
+    noise, so a lateral drag law of its own came out zero and a 3.7 m/s wind towards 161°
+    (mostly lateral in REAL's headings) was invisible to the wind law. One quadratic law
+    for both axes, fitted where SIM flew fastest, names the wind: its direction within
+    15°, its speed within 25 % (the truth is PyFlyt's, ENU (1.22, −3.54) m/s)."""
+    data = _gap_on_pair("wind", 334120)
+    assert data["nominal"]["drag_law"] == "one linear + quadratic law for x and y"
+    names = [e["name"] for e in data["effects"] if e["name"] != "unexplained"]
+    assert names == ["wind"], data["summary"]
+    p = {k: v["value"] for k, v in data["effects"][0]["parameters"].items()}
+    towards = np.degrees(np.arctan2(p["east"], p["north"])) % 360.0
+    truth = np.degrees(np.arctan2(1.218, -3.541)) % 360.0
+    assert abs((towards - truth + 180.0) % 360.0 - 180.0) < 15.0, p
+    assert np.hypot(p["north"], p["east"]) == pytest.approx(np.hypot(1.218, 3.541), rel=0.25)
 
 
 def _logged_pair(simulator: str, label: str, seed: int, tmp_path: Path) -> tuple:
