@@ -90,6 +90,11 @@ Z_LOW_BAND = 3.9
 """Least |z| of the shift on both REAL's fit part and its held-out part, same sign, for the
 low band to count: 1.5× the largest |z| both parts reached together on the 84 seen no-effect
 PyFlyt pairs (2.6; docs/gap.md, step 15)."""
+Z_POOLED = {1: 5.94, -1: 6.83}
+"""Or: least z of both parts pooled (inverse-variance mean of the two shifts), both parts on
+that side, per side: 1.5× the largest pooled z on that side of the same 84 no-effect pairs
+(+3.96, −4.56; step 19). Two parts at 3.1 and 7.3 SE are as strong evidence as two at 5,
+and the held-out part still has to agree in sign."""
 
 
 @dataclass
@@ -100,18 +105,28 @@ class LowBandReading:
     hold: DampingShift
 
     @property
+    def pooled_z(self) -> float:
+        """Both parts' shifts pooled (inverse-variance mean), in standard errors."""
+        w_fit, w_hold = self.fit.stderr ** -2, self.hold.stderr ** -2
+        return float((w_fit * self.fit.value + w_hold * self.hold.value)
+                     / np.sqrt(w_fit + w_hold))
+
+    @property
     def sign(self) -> int:
         """+1 (REAL damps more: a rate damping), -1 (REAL's loop answers more noise in the low
-        band: a slower motor or a later command), 0 (within :data:`Z_LOW_BAND`)."""
+        band: a slower motor or a later command), 0 (within :data:`Z_LOW_BAND` on both parts
+        and :data:`Z_POOLED` pooled)."""
         for sign in (1, -1):
-            if min(sign * self.fit.z, sign * self.hold.z) >= Z_LOW_BAND:
+            both = min(sign * self.fit.z, sign * self.hold.z)
+            if both >= Z_LOW_BAND or (both > 0.0 and sign * self.pooled_z >= Z_POOLED[sign]):
                 return sign
         return 0
 
     def as_dict(self) -> dict[str, Any]:
         """gap.json's ``low_band``."""
         return {"fit": self.fit.as_dict(), "held_out": self.hold.as_dict(),
-                "z_fit": self.fit.z, "z_held_out": self.hold.z, "sign": self.sign}
+                "z_fit": self.fit.z, "z_held_out": self.hold.z, "z_pooled": self.pooled_z,
+                "sign": self.sign}
 
 
 def low_band_reading(model: WhitenedModel, sim: Flight, real: Flight, fit: np.ndarray,

@@ -302,7 +302,8 @@ class LoopChoice:
         read = (f"below {LOW_BAND_HZ:g} Hz, where the rates follow the setpoints, "
                 f"{real_name}'s prediction errors under {sim_name}'s noise model fall with the "
                 f"rates by {shift.value:+.2g} ± {shift.stderr:.1g} /s against {sim_name}'s "
-                f"({self.low.fit.z:+.1f} SE on the fit part, {shift.z:+.1f} held out)")
+                f"({self.low.fit.z:+.1f} SE on the fit part, {shift.z:+.1f} held out, "
+                f"{self.low.pooled_z:+.1f} pooled)")
         if self.law.name == "rate_damping":
             return f"{lead}, so the damping was read in the low band: {read}; it removes {drop}"
         return (f"{lead}; {read}: the loop answers more noise there, as behind a slower motor "

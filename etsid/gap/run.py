@@ -343,8 +343,9 @@ def innovation_tier(model: WhitenedModel, real: Flight, mis: Mismatch,
 def quiet_yaw_tier(mis: Mismatch, yaw: YawReading) -> Mismatch:
     """With every channel within its floor and neither the innovation nor the low-band tier
     reading a change: yaw as a mismatch when REAL's yaw loop commands at most
-    :data:`etsid.gap.yaw_noise.QUIET_YAW` of SIM's power on both its parts (a rotor inertia
-    on the Crazyflie: 0.21-0.72), else ``mis`` unchanged."""
+    :data:`etsid.gap.yaw_noise.QUIET_YAW` of SIM's power on both its parts, or both below 1
+    at a geometric mean of at most :data:`etsid.gap.yaw_noise.QUIET_YAW_POOLED` (a rotor
+    inertia on the Crazyflie: 0.17-0.73), else ``mis`` unchanged."""
     if not yaw.quiet:
         return mis
     return Mismatch(mis.z_all, mis.z_hold, ["r"], True, quiet_yaw=yaw)
@@ -366,8 +367,8 @@ def quiet_yaw_decides(sel: Selection, yaw: YawReading, scorer: Scorer, fit: np.n
     """In the response tier, a yaw torque scale named with a rotor inertia as its undecided
     look-alike becomes a rotor inertia (:func:`name_rotor_inertia`; the yaw torque scale
     still its look-alike, both at one weight) when REAL's yaw loop commands at most
-    :data:`etsid.gap.yaw_noise.QUIET_YAW` of SIM's power: on the seen sets no yaw torque
-    scale went below 0.61, and 10 of 21 rotor inertias did."""
+    SIM's power (:attr:`etsid.gap.yaw_noise.YawReading.quiet`): on the seen sets no yaw
+    torque scale went below 0.61 (geometric mean 0.57), and 13 of 21 rotor inertias did."""
     pair = {"yaw_torque_scale", "rotor_inertia"}
     if not (yaw.quiet and sel.chosen is not None and sel.look_alike is not None
             and set(sel.look_alike) == pair and sel.chosen.fit.name == "yaw_torque_scale"):
@@ -385,8 +386,8 @@ def low_band_tier(mis: Mismatch, low: LowBandReading, model: WhitenedModel) -> M
     """With every channel within its floor and REAL's innovations within the innovation
     tier: roll and pitch as a low-band mismatch when the rate-damping shift read below
     :data:`etsid.gap.damping.LOW_BAND_HZ` is beyond :data:`etsid.gap.damping.Z_LOW_BAND` on
-    both parts of REAL (a rate damping of 5-8 /s on the Crazyflie: 1-4 % of its innovations),
-    else ``mis`` unchanged."""
+    both parts of REAL or :data:`etsid.gap.damping.Z_POOLED` pooled (a rate damping of
+    5-8 /s on the Crazyflie: 1-4 % of its innovations), else ``mis`` unchanged."""
     if not low.sign:
         return mis
     return Mismatch(mis.z_all, mis.z_hold, list(LOOP_CHANNELS), True, loop_model=model,

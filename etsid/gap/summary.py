@@ -173,7 +173,8 @@ def summary_sentence(data: dict[str, Any]) -> str:
         low = mis["low_band"]
         parts = [f"Mismatch in the low band, every channel within its floor: roll and pitch "
                  f"damping {low['held_out']['extra_damping_per_s']:+.2g} /s against {sim}'s "
-                 f"({low['z_held_out']:+.1f} SE held out)."]
+                 f"({low['z_held_out']:+.1f} SE held out, {low['z_pooled']:+.1f} with the fit "
+                 "part)."]
     if mis.get("yaw_command_power") is not None:
         yaw = mis["yaw_command_power"]
         parts = [f"Mismatch in yaw noise, every channel within its floor: {real}'s yaw loop "
