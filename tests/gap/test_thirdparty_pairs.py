@@ -424,6 +424,23 @@ def test_a_crazyflie_rotor_inertia_is_read_from_its_quieter_yaw_loop(tmp_path: P
     assert data["effects"][0]["confidence"] <= 0.5
 
 
+def test_a_rotor_inertia_quiet_on_one_part_is_read_from_both_parts_pooled(
+        tmp_path: Path) -> None:
+    """A rotor inertia (seed 319160, set 319's pair 9, `consistent` through step 18): REAL's
+    yaw loop commands 0.11× SIM's power on its fit part and 0.6× held out, above QUIET_YAW;
+    the geometric mean, 0.25, is under QUIET_YAW_POOLED (step 19). Named a rotor inertia.
+    Its look-alikes stay loud under both rules: the yaw torque scale of
+    test_a_crazyflie_yaw_torque_change_is_fitted_to_the_response and the no-effect pair of
+    test_its_look_alike_a_no_effect_crazyflie_stays_consistent are not `quiet`."""
+    from etsid.gap.yaw_noise import QUIET_YAW, QUIET_YAW_POOLED
+
+    names, _, data = _named("pyflyt", "rotor_inertia", 319160, tmp_path)
+    yaw = data["yaw_command_power"]
+    assert max(yaw["ratio_fit"], yaw["ratio_held_out"]) > QUIET_YAW, yaw
+    assert yaw["ratio_pooled"] <= QUIET_YAW_POOLED and yaw["quiet"], yaw
+    assert names == ["rotor_inertia"], data["summary"]
+
+
 def test_a_loop_law_paired_by_the_8hz_fit_is_left_to_the_loop(tmp_path: Path) -> None:
     """Thrust ×1.19 and a 12.5 ms delay on the Crazyflie (seed 313180, set 313's pair 5,
     seen): the 8 Hz fit names the thrust scale with an inertia ×0.60, the loop's answer to
