@@ -185,8 +185,12 @@ class LocalRunner:
         try:
             while pending or flying:
                 while pending and not (renew or broken) and len(flying) < WINDOW * jobs:
-                    item = pending.popleft()
-                    flying[executor.submit(run_pooled, item)] = item
+                    try:
+                        future = executor.submit(run_pooled, pending[0])
+                    except BrokenProcessPool:  # a worker died since the last wait: the
+                        broken = True  # item never ran, so no break counts against it
+                        break
+                    flying[future] = pending.popleft()
                 if not flying:
                     break
                 on_running(min(jobs, len(flying)))

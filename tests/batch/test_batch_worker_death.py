@@ -166,3 +166,30 @@ def test_a_log_over_max_memory_is_an_error_row_and_its_worker_goes_on(
     peak = read_results(tmp_path / "hog").set_index("input")["peak_rss_mb"]
     assert 600.0 < peak[logs[0]] < 1200.0  # stopped past the limit, well before 1.5 GB more
     assert [rows[name]["status"] for name in ("a.tlog", "c", "d.mcap")] == ["ok"] * 3
+
+
+def test_a_pool_that_breaks_between_two_submissions_loses_no_log(
+        logs: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A worker can die after the runner's last wait and before its next submission: the
+    pool then refuses the submission itself (``BrokenProcessPool`` from ``submit``). The log
+    not submitted never ran, so it goes back in line for the next pool; every log still
+    gets its own row (CI once saw this race end the whole batch with a traceback)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from etsid.batch import local
+
+    refused = []
+
+    class RefusesOnce(local.ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
+            if len(refused) == 0 and getattr(self, "_submitted", 0) == 1:
+                refused.append(args[0])
+                raise BrokenProcessPool("a child process terminated abruptly")
+            self._submitted = getattr(self, "_submitted", 0) + 1
+            return super().submit(fn, *args, **kwargs)
+
+    monkeypatch.setattr(local, "ProcessPoolExecutor", RefusesOnce)
+    summary = run_batch(logs, BatchSpec("inspect", read_options=ReadOptions()),
+                        tmp_path / "out", jobs=2, scheduler="local")
+    assert refused, "the refusal was never exercised"
+    assert (summary.ok, summary.failed) == (len(logs), 0)
