@@ -512,9 +512,9 @@ excess with per-axis linear laws, 0.97 and 0.93 with one quadratic law, winds wi
 
 def _dissipative_fit(x: np.ndarray, y: np.ndarray, keep: np.ndarray,
                      signed: tuple[int, ...]) -> np.ndarray:
-    """Least squares over the columns in ``keep`` with every ``signed`` coefficient ≤ 0:
-    the term pushing hardest the wrong way (in units of its RMS force) is dropped and the
-    rest refitted until none is left."""
+    """Ridge least squares (:func:`_solve`) over the columns in ``keep`` with every
+    ``signed`` coefficient ≤ 0: the term pushing hardest the wrong way (in units of its RMS
+    force) is dropped and the rest refitted until none is left."""
     keep = keep.copy()
     while True:
         full = np.zeros(x.shape[1])
@@ -568,15 +568,17 @@ def _drag_law(xs: Pair, ys: Pair, n_per_sample: float) -> tuple[Pair, str]:
         n_eff = max(gain.size * n_per_sample, 2.0)
         return float(np.mean(gain)) > STRUCTURE_Z * float(np.std(gain)) / np.sqrt(n_eff)
 
-    law, keep, name = _shared, linear, "one linear law for x and y"
+    law, keep = _shared, linear
     if len(late[1][0]) >= 10:
         err = late_error(law, keep)
         quad = late_error(_shared, full)
         if better(quad, err):
-            keep, err, name = full, quad, "one linear + quadratic law for x and y"
+            keep, err = full, quad
         if better(late_error(_per_axis, keep), err):
-            law, name = _per_axis, name.replace("one", "separate").replace(" for x and y",
-                                                                            " per axis")
+            law = _per_axis
+    shape = "linear + quadratic" if keep.all() else "linear"
+    name = (f"one {shape} law for x and y" if law is _shared
+            else f"separate {shape} laws per axis")
     return law(xs, ys, keep), name
 
 
@@ -596,20 +598,14 @@ def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
             continue
         x = lowpass(feats[c], flight.fs, CUTOFF_HZ[c])[mask]
         keep = np.array([j not in drop.get(c, []) for j in range(x.shape[1])])
-        coef[c] = (_dissipative_fit(x, meas[c][mask], keep, DRAG_TERMS) if c in ("ax", "ay")
-                   else _ridge_fit(x, meas[c][mask], keep))
+        coef[c] = _dissipative_fit(x, meas[c][mask], keep,
+                                   DRAG_TERMS if c in ("ax", "ay") else ())
     if "ax" in channels and "ay" in channels:
         xs = tuple(lowpass(feats[c], flight.fs, CUTOFF_HZ[c])[mask] for c in ("ax", "ay"))
         ys = (meas["ax"][mask], meas["ay"][mask])
         (coef["ax"], coef["ay"]), law = _drag_law(xs, ys, 2.0 * CUTOFF_HZ["ax"] / flight.fs)
         return coef, law
     return coef, ""
-
-
-def _ridge_fit(x: np.ndarray, y: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    full = np.zeros(x.shape[1])
-    full[keep] = _solve(x[:, keep], y)
-    return full
 
 
 def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
