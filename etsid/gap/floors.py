@@ -128,7 +128,7 @@ def own_predictability(real: Flight, nominal: NominalModel, channels: list[str],
     the excess is not a law SIM lacks (a refit would have taken that up, as it does an
     inertia, a lag or a delay) but REAL's own unpredictability at that structure: more
     noise, turbulence or vibration, or dynamics faster than its log resolves."""
-    own = fit_nominal(real, fit, k=nominal.k)
+    own = fit_nominal(real, fit, law=(nominal.k, nominal.v_ref))
     y = measured(real)
     pred_sim, pred_own = nominal.predict(real), own.predict(real)
     return {c: (float(np.sqrt(np.mean((y[c] - pred_sim[c])[hold] ** 2))),

@@ -210,23 +210,40 @@ MOTOR_TERMS_CACHED = 8
 or lag fit evaluates a few dozen values)."""
 
 
-def _motor_terms(flight: Flight, k: float, tau: float, delay: float
+VOLTAGE_CUTOFF_HZ = 2.0
+"""Low-pass of the pack voltage in the rotor-speed law, Hz (its sensor noise out; an ESC
+follows the voltage at once, the vehicle's response is slower than this anyway)."""
+
+
+def voltage_ratio(flight: Flight, v_ref: float | None) -> np.ndarray | None:
+    """Pack voltage over ``v_ref`` per sample (low-passed at :data:`VOLTAGE_CUTOFF_HZ`), or
+    None without a reference or a usable voltage log."""
+    if v_ref is None or "vbat" not in flight.have or not np.all(np.isfinite(flight.vbat)):
+        return None
+    return np.maximum(lowpass(flight.vbat, flight.fs, VOLTAGE_CUTOFF_HZ), 0.1 * v_ref) / v_ref
+
+
+def _motor_terms(flight: Flight, k: float, tau: float, delay: float,
+                 v_ref: float | None = None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(motor response, rotor speed Ω ∝ m + k, Ω², dΩ/dt per s) of ``flight`` under lag
-    ``tau`` s and delay ``delay`` s; for stick commands Ω and its powers are of the
-    collective (column 0) and dΩ/dt is the yaw demand's rate. Kept on the flight for as
-    long as its motor array is the same object: a fit evaluates them thousands of times."""
+    """(motor response, rotor speed Ω ∝ (m + k) [V/V_ref], Ω², dΩ/dt per s) of ``flight``
+    under lag ``tau`` s and delay ``delay`` s, with the pack voltage's factor when ``v_ref``
+    (V) is given; for stick commands Ω and its powers are of the collective (column 0) and
+    dΩ/dt is the yaw demand's rate. Kept on the flight for as long as its motor array is
+    the same object: a fit evaluates them thousands of times."""
     cache = flight.__dict__.setdefault("_motor_terms", {})
-    key = (id(flight.motors), float(k), float(tau), float(delay))
+    key = (id(flight.motors), float(k), float(tau), float(delay), v_ref)
     hit = cache.get(key)
     if hit is not None and hit[0] is flight.motors:
         return hit[1]
     m_eff = motor_response(flight.motors, flight.fs, tau, delay)
+    volts = voltage_ratio(flight, v_ref)
+    gain = 1.0 if volts is None else volts[:, None]
     if flight.inputs == "motors":
-        om = np.clip(m_eff, 0.0, 1.0) + k
+        om = (np.clip(m_eff, 0.0, 1.0) + k) * gain
         spin = derivative(om, flight.fs)
     else:
-        om = np.clip(m_eff[:, :1], 0.0, 1.0) + k
+        om = (np.clip(m_eff[:, :1], 0.0, 1.0) + k) * gain
         spin = derivative(m_eff[:, 3:4], flight.fs)
     terms = (m_eff, om, om**2, spin)
     if len(cache) >= MOTOR_TERMS_CACHED:
@@ -243,14 +260,15 @@ def _column_gain(gain: float | np.ndarray, n: int) -> np.ndarray:
 
 
 def features(flight: Flight, k: float, tau: float, mods: Mods,
-             channels: tuple[str, ...] = CHANNELS, delay: float = 0.0
-             ) -> dict[str, np.ndarray]:
+             channels: tuple[str, ...] = CHANNELS, delay: float = 0.0,
+             v_ref: float | None = None) -> dict[str, np.ndarray]:
     """Unfiltered regressors of the channels (n, n_features) under ``mods`` (``delay``, s:
-    the nominal command-to-motor delay, to which ``mods.delay`` adds)."""
+    the nominal command-to-motor delay, to which ``mods.delay`` adds; ``v_ref``, V: rotor
+    speed scales with the pack voltage over it, None: it does not)."""
     if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
         return {}
     tau_eff = tau if mods.tau is None else mods.tau
-    m_eff, om, pw, spin = _motor_terms(flight, k, tau_eff, delay + mods.delay)
+    m_eff, om, pw, spin = _motor_terms(flight, k, tau_eff, delay + mods.delay, v_ref)
     p, q, r = flight.rates.T
     vb = flight.v_body
     # horizontal drag sees the air, not the ground
@@ -322,6 +340,9 @@ class NominalModel:
         broadband response (:func:`etsid.gap.floors.broadband_slopes`); empty until set.
     drag_law : str
         The horizontal drag law's structure chosen on SIM (:func:`_drag_law`), in words.
+    v_ref : float or None
+        Pack voltage at which the rotor-speed law holds as fitted, V: rotor speed scales
+        with voltage over it (:func:`speed_law`); None: with the command alone.
     """
 
     k: float
@@ -332,6 +353,7 @@ class NominalModel:
     speed: float = np.inf
     reference: dict[str, tuple[float, float]] = field(default_factory=dict)
     drag_law: str = ""
+    v_ref: float | None = None
 
     def beyond_speed(self, flight: Flight, wind: tuple[float, float], mask: np.ndarray
                      ) -> tuple[float, float]:
@@ -342,6 +364,14 @@ class NominalModel:
             return 0.0, 0.0
         air = np.hypot(va[:, 0], va[:, 1])
         return float(np.mean(air > self.speed_limit)), float(np.quantile(air, 0.99))
+
+    @property
+    def speed_law(self) -> str:
+        """The rotor-speed law in words (gap.json's ``nominal.speed_law``)."""
+        if self.v_ref is None:
+            return f"rotor speed ∝ command + {self.k:.3g} (the pack voltage not in the law)"
+        return (f"rotor speed ∝ (command + {self.k:.3g}) × V / {self.v_ref:.3g} V (the pack "
+                "voltage scales it, as SIM's own data show)")
 
     @property
     def speed_limit(self) -> float:
@@ -403,7 +433,7 @@ class NominalModel:
         hit = cache.get(id(self))
         if hit is not None and hit[0] is self and hit[1] is flight.motors:
             return hit[2]
-        feats = features(flight, self.k, BROADBAND_TAU, Mods(), ("r",))
+        feats = features(flight, self.k, BROADBAND_TAU, Mods(), ("r",), v_ref=self.v_ref)
         n_spin = feats["spin"].shape[1]
         first = feats["r"].shape[1] - 3 - n_spin  # yaw: [torques, spin-ups, pq, r, 1]
         spin = feats["r"][:, first:first + n_spin] @ self.coef["r"][first:first + n_spin]
@@ -413,7 +443,7 @@ class NominalModel:
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
                     delay: float) -> dict[str, np.ndarray]:
         """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
-        feats = features(flight, self.k, tau, mods, chans, delay)
+        feats = features(flight, self.k, tau, mods, chans, delay, self.v_ref)
         raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
@@ -583,13 +613,13 @@ def _drag_law(xs: Pair, ys: Pair, n_per_sample: float) -> tuple[Pair, str]:
 
 
 def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
-                     channels: tuple[str, ...], delay: float = 0.0
-                     ) -> tuple[dict[str, np.ndarray], str]:
+                     channels: tuple[str, ...], delay: float = 0.0,
+                     v_ref: float | None = None) -> tuple[dict[str, np.ndarray], str]:
     """Least-squares coefficients per channel on the samples in ``mask``, and the horizontal
     drag law's structure: dissipative (:data:`DRAG_TERMS`), chosen on SIM's own data
     (:func:`_drag_law`)."""
     meas = measured(flight)
-    feats = features(flight, k, tau, Mods(), delay=delay)
+    feats = features(flight, k, tau, Mods(), delay=delay, v_ref=v_ref)
     drop = _unexcited(flight, mask)
     coef = {}
     for c in channels:
@@ -609,10 +639,11 @@ def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
 
 
 def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
-                  channels: tuple[str, ...], delay: float = 0.0) -> float:
+                  channels: tuple[str, ...], delay: float = 0.0,
+                  v_ref: float | None = None) -> float:
     meas = measured(flight)
-    coef, _ = fit_coefficients(flight, mask, k, tau, channels, delay)
-    model = NominalModel(k, tau, coef, channels, delay)
+    coef, _ = fit_coefficients(flight, mask, k, tau, channels, delay, v_ref)
+    model = NominalModel(k, tau, coef, channels, delay, v_ref=v_ref)
     pred = model.predict(flight)
     total = 0.0
     for c in channels:
@@ -623,7 +654,90 @@ def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
     return total
 
 
-def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None = None
+K_SEARCH = (0.0, 0.3)
+"""Bounds of the idle offset ``k`` when a voltage-scaled speed law is fitted on SIM: the
+voltage's drift over a flight moves the hover command along the law, which fixes ``k``."""
+MIN_VOLTAGE_SPAN = 0.01
+"""Least relative spread (5th to 95th percentile) of SIM's airborne pack voltage, low-passed
+at :data:`VOLTAGE_CUTOFF_HZ`, for a voltage-scaled rotor-speed law to be tried at all."""
+
+
+MIN_VOLTAGE_COVER = 0.5
+"""Least share of REAL's airborne samples whose pack voltage lies within SIM's (1st to 99th
+percentile) for the voltage-scaled law to be used: its idle offset is fixed only over SIM's
+own span (the flights' own voltage drift), and a 0.05 error in ``k`` is a 2-3 % thrust error
+at a 10 % lower voltage. Beyond it, the command-only law is kept and a voltage effect is a
+candidate (``battery_sag``). On the seen third-party pairs a sagging REAL has 0 % of its
+samples there, every other pair 20-100 %."""
+
+
+def voltage_covered(sim: Flight, real: Flight) -> float | None:
+    """Share of REAL's airborne pack voltage within SIM's 1st-99th percentile, or None when
+    either log lacks a usable voltage."""
+    if "vbat" not in sim.have or "vbat" not in real.have:
+        return None
+    vs, vr = sim.vbat[sim.airborne], real.vbat[real.airborne]
+    vs, vr = vs[np.isfinite(vs)], vr[np.isfinite(vr)]
+    if vs.size < 2 or vr.size < 2:
+        return None
+    lo, hi = np.quantile(vs, (0.01, 0.99))
+    return float(np.mean((vr >= lo) & (vr <= hi)))
+
+
+def _late_error(flight: Flight, mask: np.ndarray, k: float, tau: float, delay: float,
+                v_ref: float | None) -> np.ndarray:
+    """Squared ``az`` errors on the last 40 % of ``mask`` of coefficients fitted on its
+    first 60 %."""
+    idx = np.flatnonzero(mask)
+    cut = idx[int(0.6 * idx.size)]
+    early, late = mask & (np.arange(mask.size) < cut), mask & (np.arange(mask.size) >= cut)
+    coef, _ = fit_coefficients(flight, early, k, tau, ("az",), delay, v_ref)
+    x = lowpass(features(flight, k, tau, Mods(), ("az",), delay, v_ref)["az"], flight.fs,
+                CUTOFF_HZ["az"])
+    return (measured(flight)["az"] - x @ coef["az"])[late] ** 2
+
+
+def speed_law(flight: Flight, mask: np.ndarray, k: float | None, tau: float, delay: float
+              ) -> tuple[float, float | None]:
+    """(k, v_ref): whether rotor speed scales with the pack voltage, chosen on SIM's own
+    ``az``.
+
+    Most ESCs set a duty cycle, so a rotor's speed goes as the pack voltage times the
+    command and its thrust as the voltage squared: a simulation with a battery model drifts
+    in thrust per command as its pack drains. The voltage-scaled law (with ``k`` fitted in
+    :data:`K_SEARCH` unless given) is kept when, fitted on SIM's first 60 %, it predicts
+    ``az`` on the last 40 % better by :data:`STRUCTURE_Z` standard errors of the
+    difference; otherwise the command alone sets the speed (``k`` given, or
+    :data:`K_DEFAULT`) and a voltage effect is a candidate (``battery_sag``).
+    """
+    k_plain = K_DEFAULT if k is None else float(k)
+    if "vbat" not in flight.have or "az" not in measured(flight) or mask.sum() < 20:
+        return k_plain, None
+    if not np.all(np.isfinite(flight.vbat)) or np.median(flight.vbat[mask]) <= 0:
+        return k_plain, None
+    volts = lowpass(flight.vbat, flight.fs, VOLTAGE_CUTOFF_HZ)[mask]  # the drift, not noise
+    lo, hi = np.quantile(volts, (0.05, 0.95))
+    if (hi - lo) / np.median(volts) < MIN_VOLTAGE_SPAN:
+        return k_plain, None
+    v_ref = float(np.median(volts))
+    k_volt = k_plain
+    if k is None:
+        idx = np.flatnonzero(mask)
+        early = mask & (np.arange(mask.size) < idx[int(0.6 * idx.size)])
+        r = minimize_scalar(lambda v: float(np.mean(_late_error(flight, early, v, tau, delay,
+                                                                v_ref))),
+                            bounds=K_SEARCH, method="bounded", options={"xatol": 5e-3})
+        k_volt = float(r.x)
+    gain = _late_error(flight, mask, k_plain, tau, delay, None) - _late_error(
+        flight, mask, k_volt, tau, delay, v_ref)
+    n_eff = max(gain.size * 2.0 * CUTOFF_HZ["az"] / flight.fs, 2.0)
+    if float(np.mean(gain)) > STRUCTURE_Z * float(np.std(gain)) / np.sqrt(n_eff):
+        return k_volt, v_ref
+    return k_plain, None
+
+
+def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None = None,
+                law: tuple[float, float | None] | None = None, voltage: bool = True
                 ) -> NominalModel:
     """Fit the nominal model on the airborne part of the simulation (or on ``mask``).
 
@@ -636,6 +750,11 @@ def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None 
     k : float, optional
         Idle offset of Ω ∝ m + k (from a vehicle file); default :data:`K_DEFAULT` — it is
         weakly identifiable from hover data, whose command range is narrow.
+    law : (float, float or None), optional
+        The rotor-speed law ``(k, v_ref)`` to use as it is (a refit of a fitted model's
+        structure); default: chosen on ``flight`` by :func:`speed_law`.
+    voltage : bool
+        Whether a voltage-scaled rotor-speed law may be chosen (see :func:`voltage_covered`).
 
     The motor time constant ``tau`` is found by a bounded scalar search on the rate
     channels; every other coefficient by least squares.
@@ -643,7 +762,8 @@ def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None 
     mask = flight.airborne if mask is None else mask
     channels = tuple(c for c in CHANNELS if c in measured(flight))
     rates = tuple(c for c in channels if c in RATE_CHANNELS)
-    k = K_DEFAULT if k is None else float(k)
+    k_given = k if law is None else law[0]
+    k = K_DEFAULT if k_given is None else float(k_given)
     best = (np.inf, 0.0, 0.0)
     for delay in NOMINAL_DELAYS_S:
         r = minimize_scalar(lambda v, d=delay: _weighted_sse(flight, mask, k, v, rates, d),
@@ -651,7 +771,10 @@ def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None 
         if r.fun < best[0]:
             best = (float(r.fun), float(r.x), delay)
     _, tau, delay = best
-    coef, drag_law = fit_coefficients(flight, mask, k, tau, channels, delay)
+    if law is None:
+        law = speed_law(flight, mask, k_given, tau, delay) if voltage else (k, None)
+    k, v_ref = law
+    coef, drag_law = fit_coefficients(flight, mask, k, tau, channels, delay, v_ref)
     vb = flight.v_body[mask]
     speed = float(np.quantile(np.hypot(vb[:, 0], vb[:, 1]), 0.99)) if vb.size else 0.0
-    return NominalModel(k, tau, coef, channels, delay, speed, drag_law=drag_law)
+    return NominalModel(k, tau, coef, channels, delay, speed, drag_law=drag_law, v_ref=v_ref)

@@ -33,12 +33,14 @@ from etsid.gap.nominal import (
     ENVELOPE_FACTOR,
     GYRO_CHANNELS,
     LABELS,
+    MIN_VOLTAGE_COVER,
     RATE_CHANNELS,
     SENSOR_CHANNELS,
     UNITS,
     NominalModel,
     fit_nominal,
     measured,
+    voltage_covered,
 )
 from etsid.gap.result import SCHEMA_NAME, write_gap_json
 from etsid.gap.select import (
@@ -114,6 +116,8 @@ class Floors:
     source: dict[str, str]
     loop: BandResponse | None = None
     """SIM's band-by-band response (:mod:`etsid.gap.loop`)."""
+    voltage_cover: float | None = None
+    """Share of REAL's airborne pack voltage within SIM's span (:func:`voltage_covered`)."""
 
 
 def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
@@ -234,13 +238,14 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     """The nominal model on SIM, and each channel's floor: SIM's own held-out error or
     REAL's sensor noise, whichever is larger (:func:`etsid.gap.floors.channel_floors`)."""
     s_fit, s_hold = time_split(sim.airborne, SIM_FIT_SHARE)
-    probe = fit_nominal(sim, s_fit, k=k)
+    cover = voltage_covered(sim, real)
+    nominal = fit_nominal(sim, k=k, voltage=cover is not None and cover >= MIN_VOLTAGE_COVER)
+    probe = fit_nominal(sim, s_fit, law=(nominal.k, nominal.v_ref))
     ys = measured(sim)
     own = _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()}, s_hold)
     sigma, source = channel_floors(own, real)
-    nominal = fit_nominal(sim, k=k)
     nominal.reference = broadband_slopes(sim, nominal, RESPONSE_CHANNELS)
-    return Floors(nominal, sigma, source, band_response(sim, nominal, ys))
+    return Floors(nominal, sigma, source, band_response(sim, nominal, ys), cover)
 
 
 def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
@@ -587,6 +592,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                      f"{sim_name}'s model error) on {', '.join(raised)}")
     if twin:
         notes.append(f"{twin}: differences after that are the twin's, not physics alone")
+    if floors.voltage_cover is not None and floors.voltage_cover < MIN_VOLTAGE_COVER:
+        notes.append(f"{real_name} flies {100 * (1 - floors.voltage_cover):.0f} % of its time at "
+                     f"pack voltages {sim_name} never reached: rotor speed is taken from the "
+                     "command alone, and a voltage effect is judged as a candidate")
     envelope = restrict_to_envelope(sim, real, floors.nominal)
     if envelope:
         notes.append(envelope)
@@ -612,7 +621,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared},
             "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
-                        "drag_law": nominal.drag_law,
+                        "drag_law": nominal.drag_law, "speed_law": nominal.speed_law,
                         "channels": list(shared), "z_all": mis.z_all, "z_held_out": mis.z_hold,
                         "loop": floors.loop.as_dict() if floors.loop else None},
             "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}

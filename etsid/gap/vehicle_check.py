@@ -100,7 +100,7 @@ def check_vehicles(sim: Flight, real: Flight, nominal: NominalModel) -> VehicleC
         out.ratios["pack voltage"] = v_real / max(v_sim, 1e-9)
         out.ratios["hover thrust at equal voltage"] = (out.ratios["hover thrust"]
                                                        * out.ratios["pack voltage"] ** 2)
-    own = fit_nominal(real, k=k)
+    own = fit_nominal(real, law=(k, nominal.v_ref))
     n = sim.motors.shape[1] if sim.inputs == "motors" else 3
     for name, c in AXES:
         a, b = _effectiveness(own, c, n), _effectiveness(nominal, c, n)

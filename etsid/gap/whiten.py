@@ -74,7 +74,7 @@ def fit_whitened(sim: Flight, nominal: NominalModel) -> WhitenedModel:
     best: tuple[float, float, float, dict] | None = None
     for delay in SIM_DELAYS_S:
         for tau in SIM_TAUS_S:
-            feats = features(sim, nominal.k, tau, Mods(), CHANNELS, delay)
+            feats = features(sim, nominal.k, tau, Mods(), CHANNELS, delay, nominal.v_ref)
             fits = {}
             for c in CHANNELS:
                 x = lowpass(feats[c], sim.fs, CUTOFF_HZ)
