@@ -410,8 +410,8 @@ def mismatch_scores(scorer: Scorer, real: Flight, hold: np.ndarray) -> Mismatch:
     mis = sorted(set(mismatched(z_all)) | set(mismatched(z_hold)),
                  key=lambda c: -max(z_all.get(c, 0.0), z_hold.get(c, 0.0)))
     small = not mis
-    if small:
-        mis = mismatched(z_all, Z_SMALL, SENSOR_CHANNELS)
+    if small:  # structure the held-out part shows too: there is something left to explain
+        mis = [c for c in mismatched(z_all, Z_SMALL, SENSOR_CHANNELS) if z_hold.get(c, 0.0) > 1.0]
     return Mismatch(z_all, z_hold, mis, small)
 
 
