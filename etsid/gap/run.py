@@ -291,6 +291,9 @@ class Mismatch:
     that made roll and pitch a mismatch."""
     quiet_yaw: YawReading | None = None
     """Yaw-noise tier: REAL's yaw command power over SIM's that made yaw a mismatch."""
+    less_predictable: list[str] = field(default_factory=list)
+    """Channels above their floor only as REAL is less predictable (a refit on REAL does no
+    better), read past to a quieter tier."""
 
 
 RESPONSE_SHIFT = {"p": 0.175, "q": 0.175, "r": 0.17}
@@ -625,58 +628,116 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                         "channels": list(shared), "z_all": mis.z_all, "z_held_out": mis.z_hold,
                         "loop": floors.loop.as_dict() if floors.loop else None},
             "vehicle_check": check, "rmse_before": _rmse(res0, r_hold)}
-    tier = response_tier(scorer, real, r_fit, r_hold) if not mis.channels else None
-    noisy_loop = floors.loop is not None and floors.loop.noise_driven
-    model = low = yaw = None
-    if noisy_loop:
-        model = fit_whitened(sim, nominal)
-        low = low_band_reading(model, sim, real, r_fit, r_hold)
-        yaw = yaw_reading(nominal, sim, real, r_fit, r_hold)
-        base["low_band"], base["yaw_command_power"] = low.as_dict(), yaw.as_dict()
-    if tier is not None:
-        say(f"gap: no channel above its floor, but the response of {', '.join(tier[1].channels)}"
-            f" differs from {sim_name}'s model")
-        scorer, mis = tier
-    elif not mis.channels and model is not None and low is not None:
-        mis = innovation_tier(model, real, mis, r_hold)
-        if mis.innovation is not None:
-            say(f"gap: no channel above its floor, but {real_name}'s prediction errors under "
-                f"{sim_name}'s noise model are {mis.innovation:.2f}× {sim_name}'s")
-        else:
-            mis = low_band_tier(mis, low, model)
-            if mis.low_band is not None:
-                say(f"gap: no channel above its floor, but {real_name}'s roll and pitch damping "
-                    f"below {LOW_BAND_HZ:g} Hz differs from {sim_name}'s by "
-                    f"{low.hold.value:+.2g} /s ({low.hold.z:+.1f} SE held out)")
-            elif yaw is not None:
-                mis = quiet_yaw_tier(mis, yaw)
-                if mis.quiet_yaw is not None:
-                    say(f"gap: no channel above its floor, but {real_name}'s yaw loop commands "
-                        f"{yaw.hold:.2f}× {sim_name}'s power")
+    quiet = QuietReadings(sim, real, r_fit, r_hold, say)
+    if floors.loop is not None and floors.loop.noise_driven:
+        quiet.model = fit_whitened(sim, nominal)
+        quiet.low = low_band_reading(quiet.model, sim, real, r_fit, r_hold)
+        quiet.yaw = yaw_reading(nominal, sim, real, r_fit, r_hold)
+        base["low_band"], base["yaw_command_power"] = quiet.low.as_dict(), quiet.yaw.as_dict()
+    if not mis.channels:
+        scorer, mis = quiet.tiers(scorer, mis)
     series = {"res_before": res0, "fit": r_fit, "hold": r_hold, "z_all": mis.z_all,
               "scorer": scorer}
     if not mis.channels:
         return assemble(base, sim, real, nominal, series, notes, mis, None, {}, res0, None,
                         info)
-    say(f"gap: {', '.join(mis.channels)} mismatched; fitting {len(LIBRARY)} candidate "
-        f"effects on the first part of {real_name}, scoring on the rest")
-    sel = explain(scorer, real, mis, r_fit, r_hold)
-    if mis.quiet_yaw is not None:
-        sel = name_rotor_inertia(sel, scorer, r_fit, r_hold)
-    elif mis.gains and yaw is not None:
-        sel = quiet_yaw_decides(sel, yaw, scorer, r_fit, r_hold)
-    elif model is not None and low is not None and not mis.gains:
-        say(f"gap: {sim_name}'s loop answers noise; fitting its loop laws as prediction errors")
-        sel = choose_loop_law(sel, sim, scorer, tuple(mis.channels), r_fit, r_hold, model, low)
-    say("gap: leftovers, locating the regime, writing the verdict")
-    left, res1, unexplained = leftovers(scorer, real, sel, mis, r_fit, r_hold,
-                                        info.get("radius"))
-    series.update(res_after=res1, selection=sel,
-                  mods=sel.chosen.fit.mods if sel.chosen else None)
-    info = {**info, "unpredictable": unpredictable(real, nominal, mis, sel, unexplained,
-                                                   r_fit, r_hold)}
-    return assemble(base, sim, real, nominal, series, notes, mis, sel, left, res1,
-                    unexplained, info)
+    found = quiet.explain(scorer, mis, info.get("radius"))
+    if found.unpredictable is not None:
+        # what is above its floor is REAL's own noise: the quieter readings still apply
+        q_scorer, q_mis = quiet.tiers(scorer, Mismatch(mis.z_all, mis.z_hold, [], False))
+        if q_mis.channels:
+            notes.append(f"{', '.join(LABELS[c] for c in found.unpredictable)} above "
+                         f"{'its' if len(found.unpredictable) == 1 else 'their'} floor only "
+                         f"as {real_name} is less predictable (a refit on it does no better); "
+                         "read in the quieter tiers instead")
+            scorer, mis = q_scorer, q_mis
+            mis.less_predictable = list(found.unpredictable)
+            series.update(scorer=scorer, z_all=mis.z_all)
+            found = quiet.explain(scorer, mis, info.get("radius"))
+    series.update(res_after=found.res_after, selection=found.sel,
+                  mods=found.sel.chosen.fit.mods if found.sel.chosen else None)
+    info = {**info, "unpredictable": found.unpredictable}
+    return assemble(base, sim, real, nominal, series, notes, mis, found.sel, found.left,
+                    found.res_after, found.unexplained, info)
+
+
+@dataclass
+class Explained:
+    """The selection and what is left after it (:meth:`QuietReadings.explain`)."""
+
+    sel: Selection
+    left: dict[str, dict[str, float]]
+    res_after: dict[str, np.ndarray]
+    unexplained: dict | None
+    unpredictable: dict[str, tuple[float, float]] | None
+
+
+@dataclass
+class QuietReadings:
+    """The readings of a REAL whose channels are within their floors (the response, and,
+    over a loop that answers noise, the innovations, the low band and the yaw loop's
+    power), with the pair and REAL's split they are read on."""
+
+    sim: Flight
+    real: Flight
+    fit: np.ndarray
+    hold: np.ndarray
+    say: Callable[[str], None]
+    model: WhitenedModel | None = None
+    low: LowBandReading | None = None
+    yaw: YawReading | None = None
+
+    def tiers(self, scorer: Scorer, mis: Mismatch) -> tuple[Scorer, Mismatch]:
+        """The first tier that reads a change (response, innovation, low band, yaw noise),
+        as its scorer and mismatch; ``(scorer, mis)`` unchanged when none does."""
+        sim, real = self.sim.name, self.real.name
+        tier = response_tier(scorer, self.real, self.fit, self.hold)
+        if tier is not None:
+            self.say(f"gap: no channel above its floor, but the response of "
+                     f"{', '.join(tier[1].channels)} differs from {sim}'s model")
+            return tier
+        if self.model is None or self.low is None:
+            return scorer, mis
+        mis = innovation_tier(self.model, self.real, mis, self.hold)
+        if mis.innovation is not None:
+            self.say(f"gap: no channel above its floor, but {real}'s prediction errors under "
+                     f"{sim}'s noise model are {mis.innovation:.2f}× {sim}'s")
+            return scorer, mis
+        mis = low_band_tier(mis, self.low, self.model)
+        if mis.low_band is not None:
+            self.say(f"gap: no channel above its floor, but {real}'s roll and pitch damping "
+                     f"below {LOW_BAND_HZ:g} Hz differs from {sim}'s by "
+                     f"{self.low.hold.value:+.2g} /s ({self.low.hold.z:+.1f} SE held out)")
+            return scorer, mis
+        if self.yaw is not None:
+            mis = quiet_yaw_tier(mis, self.yaw)
+            if mis.quiet_yaw is not None:
+                self.say(f"gap: no channel above its floor, but {real}'s yaw loop commands "
+                         f"{self.yaw.hold:.2f}× {sim}'s power")
+        return scorer, mis
+
+    def explain(self, scorer: Scorer, mis: Mismatch, radius: float | None) -> Explained:
+        """Effects named for ``mis`` (the tier's own rule where a tier read it), what they
+        leave, and whether the mismatch is only REAL's unpredictability."""
+        fit, hold, model, low, yaw = self.fit, self.hold, self.model, self.low, self.yaw
+        self.say(f"gap: {', '.join(mis.channels)} mismatched; fitting {len(LIBRARY)} "
+                 f"candidate effects on the first part of {self.real.name}, scoring on the "
+                 "rest")
+        sel = explain(scorer, self.real, mis, fit, hold)
+        if mis.quiet_yaw is not None:
+            sel = name_rotor_inertia(sel, scorer, fit, hold)
+        elif mis.gains and yaw is not None:
+            sel = quiet_yaw_decides(sel, yaw, scorer, fit, hold)
+        elif model is not None and low is not None and not mis.gains:
+            self.say(f"gap: {self.sim.name}'s loop answers noise; fitting its loop laws as "
+                     "prediction errors")
+            sel = choose_loop_law(sel, self.sim, scorer, tuple(mis.channels), fit, hold, model,
+                                  low)
+        self.say("gap: leftovers, locating the regime, writing the verdict")
+        left, res1, unexplained = leftovers(scorer, self.real, sel, mis, fit, hold, radius)
+        return Explained(sel, left, res1, unexplained,
+                         unpredictable(self.real, scorer.ctx.nominal, mis, sel, unexplained,
+                                       fit, hold))
 
 
 UNPREDICTABLE_Z = 9.0
@@ -908,6 +969,8 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
         data["mismatch"]["low_band"] = mis.low_band.as_dict()
     if mis.quiet_yaw is not None:
         data["mismatch"]["yaw_command_power"] = mis.quiet_yaw.as_dict()
+    if mis.less_predictable:
+        data["mismatch"]["less_predictable"] = mis.less_predictable
     data["summary"] = summary_sentence(data)
     return GapResult(data, sim, real, nominal, series)
 

@@ -160,24 +160,28 @@ def summary_sentence(data: dict[str, Any]) -> str:
     regime = mis["regime"]
     sizes = ", ".join(f"{LABELS[c]} {_size(data, c):.1f}×" for c in mis["channels"])
     parts = [f"Mismatch: {sizes} its floor."]
+    quiet = "every channel within its floor"
+    if mis.get("less_predictable"):
+        quiet += (f" but {', '.join(LABELS[c] for c in mis['less_predictable'])}, above it only "
+                  f"as {real} is less predictable")
     if mis.get("response"):
         gains = ", ".join(f"{LABELS[c]} {v['gain']:.2f}× ({v['t']:+.0f} SE)"
                           for c, v in mis["response"].items())
-        parts = [f"Mismatch in response, every channel within its floor: {gains} {sim}'s "
+        parts = [f"Mismatch in response, {quiet}: {gains} {sim}'s "
                  "prediction."]
     if mis.get("innovation_ratio") is not None:
-        parts = [f"Mismatch in prediction errors, every channel within its floor: roll and "
+        parts = [f"Mismatch in prediction errors, {quiet}: roll and "
                  f"pitch innovations {mis['innovation_ratio']:.2f}× {sim}'s under its noise "
                  "model."]
     if mis.get("low_band") is not None:
         low = mis["low_band"]
-        parts = [f"Mismatch in the low band, every channel within its floor: roll and pitch "
+        parts = [f"Mismatch in the low band, {quiet}: roll and pitch "
                  f"damping {low['held_out']['extra_damping_per_s']:+.2g} /s against {sim}'s "
                  f"({low['z_held_out']:+.1f} SE held out, {low['z_pooled']:+.1f} with the fit "
                  "part)."]
     if mis.get("yaw_command_power") is not None:
         yaw = mis["yaw_command_power"]
-        parts = [f"Mismatch in yaw noise, every channel within its floor: {real}'s yaw loop "
+        parts = [f"Mismatch in yaw noise, {quiet}: {real}'s yaw loop "
                  f"commands {yaw['ratio_held_out']:.2f}× {sim}'s power held out "
                  f"({yaw['ratio_fit']:.2f}× on the fit part)."]
     if regime["variable"] != "none":
