@@ -11,7 +11,7 @@ simulator uses to generate data (see docs/gap.md).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -123,6 +123,8 @@ class Candidate:
     def available(self, ctx: Context) -> bool:
         """Whether the flight has the signals this candidate needs."""
         if self.name == "battery_sag" and ctx.v_ref is None:
+            return False
+        if self.build is _wind_quadratic and not ctx.nominal.drag_quadratic:
             return False
         if self.motor is not None and (ctx.flight.inputs != "motors"
                                        or self.motor >= ctx.flight.motors.shape[1]):
@@ -293,6 +295,11 @@ def _wind(theta: np.ndarray, ctx: Context) -> Mods:
     return Mods(wind=wind, thrust_gain=1.0 + theta[2] * extra)
 
 
+def _wind_quadratic(theta: np.ndarray, ctx: Context) -> Mods:
+    """:func:`_wind` under SIM's drag law with its speed-squared terms."""
+    return replace(_wind(theta, ctx), drag_shape="quadratic")
+
+
 LIBRARY: tuple[Candidate, ...] = (
     Candidate(
         "ground_effect",
@@ -421,6 +428,16 @@ LIBRARY: tuple[Candidate, ...] = (
         "v_air = v − w (w steady, north-east), drag terms on v_air; "
         "T = T_nom (1 + c (|v_air,h|² − |v_h|²))",
         _wind, ("vel",)),
+    Candidate(
+        "wind", (Param("north", "m/s", -15.0, 15.0, 0.0, 0.0),
+                 Param("east", "m/s", -15.0, 15.0, 0.0, 0.0),
+                 Param("lift", "1/(m/s)²", 0.0, 0.02, 0.0, 0.0)), ("ax", "ay", "az"),
+        "the same steady wind, under SIM's drag law with its speed-squared terms: the shape "
+        "SIM's own speeds could not reject when it chose a linear law (through the air a "
+        "wind flies the vehicle faster than SIM flew, where the two shapes part)",
+        "v_air = v − w, drag c1 Ω̄ v_air + c2 |v_air,j| v_air,j + c3 |v_air| v_air,j (one law "
+        "for x and y, fitted on SIM); T = T_nom (1 + c (|v_air,h|² − |v_h|²))",
+        _wind_quadratic, ("vel",)),
     *_weak_motors(),
     Candidate(
         "accel_bias",

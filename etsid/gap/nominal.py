@@ -98,6 +98,9 @@ class Mods:
         Extra rate damping of yaw, 1/s (ṙ −= d_r r).
     wind : tuple of float
         Steady wind (north, east), m/s: the drag terms see the air-relative velocity.
+    drag_shape : str
+        ``"quadratic"``: ``ax`` and ``ay`` under SIM's other drag shape
+        (:attr:`NominalModel.drag_quadratic`); ``""``: the one chosen.
     """
 
     tau: float | None = None
@@ -114,6 +117,7 @@ class Mods:
     damping: float = 0.0
     yaw_damping: float = 0.0
     wind: tuple[float, float] = (0.0, 0.0)
+    drag_shape: str = ""
 
 
 def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> np.ndarray:
@@ -343,6 +347,10 @@ class NominalModel:
     v_ref : float or None
         Pack voltage at which the rotor-speed law holds as fitted, V: rotor speed scales
         with voltage over it (:func:`speed_law`); None: with the command alone.
+    drag_quadratic : dict
+        ``ax``/``ay`` coefficients of one law for both axes with the speed-squared terms,
+        when the law chosen is linear (SIM's speeds could not reject either shape); what
+        :attr:`Mods.drag_shape` ``"quadratic"`` predicts with. Empty otherwise.
     """
 
     k: float
@@ -354,6 +362,7 @@ class NominalModel:
     reference: dict[str, tuple[float, float]] = field(default_factory=dict)
     drag_law: str = ""
     v_ref: float | None = None
+    drag_quadratic: dict[str, np.ndarray] = field(default_factory=dict)
 
     def beyond_speed(self, flight: Flight, wind: tuple[float, float], mask: np.ndarray
                      ) -> tuple[float, float]:
@@ -448,7 +457,10 @@ class NominalModel:
         for c in chans:
             if c in SENSOR_CHANNELS:
                 continue
-            y = feats[c] @ self.coef[c]  # filtering is linear: filter the sum once
+            coef = self.coef[c]
+            if mods.drag_shape == "quadratic" and c in self.drag_quadratic:
+                coef = self.drag_quadratic[c]
+            y = feats[c] @ coef  # filtering is linear: filter the sum once
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
@@ -579,9 +591,11 @@ def _shared(xs: Pair, ys: Pair, keep: np.ndarray) -> Pair:
     return both[:width], lateral
 
 
-def _drag_law(xs: Pair, ys: Pair, n_per_sample: float) -> tuple[Pair, str]:
-    """Coefficients of ``ax`` and ``ay`` and the structure chosen (:data:`STRUCTURE_Z`;
-    ``n_per_sample``: independent samples per sample of the low-passed signals)."""
+def _drag_law(xs: Pair, ys: Pair, n_per_sample: float) -> tuple[Pair, str, Pair | None]:
+    """Coefficients of ``ax`` and ``ay``, the structure chosen (:data:`STRUCTURE_Z`;
+    ``n_per_sample``: independent samples per sample of the low-passed signals) and, when
+    that structure is linear, the coefficients of one law for both axes with the
+    speed-squared terms: the shape SIM's data could not reject either."""
     cut = int(0.6 * len(ys[0]))
     early = tuple(x[:cut] for x in xs), tuple(y[:cut] for y in ys)
     late = tuple(x[cut:] for x in xs), tuple(y[cut:] for y in ys)
@@ -609,15 +623,17 @@ def _drag_law(xs: Pair, ys: Pair, n_per_sample: float) -> tuple[Pair, str]:
     shape = "linear + quadratic" if keep.all() else "linear"
     name = (f"one {shape} law for x and y" if law is _shared
             else f"separate {shape} laws per axis")
-    return law(xs, ys, keep), name
+    return law(xs, ys, keep), name, None if keep.all() else _shared(xs, ys, full)
 
 
 def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
                      channels: tuple[str, ...], delay: float = 0.0,
-                     v_ref: float | None = None) -> tuple[dict[str, np.ndarray], str]:
-    """Least-squares coefficients per channel on the samples in ``mask``, and the horizontal
+                     v_ref: float | None = None
+                     ) -> tuple[dict[str, np.ndarray], str, dict[str, np.ndarray]]:
+    """Least-squares coefficients per channel on the samples in ``mask``, the horizontal
     drag law's structure: dissipative (:data:`DRAG_TERMS`), chosen on SIM's own data
-    (:func:`_drag_law`)."""
+    (:func:`_drag_law`), and ``ax``/``ay`` under the speed-squared law SIM could not reject
+    (empty when that is the law chosen)."""
     meas = measured(flight)
     feats = features(flight, k, tau, Mods(), delay=delay, v_ref=v_ref)
     drop = _unexcited(flight, mask)
@@ -633,16 +649,17 @@ def fit_coefficients(flight: Flight, mask: np.ndarray, k: float, tau: float,
     if "ax" in channels and "ay" in channels:
         xs = tuple(lowpass(feats[c], flight.fs, CUTOFF_HZ[c])[mask] for c in ("ax", "ay"))
         ys = (meas["ax"][mask], meas["ay"][mask])
-        (coef["ax"], coef["ay"]), law = _drag_law(xs, ys, 2.0 * CUTOFF_HZ["ax"] / flight.fs)
-        return coef, law
-    return coef, ""
+        (coef["ax"], coef["ay"]), law, alt = _drag_law(xs, ys,
+                                                        2.0 * CUTOFF_HZ["ax"] / flight.fs)
+        return coef, law, {} if alt is None else {"ax": alt[0], "ay": alt[1]}
+    return coef, "", {}
 
 
 def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
                   channels: tuple[str, ...], delay: float = 0.0,
                   v_ref: float | None = None) -> float:
     meas = measured(flight)
-    coef, _ = fit_coefficients(flight, mask, k, tau, channels, delay, v_ref)
+    coef, _, _ = fit_coefficients(flight, mask, k, tau, channels, delay, v_ref)
     model = NominalModel(k, tau, coef, channels, delay, v_ref=v_ref)
     pred = model.predict(flight)
     total = 0.0
@@ -691,7 +708,7 @@ def _late_error(flight: Flight, mask: np.ndarray, k: float, tau: float, delay: f
     idx = np.flatnonzero(mask)
     cut = idx[int(0.6 * idx.size)]
     early, late = mask & (np.arange(mask.size) < cut), mask & (np.arange(mask.size) >= cut)
-    coef, _ = fit_coefficients(flight, early, k, tau, ("az",), delay, v_ref)
+    coef, _, _ = fit_coefficients(flight, early, k, tau, ("az",), delay, v_ref)
     x = lowpass(features(flight, k, tau, Mods(), ("az",), delay, v_ref)["az"], flight.fs,
                 CUTOFF_HZ["az"])
     return (measured(flight)["az"] - x @ coef["az"])[late] ** 2
@@ -774,7 +791,8 @@ def fit_nominal(flight: Flight, mask: np.ndarray | None = None, k: float | None 
     if law is None:
         law = speed_law(flight, mask, k_given, tau, delay) if voltage else (k, None)
     k, v_ref = law
-    coef, drag_law = fit_coefficients(flight, mask, k, tau, channels, delay, v_ref)
+    coef, drag_law, quadratic = fit_coefficients(flight, mask, k, tau, channels, delay, v_ref)
     vb = flight.v_body[mask]
     speed = float(np.quantile(np.hypot(vb[:, 0], vb[:, 1]), 0.99)) if vb.size else 0.0
-    return NominalModel(k, tau, coef, channels, delay, speed, drag_law=drag_law, v_ref=v_ref)
+    return NominalModel(k, tau, coef, channels, delay, speed, drag_law=drag_law, v_ref=v_ref,
+                        drag_quadratic=quadratic)
