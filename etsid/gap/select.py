@@ -350,6 +350,18 @@ def _look_alike(usable: list[Scored], sel: Selection) -> Scored:
     return named
 
 
+def _distinct(ranked: list[Scored]) -> list[Scored]:
+    """The best-ranked form of each effect name (a law's second form is no other companion:
+    two ground-effect or wind forms would take two of the :data:`PAIR_POOL` places)."""
+    seen: set[str] = set()
+    out = []
+    for s in ranked:
+        if s.fit.name not in seen:
+            seen.add(s.fit.name)
+            out.append(s)
+    return out
+
+
 def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
            focus: tuple[str, ...] = (),
            library: tuple[Candidate, ...] = LIBRARY, min_share: float = MIN_SHARE,
@@ -387,8 +399,10 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
         sel.chosen = best  # nothing left for a second effect to explain
         return sel
-    pool = [s for s in ranked if s is not best and s.gain > 0 and s.fit.name not in SINGLE_ONLY
-            and (not left or set(s.fit.candidates[0].channels) & set(left))][:PAIR_POOL]
+    pool = _distinct([s for s in ranked if s is not best and s.gain > 0
+                      and s.fit.name not in SINGLE_ONLY and s.fit.name != best.fit.name
+                      and (not left or set(s.fit.candidates[0].channels) & set(left))]
+                     )[:PAIR_POOL]
     if left:
         names = {s.fit.name for s in pool}
         pool += [s for s in _companions(best, ranked, left, scorer, fit_mask, hold, z0, e0,
