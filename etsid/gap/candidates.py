@@ -300,6 +300,11 @@ def _wind_quadratic(theta: np.ndarray, ctx: Context) -> Mods:
     return replace(_wind(theta, ctx), drag_shape="quadratic")
 
 
+WIND_PARAMS = (Param("north", "m/s", -15.0, 15.0, 0.0, 0.0),
+               Param("east", "m/s", -15.0, 15.0, 0.0, 0.0),
+               Param("lift", "1/(m/s)²", 0.0, 0.02, 0.0, 0.0))
+"""The steady wind (towards north and east) and its translational lift, in either drag form."""
+
 LIBRARY: tuple[Candidate, ...] = (
     Candidate(
         "ground_effect",
@@ -419,9 +424,7 @@ LIBRARY: tuple[Candidate, ...] = (
         "ṗ = ṗ_nom − d p, q̇ = q̇_nom − d q, ṙ = ṙ_nom − d_r r",
         lambda th, ctx: Mods(damping=th[0], yaw_damping=th[1])),
     Candidate(
-        "wind", (Param("north", "m/s", -15.0, 15.0, 0.0, 0.0),
-                 Param("east", "m/s", -15.0, 15.0, 0.0, 0.0),
-                 Param("lift", "1/(m/s)²", 0.0, 0.02, 0.0, 0.0)), ("ax", "ay", "az"),
+        "wind", WIND_PARAMS, ("ax", "ay", "az"),
         "a horizontal force that depends on the heading and on the velocity relative to a "
         "fixed direction of the earth (drag on the air-relative velocity), not on the body "
         "velocity alone; the airspeed also lifts the rotors (translational lift)",
@@ -429,9 +432,7 @@ LIBRARY: tuple[Candidate, ...] = (
         "T = T_nom (1 + c (|v_air,h|² − |v_h|²))",
         _wind, ("vel",)),
     Candidate(
-        "wind", (Param("north", "m/s", -15.0, 15.0, 0.0, 0.0),
-                 Param("east", "m/s", -15.0, 15.0, 0.0, 0.0),
-                 Param("lift", "1/(m/s)²", 0.0, 0.02, 0.0, 0.0)), ("ax", "ay", "az"),
+        "wind", WIND_PARAMS, ("ax", "ay", "az"),
         "the same steady wind, under SIM's drag law with its speed-squared terms: the shape "
         "SIM's own speeds could not reject when it chose a linear law (through the air a "
         "wind flies the vehicle faster than SIM flew, where the two shapes part)",
