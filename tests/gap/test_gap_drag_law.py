@@ -51,7 +51,7 @@ def test_a_symmetric_quadratic_drag_flown_mostly_forward_is_one_quadratic_law() 
     xs = _columns(vx, vy)
     ys = tuple(-0.027 * np.abs(v) * v + 0.01 + _noise(rng)
                for v in (vx, vy))
-    (cx, cy), law = _drag_law(xs, ys, PER_SAMPLE)
+    (cx, cy), law, _ = _drag_law(xs, ys, PER_SAMPLE)
     assert law == "one linear + quadratic law for x and y"
     assert np.allclose(np.delete(cx, 2), np.delete(cy, 2))
     assert all(cx[j] <= 0.0 for j in DRAG_TERMS), cx
@@ -67,7 +67,7 @@ def test_its_look_alike_an_asymmetric_drag_flown_both_ways_keeps_a_law_per_axis(
     vx, vy = _velocity(rng, 2.0), _velocity(rng, 2.0)
     xs = _columns(vx, vy)
     ys = (-0.1 * vx + _noise(rng), -0.3 * vy + _noise(rng))
-    (cx, cy), law = _drag_law(xs, ys, PER_SAMPLE)
+    (cx, cy), law, _ = _drag_law(xs, ys, PER_SAMPLE)
     assert "per axis" in law
     slope = [np.polyfit(v, x @ c, 1)[0] for v, x, c in ((vx, xs[0], cx), (vy, xs[1], cy))]
     assert slope == pytest.approx([-0.1, -0.3], rel=0.1)
@@ -82,5 +82,5 @@ def test_a_drag_the_noise_cannot_fix_never_pushes_the_body_along() -> None:
     xs = _columns(vx, vy)
     ys = (0.02 * vx + 0.01 * np.abs(vx) * vx + _noise(rng),
           0.03 * vy + _noise(rng))
-    (cx, cy), _ = _drag_law(xs, ys, PER_SAMPLE)
+    (cx, cy), _, _ = _drag_law(xs, ys, PER_SAMPLE)
     assert all(c[j] <= 0.0 for c in (cx, cy) for j in DRAG_TERMS), (cx, cy)
