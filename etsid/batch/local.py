@@ -45,6 +45,11 @@ WINDOW = 2
 """Logs submitted per worker at a time (the one running and the next)."""
 
 RENEW_GROWTH_MB = 256.0
+WATCH_S = 5.0
+"""s between checks, while no log finishes, that every worker of the pool is still alive: a
+worker killed at the wrong moment can leave the pool waiting on it for ever (seen in CI:
+the batch of tests/batch/test_batch_worker_death.py hung ten minutes with one worker
+gone), so a dead worker breaks the pool here as it would in the executor."""
 """A worker whose resident memory after a log exceeds its resident memory after its first
 log by more than this (MB) gets the pool renewed: memory one log leaves behind never
 accumulates over the fleet."""
@@ -194,7 +199,14 @@ class LocalRunner:
                 if not flying:
                     break
                 on_running(min(jobs, len(flying)))
-                finished, _ = wait(flying, return_when=FIRST_COMPLETED)
+                finished, _ = wait(flying, timeout=WATCH_S, return_when=FIRST_COMPLETED)
+                if not finished and _lost_worker(executor):
+                    for item in flying.values():
+                        breaks[item] += 1
+                        pending.appendleft(item)
+                    flying.clear()
+                    _stop(executor)
+                    return
                 for future in finished:
                     item = flying.pop(future)
                     try:
@@ -212,6 +224,12 @@ class LocalRunner:
             _stop(executor)
             raise
         executor.shutdown(wait=True)
+
+
+def _lost_worker(executor: ProcessPoolExecutor) -> bool:
+    """Whether a worker process of ``executor`` has exited while it still runs the pool."""
+    processes = getattr(executor, "_processes", None) or {}
+    return any(p.exitcode is not None for p in list(processes.values()))
 
 
 def _stop(executor: ProcessPoolExecutor) -> None:
