@@ -16,12 +16,14 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import pandas as pd
 
 from etsid.errors import TableError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 Interp = Literal["linear", "hold", "angle"]
 
@@ -106,6 +108,8 @@ def validate(table: pd.DataFrame) -> pd.DataFrame:
         Index not named ``t``, not float, not strictly increasing, or a known column
         that is not numeric or holds inf.
     """
+    import pandas as pd
+
     if table.index.name != "t":
         raise TableError(f"table index must be named 't' (seconds), got {table.index.name!r}")
     t = np.asarray(table.index, dtype=float)
@@ -188,6 +192,7 @@ def load_table(path: str | Path) -> pd.DataFrame:
 
     A table without a ``t`` column gets ``t`` = row number (s) and a warning in attrs.
     """
+    import pandas as pd
     import pyarrow.parquet as pq
 
     path = Path(path)

@@ -257,6 +257,7 @@ def learn_kernel(
     snap_s,
     nsnap,
     every,
+    max_rules_here,
     si,
     lo,
     hi,
@@ -283,7 +284,9 @@ def learn_kernel(
 ) -> int:
     """Online predict-then-learn over the rows of X (N, n), Y (N, m); mutates the state.
     Returns the number of rows learned: all N, or fewer when the event or snapshot buffers
-    filled up (the caller empties them and calls again with the remaining rows).
+    filled up (the caller empties them and calls again with the remaining rows) or a sample
+    left more than ``max_rules_here`` rules (the caller goes on with
+    :func:`etsid.ets.kernels_lanes.learn_lanes`, faster for larger rule bases).
 
     ``S`` (N, na) holds the antecedent inputs: potentials, firing and births work on
     z_a = S (scheduled, ``ip[IP_SCHEDULED] = 1``, then z = [s; y; x] and the potential
@@ -827,6 +830,6 @@ def learn_kernel(
             nsnap[0] = q + 1
             if q + 1 >= snap_cap:
                 return t + 1
-        if nev[0] > ev_cap:
+        if nev[0] > ev_cap or max_rules_here < R:
             return t + 1
     return N
