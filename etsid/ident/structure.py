@@ -19,7 +19,9 @@ is frozen and simulated over it. Criterion, fixed before any run: the mean free-
 over the body-rate outputs that move in the inner validation (std ≥ 0.05 rad/s); the
 simplest candidate (``arx`` < ``unscheduled`` < ``scheduled``) within :data:`MARGIN`
 points of the best is chosen, so a structure must earn its rules. The validation part is
-never looked at. On the validation part every candidate is scored and the chosen one is
+never looked at. When the learning part is too short for an inner split nothing can be
+checked, and the simplest candidate (one rule, ARX) is taken and said to be unchecked. On
+the validation part every candidate is scored and the chosen one is
 compared with ARX and no-change persistence (:func:`behind_lines`).
 """
 
@@ -50,7 +52,8 @@ ORDER = ("arx", "unscheduled", "scheduled")
 MARGIN = 0.5
 """Points of mean inner free-run fit a more complex structure must gain to be chosen."""
 MIN_INNER_ROWS = 50
-"""Fewest inner-validation rows for a decision; fewer keep the requested structure."""
+"""Fewest inner-validation rows for a decision; with fewer (or too few rows to learn on
+before them) nothing can be checked and the simplest candidate, one rule (ARX), is kept."""
 MOVING_STD = 0.05
 """Least std of an output in the inner validation to take part in the criterion, rad/s."""
 BEHIND = 1.02
@@ -124,11 +127,14 @@ def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
     names = [n for n in ORDER if n != "scheduled" or spec.antecedent]
     inner = split_excited(excited[:split], config.validate or 0.3) if split > 0 else 0
     n_params = reg.X.shape[1] + 1
-    requested = "scheduled" if spec.antecedent else "unscheduled"
     if split - inner < MIN_INNER_ROWS or inner < 2 * n_params:
-        return StructureChoice(requested, spec, config,
-                               f"structure: {requested} eTS, unchecked (learning part too "
-                               "short for an inner split)")
+        c_spec, c_config = candidate("arx", spec, config)
+        return StructureChoice("arx", c_spec, c_config,
+                               "structure: one rule (ARX), the simplest, unchecked: the "
+                               "learning part is too short for an inner split "
+                               f"({inner} learning and {split - inner} checking rows; want "
+                               f"≥ {2 * n_params} and ≥ {MIN_INNER_ROWS}), so no richer "
+                               "structure could earn its place; --structure to force")
     fits: dict[str, dict[str, float]] = {}
     for name in names:
         c_spec, c_config = candidate(name, spec, config)
