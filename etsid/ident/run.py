@@ -62,6 +62,7 @@ from etsid.ident.structure import (
     behind_lines,
     candidate,
     choose_structure,
+    fallbacks,
     validation_table,
 )
 
@@ -219,6 +220,9 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
                                          float(np.count_nonzero(excited[:split]) * dt),
                                          1.0 / dt, reg.X.shape[1] + 1))
+        used = fallbacks(metrics["outputs"])
+        for y in spec.outputs:
+            metrics["outputs"][y]["used"] = used.get(y, "eTS")
     metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
                                            split)
     run_config = {

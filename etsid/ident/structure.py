@@ -200,16 +200,36 @@ def _block(reg: Regression, split: int, one: np.ndarray, sim: np.ndarray | None,
             for o, y in enumerate(spec.outputs)}
 
 
+def _one_step(block: dict[str, Any]) -> tuple[dict[str, Any], Any, Any, Any]:
+    one = (block.get("validation") or {}).get("one_step") or {}
+    arx = ((block.get("arx") or {}).get("validation") or {}).get("one_step") or {}
+    pers = (block.get("persistence") or {}).get("validation") or {}
+    return one, one.get("rmse"), arx.get("rmse"), pers.get("rmse")
+
+
+def fallbacks(outputs: dict[str, Any]) -> dict[str, str]:
+    """Per informative output where the chosen eTS is behind a baseline on validation
+    (one-step RMSE above :data:`BEHIND` × ARX's or above persistence's): the better of the
+    two baselines, ``ARX`` or ``no-change``, which is this run's model for that axis."""
+    out = {}
+    for y, block in outputs.items():
+        one, e, a, p = _one_step(block)
+        if e is None or one.get("informative") is False:
+            continue
+        if (a is not None and e > BEHIND * a) or (p is not None and e > p):
+            out[y] = "ARX" if a is not None and (p is None or a <= p) else "no-change"
+    return out
+
+
 def behind_lines(outputs: dict[str, Any], rules: int, excited_learn_s: float,
                  rate_hz: float, n_params: int) -> list[str]:
     """One line per informative output where the chosen eTS's validation one-step RMSE is
-    above :data:`BEHIND` × ARX's or above persistence's, with the likely reason."""
+    above :data:`BEHIND` × ARX's or above persistence's, with the likely reason and the
+    baseline this run uses for that axis instead (:func:`fallbacks`)."""
     lines = []
+    used = fallbacks(outputs)
     for y, block in outputs.items():
-        one = (block.get("validation") or {}).get("one_step") or {}
-        arx = ((block.get("arx") or {}).get("validation") or {}).get("one_step") or {}
-        pers = (block.get("persistence") or {}).get("validation") or {}
-        e, a, p = one.get("rmse"), arx.get("rmse"), pers.get("rmse")
+        one, e, a, p = _one_step(block)
         if e is None or one.get("informative") is False:
             continue
         behind = []
@@ -235,5 +255,6 @@ def behind_lines(outputs: dict[str, Any], rules: int, excited_learn_s: float,
             why = ("one regime only: one rule learnt recursively (RLS prior and start-up) "
                    "where batch least squares fits better")
         lines.append(f"warning: {y}: eTS validation one-step RMSE {e:.4g} is behind "
-                     f"{' and '.join(behind)}; likely reason: {why}")
+                     f"{' and '.join(behind)}; likely reason: {why}; {y} falls back to "
+                     f"{used[y]} (metrics.json outputs.{y}.used)")
     return lines
