@@ -51,6 +51,9 @@ class EtsidGroup(click.Group):
         return self.commands.get(cmd_name)
 
     def invoke(self, ctx: click.Context) -> Any:
+        from etsid import progress
+
+        progress.enable(True)  # what a long step is doing, on stderr (--quiet: off)
         try:
             return super().invoke(ctx)
         except EtsidError as err:
@@ -74,6 +77,8 @@ class EtsidGroup(click.Group):
             click.echo(f"etsid: internal error: {type(err).__name__}: {one_line(err)} "
                        "(set ETSID_DEBUG=1 for a traceback and please report it)", err=True)
             ctx.exit(1)
+        finally:
+            progress.enable(False)
 
 
 def one_line(err: BaseException) -> str:
