@@ -7,7 +7,9 @@ seconds, then every :data:`EVERY_S` seconds: short steps stay silent, long ones 
 silent for longer than that.
 
 Library calls are silent: the ``etsid`` command turns progress on (:func:`enable`) for the
-command it runs; ``--quiet`` turns it off again.
+command it runs; ``--quiet`` turns it off again, and so does ``ETSID_PROGRESS=off`` in the
+environment (the test suite sets it: lines that depend on how long a step takes would make
+tests of exact output depend on the machine's load; tests/test_progress.py turns it on).
 
 >>> enabled()
 False

@@ -45,15 +45,25 @@ class EtsidGroup(click.Group):
         module_name = COMMAND_MODULES.get(cmd_name)
         if module_name is None:
             return None
-        module = importlib.import_module(module_name)
+        from etsid.progress import stage
+
+        with stage(f"{cmd_name}: loading"):  # numba, pandas, matplotlib: seconds on a cold start
+            module = importlib.import_module(module_name)
         for command in module.COMMANDS:
             self.add_command(command)
         return self.commands.get(cmd_name)
 
-    def invoke(self, ctx: click.Context) -> Any:
+    def main(self, *args: Any, **kwargs: Any) -> Any:
         from etsid import progress
 
-        progress.enable(True)  # what a long step is doing, on stderr (--quiet: off)
+        # what a long step is doing, on stderr (--quiet or ETSID_PROGRESS=off: nothing)
+        progress.enable(os.environ.get("ETSID_PROGRESS", "").lower() != "off")
+        try:
+            return super().main(*args, **kwargs)
+        finally:
+            progress.enable(False)
+
+    def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
         except EtsidError as err:
@@ -77,8 +87,6 @@ class EtsidGroup(click.Group):
             click.echo(f"etsid: internal error: {type(err).__name__}: {one_line(err)} "
                        "(set ETSID_DEBUG=1 for a traceback and please report it)", err=True)
             ctx.exit(1)
-        finally:
-            progress.enable(False)
 
 
 def one_line(err: BaseException) -> str:

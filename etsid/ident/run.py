@@ -190,7 +190,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     try:
         merges: list[dict[str, Any]] = []
         yhat, frozen_dict = learn_online(model, reg, split if split < n else -1,
-                                         show_progress, "identify",
+                                         show_progress, "identify: learning online (samples)",
                                          rate_model if config.merge is None
                                          else config.merge, merges)
     except ValueError as err:
