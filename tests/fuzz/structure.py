@@ -62,6 +62,9 @@ class Case:
     rows: int = 0
     cheap: bool = False
     what: str = ""
+    check: Callable[[Path, Path, str], str] | None = None
+    """``check(out, built, output)``: what is wrong with what a successful run wrote ("" if
+    nothing); ``out`` is ``{out}``, ``built`` the built input, ``output`` stdout+stderr."""
 
 
 @dataclass
@@ -840,6 +843,9 @@ def _judge(c: Case, code: int, stdout: bytes, stderr: bytes, out: Path, seconds:
         if len(table) < c.rows:
             return Verdict(c.name, False, f"table has {len(table)} rows, the valid part "
                            f"gives at least {c.rows}", seconds, peak, lines)
+    wrong = c.check(out, path, text) if c.check is not None else ""
+    if wrong:
+        return Verdict(c.name, False, wrong, seconds, peak, lines)
     absent_notes = [n for n in c.note if n not in text]
     if absent_notes:
         return Verdict(c.name, False, f"no note naming {absent_notes}", seconds, peak, lines)
