@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,8 @@ from typing import Any
 import numpy as np
 
 from etsid.errors import SimError
+from etsid.escape import clean
+from etsid.files import read_toml
 from etsid.sim.vehicle_params import EFFECTS as EFFECT_PARAMS
 from etsid.sim.vehicle_params import (
     MAX_ROTORS,
@@ -375,14 +376,8 @@ def load_vehicle(vehicle: str | Path | Vehicle | None = None) -> Vehicle:
         if not path.exists():
             known = ", ".join(sorted(p.stem for p in VEHICLE_DIR.glob("*.toml")))
             raise SimError(f"unknown vehicle {str(vehicle)!r}: give a TOML file or one of {known}")
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except OSError as err:
-        raise SimError(f"{path}: cannot read vehicle file ({err.strerror})") from err
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise SimError(f"{path}: invalid TOML ({err})") from err
-    return vehicle_from_dict(data, str(path))
+    data = read_toml(path, "vehicle", SimError, "TOML vehicle file")
+    return vehicle_from_dict(clean(data), str(path))
 
 
 def list_vehicles() -> list[str]:

@@ -32,6 +32,9 @@ SCRIPT = "<img src=x onerror=alert(42)>"
 OSC52 = "\x1b]52;c;QUFBQQ==\x07"
 RLO = "\u202e"
 RAW = ("\x1b", "\x07", "\x9b", RLO)
+REPORT_S = 120.0
+"""Time bound of a report (a batch folder's builds every flight's page): more than the
+30 s of the other cases, on a machine shared by several jobs."""
 CACHE = Path(os.environ.get("ETSID_FUZZ_CACHE", "/tmp/etsid-fuzz-cache"))
 """Run and batch folders made once (``etsid identify`` compiles for a minute)."""
 
@@ -186,7 +189,8 @@ def _cached_batch() -> Path:
         logs.mkdir(exist_ok=True)
         for name in ("a", "b"):
             shutil.copy(GAS, logs / f"{name}.csv")
-        subprocess.run([sys.executable, "-m", "etsid", "batch", "identify", str(logs),
+        subprocess.run([sys.executable, "-m", "etsid", "batch", "identify",
+                        str(logs / "a.csv"), str(logs / "b.csv"),
                         "--output", "co2", "--regressors", "co2[k-1],input_gas_rate[k-4]",
                         "-j", "1", "-o", str(batch), "--quiet"], check=True,
                        capture_output=True)
@@ -344,13 +348,17 @@ CASES: list[Case] = [
     Case("attrs-deep", _parquet_attrs(None, "[" * 100_000 + "]" * 100_000), error=True,
          what="Parquet etsid.attrs nested 10^5 deep"),
     Case("batch-json-wall", _batch_edit(_batch_json_wall), args=("report", "{in}"),
-         error=True, what="batch.json with wall_s a string (fleet report)"),
+         error=True, seconds=REPORT_S,
+         what="batch.json with wall_s a string (fleet report)"),
     Case("results-fit-1e308", _batch_edit(_results_fit(1e308)), args=("report", "{in}"),
-         check=lambda out, p, text: _quiet_warnings(text), what="result rows with fit 1e308"),
+         check=lambda out, p, text: _quiet_warnings(text), seconds=REPORT_S,
+         what="result rows with fit 1e308"),
     Case("results-fit-inf", _batch_edit(_results_fit(float("inf"))), args=("report", "{in}"),
-         check=lambda out, p, text: _quiet_warnings(text), what="result rows with fit inf"),
+         check=lambda out, p, text: _quiet_warnings(text), seconds=REPORT_S,
+         what="result rows with fit inf"),
     Case("metrics-outputs-list", _run_edit(lambda d: d.update(outputs=[1])),
-         args=("report", "{in}"), error=True, what="metrics.json outputs a list (report)"),
+         args=("report", "{in}"), error=True, seconds=REPORT_S,
+         what="metrics.json outputs a list (report)"),
     # 3. settings without physical ranges
     Case("set-duration-1e7", _none, args=_sim_set("scenario.duration=1e7"), error=True,
          cheap=True, what="--set scenario.duration=1e7"),
@@ -384,12 +392,15 @@ CASES: list[Case] = [
          what="a table's attrs warning holding OSC 52 (ingest's terminal)"),
     Case("report-unit-script", _run_edit(_set_unit), args=("report", "{in}"),
          check=lambda out, p, text: _report_clean(p), absent=RAW, cheap=True,
+         seconds=REPORT_S,
          what="metrics.json unit <img onerror> (report)"),
     Case("report-warning-osc52", _run_edit(_set_warnings), args=("report", "{in}"),
          check=lambda out, p, text: _report_clean(p), absent=RAW,
+         seconds=REPORT_S,
          what="metrics.json warnings with OSC 52 (report)"),
     Case("report-bidi-name", _run_edit(lambda d: None, name=f"run{RLO}lmth.exe"),
          args=("report", "{in}"), check=lambda out, p, text: _report_clean(p), absent=RAW,
+         seconds=REPORT_S,
          what="a run folder named with U+202E (report title and h1)"),
     # 5. batch
     Case("list-long-line", _list_file(["x" * 5000]),
