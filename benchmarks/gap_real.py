@@ -268,8 +268,10 @@ def run_case(sim: pd.DataFrame, real: pd.DataFrame, log: str, change: str, size:
     return case
 
 
-def cases_for(table: pd.DataFrame, log: str, changes: list[str]) -> list[tuple]:
-    """(log, change, size, REAL table or skip reason) for every case of one log."""
+def cases_for(table: pd.DataFrame, log: str, changes: list[str], quick: bool = False
+              ) -> list[tuple]:
+    """(log, change, size, REAL table or skip reason) for every case of one log (``quick``:
+    each change at its largest size only)."""
     out: list[tuple] = []
     if "identical" in changes:
         out.append((log, "identical", 0.0, table.copy()))
@@ -279,7 +281,8 @@ def cases_for(table: pd.DataFrame, log: str, changes: list[str]) -> list[tuple]:
     for ch in CHANGES:
         if ch.name not in changes:
             continue
-        for s in ch.sizes:
+        sizes = ch.sizes[-1:] if quick else ch.sizes
+        for s in sizes:
             real = ch.make(table, s)
             out.append((log, ch.name, s, real if real is not None else
                         "needs more than full command"))
@@ -323,6 +326,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--logs", default="", help="comma list of substrings of log names")
     ap.add_argument("--changes", default="", help="comma list of change names (default all)")
     ap.add_argument("--json", default="", help="write the cases as JSON here")
+    ap.add_argument("--quick", action="store_true",
+                    help="the largest size of each change only (one case per change and log)")
     args = ap.parse_args(argv)
     if not SHARED_LOGS.exists():
         print(f"{SHARED_LOGS}: not here (the shared real logs are not shipped)")
@@ -333,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
     cases: list[Case] = []
     for log in logs:
         table = load(log)
-        for lg, change, size, real in cases_for(table, log, changes):
+        for lg, change, size, real in cases_for(table, log, changes, args.quick):
             if isinstance(real, str):
                 case = Case(lg, change, size, skipped=real)
             else:
