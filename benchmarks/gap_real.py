@@ -186,11 +186,11 @@ def reencode(table: pd.DataFrame, folder: Path) -> pd.DataFrame:
     return load_table(save_table(table, folder / "real.parquet"))
 
 
-def load(name: str) -> pd.DataFrame:
+def load(name: str, folder: Path = SHARED_LOGS) -> pd.DataFrame:
     """The shared real log as a FlightTable."""
     from etsid.ingest import read_log
 
-    return read_log(SHARED_LOGS / name)
+    return read_log(folder / name)
 
 
 @dataclass
@@ -326,18 +326,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--logs", default="", help="comma list of substrings of log names")
     ap.add_argument("--changes", default="", help="comma list of change names (default all)")
     ap.add_argument("--json", default="", help="write the cases as JSON here")
+    ap.add_argument("--data", default=str(SHARED_LOGS), help="folder of the real logs")
     ap.add_argument("--quick", action="store_true",
                     help="the largest size of each change only (one case per change and log)")
     args = ap.parse_args(argv)
-    if not SHARED_LOGS.exists():
-        print(f"{SHARED_LOGS}: not here (the shared real logs are not shipped)")
+    folder = Path(args.data)
+    if not folder.is_dir():
+        print(f"{folder}: not here (the shared real logs are not shipped; --data DIR)")
         return 1
     logs = [n for n in LOGS if not args.logs or any(s in n for s in args.logs.split(","))]
     changes = args.changes.split(",") if args.changes else \
         ["identical", "parquet", *BY_NAME]
     cases: list[Case] = []
     for log in logs:
-        table = load(log)
+        table = load(log, folder)
         for lg, change, size, real in cases_for(table, log, changes, args.quick):
             if isinstance(real, str):
                 case = Case(lg, change, size, skipped=real)
