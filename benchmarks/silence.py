@@ -17,6 +17,7 @@ import sys
 import tempfile
 import threading
 import time
+from itertools import pairwise
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -61,7 +62,7 @@ def stamped(args: list[str]) -> tuple[float, float, list[tuple[float, str]]]:
         thread.join()
     wall = time.monotonic() - start
     times = [0.0, *sorted(t for t, _ in lines), wall]
-    longest = max(b - a for a, b in zip(times, times[1:], strict=False))
+    longest = max(b - a for a, b in pairwise(times))
     if proc.returncode:
         print(f"  exit code {proc.returncode}", file=sys.stderr)
     return wall, longest, sorted(lines)
