@@ -72,6 +72,7 @@ from etsid.ident.structure import (
     fallbacks,
     validation_table,
 )
+from etsid.progress import done, say
 
 
 def _rate_note(work: pd.DataFrame) -> str:
@@ -147,6 +148,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     config = config or IdentConfig()
     rate_hz = config.rate_for(not config.outputs)
     table = add_motor_commands(table)
+    say("identify: choosing the inputs and the model")
     chosen = choose_model(table, config)
     spec = chosen.spec
     sigma_native = noise_std(table, spec.outputs)
@@ -163,6 +165,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                else np.ones(len(reg.X), dtype=bool))
     attitude = None
     if chosen.attitude and config.attitude == "auto":
+        say("identify: checking the attitude states on an inner split of the learning part")
         attitude = check_attitude_states(reg, spec, split_excited(excited, config.validate),
                                          excited, len(table), config.validate)
         chosen.notes = [attitude.note if note.startswith("attitude states") else note
@@ -174,6 +177,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     choice = None
     requested_spec, requested_config = spec, config
     if rate_model:
+        say("identify: choosing the structure on an inner split of the learning part")
         choice = _structure(reg, spec, config, excited, table)
         if choice.spec != spec:
             spec, config = choice.spec, choice.config
@@ -194,13 +198,14 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     try:
         merges: list[dict[str, Any]] = []
         yhat, frozen_dict = learn_online(model, reg, split if split < n else -1,
-                                         show_progress, "identify",
+                                         show_progress, "identify: learning online (samples)",
                                          rate_model if config.merge is None
                                          else config.merge, merges)
     except ValueError as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
     if split == n:
         frozen_dict = model.to_dict()
+    say("identify: free run of the held-out part, metrics")
     frozen = ETS.from_dict(frozen_dict, trusted=True) if frozen_dict is not None else None
     cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
     history, consequents = history_frames(model, reg)
@@ -254,6 +259,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "warnings": list(table.attrs.get("warnings") or []),
     }
     radius = rotor_radius(table.attrs)
+    done()
     return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
                history, consequents, rules_json(frozen_dict, spec, rate, radius),
                rules_json(model.to_dict(), spec, rate, radius))

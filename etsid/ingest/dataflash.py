@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.files import check
 from etsid.ingest import dataflash_index
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
@@ -168,7 +169,8 @@ def _reader_class() -> type:
 def _open(path: Path) -> tuple[object, str]:
     try:
         with _captured_output() as noise:
-            reader = _reader_class()(str(path), zero_time_base=False)
+            reader = _reader_class()(str(check(path, "log", IngestError)),
+                                     zero_time_base=False)
     except Exception as err:  # DFReader raises bare Exceptions on broken files
         raise IngestError(f"{path}: not a readable DataFlash log ({err})") from err
     return reader, "".join(noise)

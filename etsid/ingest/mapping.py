@@ -24,10 +24,10 @@ candidate is reported in ``attrs["warnings"]``.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from etsid.errors import IngestError
+from etsid.files import read_toml
 from etsid.ingest.base import DEFAULT_RC_MAP, Override, Signal, split_source
 from etsid.ingest.source_check import order_by_content, reference_span
 from etsid.table import COLUMNS
@@ -63,12 +63,9 @@ def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]
         u_yaw = 4
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise IngestError(f"{path}: mapping file not found") from err
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise IngestError(f"{path}: not a valid TOML mapping file ({err})") from err
+    if not path.exists():
+        raise IngestError(f"{path}: mapping file not found")
+    data = read_toml(path, "mapping", IngestError, "TOML mapping file")
     unknown = set(data) - {"map", "rc"}
     if unknown:
         raise IngestError(f"{path}: unknown section(s) {sorted(unknown)}; use [map] and [rc]")

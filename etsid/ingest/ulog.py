@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.frames import quat_to_euler
 from etsid.ingest import ulog_clean
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
@@ -271,7 +272,8 @@ def _parse(path: Path, names: list[str], cleaned: ulog_clean.Cleaned) -> object:
         # the file is opened here and closed on every path: pyulog, given a name, leaves
         # its handle open when it gives up on a damaged file (a ResourceWarning later)
         with (io.BytesIO(ulog_clean.payload(path, cleaned)) if cleaned.changed
-              else path.open("rb")) as handle, contextlib.redirect_stdout(io.StringIO()), \
+              else open_binary(path, "log", IngestError)) as handle, \
+                contextlib.redirect_stdout(io.StringIO()), \
                 contextlib.redirect_stderr(io.StringIO()):
             return ULog(handle, message_name_filter_list=names)
     except Exception as err:  # pyulog raises many types on broken files
