@@ -13,6 +13,9 @@ import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from etsid.errors import ReportError
+from etsid.files import read_bytes
+
 CSS = (
     "body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:76em;"
     "margin:1.5em auto;padding:0 1em;color:#222;line-height:1.4}"
@@ -79,7 +82,7 @@ def table_html(head: Sequence[str], rows: Iterable[Sequence[object]],
 def image_html(path: Path, name: str, caption: str) -> str:
     """A static figure (PNG or SVG file) as an inline ``<figure>`` with a data URI."""
     mime = "image/svg+xml" if path.suffix == ".svg" else "image/png"
-    data = base64.b64encode(path.read_bytes()).decode()
+    data = base64.b64encode(read_bytes(path, "figure", ReportError)).decode()
     return (f'<figure id="{esc(name)}"><img alt="{esc(name)}" src="data:{mime};base64,{data}">'
             f"<figcaption>{esc(caption)}</figcaption></figure>")
 
