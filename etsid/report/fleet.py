@@ -10,7 +10,6 @@ the Parquet dataset ``DIR/results/`` (rows of the latest batch's options only).
 from __future__ import annotations
 
 import base64
-import html
 import os
 import re
 import shutil
@@ -25,7 +24,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from etsid.errors import EtsidError
-from etsid.escape import clean, printable
+from etsid.escape import clean, for_html, printable
 from etsid.files import read_bytes, read_json, read_parquet_dataset
 from etsid.report.build import Report, save_figure
 from etsid.report.figures import WIDTH, style
@@ -236,7 +235,7 @@ def _fmt(value: Any) -> str:
 
 def _html_table(frame: pd.DataFrame, columns: list[str],
                 links: dict[str, str] | None = None) -> str:
-    esc = html.escape
+    esc = for_html
     links = links or {}
     head = "".join(f"<th>{esc(c)}</th>" for c in columns)
     rows = []
@@ -419,7 +418,7 @@ class _Parts:
              interactive: tuple[str, str] = ("", "")) -> str:
         from etsid.report.page import html_page
 
-        esc = html.escape
+        esc = for_html
         head_js, div = interactive
         parts = [
             '<section id="summary"><h2>Summary</h2><ul>'
