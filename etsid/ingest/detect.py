@@ -29,6 +29,16 @@ EXTENSIONS = {
     ".mcap": "mcap",
 }
 
+FORMAT_WORDS = {
+    "tlog": "a MAVLink telemetry log",
+    "bin": "an ArduPilot DataFlash log",
+    "ulog": "a PX4 ULog file",
+    "ros1": "a ROS 1 bag",
+    "ros2": "a ROS 2 bag database (SQLite)",
+    "mcap": "an MCAP file",
+}
+"""Each format in words, for messages (the keys are internal names, not what users know)."""
+
 MAGIC = {
     "bin": b"\xa3\x95",
     "ulog": b"ULog\x01\x12\x35",
@@ -86,7 +96,7 @@ def detect_format(path: Path) -> str:
                           "directory, or a saved .parquet/.csv table)")
     magic = MAGIC.get(fmt)
     if magic is not None and not head.startswith(magic[: len(head)]):
-        raise IngestError(f"{path}: not a {fmt} file (its first bytes are wrong)")
+        raise IngestError(f"{path}: not {FORMAT_WORDS[fmt]} (its first bytes are wrong)")
     if fmt == "tlog" and len(head) > 8 and head[8] not in (0xFE, 0xFD):
         raise IngestError(f"{path}: not a MAVLink telemetry log (no MAVLink packet after the "
                           "first 8-byte timestamp)")
