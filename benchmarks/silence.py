@@ -11,6 +11,7 @@ Progress lines come from etsid.progress: a step still running after 2 s says so.
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import subprocess
 import sys
@@ -32,7 +33,7 @@ def commands(out: Path) -> dict[str, list[str]]:
         "gap": ["gap", str(ROOT / "sample_logs" / "low_hover_1.parquet"),
                 str(ROOT / "sample_logs" / "low_hover_2.parquet"), "--out", str(out / "gap")],
         "simulate": ["simulate", "steps", "-o", str(out / "sim.tlog"), "--duration", "30"],
-        "control": ["control", "step", "--out", str(out / "control")],
+        "control": ["control", "sine-altitude", "--out", str(out / "control")],
         "batch": ["batch", "identify", bag, str(ROOT / "sample_logs" / "hexa_ige_oge.tlog"),
                   "--out", str(out / "fleet"), "-j", "2"],
         "fleet report": ["report", str(out / "fleet")],
@@ -61,7 +62,7 @@ def stamped(args: list[str]) -> tuple[float, float, list[tuple[float, str]]]:
         thread.join()
     wall = time.monotonic() - start
     times = [0.0, *sorted(t for t, _ in lines), wall]
-    longest = max(b - a for a, b in zip(times, times[1:], strict=False))
+    longest = max(b - a for a, b in itertools.pairwise(times))
     if proc.returncode:
         print(f"  exit code {proc.returncode}", file=sys.stderr)
     return wall, longest, sorted(lines)
