@@ -83,8 +83,18 @@ def summary_table(run: Run) -> str:
     """The short stdout summary of ``identify`` / ``predict``: key metrics and rules."""
     keep = [0, 2, 3, 4, 7, 12, 14, 10, 13]
     head, rows = metrics_rows(run)
+    # a column of only "–" says nothing (no noise estimate, no ARX baseline in predict);
+    # the online RMSE equals the 1-step one when every row is scored without learning
+    keep = [i for i in keep if any(r[i] != "–" for r in rows)]
+    if all(r[3] == r[7] for r in rows) and 3 in keep and 7 in keep:
+        keep.remove(3)
     table = text_table([head[i] for i in keep], [[r[i] for i in keep] for r in rows])
-    return (f"{table}\n{rule_counts(run.metrics['rules'])}; samples "
+    counts = rule_counts(run.metrics["rules"])
+    if run.config.get("command") == "predict":
+        counts = f"rules: {run.metrics['rules'].get('frozen')} (the rule base applied)"
+        if run.metrics["rules"].get("final") != run.metrics["rules"].get("frozen"):
+            counts += f", {run.metrics['rules'].get('final')} after learning on (--learn)"
+    return (f"{table}\n{counts}; samples "
             f"{run.metrics['n_samples']}, skipped "
             f"{sum((run.metrics.get('skipped') or {}).values())}")
 
