@@ -11,13 +11,13 @@ Progress lines come from etsid.progress: a step still running after 2 s says so.
 from __future__ import annotations
 
 import argparse
-import itertools
 import os
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+from itertools import pairwise
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -62,7 +62,7 @@ def stamped(args: list[str]) -> tuple[float, float, list[tuple[float, str]]]:
         thread.join()
     wall = time.monotonic() - start
     times = [0.0, *sorted(t for t, _ in lines), wall]
-    longest = max(b - a for a, b in itertools.pairwise(times))
+    longest = max(b - a for a, b in pairwise(times))
     if proc.returncode:
         print(f"  exit code {proc.returncode}", file=sys.stderr)
     return wall, longest, sorted(lines)

@@ -90,9 +90,12 @@ class EtsidGroup(click.Group):
 
 
 def one_line(err: BaseException) -> str:
-    """The first line of an error message."""
+    """The first line of an error message, safe for a terminal (file names and strings from
+    files in it shown with their control characters escaped)."""
+    from etsid.escape import printable
+
     text = str(err).strip()
-    return text.splitlines()[0] if text else type(err).__name__
+    return printable(text.splitlines()[0]) if text else type(err).__name__
 
 
 @click.group(cls=EtsidGroup, context_settings={"help_option_names": ["-h", "--help"]},

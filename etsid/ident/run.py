@@ -25,6 +25,13 @@ import pandas as pd
 from etsid.errors import IdentError
 from etsid.ets import ETS
 from etsid.ident.attitude_check import check_attitude_states
+from etsid.ident.blocks import (
+    blocked_line,
+    blocked_validation,
+    not_validated_line,
+    still_tail_lines,
+    tail_informs,
+)
 from etsid.ident.checks import (
     data_warnings,
     excitation_warnings,
@@ -62,6 +69,7 @@ from etsid.ident.structure import (
     behind_lines,
     candidate,
     choose_structure,
+    fallbacks,
     validation_table,
 )
 from etsid.progress import done, say
@@ -217,6 +225,17 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                                   EXCITE_STD),
         "sample_rate": rate_info(table),
     }
+    blocked, still_used = None, {}
+    if rate_model and frozen is not None and split < n:
+        tail = tail_informs(reg, spec, split, EXCITE_STD)
+        blocked = blocked_validation(reg, spec, config, excited, config.validate, len(table),
+                                     cols["y_persist"], EXCITE_STD)
+        metrics["validation"]["tail_motion"] = tail
+        metrics["validation_blocks"] = blocked
+        lines, still_used = still_tail_lines(metrics["outputs"], tail, blocked)
+        unvalidated = not_validated_line(tail, blocked)
+        chosen.notes.extend(([blocked_line(blocked)] if blocked else []) + lines
+                            + ([unvalidated] if unvalidated else []))
     chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
     if choice is not None and frozen is not None and split < n:
         metrics["structure"] = {**choice.to_dict(), "validation": validation_table(
@@ -224,6 +243,9 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
                                          float(np.count_nonzero(excited[:split]) * dt),
                                          1.0 / dt, reg.X.shape[1] + 1))
+        used = {**fallbacks(metrics["outputs"]), **still_used}
+        for y in spec.outputs:
+            metrics["outputs"][y]["used"] = used.get(y, "eTS")
     metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
                                            split)
     run_config = {

@@ -22,6 +22,29 @@ from etsid.sim.trim import hover_trim
 from etsid.sim.vehicle import Vehicle, load_vehicle
 
 MIN_PHYSICS_HZ = 1000.0
+MAX_SIM_BYTES = 2 * 2**30
+"""Memory a simulation may take (arrays of every physics step): 3600 s at 250 Hz needs
+about 0.6 GiB."""
+
+
+def refuse_non_finite(table: pd.DataFrame, what: str) -> None:
+    """Refuse a simulated table holding a NaN or infinity: the physics left its domain.
+
+    Raises
+    ------
+    SimError
+        Naming the first channel (in column order) that is not finite and the time, s.
+    """
+    values = table.to_numpy(dtype=float, na_value=np.nan)
+    bad = ~np.isfinite(values)
+    if not bad.any():
+        return
+    rows, cols = np.nonzero(bad)
+    first = int(np.argmin(rows))
+    share = 100.0 * bad.any(axis=1).mean()
+    raise SimError(f"{what}: the simulation left the physics' domain: {table.columns[cols[first]]} "
+                   f"is not finite from t = {table.index[rows[first]]:.3f} s ({share:.0f} % of "
+                   "the rows); check the vehicle's fields and the settings")
 
 PROGRESS_STEPS = 50
 """Pieces a flight is flown in when the CLI shows progress (the same flight, bit for bit)."""
@@ -111,6 +134,12 @@ def simulate(
     if n_out < 2:
         raise SimError(f"duration {params['duration']!r} s is too short for rate {rate_hz} Hz")
     n_steps = n_out * k_out
+    need = n_steps * 8.0 * (N_NOISE + 12) + n_out * 8.0 * (60 + 6 * veh.n_rotors)
+    if need > MAX_SIM_BYTES:
+        raise SimError(f"{params['duration']:g} s at {rate_hz:g} Hz ({n_steps} physics steps) "
+                       f"needs about {need / 2**30:.1f} GiB, more than the "
+                       f"{MAX_SIM_BYTES / 2**30:.0f} GiB a simulation may use: fly a shorter "
+                       "flight or a lower --rate")
     t = np.arange(n_steps) * dt
 
     alt0 = float(params["altitude"])
@@ -164,6 +193,7 @@ def simulate(
                          "spin": veh.spin.tolist()},
     }
     truth_df.attrs = dict(table.attrs)
+    refuse_non_finite(table, f"scenario {scenario!r} with vehicle {veh.name!r}")
     return SimFlight(table=table, truth=truth_df, vehicle=veh, params=params)
 
 
