@@ -316,6 +316,14 @@ def test_gap_report_in_chromium(browser: Any, tmp_path: Path) -> None:
     assert "az: REAL against the models" in titles and "az: REAL − model" in titles
     assert any(t.startswith("az: held-out residual against height") for t in titles)
     assert [i["alt"] for i in state["images"]] == ["gap_residual", "gap_timeseries"]
+    # the candidates tried: entries of one effect told apart by their fitted parameters
+    ranked = json.loads((out / "gap.json").read_text())["candidates"]
+    shown = [(c["name"], json.dumps(c["params"], sort_keys=True)) for c in ranked]
+    assert all(c["params"] for c in ranked) and len(set(shown)) == len(shown)
+    assert sum(c["name"] == "weak_motor" for c in ranked) in (0, 6)
+    page = (out / "index.html").read_text()
+    assert all(f"motor m{k}, scale" in page for k in range(1, 7)
+               if any(c["name"] == "weak_motor" for c in ranked))
 
 
 def test_control_report_in_chromium(browser: Any, tmp_path: Path) -> None:
