@@ -1025,7 +1025,17 @@ def _beyond_range(sel: Selection | None) -> list[str]:
 
 def _ranking(sel: Selection) -> list[dict[str, Any]]:
     def row(s: Scored) -> dict[str, Any]:
-        return {"name": s.fit.name, "share": round(s.share, 4), "score": round(s.score, 4)}
+        # the fitted parameters (and a per-motor law's motor, 1-based as m1 … m8) tell
+        # apart the entries of one effect (weak_motor once per motor, two drag laws …)
+        params: dict[str, Any] = {}
+        for cand, theta, _ in s.fit.split():
+            prefix = f"{cand.name}." if len(s.fit.candidates) > 1 else ""
+            if cand.motor is not None:
+                params[f"{prefix}motor"] = f"m{cand.motor + 1}"
+            for p, value in zip(cand.params, theta, strict=True):
+                params[f"{prefix}{p.name}"] = {"value": float(f"{value:.4g}"), "unit": p.unit}
+        return {"name": s.fit.name, "share": round(s.share, 4), "score": round(s.score, 4),
+                "params": params}
     return [row(s) for s in sel.ranked]
 
 
