@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from etsid.gap.run import run_gap
-from etsid.progress import wanted
+from etsid.progress import done, on_terminal, say
 from etsid.report.gap import make_gap_report
 
 
@@ -31,17 +31,16 @@ def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
     first part of the recording and proven on the later part. Verdicts: consistent,
     mismatch, insufficient, different-vehicle (the logs are of two airframes).
     """
-    def say(line: str) -> None:  # progress on a terminal only, as the progress bars
-        if wanted():
-            click.echo(line, err=True)
-
-    result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say)
-    report = make_gap_report(out_dir, say=say)
+    try:
+        result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say)
+        report = make_gap_report(out_dir, say=say)
+    finally:
+        done()
     files = ", ".join(["gap.json", "index.html (interactive)", "report.md",
                        *(p.name for p in report.figures.values())])
     if as_json:
         click.echo((out_dir / "gap.json").read_text(encoding="utf-8").rstrip())
-        if wanted():
+        if on_terminal():
             click.echo(f"wrote {out_dir}/ ({files})", err=True)
     else:
         click.echo(result.summary)
