@@ -62,7 +62,14 @@ from etsid.gap.select import (
     select,
     select_response,
 )
-from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, input_kinds, prepare
+from etsid.gap.signals import (
+    MIN_AIRBORNE_S,
+    SETPOINT_KINDS,
+    Flight,
+    describe,
+    input_kinds,
+    prepare,
+)
 from etsid.gap.summary import effect_entry, summary_sentence
 from etsid.gap.validation import blocked_split, time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
@@ -575,6 +582,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
     conditioned = condition(sim, real)
+    if sim.command_source:
+        cols = ", ".join(SETPOINT_KINDS[sim.command_source])
+        conditioned.insert(0, f"command: the {sim.command_source} ({cols}) of both logs, which "
+                              "have neither motor outputs nor stick commands")
     rotor_count = structural(sim, real)
     if rotor_count:
         return _different(sim, real, [rotor_count])
