@@ -29,7 +29,9 @@ STANDARD_LAYOUTS: dict[int, tuple[list[float], list[str]]] = {
 Octo coax X, in output order (docs/physics.md, PX4 airframe reference)."""
 
 DEFAULT_ARM = 0.25
-"""m, declared arm length when the log has no geometry (a mid-size frame)."""
+"""m, declared arm length when the log has no geometry (a mid-size frame), or when its
+geometry is in nominal units (PX4's default CA_ROTOR positions are ±1: arms over 1 m are
+taken as angles only)."""
 
 
 def active_motors(table: pd.DataFrame, min_std: float = 0.003) -> tuple[list[str], list[str]]:
@@ -66,12 +68,18 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
         x = np.asarray(layout["x"], dtype=float)
         y = np.asarray(layout["y"], dtype=float)
         spin = np.sign(np.asarray(layout["spin"], dtype=float))
-        if x.size == n and np.all(np.isfinite(np.r_[x, y])):
-            arm = float(np.median(np.hypot(x, y)))
+        arm = float(np.median(np.hypot(x, y))) if x.size else 0.0
+        if x.size == n and np.all(np.isfinite(np.r_[x, y])) and 0.03 <= arm <= 1.0:
             angles = [math.degrees(math.atan2(b, a)) % 360.0 for a, b in zip(x, y, strict=True)]
             return {"angles_deg": angles, "spin": ["ccw" if s > 0 else "cw" for s in spin],
                     "arm": arm, "arm_known": True, "n": n,
                     "source": "the log's mixer geometry (motor_layout)"}
+        if x.size == n and np.all(np.isfinite(np.r_[x, y])):
+            angles = [math.degrees(math.atan2(b, a)) % 360.0 for a, b in zip(x, y, strict=True)]
+            return {"angles_deg": angles, "spin": ["ccw" if s > 0 else "cw" for s in spin],
+                    "arm": DEFAULT_ARM, "arm_known": False, "n": n,
+                    "source": "the log's mixer angles and spins (its arm lengths "
+                              f"{arm:.2f} m are nominal: arm declared {DEFAULT_ARM} m)"}
     if n not in STANDARD_LAYOUTS:
         raise FitError(f"{src}: {n} active motor outputs and no rotor geometry in the log; "
                        "only 4, 6 or 8 have a standard layout")

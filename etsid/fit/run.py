@@ -12,6 +12,7 @@ import pandas as pd
 from etsid.errors import FitError
 from etsid.fit.drag import fit_drag
 from etsid.fit.layout import active_motors, geometry_rows, rotor_layout
+from etsid.fit.regress import N_BLOCKS, block_ids, jackknife_se
 from etsid.fit.result import FitResult, Param, judge
 from etsid.fit.rotation import fit_rotation
 from etsid.fit.signals import Flight, prepare
@@ -57,6 +58,18 @@ def _flights(tables: Sequence[pd.DataFrame]) -> tuple[list[Flight], dict, dict[s
             counts[k] = counts.get(k, 0) + v
     layout["v0"] = v0
     return flights, layout, counts
+
+
+def motor_shares(flights: list[Flight]) -> list[tuple[int, float, float]]:
+    """(motor index, mean output / mean of all motors, jackknife se) over airborne rows."""
+    m = np.vstack([f.motors[f.airborne] for f in flights])
+    ids = block_ids(len(m))
+    out = []
+    for j in range(m.shape[1]):
+        share = float(m[:, j].mean() / m.mean())
+        reps = [m[ids != b, j].mean() / m[ids != b].mean() for b in range(N_BLOCKS)]
+        out.append((j, share, jackknife_se(np.array(reps))))
+    return out
 
 
 def _param(name: str, value: float, se: float, unit: str, meaning: str,
@@ -157,6 +170,11 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
                                      f"linear drag / mass along body {ax} (body + rotor H-force)"))
             add(f"drag_quad_{ax}", _param(f"drag_quad_{ax}", -fit.coef[1], fit.se[1], "1/m",
                                           f"quadratic drag / mass along body {ax}"))
+    for j, share, se in motor_shares(flights):
+        add(f"motor{j + 1}_share", _param(
+            f"motor{j + 1}_share", share, se, "-", f"motor {j + 1}'s mean output over the "
+            "mean of all (a weak motor or a CG offset works it harder)",
+            verdict="identified" if 1.96 * se < 0.02 else "not-determined"))
     # declared: what no log of accelerations and rates can separate
     add("mass", _param("mass", tmpl.mass, float("nan"), "kg", "take-off mass",
                        verdict="unidentifiable", note=f"declared ({tmpl.name}): only thrust/"

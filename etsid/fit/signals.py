@@ -63,8 +63,8 @@ class Flight:
         if self.commands is None:
             return None
         c = self.lowpass(self.commands)
-        step = max(1, int(round(IV_STEP / self.dt)))
-        lags = range(0, int(round(IV_HISTORY / self.dt)) + 1, step)
+        step = max(1, round(IV_STEP / self.dt))
+        lags = range(0, round(IV_HISTORY / self.dt) + 1, step)
         cols = [np.vstack([np.repeat(c[:1], k, axis=0), c[:len(c) - k]]) if k else c
                 for k in lags]
         z = np.hstack(cols)
@@ -108,7 +108,7 @@ def prepare(table: pd.DataFrame, motors: list[str], v0: float | None) -> Flight:
         raise FitError(f"{src}: no body rates p q r; a fit needs the gyro")
     t = table.index.to_numpy(dtype=float)
     dt = float(np.median(np.diff(t)))
-    grid = t[0] + dt * np.arange(int(round((t[-1] - t[0]) / dt)) + 1)
+    grid = t[0] + dt * np.arange(round((t[-1] - t[0]) / dt) + 1)
     tab = table.reindex(table.index.union(grid)).interpolate("index", limit_area="inside")
     tab = tab.loc[grid].ffill().bfill()
     counts = {"rows": len(table), "grid_rows": len(grid)}

@@ -31,7 +31,6 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
     base = vehicle_truth(template)
     data = template.to_dict()
     mass = template.mass
-    n = layout["n"]
     arm = float(layout["arm"])
     data["name"] = name
     data["description"] = description
