@@ -55,9 +55,10 @@ def effective_n(resid: np.ndarray) -> float:
     return float(np.asarray(resid).size / correlation_time(resid))
 
 
-def hac_cov(x: np.ndarray, resid: np.ndarray, weights: np.ndarray | None = None
-            ) -> np.ndarray:
-    """Newey–West covariance of least-squares coefficients, bandwidth 2 τ_int samples.
+def hac_cov(x: np.ndarray, resid: np.ndarray, weights: np.ndarray | None = None,
+            slope: np.ndarray | None = None) -> np.ndarray:
+    """Newey–West covariance of least-squares coefficients, bandwidth 3 τ_int samples
+    (τ_int of the scores x_j r).
 
     Parameters
     ----------
@@ -66,13 +67,18 @@ def hac_cov(x: np.ndarray, resid: np.ndarray, weights: np.ndarray | None = None
     resid : ndarray (n,)
         Residuals of the fit.
     weights : ndarray (n,), optional
-        IRLS weights the fit used (the sandwich of the weighted problem).
+        IRLS weights of the fit, ψ(r)/r (the scores are x ψ(r)).
+    slope : ndarray (n,), optional
+        ψ'(r) of the M-estimator (1 inside Huber's corner, 0 outside): the bread.
     """
     w = np.ones(len(resid)) if weights is None else weights
-    xw = x * w[:, None]
-    bread = np.linalg.pinv(xw.T @ x)
-    u = xw * resid[:, None]
-    lag = max(1, int(np.ceil(2.0 * correlation_time(resid))))
+    d = w if slope is None else slope
+    bread = np.linalg.pinv((x * d[:, None]).T @ x)
+    u = x * (w * resid)[:, None]
+    # bandwidth from the scores' own correlation time (a product of two coloured series
+    # is correlated longer than either), three times it for the Bartlett kernel's bias
+    lag = max(1, int(np.ceil(3.0 * max(correlation_time(u[:, j]) for j in range(u.shape[1])
+                                       if np.any(u[:, j])))))
     lag = min(lag, len(resid) // 4 or 1)
     meat = u.T @ u
     for k in range(1, lag + 1):
@@ -93,16 +99,18 @@ def robust_lstsq(x: np.ndarray, y: np.ndarray, *, iterations: int = 5) -> Linear
     if len(y) <= x.shape[1]:
         raise ValueError(f"{len(y)} samples for {x.shape[1]} coefficients")
     w = np.ones(len(y))
+    slope = np.ones(len(y))
     coef = np.linalg.lstsq(x, y, rcond=None)[0]
     for _ in range(iterations):
         r = y - x @ coef
         scale = 1.4826 * np.median(np.abs(r - np.median(r))) or float(np.std(r)) or 1.0
         a = np.abs(r) / (HUBER_K * scale)
         w = np.where(a <= 1.0, 1.0, 1.0 / np.maximum(a, 1e-12))
+        slope = (a <= 1.0).astype(float)
         sw = np.sqrt(w)
         coef = np.linalg.lstsq(x * sw[:, None], y * sw, rcond=None)[0]
     r = y - x @ coef
-    cov = hac_cov(x, r, w)
+    cov = hac_cov(x, r, w, slope)
     ssr = float(np.dot(r, r))
     var_y = float(np.var(y)) * len(y)
     return LinearFit(coef=coef, se=np.sqrt(np.maximum(np.diag(cov), 0.0)), cov=cov, resid=r,

@@ -24,12 +24,15 @@ d enter through x_j and are chosen on a grid by the projected residual of the ro
 pitch equations (their regressors are rotor-speed differences, the signal the lag shapes);
 every standard error, τ's and d's included, is a delete-one-block jackknife over
 :data:`etsid.fit.regress.N_BLOCKS` contiguous blocks (autocorrelation inside a block
-does not fool it).
+does not fool it), combined with the grid's resolution for τ and d, and for the
+coefficients with their shift when the same equations are fitted on half the bandwidth
+(a model that holds gives the same coefficients at every frequency; the shift measures
+what the unmodelled dynamics move).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -72,7 +75,7 @@ class _Prep:
 
     def __init__(self, f: Flight, blocks: np.ndarray) -> None:
         self.flight = f
-        keep = f.airborne.copy()
+        keep = f.hover.copy()
         keep[:5] = keep[-5:] = False
         self.keep = keep
         self.blocks = [int(b) for b in np.unique(blocks)]
@@ -91,6 +94,26 @@ class _Prep:
         acc = f.lowpass(np.gradient(f.gyro, f.dt, axis=0))[keep]
         self.target = self.reduce(acc)
         self.extra = [self.reduce(e) for e in extra]
+        self.target_raw = {b: acc[sl] for b, sl in self.slices.items()}
+        self.extra_raw = [{b: e[sl] for b, sl in self.slices.items()} for e in extra]
+        # leave-one-block-out first stage (jackknife IV): block b's fitted regressors come
+        # from the other blocks' first stage, so its own noise cannot leak in
+        self.jive_ok = self.q is not None and len(self.blocks) >= 3
+        if self.jive_ok:
+            zb = {b: self.q[sl] for b, sl in self.slices.items()}
+            gram = {b: zb[b].T @ zb[b] for b in self.blocks}
+            total = sum(gram.values())
+            self.zb = zb
+            self.inv_rest = {b: np.linalg.pinv(total - gram[b]) for b in self.blocks}
+
+    def jive(self, x: np.ndarray) -> dict[int, np.ndarray]:
+        """Per block, x predicted from the instruments by the first stage fitted on the
+        other blocks (x itself when there are no instruments)."""
+        if not self.jive_ok:
+            return self.reduce(x)
+        cross = {b: self.zb[b].T @ x[sl] for b, sl in self.slices.items()}
+        total = sum(cross.values())
+        return {b: self.zb[b] @ (self.inv_rest[b] @ (total - cross[b])) for b in self.blocks}
 
     def reduce(self, x: np.ndarray) -> dict[int, np.ndarray]:
         """Per block, the rows of x's projection on the instruments (of x itself without
@@ -100,15 +123,17 @@ class _Prep:
         return {b: x[sl] for b, sl in self.slices.items()}
 
 
-def _prepare(flights: list[Flight]) -> list[_Prep]:
+def _prepare(flights: list[Flight], cutoff_scale: float = 1.0) -> list[_Prep]:
     sizes = []
     for f in flights:
-        keep = f.airborne.copy()
+        keep = f.hover.copy()
         keep[:5] = keep[-5:] = False
         sizes.append(int(keep.sum()))
     ids = block_ids(sum(sizes))
     out, start = [], 0
     for f, n in zip(flights, sizes, strict=True):
+        if cutoff_scale != 1.0:
+            f = replace(f, cutoff_scale=cutoff_scale, _sos=None)
         out.append(_Prep(f, ids[start:start + n]))
         start += n
     return out
@@ -157,6 +182,33 @@ def _objective(preps: list[_Prep], geom: np.ndarray, k: float, idle: float,
     return obj
 
 
+def _jive_moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: float,
+                  delay: float) -> list[Moments]:
+    """Moments of the jackknife-IV estimator per axis (roll, pitch, yaw): X̂ᵀX and X̂ᵀy
+    with X̂ from the leave-block-out first stage."""
+    per_axis = [Moments(np.zeros((N_BLOCKS, 5, 5)), np.zeros((N_BLOCKS, 5)),
+                        np.zeros(N_BLOCKS)) for _ in range(3)]
+    for pr in preps:
+        f = pr.flight
+        x = motor_state(f, idle, tau, delay)
+        fs_raw = f.lowpass((k * x * x) @ geom.T)[pr.keep]
+        dx_raw = f.lowpass(np.gradient(x, f.dt, axis=0) @ geom[2])[pr.keep][:, None]
+        for a in range(3):
+            cols = [fs_raw[:, a:a + 1]] + ([dx_raw] if a == 2 else [])
+            raw = np.hstack(cols)
+            fitted = pr.jive(raw)
+            extra_hat = pr.jive(np.vstack([pr.extra_raw[a][b] for b in pr.blocks]))
+            m = per_axis[a]
+            for b, sl in pr.slices.items():
+                xb = np.hstack([raw[sl], pr.extra_raw[a][b]])
+                xh = np.hstack([fitted[b], extra_hat[b]])
+                yb = pr.target_raw[b][:, a]
+                m.xtx[b] += xh.T @ xb
+                m.xty[b] += xh.T @ yb
+                m.yty[b] += yb @ yb
+    return per_axis
+
+
 def _argmin2(table: np.ndarray) -> tuple[int, int]:
     i, j = np.unravel_index(np.argmin(table), table.shape)
     return int(i), int(j)
@@ -184,6 +236,7 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
     resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
     """
+    flights = [f for f in flights if f.hover.sum() > 100]
     preps = _prepare(flights)
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
     delays = np.round(np.arange(0.0, DELAY_MAX + 1e-9, max(DELAY_STEP, 0.0)), 4)
@@ -205,12 +258,20 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
             ib, jb = _argmin2(obj[b])
             reps_tau.append(_refine(tau_f, obj[b, :, jb], ib, True))
             reps_d.append(_refine(delays, obj[b, ib, :], jb, False))
-        tau_se, d_se = jackknife_se(np.array(reps_tau)), jackknife_se(np.array(reps_d))
+        # plus the grid's own resolution (a uniform error over one step, parabolic
+        # interpolation notwithstanding)
+        log_step = float(np.log(TAU_GRID[1] / TAU_GRID[0]))
+        tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), tau * log_step / np.sqrt(12)))
+        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), DELAY_STEP / np.sqrt(12)))
         edge = tau_f[i] in (TAU_GRID[0], TAU_GRID[-1])
     axes = {}
-    for name, m in zip(("roll", "pitch", "yaw"),
-                       _moments(preps, geom, k, idle, tau, delay, (0, 1, 2)), strict=True):
+    full = _jive_moments(preps, geom, k, idle, tau, delay)
+    half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
+    for name, m, mh in zip(("roll", "pitch", "yaw"), full, half, strict=True):
         coef, se = m.jackknife()
-        axes[name] = AxisFit(coef=coef, se=se)
+        # model error: the same equation fitted on half the bandwidth must give the same
+        # coefficients if the model holds; what unmodelled dynamics move is added
+        shift = np.abs(coef - mh.solve()[0])
+        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift))
     return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
                        tau_at_edge=edge, instrumented=all(p.instrumented for p in preps))

@@ -15,7 +15,7 @@ from etsid.fit.layout import active_motors, geometry_rows, rotor_layout
 from etsid.fit.regress import N_BLOCKS, block_ids, jackknife_se
 from etsid.fit.result import FitResult, Param, judge
 from etsid.fit.rotation import fit_rotation
-from etsid.fit.signals import Flight, prepare
+from etsid.fit.signals import MIN_AIRBORNE_S, Flight, prepare
 from etsid.fit.thrust import fit_thrust, hover_command
 from etsid.fit.truth import vehicle_truth
 from etsid.fit.vehicle_file import build_vehicle
@@ -57,12 +57,16 @@ def _flights(tables: Sequence[pd.DataFrame]) -> tuple[list[Flight], dict, dict[s
         for k, v in f.counts.items():
             counts[k] = counts.get(k, 0) + v
     layout["v0"] = v0
+    if sum(int(f.hover.sum()) * f.dt for f in flights) < MIN_AIRBORNE_S:
+        for f in flights:
+            f.hover = f.airborne.copy()
+        counts["near_hover_fallback"] = 1
     return flights, layout, counts
 
 
 def motor_shares(flights: list[Flight]) -> list[tuple[int, float, float]]:
     """(motor index, mean output / mean of all motors, jackknife se) over airborne rows."""
-    m = np.vstack([f.motors[f.airborne] for f in flights])
+    m = np.vstack([f.motors[f.hover] for f in flights])
     ids = block_ids(len(m))
     out = []
     for j in range(m.shape[1]):
@@ -105,6 +109,10 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
     geom = geometry_rows(layout)
     n = layout["n"]
     notes: list[str] = []
+    if counts.get("near_hover_fallback"):
+        notes.append("under 5 s near hover (horizontal speed < 1.5 m/s): the thrust and "
+                     "moment laws are fitted on fast flight too, where translational lift "
+                     "biases them")
     k, idle, tau, delay = base["k"] * n / tmpl.n_rotors, base["idle_ratio"], \
         base["motor_time_constant"], 0.0
     thrust = rot = None

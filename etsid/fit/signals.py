@@ -17,6 +17,11 @@ IV_HISTORY = 0.3
 IV_STEP = 0.03
 """s between instrument lags."""
 
+NEAR_HOVER_SPEED = 1.5
+"""m/s: horizontal speed below which the rotors' static thrust law is used. Faster, a rotor
+gives more thrust at the same speed (translational lift: its inflow is swept away), which
+the thrust and moment regressions do not model; those rows feed the drag fit only."""
+
 MIN_AIRBORNE_S = 5.0
 """s of airborne data below which a flight is refused (nothing can be estimated)."""
 
@@ -34,19 +39,21 @@ class Flight:
     accel: np.ndarray | None      # (n, 3) specific force, m/s², FRD
     vel_body: np.ndarray | None   # (n, 3) velocity in body axes, m/s
     airborne: np.ndarray          # (n,) bool
+    hover: np.ndarray             # (n,) bool: airborne and near hover (the static rotor laws)
     motor_rate_hz: float          # native rate of the motor outputs
     gyro_rate_hz: float
     commands: np.ndarray | None = None   # (n, k) pilot/loop commands: the instruments
     command_names: list[str] = field(default_factory=list)
     counts: dict[str, int] = field(default_factory=dict)
+    cutoff_scale: float = 1.0     # × the default cut-off (the model-error check halves it)
     _sos: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def cutoff_hz(self) -> float:
         """Low-pass cut-off for derivative regressions: below the slower of the motor
         outputs' and the gyro's Nyquist rates (0.4×) and at most 15 Hz."""
-        return float(min(15.0, 0.4 * 0.5 * min(self.motor_rate_hz, self.gyro_rate_hz),
-                         0.4 / self.dt))
+        return self.cutoff_scale * float(min(
+            15.0, 0.4 * 0.5 * min(self.motor_rate_hz, self.gyro_rate_hz), 0.4 / self.dt))
 
     def lowpass(self, x: np.ndarray) -> np.ndarray:
         """Zero-phase 2nd-order Butterworth at :attr:`cutoff_hz` along axis 0."""
@@ -137,10 +144,16 @@ def prepare(table: pd.DataFrame, motors: list[str], v0: float | None) -> Flight:
         names = [c for c in ("sp_p", "sp_q", "sp_r", "u_thrust") if c in tab
                  and np.nanstd(tab[c].to_numpy(dtype=float)) > 1e-6]
     commands = tab[names].to_numpy(dtype=float) if len(names) >= 3 else None
+    vel_body = _rotate_to_body(tab)
+    hover = airborne.copy()
+    if vel_body is not None:
+        slow = airborne & (np.hypot(vel_body[:, 0], vel_body[:, 1]) < NEAR_HOVER_SPEED)
+        counts["near_hover_rows"] = int(slow.sum())
+        hover = slow
     return Flight(source=src, dt=dt, t=grid - grid[0], motors=m, vratio=vratio,
-                  commands=commands, command_names=names,
+                  commands=commands, command_names=names, hover=hover,
                   gyro=tab[["p", "q", "r"]].to_numpy(dtype=float), accel=accel,
-                  vel_body=_rotate_to_body(tab), airborne=airborne,
+                  vel_body=vel_body, airborne=airborne,
                   motor_rate_hz=_rate(table, motors[0], 1.0 / dt),
                   gyro_rate_hz=_rate(table, "p", 1.0 / dt), counts=counts)
 

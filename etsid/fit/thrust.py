@@ -49,8 +49,8 @@ def _design(flights: list[Flight], idle: float, tau: float, delay: float
         cols.append(f.vel_body[:, 2] if f.vel_body is not None else np.zeros(len(f.t)))
         reg = f.lowpass(np.column_stack(cols))
         y = f.lowpass(-f.accel[:, 2])
-        xs.append(reg[f.airborne])
-        ys.append(y[f.airborne])
+        xs.append(reg[f.hover])
+        ys.append(y[f.hover])
     if not xs:
         return np.zeros((0, 2)), np.zeros(0)
     return np.vstack(xs), np.concatenate(ys)
@@ -103,8 +103,8 @@ def hover_command(flights: list[Flight], gravity: float
                                f.vratio - 1.0])
         reg[:, 1:] = f.lowpass(reg[:, 1:])
         y = f.lowpass(f.motors.mean(axis=1))
-        xs.append(reg[f.airborne])
-        ys.append(y[f.airborne])
+        xs.append(reg[f.hover])
+        ys.append(y[f.hover])
     if not xs:
         return None
     x, y = np.vstack(xs), np.concatenate(ys)
