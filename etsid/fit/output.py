@@ -13,11 +13,15 @@ from etsid.fit.vehicle_file import to_toml, write_vehicle
 from etsid.sim.vehicle import vehicle_from_dict
 
 FIELD_OF = {
-    "motor_time_constant": "motor.time_constant", "time_delay": "effects.time_delay",
+    "motor_time_constant": "motor.time_constant",
+    "time_delay": "effects.time_delay",
     "roll_effectiveness": "inertia.ixx", "pitch_effectiveness": "inertia.iyy",
     "yaw_effectiveness": "inertia.izz", "thrust_to_weight": "effects.thrust_scale",
-    "idle_ratio": "motor.omega_idle", "drag_x": "drag.linear", "drag_quad_x": "drag.quadratic",
-    "mass": "mass", "arm_length": "frame.arm_length", "kappa_q": "effects.torque_scale",
+    "idle_ratio": "motor.omega_idle", "drag_x": "drag.linear",
+    "drag_quad_x": "drag.quadratic",
+    "mass": "mass", "max_tilt_deg": "controller.max_tilt_deg",
+    "max_yaw_rate_deg": "controller.max_yaw_rate_deg", "arm_length": "frame.arm_length",
+    "kappa_q": "effects.torque_scale",
 }
 """Fitted parameter → the vehicle-file field it sets."""
 

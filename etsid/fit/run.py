@@ -16,6 +16,7 @@ from etsid.fit.regress import N_BLOCKS, block_ids, jackknife_se
 from etsid.fit.result import FitResult, Param, judge
 from etsid.fit.rotation import fit_rotation
 from etsid.fit.signals import MIN_AIRBORNE_S, Flight, prepare
+from etsid.fit.sticks import stick_scales
 from etsid.fit.thrust import fit_thrust, hover_command
 from etsid.fit.truth import vehicle_truth
 from etsid.fit.vehicle_file import build_vehicle
@@ -178,6 +179,11 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
                                      f"linear drag / mass along body {ax} (body + rotor H-force)"))
             add(f"drag_quad_{ax}", _param(f"drag_quad_{ax}", -fit.coef[1], fit.se[1], "1/m",
                                           f"quadratic drag / mass along body {ax}"))
+    for key, (val, se) in stick_scales(list(tables), layout["motors"]).items():
+        add(key, _param(key, val, se, "deg" if key == "max_tilt_deg" else "deg/s",
+                        "full stick: attitude setpoint" if key == "max_tilt_deg" else
+                        "full yaw stick: yaw-rate setpoint",
+                        verdict="identified" if 1.96 * se < 0.2 * val else "not-determined"))
     for j, share, se in motor_shares(flights):
         add(f"motor{j + 1}_share", _param(
             f"motor{j + 1}_share", share, se, "-", f"motor {j + 1}'s mean output over the "
@@ -198,14 +204,18 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
     if thrust is not None and "thrust_to_weight" in values:
         values["k"] = thrust.k
         values["idle_ratio"] = thrust.idle   # the profile's best, even when loose
-    if params["time_delay"].verdict != "identified" and not slow:
-        values["time_delay"] = rot.delay
-    if params["motor_time_constant"].verdict != "identified" and not slow:
-        values["motor_time_constant"] = rot.tau
-    for axis in ("roll", "pitch", "yaw"):   # the twin needs an effectiveness even when loose
-        key = f"{axis}_effectiveness"
-        if key not in values and params[key].value > 0:
-            values[key] = params[key].value
+    elif "hover_command" in params:
+        # the thrust curve is loose: keep the template's idle ratio and put the curve
+        # through the log's hover command, so the twin hovers where the vehicle did
+        idle = base["idle_ratio"]
+        values["idle_ratio"] = idle
+        m_h = params["hover_command"].value
+        values["k"] = g / (n * (idle + (1.0 - idle) * m_h) ** 2)
+        notes.append("thrust curve not determined: the template's idle ratio, scaled "
+                     "through the fitted hover command")
+    for key in ("motor_time_constant", "time_delay"):
+        if key not in values and not slow and not rot.tau_at_edge:
+            values[key] = params[key].value    # the best estimate, loose or not
     v0 = layout["v0"] or base["v0"]
     vehicle = build_vehicle(tmpl, values, layout, v0, name,
                             f"fitted by etsid fit from {len(tables)} flight(s); template "

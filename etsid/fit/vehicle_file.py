@@ -71,6 +71,9 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
     # controller gains scaled so the loop gain per axis is the template's
     ratio = effectiveness(template, base) / effectiveness(fitted, vehicle_truth(fitted))
     ctl = data["controller"]
+    for key in ("max_tilt_deg", "max_yaw_rate_deg"):
+        if key in values:
+            ctl[key] = float(values[key])
     for key in ("rate_kp", "rate_ki", "rate_kd"):
         ctl[key] = [float(g * r) for g, r in zip(ctl[key], np.clip(ratio, 0.05, 20.0),
                                                  strict=True)]
