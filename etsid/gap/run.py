@@ -13,6 +13,7 @@ in :mod:`etsid.gap.verdict`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -207,6 +208,10 @@ def airborne_problem(sim: Flight, real: Flight) -> str | None:
                     f"{MIN_AIRBORNE_S:.0f} s needed")
     return None
 
+
+METHOD = "tiers"
+"""How effects are chosen by default: ``"tiers"`` or ``"likelihood"`` (``analyse``'s
+``method``; the environment variable ``ETSID_GAP_METHOD`` overrides it for benchmarks)."""
 
 SPLIT = "time"
 """How REAL's evidence is split to fit and to score (:mod:`etsid.gap.validation`):
@@ -538,7 +543,8 @@ def located_by_driver(effects: list[dict[str, Any]], real: Flight) -> dict[str, 
 
 def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "SIM",
             real_name: str = "REAL", vehicle: Any = None,
-            progress: Callable[[str], None] | None = None) -> GapResult:
+            progress: Callable[[str], None] | None = None,
+            method: str | None = None) -> GapResult:
     """Compare a simulated and a recorded flight (FlightTables) and explain the gap.
 
     Parameters
@@ -551,6 +557,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         Vehicle description; sharpens the rotor-speed law and the ground-effect geometry.
     progress : callable, optional
         Called with one line as each stage starts (``etsid gap`` prints them on a terminal).
+    method : str, optional
+        ``"tiers"`` (the round-4 selection) or ``"likelihood"`` (one held-out likelihood
+        criterion, :mod:`etsid.gap.likelihood`); default :data:`METHOD`.
 
     Returns
     -------
@@ -617,6 +626,18 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                                                                                     real),
                   info.get("arm"))
     scorer = Scorer(ctx, yr, sigma)
+    if (method or os.environ.get("ETSID_GAP_METHOD") or METHOD) == "likelihood":
+        from etsid.gap.likelihood import explain_by_likelihood
+
+        base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+                "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
+                "units": {c: UNITS[c] for c in shared}, "vehicle_check": check,
+                "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
+                            "drag_law": nominal.drag_law, "speed_law": nominal.speed_law,
+                            "channels": list(shared)}}
+        data, series = explain_by_likelihood(sim, real, nominal, sigma, scorer, base, notes,
+                                             info, say)
+        return GapResult(data, sim, real, nominal, series)
     res0 = scorer.residuals()
     r_fit, r_hold = split_evidence(real, res0, sigma)
     mis = mismatch_scores(scorer, real, r_hold)
