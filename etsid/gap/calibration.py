@@ -9,6 +9,7 @@ writes it.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -31,7 +32,10 @@ class Calibration:
         this many times its floor's (no-effect pairs stay below it at the stated rate).
     gain_per_sample : float
         Least held-out log-likelihood gain over the null, nats per scored sample, for an
-        effect (or the second effect of a pair, over the first) to be named.
+        effect to be named (no-effect pairs stay below it at the stated rate).
+    pair_gain_per_sample : float
+        Least gain of a pair over its first effect, nats per scored sample, for the second
+        effect to be named (single-effect pairs' best second effect stays below it).
     false_positive_rate : float
         The rate both were set at.
     source : dict
@@ -40,6 +44,7 @@ class Calibration:
 
     mismatch_ratio: float
     gain_per_sample: float
+    pair_gain_per_sample: float
     false_positive_rate: float
     source: dict[str, Any]
 
@@ -52,15 +57,24 @@ def from_dict(data: dict[str, Any], where: str) -> Calibration:
     try:
         th = data["thresholds"]
         return Calibration(float(th["mismatch_ratio"]), float(th["gain_per_sample"]),
+                           float(th["pair_gain_per_sample"]),
                            float(data["false_positive_rate"]), dict(data.get("source", {})))
     except (KeyError, TypeError, ValueError) as err:
         raise GapError(f"{where}: calibration file lacks a threshold ({err})") from err
 
 
-@lru_cache(maxsize=4)
+CALIBRATION_ENV = "ETSID_GAP_CALIBRATION"
+"""Environment variable naming another calibration file (the benchmarks' rotations)."""
+
+
 def load_calibration(path: str | None = None) -> Calibration:
-    """The package's calibration (or the file at ``path``)."""
-    p = Path(path) if path else CALIBRATION_PATH
+    """The package's calibration (or the file at ``path``, or at $ETSID_GAP_CALIBRATION)."""
+    return _load(path or os.environ.get(CALIBRATION_ENV) or str(CALIBRATION_PATH))
+
+
+@lru_cache(maxsize=8)
+def _load(path: str) -> Calibration:
+    p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as err:
@@ -74,5 +88,6 @@ def calibration_dict(cal: Calibration) -> dict[str, Any]:
     return {"schema": CALIBRATION_SCHEMA,
             "false_positive_rate": cal.false_positive_rate,
             "thresholds": {"mismatch_ratio": cal.mismatch_ratio,
-                           "gain_per_sample": cal.gain_per_sample},
+                           "gain_per_sample": cal.gain_per_sample,
+                           "pair_gain_per_sample": cal.pair_gain_per_sample},
             "source": cal.source}

@@ -22,6 +22,7 @@ their weight.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -274,15 +275,40 @@ def combined(fit_a: Fit, fit_b: Fit) -> Fit:
                np.concatenate([fit_a.stderr, fit_b.stderr]), merge(fit_a.mods, fit_b.mods))
 
 
+def choose(models: list[Any], cal: Calibration) -> str | None:
+    """The name of the model the criterion names, or None: the best admissible single whose
+    held-out gain per scored sample exceeds ``cal.gain_per_sample``, joined by a second
+    effect when the pair's gain over that single, per scored sample, exceeds
+    ``cal.pair_gain_per_sample``. ``models`` are :class:`Evaluated` or their gap.json rows
+    (``name``, ``gain``, ``per_sample``, ``n_scored``, ``refused``), so that a benchmark can
+    decide recorded runs again under another calibration."""
+    def get(m: Any, key: str) -> Any:
+        return m[key] if isinstance(m, dict) else getattr(m, key)
+    singles = sorted((m for m in models if "+" not in get(m, "name")
+                      and not get(m, "refused")), key=lambda m: -get(m, "gain"))
+    if not singles or get(singles[0], "per_sample") <= cal.gain_per_sample:
+        return None
+    lead = singles[0]
+    best, best_gain = str(get(lead, "name")), float(get(lead, "gain"))
+    for m in models:
+        name = str(get(m, "name"))
+        if "+" not in name or name.split("+")[0] != get(lead, "name") or get(m, "refused"):
+            continue
+        extra = (float(get(m, "gain")) - float(get(lead, "gain"))) / max(get(m, "n_scored"), 1)
+        if extra > cal.pair_gain_per_sample and float(get(m, "gain")) > best_gain:
+            best, best_gain = name, float(get(m, "gain"))
+    return best
+
+
 def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
                   admissible) -> Criterion:
-    """Every single, greedy pairs, the weights and the chosen model.
+    """Every single, greedy pairs on the best single, the weights and the chosen model.
 
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
     a bound, a channel made worse), "" when it may.
     """
     crit = Criterion(ls.folds, ls.ratio())
-    threshold = cal.gain_per_sample
+    threshold = min(cal.gain_per_sample, cal.pair_gain_per_sample)
     singles = [evaluate((c,), ls, threshold) for c in library]
     for s in singles:
         s.refused = admissible(s)
@@ -294,27 +320,20 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     ranked = sorted(best_of.values(), key=lambda m: -m.gain)
     models = list(ranked)
     usable = [m for m in ranked if not m.refused]
-    chosen = usable[0] if usable and usable[0].per_sample > threshold else None
-    if chosen is not None:
-        pool = [m for m in usable[1:] if m.name != chosen.name][:PAIR_POOL]
-        best_pair = None
-        for other in pool:
-            x0 = np.concatenate([chosen.fits[0].theta, other.fits[0].theta])
-            pair = evaluate(chosen.candidates + other.candidates, ls, threshold, x0=x0,
-                            screen=True, base=chosen)
+    if usable and usable[0].per_sample > cal.gain_per_sample:
+        lead = usable[0]
+        for other in usable[1:1 + PAIR_POOL]:
+            x0 = np.concatenate([lead.fits[0].theta, other.fits[0].theta])
+            pair = evaluate(lead.candidates + other.candidates, ls, cal.pair_gain_per_sample,
+                            x0=x0, base=lead)
             pair.refused = admissible(pair)
             models.append(pair)
-            extra = (pair.gain - chosen.gain) / max(pair.n_scored, 1)
-            if not pair.refused and extra > threshold and (
-                    best_pair is None or pair.gain > best_pair.gain):
-                best_pair = pair
-        if best_pair is not None:
-            chosen = best_pair
     w = pseudo_bma(models)
     for m, wi in zip(models, w[:-1], strict=True):
         m.weight = float(wi)
     crit.models = models
-    crit.chosen = chosen
+    name = choose(models, cal)
+    crit.chosen = next((m for m in models if m.name == name), None)
     return crit
 
 

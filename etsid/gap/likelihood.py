@@ -156,11 +156,14 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
               and (chosen is None or m.gain > chosen.gain)]
     criterion = {"method": "likelihood", "folds": len(folds.score), "blocks": folds.n_blocks,
                  "thresholds": {"mismatch_ratio": cal.mismatch_ratio,
-                                "gain_per_sample": cal.gain_per_sample},
+                                "gain_per_sample": cal.gain_per_sample,
+                                "pair_gain_per_sample": cal.pair_gain_per_sample},
                  "innovation_ratio": crit.ratio,
-                 "models": [{"name": m.name, "gain": round(m.gain, 2),
-                             "per_sample": round(m.per_sample, 5),
+                 "models": [{"name": m.name, "gain": round(m.gain, 3),
+                             "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
                              "weight": round(m.weight, 4),
+                             "theta": [round(float(v), 6) for v in np.mean(
+                                 [f.theta for f in m.fits], axis=0)],
                              **({"refused": m.refused} if m.refused else {})}
                             for m in sorted(crit.models, key=lambda m: -m.gain)]}
     data = {**base, "effects": effects, "leftover": left, "beyond_range": beyond,
