@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from etsid.gap.calibration import Calibration, load_calibration
-from etsid.gap.candidates import LIBRARY, ground_excess
+from etsid.gap.candidates import ground_excess
 from etsid.gap.criterion import (
     Criterion,
     Evaluated,
@@ -25,6 +25,7 @@ from etsid.gap.criterion import (
     make_folds,
     run_criterion,
 )
+from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.noise import fit_noise
 from etsid.gap.nominal import CUTOFF_HZ, LABELS, UNITS, NominalModel, measured
@@ -112,7 +113,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     noise = fit_noise(res_sim, sim.airborne, sigma, sim.fs, CUTOFF_HZ)
     folds = make_folds(real.airborne, real.fs)
     ls = LikelihoodScorer(scorer, noise, folds)
-    library = tuple(c for c in LIBRARY if c.available(scorer.ctx))
+    library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
     say(f"gap: {len(library)} candidate effects, each fitted on one half of "
         f"{real.name}'s {folds.n_blocks} blocks and scored on the other")
     crit = run_criterion(ls, library, cal, _admissible(scorer, ls))

@@ -1063,7 +1063,8 @@ def series_frame(result: GapResult) -> pd.DataFrame:
 
 def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | None = None,
             vehicle: str | Path | None = None, options: Any = None,
-            progress: Callable[[str], None] | None = None) -> GapResult:
+            progress: Callable[[str], None] | None = None,
+            method: str | None = None) -> GapResult:
     """Read two logs (or saved tables), analyse them, write ``out_dir/gap.json``.
 
     ``options`` is an :class:`etsid.ingest.ReadOptions` for both logs (default: none).
@@ -1076,7 +1077,7 @@ def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | N
     sim_table = read_log(sim_path, options)
     real_table = read_log(real_path, options)
     result = analyse(sim_table, real_table, Path(sim_path).name, Path(real_path).name, vehicle,
-                     progress)
+                     progress, method)
     if out_dir is not None:
         write_gap_json(result.data, out_dir)
         frame = series_frame(result)

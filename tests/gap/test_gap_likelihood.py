@@ -109,3 +109,24 @@ def test_calibration_file_round_trip_and_bad_file(tmp_path):
     with pytest.raises(GapError, match="bad.json: not an etsid gap calibration"):
         load_calibration(str(bad))
     assert load_calibration().gain_per_sample > 0  # the package's own file reads
+
+
+def test_registry_is_the_authority_on_names():
+    from etsid.cli.gap_cmds import gap
+    from etsid.gap.candidates import LIBRARY
+    from etsid.gap.effects import REGISTRY, docs_table, vocabulary
+    from etsid.gap.result import SCHEMA_PATH, schema
+
+    shipped = json.loads(SCHEMA_PATH.read_text())
+    enum = shipped["properties"]["effects"]["items"]["properties"]["name"]["enum"]
+    assert sorted(enum) == sorted(vocabulary())
+    assert schema()["properties"]["effects"]["items"]["properties"]["name"]["enum"] == list(
+        vocabulary())
+    assert all(name in gap.help for name in vocabulary())
+    # every law of the library belongs to exactly one registered effect, with a prior
+    forms = [c for e in REGISTRY for c in e.forms]
+    assert len(forms) == len(LIBRARY)
+    for e in REGISTRY:
+        for c in e.forms:
+            assert np.isfinite(e.log_prior(c, np.array([p.x0 for p in c.params])))
+        assert f"`{e.name}`" in docs_table()
