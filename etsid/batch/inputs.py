@@ -201,8 +201,10 @@ def read_pairs(items: Iterable[str | Path]) -> list[tuple[str, str]]:
 
 
 def run_name(item: str) -> str:
-    """A readable file-name stem for an input (its base name without extension)."""
+    """A readable folder name for an input: its base name with the format after a dash
+    (``flight.bag`` → ``flight-bag``), so the runs of one flight in several formats differ."""
     name = item.rstrip("/").rsplit("/", 1)[-1] or "log"
-    stem = Path(name).stem if Path(name).suffix.lower() in (
-        *LOG_SUFFIXES, *TABLE_SUFFIXES) else name
+    suffix = Path(name).suffix.lower()
+    stem = (f"{Path(name).stem[:55]}-{suffix[1:]}"
+            if suffix in (*LOG_SUFFIXES, *TABLE_SUFFIXES) else name)
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in stem)[:60] or "log"

@@ -8,7 +8,7 @@ import click
 
 from etsid.gap.effects import vocabulary
 from etsid.gap.run import run_gap
-from etsid.progress import wanted
+from etsid.progress import done, on_terminal, say
 from etsid.report.gap import make_gap_report
 
 
@@ -26,17 +26,16 @@ from etsid.report.gap import make_gap_report
 def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
         as_json: bool, method: str | None) -> None:
     """Locate where SIM_LOG and REAL_LOG disagree and name the physics SIM left out."""
-    def say(line: str) -> None:  # progress on a terminal only, as the progress bars
-        if wanted():
-            click.echo(line, err=True)
-
-    result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say, method=method)
-    report = make_gap_report(out_dir, say=say)
+    try:
+        result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say, method=method)
+        report = make_gap_report(out_dir, say=say)
+    finally:
+        done()
     files = ", ".join(["gap.json", "index.html (interactive)", "report.md",
                        *(p.name for p in report.figures.values())])
     if as_json:
         click.echo((out_dir / "gap.json").read_text(encoding="utf-8").rstrip())
-        if wanted():
+        if on_terminal():
             click.echo(f"wrote {out_dir}/ ({files})", err=True)
     else:
         click.echo(result.summary)

@@ -25,6 +25,7 @@ from etsid.gap.criterion import (
     make_folds,
     run_criterion,
 )
+from etsid.gap.detectable import cap_below_detectable
 from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.noise import fit_noise
@@ -148,6 +149,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                 ground_law = ground_excess(theta, exponential)
                 if radius is None and not exponential:
                     radius = float(theta[0])
+    cap_below_detectable(effects, base.get("detectable") or {})
     for m in crit.models:
         if m.refused and m.per_sample > cal.gain_per_sample and (
                 chosen is None or m.gain > chosen.gain):

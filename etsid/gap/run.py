@@ -25,8 +25,15 @@ import pandas as pd
 from etsid.errors import GapError
 from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
+from etsid.gap.detectable import cap_below_detectable, detectable_sizes
 from etsid.gap.fitting import Scorer, fit_candidates
-from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
+from etsid.gap.floors import (
+    broadband_slopes,
+    channel_floors,
+    own_error,
+    own_predictability,
+    response_gains,
+)
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
 from etsid.gap.loop_fit import choose_loop_law, innovation_shift
@@ -43,6 +50,7 @@ from etsid.gap.nominal import (
     measured,
     voltage_covered,
 )
+from etsid.gap.plausible import condition
 from etsid.gap.result import SCHEMA_NAME, write_gap_json
 from etsid.gap.select import (
     ENVELOPE_SHARE,
@@ -246,11 +254,11 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     cover = voltage_covered(sim, real)
     nominal = fit_nominal(sim, k=k, voltage=cover is not None and cover >= MIN_VOLTAGE_COVER)
     probe = fit_nominal(sim, s_fit, law=(nominal.k, nominal.v_ref))
-    ys = measured(sim)
-    own = _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()}, s_hold)
+    own = own_error(sim, nominal, probe, s_hold,
+                    [sim.airborne, *time_split(sim.airborne, FIT_SHARE)])
     sigma, source = channel_floors(own, real)
     nominal.reference = broadband_slopes(sim, nominal, RESPONSE_CHANNELS)
-    return Floors(nominal, sigma, source, band_response(sim, nominal, ys), cover)
+    return Floors(nominal, sigma, source, band_response(sim, nominal, measured(sim)), cover)
 
 
 def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
@@ -575,6 +583,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say = progress or (lambda line: None)
     say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
+    conditioned = condition(sim, real)
     rotor_count = structural(sim, real)
     if rotor_count:
         return _different(sim, real, [rotor_count])
@@ -588,6 +597,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     floors = nominal_and_floors(sim, real, info.get("k"))
     nominal, sigma = floors.nominal, floors.sigma
     info["loop"] = floors.loop
+    notes.extend(conditioned)
     yr = measured(real)
     shared = tuple(c for c in nominal.channels if c in yr)
     nominal.channels = shared
@@ -629,7 +639,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     if (method or os.environ.get("ETSID_GAP_METHOD") or METHOD) == "likelihood":
         from etsid.gap.likelihood import explain_by_likelihood
 
-        base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+        say("gap: what this pair could have seen (detectable size of every effect)")
+        base = {"detectable": detectable_sizes(scorer, [real.airborne], Z_MISMATCH),
+                "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
                 "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
                 "units": {c: UNITS[c] for c in shared}, "vehicle_check": check,
                 "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
@@ -641,7 +653,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     res0 = scorer.residuals()
     r_fit, r_hold = split_evidence(real, res0, sigma)
     mis = mismatch_scores(scorer, real, r_hold)
-    base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+    say("gap: what this pair could have seen (detectable size of every effect)")
+    seen = detectable_sizes(scorer, [real.airborne, r_hold], Z_MISMATCH)
+    base = {"detectable": seen, "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared},
             "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
@@ -878,6 +892,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     undecided_look_alike(effects, sel)
     loop = info.get("loop")
     caveat_loop_laws(effects, loop, sim.name)
+    cap_below_detectable(effects, base.get("detectable") or {})
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)

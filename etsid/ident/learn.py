@@ -15,7 +15,9 @@ from etsid.ident.regressors import Regression
 from etsid.progress import progress
 
 CHUNK = 4096
-"""Samples learned per call between progress-bar updates."""
+"""Most samples learned per call between progress-bar updates."""
+STEPS = 50
+"""Progress-bar updates over a pass (so the bar moves in steps of 2 %, not 0 → 68 → 100)."""
 
 
 def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
@@ -39,7 +41,8 @@ def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
     n = len(reg.X)
     yhat = np.full(reg.Y.shape, np.nan)
     frozen: dict[str, Any] | None = None
-    bounds = sorted({0, n, *range(0, n, CHUNK), *([stop_at] if 0 < stop_at <= n else [])})
+    chunk = max(64, min(CHUNK, -(-n // STEPS)))
+    bounds = sorted({0, n, *range(0, n, chunk), *([stop_at] if 0 < stop_at <= n else [])})
     with progress(n, label, show) as bar:
         for a, b in itertools.pairwise(bounds):
             S = None if reg.S is None else reg.S[a:b]

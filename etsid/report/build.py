@@ -156,8 +156,8 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet, base: Path | None = 
     report = Report(out)
     embedded: dict[str, tuple[str, str]] = {}
     count = len(FIGURES)
-    say(f"report: drawing {count} static figure{'s' if count != 1 else ''} ({fmt}) …")
-    for name, (builder, caption) in FIGURES.items():
+    for i, (name, (builder, caption)) in enumerate(FIGURES.items(), start=1):
+        say(f"report: drawing static figure {i}/{count}, {name}.{fmt} …")
         fig = _build(builder, run, caption)
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
         if fmt == "png":
@@ -195,15 +195,20 @@ def interactive_parts(run: Run, say: Say = quiet, base: Path | None = None
     say(f"report: reading {source} again for the flight overview …" if source else
         "report: building the interactive plots …")
     flight = read_flight(run, base)
-    say("report: building the interactive plots …")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t = run.predictions["t"].to_numpy(dtype=float)
         # one linked time range per section: each section is drawn on its own
-        groups = {"overview": overview_plots(run, flight, ia.shared_range(t)),
-                  "validation": validation_plots(run),
-                  "online": online_plots(run, ia.shared_range(t)),
-                  "structure": structure_plots(run, ia.shared_range(t))}
+        builders = {"overview": lambda: overview_plots(run, flight, ia.shared_range(t)),
+                    "validation": lambda: validation_plots(run),
+                    "online": lambda: online_plots(run, ia.shared_range(t)),
+                    "structure": lambda: structure_plots(run, ia.shared_range(t))}
+        groups: dict[str, Any] = {}
+        for i, (name, build_section) in enumerate(builders.items(), start=1):
+            say(f"report: building the interactive plots, section {i}/{len(builders)} "
+                f"({name}) …")
+            groups[name] = build_section()
+    say("report: writing index.html (the plots embedded) …")
     head, divs = ia.embed({k: ia.column(*v) for k, v in groups.items() if v})
     return head, divs, flight.notes
 
