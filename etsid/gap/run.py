@@ -63,7 +63,14 @@ from etsid.gap.select import (
     select,
     select_response,
 )
-from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, input_kinds, prepare
+from etsid.gap.signals import (
+    MIN_AIRBORNE_S,
+    Flight,
+    describe,
+    excerpt,
+    input_kinds,
+    prepare,
+)
 from etsid.gap.summary import effect_entry, summary_sentence
 from etsid.gap.validation import blocked_split, time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
@@ -583,6 +590,12 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say = progress or (lambda line: None)
     say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
+    method = method or os.environ.get("ETSID_GAP_METHOD") or METHOD
+    excerpts = []
+    if method == "likelihood":  # bounded cost and memory for long logs
+        sim, n_sim = excerpt(sim)
+        real, n_real = excerpt(real)
+        excerpts = [n for n in (n_sim, n_real) if n]
     conditioned = condition(sim, real)
     rotor_count = structural(sim, real)
     if rotor_count:
@@ -636,7 +649,8 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                                                                                     real),
                   info.get("arm"))
     scorer = Scorer(ctx, yr, sigma)
-    if (method or os.environ.get("ETSID_GAP_METHOD") or METHOD) == "likelihood":
+    if method == "likelihood":
+        notes.extend(excerpts)
         from etsid.gap.likelihood import explain_by_likelihood
 
         say("gap: what this pair could have seen (detectable size of every effect)")

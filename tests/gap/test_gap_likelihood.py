@@ -130,3 +130,26 @@ def test_registry_is_the_authority_on_names():
         for c in e.forms:
             assert np.isfinite(e.log_prior(c, np.array([p.x0 for p in c.params])))
         assert f"`{e.name}`" in docs_table()
+
+
+def test_a_long_flight_is_read_as_evenly_spread_windows():
+    from etsid.gap.signals import LEAD_S, MAX_EVIDENCE_S, WINDOW_S, Flight, excerpt
+
+    fs, n = 50.0, 50 * 3600
+    t = np.arange(n) / fs
+    air = np.ones(n, dtype=bool)
+    air[:500] = False
+    z = np.zeros((n, 3))
+    f = Flight("long.ulg", t, fs, np.zeros((n, 4)), "motors", z, z, z, z, np.zeros(n),
+               np.zeros(n), air, {"alt"})
+    part, note = excerpt(f)
+    assert note is not None and "long.ulg" in note
+    assert part.airborne_s == pytest.approx(MAX_EVIDENCE_S, rel=0.01)
+    assert part.n == pytest.approx((MAX_EVIDENCE_S / WINDOW_S) * (WINDOW_S + LEAD_S) * fs,
+                                   rel=0.01)
+    assert np.all(np.diff(part.t) > 0)
+    assert part.t[0] < 100.0 and part.t[-1] > 3400.0  # spread over the whole hour
+    short, none = excerpt(Flight("short.ulg", t[:5000], fs, np.zeros((5000, 4)), "motors",
+                                 z[:5000], z[:5000], z[:5000], z[:5000], np.zeros(5000),
+                                 np.zeros(5000), air[:5000], set()))
+    assert none is None and short.n == 5000
