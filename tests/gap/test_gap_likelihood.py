@@ -144,9 +144,9 @@ def test_a_long_flight_is_read_as_evenly_spread_windows():
                np.zeros(n), air, {"alt"})
     part, note = excerpt(f)
     assert note is not None and "long.ulg" in note
-    assert part.airborne_s == pytest.approx(MAX_EVIDENCE_S, rel=0.01)
+    assert part.airborne_s == pytest.approx(MAX_EVIDENCE_S, rel=0.03)  # a short last window
     assert part.n == pytest.approx((MAX_EVIDENCE_S / WINDOW_S) * (WINDOW_S + LEAD_S) * fs,
-                                   rel=0.01)
+                                   rel=0.03)
     assert np.all(np.diff(part.t) > 0)
     assert part.t[0] < 100.0 and part.t[-1] > 3400.0  # spread over the whole hour
     short, none = excerpt(Flight("short.ulg", t[:5000], fs, np.zeros((5000, 4)), "motors",
