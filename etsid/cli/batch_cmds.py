@@ -6,6 +6,7 @@ click options, so the two never drift apart) plus the batch options.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import fields
 from pathlib import Path
@@ -14,12 +15,14 @@ from typing import Any
 import click
 
 from etsid.batch import (
+    EXIT_ALL_FAILED,
     BatchSpec,
     BatchSummary,
     find_inputs,
     read_pairs,
     run_batch,
 )
+from etsid.batch.fetch import is_url
 from etsid.batch.local import RENEW_GROWTH_MB
 from etsid.cli.ident_cmds import identify_cmd
 from etsid.cli.ingest_cmds import ingest as ingest_cmd
@@ -95,6 +98,11 @@ def _echo_summary(summary: BatchSummary, command: str) -> None:
 
 def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[str]:
     """The logs of LOGS; saved tables met in its directories are not run, and said so."""
+    missing = [item for item in logs if not is_url(item) and not os.path.lexists(item)]
+    if missing:
+        shown = ", ".join(missing[:5]) + (f" and {len(missing) - 5} more"
+                                            if len(missing) > 5 else "")
+        raise BatchError(f"{shown}: no such file or directory (nothing run)")
     tables: list[str] = []
     items = find_inputs(logs, exclude=out, unsearched=tables, protocols=protocols)
     if tables:
@@ -122,6 +130,9 @@ def _run(items: list[Any] | None, logs: tuple[str, ...], spec: BatchSpec,
                         max_memory_mb=batch["max_memory_mb"],
                         retry_failed=not batch["skip_failed"], dashboard=batch["dashboard"])
     _echo_summary(summary, spec.command)
+    if summary.failed and not summary.ok:
+        click.echo(f"etsid: error: every log failed (exit code {EXIT_ALL_FAILED})", err=True)
+        click.get_current_context().exit(EXIT_ALL_FAILED)
 
 
 def _split(kw: dict[str, Any]) -> dict[str, Any]:
@@ -147,6 +158,10 @@ def batch() -> None:
     a directory with metadata.yaml is a ROS 2 bag), text files (.txt/.list) listing
     inputs, or fsspec URLs. Rows go to the Parquet dataset DIR/results/ (read it with
     pandas, Dask or DuckDB); `etsid report DIR` draws the fleet report.
+
+    Exit codes: 0 at least one log ok (failed logs listed, each with its error row);
+    1 nothing run (an input that does not exist, no log found, a bad option; no batch
+    directory is left behind); 2 a usage error; 3 every log failed.
     """
 
 
@@ -203,6 +218,43 @@ def batch_gap(pairs: tuple[Path, ...], vehicle: str | None, **kw: Any) -> None:
     if vehicle is not None:
         spec.extra["vehicle"] = vehicle
     _run(list(read_pairs(pairs)), (), spec, options)
+
+
+@batch.command("fit")
+@click.argument("root", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("-o", "--out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for fleet.csv (one row per flight), flags.json and fleet.png.")
+def batch_fit(root: Path, out: Path) -> None:
+    """etsid fit on every flight below ROOT (one row per flight), grouped by airframe (the
+    log's vehicle id where it has one, else its folder); flags a parameter that leaves
+    its reference (the first flights) at the flight where the change starts."""
+    import json
+
+    from etsid.fit.fleet import fit_fleet
+    from etsid.ingest import read_log
+    from etsid.report.fit_fleet import fleet_figure
+
+    def say(line: str) -> None:
+        if wanted(False):
+            click.echo(line, err=True)
+
+    result = fit_fleet(root, read_log, progress=say)
+    out.mkdir(parents=True, exist_ok=True)
+    result.rows.to_csv(out / "fleet.csv", index=False)
+    (out / "flags.json").write_text(json.dumps({"flags": result.flags,
+                                                "errors": result.errors}, indent=1),
+                                    encoding="utf-8")
+    for error in result.errors:
+        click.echo(f"failed: {error}", err=True)
+    if not result.rows.empty:
+        fleet_figure(result.rows, result.flags, out / "fleet.png")
+    n_air = result.rows["airframe"].nunique() if not result.rows.empty else 0
+    click.echo(f"{len(result.rows)} flights of {n_air} airframes fitted, "
+               f"{len(result.errors)} failed; {len(result.flags)} change(s) flagged")
+    for flag in result.flags:
+        click.echo(f"  {flag['airframe']}: {flag['param']} changes from flight "
+                   f"{flag['flight']} ({flag['name']}, z = {flag['z']:+.1f})")
+    click.echo(f"wrote {out}/fleet.csv, flags.json, fleet.png")
 
 
 for _command, _single in ((batch_inspect, inspect_cmd), (batch_ingest, ingest_cmd),
