@@ -350,6 +350,7 @@ def learn_kernel(
     evq = ip[IP_CLUSTERING] == 1
     ev_cap = ev.shape[0] - rmax - 2
     snap_cap = snap_k.shape[0]
+    next_snap = (si[0] // every + 1) * every  # the next k that is a multiple of every
 
     s = np.empty(d)
     w2 = np.empty(d)
@@ -815,7 +816,8 @@ def learn_kernel(
         hist[t, 1] = P
         hist[t, 2] = fmax
         hist[t, 3] = fmin
-        if k % every == 0:
+        if k == next_snap:
+            next_snap += every
             q = nsnap[0]
             snap_k[q] = k
             for i in range(rmax):

@@ -202,6 +202,7 @@ def learn_lanes(
     evq = ip[IP_CLUSTERING] == 1
     ev_cap = ev.shape[0] - rmax - 2
     snap_cap = snap_k.shape[0]
+    next_snap = (si[0] // every + 1) * every  # the next k that is a multiple of every
 
     s = np.empty(d)
     w2 = np.empty(d)
@@ -703,7 +704,8 @@ def learn_lanes(
         hist[t, 2] = fmax
         hist[t, 3] = fmin
         stop = nev[0] > ev_cap or min_rules > R
-        if k % every == 0:
+        if k == next_snap:
+            next_snap += every
             q = nsnap[0]
             snap_k[q] = k
             for i in range(rmax):
