@@ -71,7 +71,7 @@ class EtsidGroup(click.Group):
         rows = []
         for name in names:
             if name in COMMAND_HELP:
-                text = click.utils.make_default_short_help(COMMAND_HELP[name], limit)
+                text = click.Command(name, help=COMMAND_HELP[name]).get_short_help_str(limit)
             else:  # a command added at run time
                 text = self.commands[name].get_short_help_str(limit)
             rows.append((name, text))
