@@ -105,7 +105,8 @@ def phases(duration: float) -> None:
 
     for phase, names in PHASES.items():
         for name in names:
-            setattr(run_module, name, timed(phase, getattr(run_module, name)))
+            if hasattr(run_module, name):  # (older code may lack some of them)
+                setattr(run_module, name, timed(phase, getattr(run_module, name)))
     # every stream at the 250 Hz of the simulation (status and heartbeat at their own rates)
     rates = {name: (rate if rate < 10.0 else 250.0) for name, rate in RATES.items()}
     with tempfile.TemporaryDirectory() as tmp:
