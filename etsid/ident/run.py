@@ -180,10 +180,12 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         say("identify: choosing the structure on an inner split of the learning part")
         choice = _structure(reg, spec, config, excited, table)
         if choice.spec != spec:
-            reg = build(table, choice.spec)
-            excited = excited_mask(table, choice.spec.outputs)[reg.rows]
+            spec, config = choice.spec, choice.config
+            reg = build(table, spec)
+            excited = excited_mask(table, spec.outputs)[reg.rows]
             chosen.notes = [n for n in chosen.notes if not n.startswith("rules fire on")]
-        spec, config = choice.spec, choice.config  # the config may leave outputs unscheduled
+        elif choice.chosen == "scheduled":
+            config = choice.config  # it may leave outputs unscheduled (structure.py)
         chosen.notes.append(choice.note)
     n = len(reg.X)
     dt = 1.0 / float(table.attrs["decimation"]["rate_hz"])
