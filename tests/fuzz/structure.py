@@ -819,8 +819,8 @@ def _judge(c: Case, code: int, stdout: bytes, stderr: bytes, out: Path, seconds:
     bounds = seconds <= (c.seconds or TIME_BOUND_S) and peak <= MEMORY_BOUND_MB
     raw = stdout + stderr
     for bad in c.absent:
-        if bad.encode("utf-8") in raw or (len(bad) == 1 and bytes([ord(bad)]) in raw
-                                          and ord(bad) < 128):
+        if bad.encode("utf-8") in raw or (len(bad) == 1 and ord(bad) < 128
+                                          and bytes([ord(bad)]) in raw):
             return Verdict(c.name, False, f"raw {bad!r} printed", seconds, peak, lines)
     if "Traceback" in text or "internal error" in text:
         last = err_lines[-1] if err_lines else ""
