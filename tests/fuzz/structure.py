@@ -787,7 +787,8 @@ def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
     time_bound_s = c.seconds or time_bound_s
     proc = subprocess.Popen([sys.executable, "-m", "etsid", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=work,
-                            env={**os.environ, **(env or {})}, start_new_session=True)
+                            env={**os.environ, "ETSID_PROGRESS": "off", **(env or {})},
+                            start_new_session=True)  # progress lines: as in the test suite
     peak, why = 0.0, ""
     while proc.poll() is None:
         peak = max(peak, _peak_rss_mb(proc.pid))
