@@ -26,6 +26,7 @@ COMMAND_MODULES: dict[str, str] = {
     "rules": "etsid.cli.ident_cmds",
     "report": "etsid.cli.report_cmds",
     "gap": "etsid.cli.gap_cmds",
+    "fit": "etsid.cli.fit_cmds",
     "batch": "etsid.cli.batch_cmds",
     "control": "etsid.cli.control_cmds",
 }

@@ -28,7 +28,7 @@ from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import read_log
 from etsid.progress import wanted
 from etsid.report.regimes import regime_text
-from etsid.report.tables import rules_text, summary_table
+from etsid.report.tables import merges_text, rules_text, summary_table
 
 
 def _outputs(text: str | None) -> list[str] | None:
@@ -52,10 +52,10 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     for note in run.config.get("model", {}).get("notes") or []:
         click.echo(note)
     click.echo(summary_table(run))
-    merges = (run.metrics.get("rules") or {}).get("merges") or []
-    if merges:
-        click.echo("merged (consequents indistinguishable): " + "; ".join(
-            f"rule id {m['absorbed']} into {m['kept']} at {m['t']:.1f} s" for m in merges))
+    merged = merges_text(run.metrics.get("rules") or {}, run.rules,
+                         (run.metrics.get("validation") or {}).get("n_learn"))
+    if merged:
+        click.echo(merged)
     compared = _structure_text(run.metrics.get("structure"))
     if compared:
         click.echo(compared)

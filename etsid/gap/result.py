@@ -20,8 +20,14 @@ SCHEMA_PATH = Path(__file__).with_name("gap.schema.json")
 
 @cache
 def schema() -> dict[str, Any]:
-    """The JSON Schema of gap.json."""
-    return read_json(SCHEMA_PATH, "package", GapError)
+    """The JSON Schema of gap.json, its effect-name enum from the effect registry
+    (:func:`etsid.gap.effects.vocabulary`; the shipped file carries the same list for
+    readers without etsid, and a test keeps the two equal)."""
+    from etsid.gap.effects import vocabulary
+
+    data = read_json(SCHEMA_PATH, "package", GapError)
+    data["properties"]["effects"]["items"]["properties"]["name"]["enum"] = list(vocabulary())
+    return data
 
 
 def clean(value: Any) -> Any:

@@ -20,7 +20,7 @@ from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.page import HINT, esc, html_page, make_shared_dir, markdown_safe, table_html
 from etsid.report.regimes import regimes_html, regimes_markdown
-from etsid.report.tables import metrics_rows, rules_text
+from etsid.report.tables import merges_text, metrics_rows, rule_counts, rules_text
 
 FORMATS = ("png", "svg", "pdf")
 
@@ -253,9 +253,11 @@ def summary_lines(run: Run) -> list[str]:
         f"{model.get('regressors', '')}.",
         f"{met.get('n_samples')} usable samples; skipped rows: "
         + ", ".join(f"{k} {v}" for k, v in (met.get("skipped") or {}).items()) + ".",
-        f"Rules: final {met['rules'].get('final')}, peak {met['rules'].get('peak')}, "
-        f"frozen model (rules.json) {met['rules'].get('frozen')}.",
+        rule_counts(met["rules"]).capitalize() + ".",
     ]
+    merged = merges_text(met["rules"], run.rules, val.get("n_learn"))
+    if merged:
+        lines.append(merged[0].upper() + merged[1:] + ".")
     if val.get("t_start") is not None:
         lines.append(f"Validation: last {val.get('n_validation')} samples from "
                      f"t = {val['t_start']:.2f} s, learned on the first {val.get('n_learn')}.")

@@ -485,21 +485,33 @@ def _interactive(frame: pd.DataFrame, figure: str | None) -> tuple[str, str]:
     if y_col is None or "duration_s" not in ok or not ok[y_col].notna().any():
         return "", ""
     ok = ok[ok[y_col].notna() & ok["duration_s"].notna()]
-    src = ColumnDataSource({"x": ok["duration_s"].to_numpy(dtype=float),
-                            "y": ok[y_col].to_numpy(dtype=float),
+    duration = ok["duration_s"].to_numpy(dtype=float)
+    y = ok[y_col].to_numpy(dtype=float)
+    x, x_label, against = duration, FIGURES["duration_s"], "against log duration"
+    if len(ok) > 1 and np.ptp(duration) <= max(0.5, 0.01 * float(np.median(duration))):
+        # every flight as long as the others: duration tells nothing, the flights in the
+        # order of the inputs spread them out instead
+        x = np.arange(1, len(ok) + 1, dtype=float)
+        x_label = "flight (order of the inputs)"
+        against = f"per flight (every log lasts {float(np.median(duration)):.1f} s)"
+    hidden = len(ok) - len({(float(a), float(b)) for a, b in zip(x, y, strict=True)})
+    src = ColumnDataSource({"x": x, "y": y, "duration": duration,
                             "input": ok["input"].astype(str).to_numpy(),
                             "rules": (ok["rules_frozen"] if "rules_frozen" in ok
                                       else ok["duration_s"] * np.nan).to_numpy(dtype=float)})
+    title = (f"{FIGURES.get(y_col, y_col)} {against}, one dot per flight (hover for its "
+             "name)")
+    if hidden:
+        title += (f"; {hidden} dot{'s' if hidden > 1 else ''} on top of another (the same "
+                  "values): hover lists every flight under the pointer")
     fig = bokeh_figure(height=300, sizing_mode="stretch_width",
-                       tools="pan,wheel_zoom,box_zoom,reset,save",
-                       title=f"{FIGURES.get(y_col, y_col)} against log duration, one dot "
-                             "per flight (hover for its name)")
+                       tools="pan,wheel_zoom,box_zoom,reset,save", title=title)
     fig.toolbar.logo = None
     dots = fig.scatter("x", "y", source=src, size=8, alpha=0.7, color="#1f77b4")
     fig.add_tools(HoverTool(renderers=[dots], tooltips=[
-        ("log", "@input"), ("duration", "@x{0.0} s"), (y_col, "@y{0.00}"),
+        ("log", "@input"), ("duration", "@duration{0.0} s"), (y_col, "@y{0.00}"),
         ("rules", "@rules{0}")]))
-    fig.xaxis.axis_label = FIGURES["duration_s"]
+    fig.xaxis.axis_label = x_label
     fig.yaxis.axis_label = FIGURES.get(y_col, y_col)
     if y_col == "rules_frozen":
         ia.integer_axis(fig)

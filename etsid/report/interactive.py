@@ -50,8 +50,21 @@ class Line:
     alpha: float = 1.0
 
 
-MEASURED_STYLE = {"color": COLORS["measured"], "width": 1.8}
-"""Measured data: dark and thick, drawn last (on top)."""
+MEASURED_STYLE = {"color": "#6e6e6e", "width": 1.0, "alpha": 0.8}
+"""Measured data under predictions: grey and thin, drawn first (under them), so that a
+prediction that follows it closely still shows on top instead of vanishing under it."""
+
+SIGNAL_STYLE = {"color": COLORS["measured"], "width": 1.4}
+"""A measured signal drawn alone (altitude, thrust command of the overview)."""
+
+MODEL_STYLES = {
+    "one_step": {"color": COLORS["one_step"], "width": 1.0, "dash": "dotted"},
+    "free_run": {"color": COLORS["free_run"], "width": 1.5, "dash": "solid", "alpha": 0.85},
+    "arx": {"color": COLORS["arx"], "width": 1.5, "dash": "dashed"},
+}
+"""eTS one-step, eTS free-run and ARX free-run: a colour, a width and a dash each (one
+colour alone does not tell two close lines apart); ARX dashed on top of eTS solid, so
+where they coincide both stay visible."""
 
 
 def gap_cuts(t: np.ndarray) -> np.ndarray:
@@ -128,6 +141,9 @@ def time_figure(y_label: str, title: str = "", x_range: Any = None,
                  active_drag="xpan", active_scroll="xwheel_zoom", **kwargs)
     fig.xaxis.axis_label = x_label
     fig.yaxis.axis_label = y_label
+    if height < HEIGHT:  # a small panel: fewer y ticks, so their labels do not overlap
+        fig.yaxis.ticker.desired_num_ticks = 3
+        fig.yaxis.major_label_text_font_size = "8pt"
     fig.toolbar.logo = None
     fig.title.text_font_size = "10pt"
     fig.min_border_left = 70
@@ -200,11 +216,19 @@ def legend_above(fig: Any) -> None:
                               border_line_alpha=0, glyph_width=22), "above")
 
 
-def shade(fig: Any, start: float, end: float, color: str = "#999999", alpha: float = 0.12
-          ) -> None:
-    """A vertical band from ``start`` to ``end`` (s) behind the lines."""
+def shade(fig: Any, start: float, end: float, color: str = "#999999", alpha: float = 0.12,
+          hatch: str | None = None) -> None:
+    """A vertical band from ``start`` to ``end`` (s) behind the lines; with ``hatch`` (a
+    Bokeh hatch pattern such as ``"/"``) hatched lines instead of a fill, which does not
+    mix with other shading into colours no legend has."""
     from bokeh.models import BoxAnnotation
 
+    if hatch:
+        fig.add_layout(BoxAnnotation(left=start, right=end, fill_alpha=0, line_alpha=0,
+                                     hatch_pattern=hatch, hatch_color=color,
+                                     hatch_alpha=min(1.0, 3 * alpha), hatch_scale=14,
+                                     level="underlay"))
+        return
     fig.add_layout(BoxAnnotation(left=start, right=end, fill_color=color, fill_alpha=alpha,
                                  level="underlay"))
 
