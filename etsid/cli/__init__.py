@@ -26,6 +26,7 @@ COMMAND_MODULES: dict[str, str] = {
     "rules": "etsid.cli.ident_cmds",
     "report": "etsid.cli.report_cmds",
     "gap": "etsid.cli.gap_cmds",
+    "fit": "etsid.cli.fit_cmds",
     "batch": "etsid.cli.batch_cmds",
     "control": "etsid.cli.control_cmds",
 }
@@ -95,7 +96,14 @@ def one_line(err: BaseException) -> str:
     from etsid.escape import printable
 
     text = str(err).strip()
-    return printable(text.splitlines()[0]) if text else type(err).__name__
+    if not text:
+        return type(err).__name__
+    line = printable(text.splitlines()[0])
+    return line if len(line) <= MAX_LINE else f"{line[:MAX_LINE - 60]} … ({len(line)} characters)"
+
+
+MAX_LINE = 1000
+"""Longest error line printed (a message naming a 5000-character path is cut)."""
 
 
 @click.group(cls=EtsidGroup, context_settings={"help_option_names": ["-h", "--help"]},

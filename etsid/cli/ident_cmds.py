@@ -15,8 +15,9 @@ from etsid.cli.options import (
     log_options,
     read_options,
 )
-from etsid.errors import IdentError
+from etsid.errors import IdentError, ModelError
 from etsid.ets.params import CLUSTERINGS, RLS_KINDS, VARIANTS
+from etsid.files import read_json
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
 from etsid.ident.defaults import ATTITUDE_MODES
@@ -314,10 +315,11 @@ def _control_rules(path: Path) -> dict | None:
     file = path / "rules.json" if path.is_dir() else path
     config = file.parent / "config.json"
     try:
-        if json.loads(config.read_text()).get("kind") != "control":
+        kind = read_json(config, "run", ModelError)
+        if not isinstance(kind, dict) or kind.get("kind") != "control":
             return None
-        data = json.loads(file.read_text())
-    except (OSError, ValueError, AttributeError):
+        data = read_json(file, "rules", ModelError)
+    except ModelError:
         return None
     from etsid.ets import ETS
 

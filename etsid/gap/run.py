@@ -13,6 +13,7 @@ in :mod:`etsid.gap.verdict`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,7 +63,15 @@ from etsid.gap.select import (
     select,
     select_response,
 )
-from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, input_kinds, prepare
+from etsid.gap.signals import (
+    MIN_AIRBORNE_S,
+    SETPOINT_KINDS,
+    Flight,
+    describe,
+    excerpt,
+    input_kinds,
+    prepare,
+)
 from etsid.gap.summary import effect_entry, summary_sentence
 from etsid.gap.validation import blocked_split, time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
@@ -215,6 +224,10 @@ def airborne_problem(sim: Flight, real: Flight) -> str | None:
                     f"{MIN_AIRBORNE_S:.0f} s needed")
     return None
 
+
+METHOD = "tiers"
+"""How effects are chosen by default: ``"tiers"`` or ``"likelihood"`` (``analyse``'s
+``method``; the environment variable ``ETSID_GAP_METHOD`` overrides it for benchmarks)."""
 
 SPLIT = "time"
 """How REAL's evidence is split to fit and to score (:mod:`etsid.gap.validation`):
@@ -546,7 +559,8 @@ def located_by_driver(effects: list[dict[str, Any]], real: Flight) -> dict[str, 
 
 def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "SIM",
             real_name: str = "REAL", vehicle: Any = None,
-            progress: Callable[[str], None] | None = None) -> GapResult:
+            progress: Callable[[str], None] | None = None,
+            method: str | None = None) -> GapResult:
     """Compare a simulated and a recorded flight (FlightTables) and explain the gap.
 
     Parameters
@@ -559,6 +573,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         Vehicle description; sharpens the rotor-speed law and the ground-effect geometry.
     progress : callable, optional
         Called with one line as each stage starts (``etsid gap`` prints them on a terminal).
+    method : str, optional
+        ``"tiers"`` (the round-4 selection) or ``"likelihood"`` (one held-out likelihood
+        criterion, :mod:`etsid.gap.likelihood`); default :data:`METHOD`.
 
     Returns
     -------
@@ -574,7 +591,17 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say = progress or (lambda line: None)
     say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
+    method = method or os.environ.get("ETSID_GAP_METHOD") or METHOD
+    excerpts = []
+    if method == "likelihood":  # bounded cost and memory for long logs
+        sim, n_sim = excerpt(sim)
+        real, n_real = excerpt(real)
+        excerpts = [n for n in (n_sim, n_real) if n]
     conditioned = condition(sim, real)
+    if sim.command_source:
+        cols = ", ".join(SETPOINT_KINDS[sim.command_source])
+        conditioned.insert(0, f"command: the {sim.command_source} ({cols}) of both logs, which "
+                              "have neither motor outputs nor stick commands")
     rotor_count = structural(sim, real)
     if rotor_count:
         return _different(sim, real, [rotor_count])
@@ -627,6 +654,21 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                                                                                     real),
                   info.get("arm"))
     scorer = Scorer(ctx, yr, sigma)
+    if method == "likelihood":
+        notes.extend(excerpts)
+        from etsid.gap.likelihood import explain_by_likelihood
+
+        say("gap: what this pair could have seen (detectable size of every effect)")
+        base = {"detectable": detectable_sizes(scorer, [real.airborne], Z_MISMATCH),
+                "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+                "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
+                "units": {c: UNITS[c] for c in shared}, "vehicle_check": check,
+                "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
+                            "drag_law": nominal.drag_law, "speed_law": nominal.speed_law,
+                            "channels": list(shared)}}
+        data, series = explain_by_likelihood(sim, real, nominal, sigma, scorer, base, notes,
+                                             info, say)
+        return GapResult(data, sim, real, nominal, series)
     res0 = scorer.residuals()
     r_fit, r_hold = split_evidence(real, res0, sigma)
     mis = mismatch_scores(scorer, real, r_hold)
@@ -1065,7 +1107,8 @@ def series_frame(result: GapResult) -> pd.DataFrame:
 
 def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | None = None,
             vehicle: str | Path | None = None, options: Any = None,
-            progress: Callable[[str], None] | None = None) -> GapResult:
+            progress: Callable[[str], None] | None = None,
+            method: str | None = None) -> GapResult:
     """Read two logs (or saved tables), analyse them, write ``out_dir/gap.json``.
 
     ``options`` is an :class:`etsid.ingest.ReadOptions` for both logs (default: none).
@@ -1078,7 +1121,7 @@ def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | N
     sim_table = read_log(sim_path, options)
     real_table = read_log(real_path, options)
     result = analyse(sim_table, real_table, Path(sim_path).name, Path(real_path).name, vehicle,
-                     progress)
+                     progress, method)
     if out_dir is not None:
         write_gap_json(result.data, out_dir)
         frame = series_frame(result)

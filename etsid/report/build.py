@@ -15,6 +15,7 @@ from typing import Any
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from etsid.errors import IdentError, ReportError
+from etsid.files import read_bytes
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.page import HINT, esc, html_page, make_shared_dir, markdown_safe, table_html
@@ -162,13 +163,14 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet, base: Path | None = 
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
         if fmt == "png":
             embedded[name] = ("image/png", base64.b64encode(
-                report.figures[name].read_bytes()).decode())
+                read_bytes(report.figures[name], "figure", ReportError)).decode())
         elif fmt == "svg":
             embedded[name] = ("image/svg+xml", base64.b64encode(
-                report.figures[name].read_bytes()).decode())
+                read_bytes(report.figures[name], "figure", ReportError)).decode())
         else:
             png = save_figure(fig, out / f"{name}.png")
-            embedded[name] = ("image/png", base64.b64encode(png.read_bytes()).decode())
+            embedded[name] = ("image/png", base64.b64encode(
+                read_bytes(png, "figure", ReportError)).decode())
     rules = rules_text(run)
     report.html = out / "index.html"
     report.html.write_text(render_html(run, embedded, rules,

@@ -21,6 +21,8 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from etsid.errors import ControlError
+from etsid.escape import clean
+from etsid.files import read_json, read_parquet_frame
 from etsid.report.figures import WIDTH, legend_outside, style
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -48,9 +50,10 @@ def is_control_run(run_dir: str | Path) -> bool:
     if not cfg.is_file():
         return False
     try:
-        return json.loads(cfg.read_text()).get("kind") == CONTROL_KIND
-    except (OSError, ValueError, AttributeError):
+        data = read_json(cfg, "run", ControlError)
+    except ControlError:
         return False
+    return isinstance(data, dict) and data.get("kind") == CONTROL_KIND
 
 
 def read_control_run(run_dir: str | Path) -> ControlRun:
@@ -60,12 +63,9 @@ def read_control_run(run_dir: str | Path) -> ControlRun:
     path = Path(run_dir)
 
     def _json(name: str) -> dict[str, Any]:
-        try:
-            data = json.loads((path / name).read_text())
-        except FileNotFoundError:
-            raise ControlError(f"{path}: no {name}; not a control run directory") from None
-        except (OSError, ValueError) as err:
-            raise ControlError(f"{path / name}: not readable JSON ({err})") from err
+        if not (path / name).exists():
+            raise ControlError(f"{path}: no {name}; not a control run directory")
+        data = clean(read_json(path / name, "run", ControlError))
         if not isinstance(data, dict):
             raise ControlError(f"{path / name}: expected a JSON object")
         return data
@@ -75,7 +75,9 @@ def read_control_run(run_dir: str | Path) -> ControlRun:
         if not file.exists():
             return None
         try:
-            return pd.read_parquet(file)
+            return read_parquet_frame(file, "table", ControlError)
+        except ControlError:
+            raise
         except Exception as err:  # pyarrow raises many types for broken files
             raise ControlError(f"{file}: not a readable parquet file ({err})") from err
 
@@ -108,8 +110,8 @@ def find_comparison(run: ControlRun) -> ControlRun | None:
         if path.resolve() == run.path.resolve() or not is_control_run(path):
             continue
         try:
-            metrics = json.loads((path / "metrics.json").read_text())
-        except (OSError, ValueError):
+            metrics = read_json(path / "metrics.json", "run", ControlError)
+        except ControlError:
             continue
         if (isinstance(metrics, dict) and metrics.get("scenario") == scenario
                 and metrics.get("controller") not in (None, me)):

@@ -7,7 +7,6 @@ held-out part marked.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -17,8 +16,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from etsid.errors import ReportError
+from etsid.escape import clean
+from etsid.files import read_json, read_parquet_frame
 from etsid.report.build import Report, save_figure
 from etsid.report.page import markdown_safe
+from etsid.schemas import validate
 
 SERIES_FILE = "gap_series.parquet"
 VAR_TEXT = {"alt": "height above ground (m)", "speed": "horizontal speed (m/s)",
@@ -27,18 +29,20 @@ VAR_TEXT = {"alt": "height above ground (m)", "speed": "horizontal speed (m/s)",
 
 
 GAP_SCHEMA = "etsid.gap/1"
+GAP_SCHEMA_PATH = Path(__file__).resolve().parents[1] / "gap" / "gap.schema.json"
+"""The schema ``etsid gap`` validates gap.json with when writing it (a data file: the
+report does not import the gap package)."""
 NEEDED = ("verdict", "summary", "effects", "rmse_before", "rmse_after", "noise", "units")
 
 
 def read_gap_json(path: Path) -> dict[str, Any]:
     """A gap.json written by ``etsid gap`` (validated against its schema when written);
     checked here for the schema name and the keys the report uses."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise ReportError(f"{path}: cannot read gap.json ({err})") from err
+    data = read_json(path, "gap", ReportError, "gap.json")
     if not isinstance(data, dict) or data.get("schema") != GAP_SCHEMA:
         raise ReportError(f"{path}: not a gap.json of schema {GAP_SCHEMA}")
+    schema = read_json(GAP_SCHEMA_PATH, "package", ReportError)
+    data = clean(validate(data, schema, path, ReportError, "gap.json"))
     missing = [k for k in NEEDED if k not in data]
     if missing:
         raise ReportError(f"{path}: gap.json lacks {', '.join(missing)}")
@@ -375,7 +379,7 @@ def make_gap_report(out_dir: str | Path, fmt: str = "png",
     interactive: tuple[str, dict[str, str]] = ("", {})
     if series_path.is_file() and ch is not None:
         try:
-            series = pd.read_parquet(series_path)
+            series = read_parquet_frame(series_path, "table", ReportError)
         except (OSError, ValueError) as err:
             raise ReportError(f"{series_path}: cannot read ({err})") from err
         if ch in series:

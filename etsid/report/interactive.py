@@ -165,7 +165,12 @@ def shared_range(t: np.ndarray) -> Any:
 def add_lines(fig: Any, src: Any, lines: Sequence[Line], digits: str = "0.0000",
               unit: str = "") -> list[Any]:
     """Draw ``lines`` from ``src`` in order (the last on top) with a legend (click hides a
-    line) and one hover box listing every line's value at the pointer's time."""
+    line) and one hover box listing every line's value at the pointer's time.
+
+    Bokeh renders a tooltip's value template as HTML, so nothing from a file goes into it:
+    the unit goes into the row's label (set as text) and a column whose name is not plain
+    is read through an alias column (values substituted from data are escaped by Bokeh).
+    """
     from bokeh.models import HoverTool
 
     renderers = []
@@ -173,12 +178,25 @@ def add_lines(fig: Any, src: Any, lines: Sequence[Line], digits: str = "0.0000",
         renderers.append(fig.line("t", line.column, source=src, color=line.color,
                                   line_width=line.width, line_dash=line.dash,
                                   alpha=line.alpha, legend_label=line.label))
-    suffix = f" {unit}" if unit and unit != "1" else ""
-    tips = [("t", "@t{0.000} s")] + [(ln.label, f"@{{{ln.column}}}{{{digits}}}{suffix}")
-                                      for ln in lines]
+    suffix = f" ({unit})" if unit and unit != "1" else ""
+    tips = [("t (s)", "@t{0.000}")] + [(f"{ln.label}{suffix}",
+                                         f"@{{{_field(src, ln.column)}}}{{{digits}}}")
+                                        for ln in lines]
     fig.add_tools(HoverTool(renderers=renderers[-1:], tooltips=tips, mode="vline"))
     legend_above(fig)
     return renderers
+
+
+_PLAIN = re.compile(r"[A-Za-z0-9_.\-\[\]]+")
+
+
+def _field(src: Any, column: str) -> str:
+    """A name of ``column`` in ``src`` safe inside ``@{...}`` of a tooltip template."""
+    if _PLAIN.fullmatch(column):
+        return column
+    alias = f"_col{sorted(src.data).index(column)}"
+    src.data[alias] = src.data[column]
+    return alias
 
 
 def legend_above(fig: Any) -> None:
