@@ -15,7 +15,7 @@ LAYERS: dict[str, int] = {
     "errors": 0, "progress": 0, "frames": 0, "pwm": 0, "rosmsgs": 0, "etsid": 0,
     "table": 1,
     "ets": 2, "ingest": 2, "sim": 2,
-    "ident": 3,
+    "ident": 3, "fit": 3,
     "report": 4, "gap": 4, "control": 4,
     "batch": 5,
     "cli": 6,
