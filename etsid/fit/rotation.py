@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from etsid.errors import FitError
 from etsid.fit.regress import N_BLOCKS, Moments, block_ids, instrument_basis, jackknife_se
 from etsid.fit.signals import Flight, motor_state
 
@@ -44,6 +45,8 @@ TAU_GRID = np.round(np.geomspace(0.005, 0.25, 29), 5)
 DELAY_STEP = 0.002
 """s, delay grid step (0 … :data:`DELAY_MAX`)."""
 DELAY_MAX = 0.04
+MIN_ROWS = 50
+"""Rows near hover a flight needs to enter the moment equations."""
 MIN_MOTOR_HZ = 40.0
 """Hz: motor outputs logged slower cannot resolve a lag of tens of milliseconds."""
 
@@ -236,7 +239,10 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
     resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
     """
-    flights = [f for f in flights if f.hover.sum() > 100]
+    flights = [f for f in flights if f.hover.sum() > MIN_ROWS]
+    if not flights:
+        raise FitError(f"{MIN_ROWS} rows near hover needed for the moment equations; the "
+                       "log has fewer (too slow a log, or no slow flight)")
     preps = _prepare(flights)
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
     delays = np.round(np.arange(0.0, DELAY_MAX + 1e-9, max(DELAY_STEP, 0.0)), 4)
