@@ -233,7 +233,7 @@ def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
 
 
 def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
-                 tau_default: float) -> RotationFit:
+                 tau_default: float, fine: bool = True) -> RotationFit:
     """Fit τ, d and each axis's coefficients (module docstring).
 
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
@@ -252,10 +252,13 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         tau_c = TAU_GRID[::2]
         delay_c = delays[::2]
         coarse = _objective(preps, geom, k, idle, tau_c, delay_c)
-        ic, jc = _argmin2(coarse[0])
-        tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
-        delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
-        obj = _objective(preps, geom, k, idle, tau_f, delays)
+        if fine:
+            ic, jc = _argmin2(coarse[0])
+            tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
+            delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
+            obj = _objective(preps, geom, k, idle, tau_f, delays)
+        else:
+            tau_f, delays, obj = tau_c, delay_c, coarse
         i, j = _argmin2(obj[0])
         tau = _refine(tau_f, obj[0, :, j], i, True)
         delay = _refine(delays, obj[0, i, :], j, False)
@@ -266,9 +269,10 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
             reps_d.append(_refine(delays, obj[b, ib, :], jb, False))
         # plus the grid's own resolution (a uniform error over one step, parabolic
         # interpolation notwithstanding)
-        log_step = float(np.log(TAU_GRID[1] / TAU_GRID[0]))
+        log_step = float(np.log(tau_f[1] / tau_f[0])) if tau_f.size > 1 else 0.0
+        d_step = float(delays[1] - delays[0]) if delays.size > 1 else DELAY_STEP
         tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), tau * log_step / np.sqrt(12)))
-        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), DELAY_STEP / np.sqrt(12)))
+        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), d_step / np.sqrt(12)))
         edge = tau_f[i] in (TAU_GRID[0], TAU_GRID[-1])
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)
