@@ -164,6 +164,25 @@ def fly(seed: int, duration: float = 180.0, regimes: bool = True) -> pd.DataFram
     return table
 
 
+def band_lines(regimes: dict) -> list[str]:
+    """Per altitude band: validation seconds and free-run fit % eTS / ARX (Δ) of p, q, r;
+    ``n.i.`` where the band is not informative (too short or too still)."""
+    out = []
+    for band in regimes.get("per_regime") or []:
+        parts = []
+        for y in "pqr":
+            o = (band.get("outputs") or {}).get(y) or {}
+            e = (o.get("free_run") or {}).get("fit")
+            a = (o.get("arx_free_run") or {}).get("fit")
+            if not o.get("informative") or e is None or a is None:
+                parts.append(f"{y} n.i.")
+            else:
+                parts.append(f"{y} {e:.1f} / {a:.1f} ({e - a:+.1f})")
+        out.append(f"band {band['name']}: {band.get('n_validation', 0)} val rows; "
+                   + "; ".join(parts))
+    return out
+
+
 def main() -> None:
     from etsid.ident import IdentConfig, identify
 
@@ -195,6 +214,8 @@ def main() -> None:
               + " / ".join(f"{v:+.1f}" for v in d) + " | "
               + " / ".join(f"{v:.3f}" for v in one) + " |", flush=True)
         print("  learnt:", run.metrics["regimes"].get("sentence"), flush=True)
+        for line in band_lines(run.metrics["regimes"]):
+            print("  " + line, flush=True)
     mean = np.mean(deltas, axis=0)
     print("mean Δ free-run fit eTS − ARX p / q / r: " + " / ".join(f"{v:+.2f}" for v in mean))
 

@@ -11,6 +11,9 @@ within ``--timeout`` seconds is killed and counted. Prints the tally per format 
 run that is not "read ok" or "clean error" with its seed (add the seed to
 tests/fuzz/test_fuzz.py to keep it fixed).
 
+``--files`` runs the hostile files beside the logs (tests/fuzz/files.py: sidecars, vehicle
+files, run and batch folders, list files, table metadata, ``--set`` values) the same way.
+
 ``--structure`` runs instead the structure-aware cases of tests/fuzz/structure.py
 (decompression bombs, one bad message, damaged DataFlash FMT records, recursive ULog
 formats, huge counts, FIFOs and devices, terminal escapes), one at a time, each bounded to
@@ -29,6 +32,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fuzz"))
 
+import files
 import mutants
 import structure
 
@@ -46,10 +50,16 @@ def main() -> None:
                              "fixed hostile variants), through `etsid rules` and `predict`")
     parser.add_argument("--structure", action="store_true",
                         help="run the structure-aware cases instead (tests/fuzz/structure.py)")
-    parser.add_argument("--cases", default="", help="with --structure: these cases only")
+    parser.add_argument("--files", action="store_true",
+                        help="run the hostile files beside the logs instead (tests/fuzz/"
+                             "files.py: sidecars, vehicle files, run and batch folders, list "
+                             "files, table metadata, --set values)")
+    parser.add_argument("--cases", default="",
+                        help="with --structure or --files: these cases only")
     args = parser.parse_args()
-    if args.structure:
-        structure_tally(args.cases.split(",") if args.cases else [])
+    if args.structure or args.files:
+        structure_tally(args.cases.split(",") if args.cases else [],
+                        files.CASES if args.files else structure.CASES)
         return
     formats = args.formats.split(",")
     todo = [(formats[i % len(formats)], args.first_seed + i) for i in range(args.mutants)]
@@ -90,9 +100,10 @@ def main() -> None:
               f"max {finite[-1]:.1f} s; peak worker RSS {max(p for p in peaks if p == p):.0f} MiB")
 
 
-def structure_tally(names: list[str]) -> None:
-    """Run the structure-aware cases one at a time and print a line per case."""
-    cases = [c for c in structure.CASES if not names or c.name in names]
+def structure_tally(names: list[str], every: list[structure.Case]) -> None:
+    """Run the cases of ``every`` (all, or those in ``names``) one at a time and print a
+    line per case."""
+    cases = [c for c in every if not names or c.name in names]
     failed = 0
     print(f"{'case':<24}{'verdict':>8}{'s':>7}{'MB':>7}  detail")
     with tempfile.TemporaryDirectory() as tmp:

@@ -53,7 +53,11 @@ def imports_of(path: Path) -> Iterator[tuple[str, list[str]]]:
                 target = ".".join([*base, *([node.module] if node.module else [])])
             else:
                 target = node.module or ""
-            if target.startswith("etsid"):
+            if target == "etsid":  # ``from etsid import files``: the module files
+                for alias in node.names:
+                    if (PACKAGE / alias.name).is_dir() or (PACKAGE / f"{alias.name}.py").is_file():
+                        yield f"etsid.{alias.name}", []
+            elif target.startswith("etsid"):
                 yield target, [a.name for a in node.names]
 
 

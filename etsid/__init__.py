@@ -2,4 +2,8 @@
 
 from __future__ import annotations
 
+from etsid.cachedir import use_user_cache
+
 __version__ = "0.1.0"
+
+use_user_cache()  # compiled numba kernels go to the user cache, never into site-packages

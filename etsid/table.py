@@ -14,6 +14,7 @@ provenance (see :data:`ATTRS_KEYS`).
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -21,6 +22,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from etsid import escape, files, schemas
 from etsid.errors import TableError
 
 Interp = Literal["linear", "hold", "angle"]
@@ -186,26 +188,27 @@ def save_table(table: pd.DataFrame, path: str | Path) -> Path:
 def load_table(path: str | Path) -> pd.DataFrame:
     """Read a table saved by :func:`save_table` (or any CSV/Parquet with a ``t`` column).
 
-    A table without a ``t`` column gets ``t`` = row number (s) and a warning in attrs.
+    A table without a ``t`` column gets ``t`` = row number (s) and a warning in attrs. The
+    attrs are checked against :data:`etsid.schemas.TABLE_ATTRS` and their strings (and the
+    column names) made printable (:func:`etsid.escape.clean`).
     """
-    import pyarrow.parquet as pq
-
     path = Path(path)
     suffix = path.suffix.lower()
     attrs: dict[str, Any] = {}
     _check_bounds(path, suffix)
     try:
         if suffix == ".parquet":
-            arrow = pq.read_table(path)
+            arrow = files.read_parquet(path, "table", TableError)
             meta = arrow.schema.metadata or {}
             if ATTRS_META_KEY in meta:
-                attrs = json.loads(meta[ATTRS_META_KEY])
+                attrs = files.loads_json(meta[ATTRS_META_KEY], f"{path} (etsid.attrs)",
+                                         TableError, "table attrs")
             frame = arrow.to_pandas()
         elif suffix == ".csv":
-            frame = pd.read_csv(path)
+            frame = files.read_csv(path, "table", TableError)
             side = path.with_name(path.name + ".attrs.json")
-            if side.exists():
-                attrs = json.loads(side.read_text())
+            if os.path.lexists(side):
+                attrs = files.read_json(side, "sidecar", TableError, "table attrs")
         else:
             raise TableError(f"{path}: unknown table format {suffix!r} (use .parquet or .csv)")
     except TableError:
@@ -215,6 +218,10 @@ def load_table(path: str | Path) -> pd.DataFrame:
     except Exception as err:  # pyarrow/pandas raise many types for broken files
         first = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
         raise TableError(f"{path}: not a readable {suffix[1:]} table ({first})") from err
+    where = f"{path} (etsid.attrs)" if suffix == ".parquet" else path.name + ".attrs.json"
+    attrs = escape.clean(schemas.validate(attrs, schemas.TABLE_ATTRS, where, TableError,
+                                          "table attrs"))
+    frame.columns = [escape.printable(c) if isinstance(c, str) else c for c in frame.columns]
     warnings = list(attrs.get("warnings", []))
     if "t" in frame.columns:
         frame = frame.set_index("t")
@@ -249,34 +256,23 @@ def _check_bounds(path: Path, suffix: str) -> None:
     """Refuse, before parsing, what would make reading a table unbounded: not a regular
     file (a FIFO or device never ends), more than :data:`MAX_TABLE_COLUMNS` columns, a
     CSV header line longer than :data:`MAX_LINE_BYTES`."""
-    import stat
-
-    try:
-        mode = path.stat().st_mode
-    except FileNotFoundError as err:
-        raise TableError(f"{path}: no such file") from err
-    except OSError as err:
-        raise TableError(f"{path}: cannot read ({err.strerror or err})") from err
-    if not stat.S_ISREG(mode):
-        raise TableError(f"{path}: not a regular file (a FIFO, device or socket): tables "
-                         "are read from files")
+    if suffix not in (".csv", ".parquet"):
+        return
     if suffix == ".csv":
-        with path.open("rb") as handle:
+        with files.open_binary(path, "table", TableError) as handle:
             header = handle.readline(MAX_LINE_BYTES + 1)
         if len(header) > MAX_LINE_BYTES:
             raise TableError(f"{path}: the header line is longer than "
                              f"{MAX_LINE_BYTES >> 20} MiB: not a table etsid reads")
         columns = header.count(b",") + 1
-    elif suffix == ".parquet":
-        import pyarrow.parquet as pq
-
+    else:
         try:
-            columns = pq.read_metadata(path).num_columns
+            columns = files.parquet_metadata(path, "table", TableError).num_columns
+        except TableError:
+            raise
         except Exception as err:  # pyarrow raises many types for broken files
             first = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
             raise TableError(f"{path}: not a readable parquet table ({first})") from err
-    else:
-        return
     if columns > MAX_TABLE_COLUMNS:
         raise TableError(f"{path}: {columns} columns, more than the {MAX_TABLE_COLUMNS} a "
                          "table may have")

@@ -11,7 +11,13 @@ from __future__ import annotations
 
 from etsid.batch.inputs import find_inputs, read_pairs
 from etsid.batch.results import read_results
-from etsid.batch.run import SCHEDULERS, BatchSummary, default_jobs, run_batch
+from etsid.batch.run import (
+    EXIT_ALL_FAILED,
+    SCHEDULERS,
+    BatchSummary,
+    default_jobs,
+    run_batch,
+)
 from etsid.batch.schema import SCHEMA, VOLATILE
 from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
@@ -19,6 +25,7 @@ from etsid.errors import BatchError
 
 __all__ = [
     "COMMANDS",
+    "EXIT_ALL_FAILED",
     "GAP_UNAVAILABLE",
     "SCHEDULERS",
     "SCHEMA",

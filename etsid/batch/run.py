@@ -17,13 +17,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from etsid.batch.results import compact, done_keys, write_row
+from etsid.batch.locks import RESUMING, remove_stale_staging
+from etsid.batch.results import RUNS, compact, done_keys, write_row
 from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
 from etsid.batch.worker import Item, Outcome
 from etsid.errors import BatchError
 from etsid.ident.rundir import os_reason
 from etsid.progress import progress
+
+EXIT_ALL_FAILED = 3
+"""Exit code of ``etsid batch`` when no log of the batch succeeded (every row an error).
+Others: 0 at least one log ok (the failed ones are listed), 1 nothing run (an input that
+does not exist, no log found, a bad option: one line, no batch directory left behind),
+2 a usage error (click)."""
 
 SCHEDULERS = ("local", "processes")
 """``--scheduler`` names; anything else is a Dask scheduler address (``dask://HOST:PORT``)."""
@@ -126,20 +133,30 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
     if not items:
         raise BatchError("no logs to run: the inputs hold no file of a supported format")
     out = Path(out)
+    made = _new_dirs(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise BatchError(f"{out}: cannot create the batch directory ({err.strerror})") from err
     jobs = max(1, jobs or default_jobs())
     digest = spec.digest()
-    done = done_keys(out, spec.command, digest, retry_failed) if resume else frozenset()
-    runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb, dashboard)
+    stale = 0
+    try:
+        done = done_keys(out, spec.command, digest, retry_failed) if resume else frozenset()
+        if resume:  # a killed batch's staging folders (partial files), and the marker that
+            # lets a worker skip a log another --resume batch finished while it waited
+            stale = remove_stale_staging(out / RUNS)
+            done = done | {RESUMING}
+        runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb, dashboard)
+    except BaseException:
+        _remove_empty(made)  # an error before any log ran leaves no empty folder
+        raise
     summary = BatchSummary(out, total=len(items))
     meta: dict[str, Any] = {
         "schema": "etsid.batch/1", "command": spec.command, "options_digest": digest,
         "options": spec.options(), "inputs": len(items), "jobs": jobs,
         "scheduler": scheduler, "resume": resume,
-        "retry_failed": retry_failed,
+        "retry_failed": retry_failed, "stale_staging_removed": stale,
         "started": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
     }
     _write_meta(out, meta)
@@ -186,6 +203,23 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         meta["dask_timings_s"] = {k: round(v, 3) for k, v in timings.items()}
     _write_meta(out, meta)
     return summary
+
+
+def _new_dirs(out: Path) -> list[Path]:
+    """The folders ``out.mkdir(parents=True)`` would create, deepest first."""
+    made: list[Path] = []
+    path = out.absolute()
+    while not path.exists() and path != path.parent:
+        made.append(path)
+        path = path.parent
+    return made
+
+
+def _remove_empty(made: list[Path]) -> None:
+    """Remove the folders of :func:`_new_dirs` that are still empty."""
+    for path in made:
+        with contextlib.suppress(OSError):
+            path.rmdir()
 
 
 def _counts(summary: BatchSummary, start: float) -> dict[str, Any]:

@@ -46,10 +46,23 @@ class EtsidGroup(click.Group):
         module_name = COMMAND_MODULES.get(cmd_name)
         if module_name is None:
             return None
-        module = importlib.import_module(module_name)
+        from etsid.progress import stage
+
+        with stage(f"{cmd_name}: loading"):  # numba, pandas, matplotlib: seconds on a cold start
+            module = importlib.import_module(module_name)
         for command in module.COMMANDS:
             self.add_command(command)
         return self.commands.get(cmd_name)
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        from etsid import progress
+
+        # what a long step is doing, on stderr (--quiet or ETSID_PROGRESS=off: nothing)
+        progress.enable(os.environ.get("ETSID_PROGRESS", "").lower() != "off")
+        try:
+            return super().main(*args, **kwargs)
+        finally:
+            progress.enable(False)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -78,9 +91,19 @@ class EtsidGroup(click.Group):
 
 
 def one_line(err: BaseException) -> str:
-    """The first line of an error message."""
+    """The first line of an error message, safe for a terminal (file names and strings from
+    files in it shown with their control characters escaped)."""
+    from etsid.escape import printable
+
     text = str(err).strip()
-    return text.splitlines()[0] if text else type(err).__name__
+    if not text:
+        return type(err).__name__
+    line = printable(text.splitlines()[0])
+    return line if len(line) <= MAX_LINE else f"{line[:MAX_LINE - 60]} … ({len(line)} characters)"
+
+
+MAX_LINE = 1000
+"""Longest error line printed (a message naming a 5000-character path is cut)."""
 
 
 @click.group(cls=EtsidGroup, context_settings={"help_option_names": ["-h", "--help"]},

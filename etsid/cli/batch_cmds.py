@@ -6,6 +6,7 @@ click options, so the two never drift apart) plus the batch options.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import fields
 from pathlib import Path
@@ -14,12 +15,14 @@ from typing import Any
 import click
 
 from etsid.batch import (
+    EXIT_ALL_FAILED,
     BatchSpec,
     BatchSummary,
     find_inputs,
     read_pairs,
     run_batch,
 )
+from etsid.batch.fetch import is_url
 from etsid.batch.local import RENEW_GROWTH_MB
 from etsid.cli.ident_cmds import identify_cmd
 from etsid.cli.ingest_cmds import ingest as ingest_cmd
@@ -95,6 +98,11 @@ def _echo_summary(summary: BatchSummary, command: str) -> None:
 
 def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[str]:
     """The logs of LOGS; saved tables met in its directories are not run, and said so."""
+    missing = [item for item in logs if not is_url(item) and not os.path.lexists(item)]
+    if missing:
+        shown = ", ".join(missing[:5]) + (f" and {len(missing) - 5} more"
+                                            if len(missing) > 5 else "")
+        raise BatchError(f"{shown}: no such file or directory (nothing run)")
     tables: list[str] = []
     items = find_inputs(logs, exclude=out, unsearched=tables, protocols=protocols)
     if tables:
@@ -122,6 +130,9 @@ def _run(items: list[Any] | None, logs: tuple[str, ...], spec: BatchSpec,
                         max_memory_mb=batch["max_memory_mb"],
                         retry_failed=not batch["skip_failed"], dashboard=batch["dashboard"])
     _echo_summary(summary, spec.command)
+    if summary.failed and not summary.ok:
+        click.echo(f"etsid: error: every log failed (exit code {EXIT_ALL_FAILED})", err=True)
+        click.get_current_context().exit(EXIT_ALL_FAILED)
 
 
 def _split(kw: dict[str, Any]) -> dict[str, Any]:
@@ -147,6 +158,10 @@ def batch() -> None:
     a directory with metadata.yaml is a ROS 2 bag), text files (.txt/.list) listing
     inputs, or fsspec URLs. Rows go to the Parquet dataset DIR/results/ (read it with
     pandas, Dask or DuckDB); `etsid report DIR` draws the fleet report.
+
+    Exit codes: 0 at least one log ok (failed logs listed, each with its error row);
+    1 nothing run (an input that does not exist, no log found, a bad option; no batch
+    directory is left behind); 2 a usage error; 3 every log failed.
     """
 
 

@@ -6,13 +6,22 @@ from pathlib import Path
 
 import click
 
-SCENARIO_NAMES = ("hover-ige", "ige-sine", "mass-change", "sine", "step")
+SCENARIO_NAMES = ("altitude-steps", "hover-ige", "ige-sine", "mass-change", "sine-altitude")
 """Kept in step with :data:`etsid.control.scenarios.SCENARIOS` (tests check it), so that
 ``--help`` does not import the simulator."""
+SCENARIO_ALIASES = {"sine": "sine-altitude", "step": "altitude-steps"}
+"""Former names still accepted (:data:`etsid.control.scenarios.ALIASES`)."""
+
+
+def _scenario(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    name = SCENARIO_ALIASES.get(value, value)
+    if name not in SCENARIO_NAMES:
+        raise click.BadParameter(f"{value!r} is not one of {', '.join(SCENARIO_NAMES)}")
+    return name
 
 
 @click.command()
-@click.argument("scenario", type=click.Choice(SCENARIO_NAMES))
+@click.argument("scenario", metavar="{" + "|".join(SCENARIO_NAMES) + "}", callback=_scenario)
 @click.option("-o", "--out", "out", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="RUN_DIR to write (flight, metrics, rules, report/); "
               "default ./control-SCENARIO-CONTROLLER.")
@@ -30,8 +39,10 @@ def control(scenario: str, out: Path | None, controller: str, vehicle: Path | No
             duration: float | None, seed: int, no_report: bool) -> None:
     """Fly SCENARIO with the vertical loop closed by CONTROLLER; write RUN_DIR and figures.
 
-    Scenarios: sine (2.0 ± 1.0 m, 10 s), step, hover-ige (0.32 m), mass-change (+1 kg at
-    30 s), ige-sine (0.30–1.20 m). Scores start after the first 10 s.
+    Scenarios: sine-altitude (2.0 ± 1.0 m, 10 s; the task of `etsid simulate
+    sine-altitude`), altitude-steps, hover-ige (0.32 m), mass-change (+1 kg at 30 s),
+    ige-sine (0.30–1.20 m); the former names sine and step still work. Scores start after
+    the first 10 s.
     """
     from etsid.control import run_control
 

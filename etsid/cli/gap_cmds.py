@@ -6,8 +6,11 @@ from pathlib import Path
 
 import click
 
+from etsid.errors import GapError
+from etsid.files import read_text
+from etsid.gap.effects import vocabulary
 from etsid.gap.run import run_gap
-from etsid.progress import wanted
+from etsid.progress import done, on_terminal, say
 from etsid.report.gap import make_gap_report
 
 
@@ -20,32 +23,33 @@ from etsid.report.gap import make_gap_report
               help="Vehicle TOML file or packaged name; sharpens the rotor-speed law and the "
                    "ground-effect geometry (optional).")
 @click.option("--json", "as_json", is_flag=True, help="Print gap.json instead of the summary.")
+@click.option("--method", type=click.Choice(["tiers", "likelihood"]), default=None, hidden=True,
+              help="How effects are chosen (the likelihood criterion is on trial).")
 def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
-        as_json: bool) -> None:
-    """Locate where SIM_LOG and REAL_LOG disagree and name the physics SIM left out.
-
-    Fits a physics-structured model on the simulation, predicts the recording, and explains
-    what differs with named effects (ground_effect, rotor_drag, motor_lag, time_delay,
-    battery_sag, thrust_scale, inertia_scale, torque_offset, gyro_bias, accel_bias, wind,
-    weak_motor, rotor_inertia, yaw_torque_scale, rate_damping, or unexplained), fitted on the
-    first part of the recording and proven on the later part. Verdicts: consistent,
-    mismatch, insufficient, different-vehicle (the logs are of two airframes).
-    """
-    def say(line: str) -> None:  # progress on a terminal only, as the progress bars
-        if wanted():
-            click.echo(line, err=True)
-
-    result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say)
-    report = make_gap_report(out_dir, say=say)
+        as_json: bool, method: str | None) -> None:
+    """Locate where SIM_LOG and REAL_LOG disagree and name the physics SIM left out."""
+    try:
+        result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say, method=method)
+        report = make_gap_report(out_dir, say=say)
+    finally:
+        done()
     files = ", ".join(["gap.json", "index.html (interactive)", "report.md",
                        *(p.name for p in report.figures.values())])
     if as_json:
-        click.echo((out_dir / "gap.json").read_text(encoding="utf-8").rstrip())
-        if wanted():
+        click.echo(read_text(out_dir / "gap.json", "gap", GapError).rstrip())
+        if on_terminal():
             click.echo(f"wrote {out_dir}/ ({files})", err=True)
     else:
         click.echo(result.summary)
         click.echo(f"wrote {out_dir}/ ({files})")
 
+
+gap.help = (
+    "Locate where SIM_LOG and REAL_LOG disagree and name the physics SIM left out.\n\n"
+    "Fits a physics-structured model on the simulation, predicts the recording, and explains "
+    f"what differs with named effects ({', '.join(vocabulary())}), fitted on one part of "
+    "the recording and proven on another. Verdicts: consistent, mismatch, insufficient, "
+    "different-vehicle (the logs are of two airframes).")
+"""The help lists the effect registry's vocabulary (:mod:`etsid.gap.effects`)."""
 
 COMMANDS = [gap]

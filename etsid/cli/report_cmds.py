@@ -6,22 +6,9 @@ from pathlib import Path
 
 import click
 
-from etsid.progress import wanted
+from etsid.progress import done, say
 from etsid.report import make_report
 from etsid.report.build import FORMATS
-
-
-def say(line: str) -> None:
-    """A transient progress line on stderr when it is a terminal (as the progress bars:
-    each replaces the last, :func:`done` clears it; stdout keeps the result)."""
-    if wanted():
-        click.echo(f"\r\033[K{line}", err=True, nl=False)
-
-
-def done() -> None:
-    """Clear the progress line."""
-    if wanted():
-        click.echo("\r\033[K", err=True, nl=False)
 
 
 @click.command()

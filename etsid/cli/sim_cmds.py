@@ -10,6 +10,8 @@ import click
 
 from etsid.cli.settings import parse_assignments
 from etsid.errors import SimError
+from etsid.progress import stage
+from etsid.sim.vehicle_params import RUN
 from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
 
 if TYPE_CHECKING:
@@ -51,13 +53,15 @@ def _check_out(out: Path, fmt: str | None) -> None:
               help="Log format when the extension is not enough (e.g. ros2-mcap).")
 @click.option("--vehicle", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Vehicle TOML file (default: the Tarot 680 hexacopter).")
-@click.option("--duration", type=click.FloatRange(min=0, max=3600, min_open=True), default=None,
+@click.option("--duration", type=click.FloatRange(min=RUN["duration"].low, max=RUN["duration"].high,
+                                                 min_open=RUN["duration"].low_open), default=None,
               help="Flight time, s (default: the scenario's).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed (noise, "
               "excitation).")
 @click.option("--ground-effect", type=click.Choice(["on", "off"]), default="on",
               show_default=True, help="Model ground effect.")
-@click.option("--rate", "rate_hz", type=click.FloatRange(min=1, max=10_000), default=250.0,
+@click.option("--rate", "rate_hz", type=click.FloatRange(min=RUN["rate"].low, max=RUN["rate"].high),
+              default=250.0,
               show_default=True, help="Sensor/table rate, Hz.")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="Change a setting; repeatable. vehicle.EFFECT (time_delay, motor_lag, "
@@ -135,7 +139,8 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
                             ground_effect=ground_effect == "on", rate_hz=rate_hz,
                             settings=settings)
     table = flight.table
-    written = _write(table, flight.truth, out, fmt)
+    with stage(f"simulate: writing {out}"):
+        written = _write(table, flight.truth, out, fmt)
     click.echo(f"{written}: {scenario}, {table.index[-1]:.1f} s at {rate_hz:g} Hz, "
                f"vehicle {table.attrs.get('vehicle', '?')}, seed {seed}, "
                f"ground effect {ground_effect}")

@@ -9,6 +9,7 @@ from typing import Any, Protocol
 import numpy as np
 import pandas as pd
 
+from etsid import progress
 from etsid.control.pid import Command
 from etsid.control.plant import Observation, Plant
 from etsid.control.scenarios import Scenario
@@ -90,24 +91,29 @@ def fly(scenario: Scenario, controller: Controller, plant: Plant,
     mass_done = scenario.mass_change is None
     t_ctrl = t_plant = 0.0
     diverged = False
-    for k in range(n):
-        t = k * dt
-        if not mass_done and t >= scenario.mass_change[0]:
-            plant.set_mass(obs.mass + scenario.mass_change[1])
-            mass_done = True
-        c0 = time.process_time()
-        cmd = controller.update(t, obs, scenario)
-        c1 = time.process_time()
-        r, rd, _ = scenario.at(t)
-        rows[k] = (obs.alt, obs.vz, obs.roll, obs.pitch, cmd.u, r, rd, obs.true_alt,
-                   cmd.u_ff, cmd.u_fb, obs.mass)
-        if abs(r - obs.true_alt) > DIVERGED_ERROR or not np.isfinite(obs.true_alt):
-            diverged = True
-            rows = rows[: k + 1]
-            break
-        obs = plant.step(cmd.u)
-        t_plant += time.process_time() - c1
-        t_ctrl += c1 - c0
+    label = f"control: flying {scenario.name} with {controller.name} (flight s)"
+    every = max(1, round(1.0 / dt))
+    with progress.progress(round(duration), label, progress.enabled()) as bar:
+        for k in range(n):
+            t = k * dt
+            if k and k % every == 0:
+                bar.update(1)
+            if not mass_done and t >= scenario.mass_change[0]:
+                plant.set_mass(obs.mass + scenario.mass_change[1])
+                mass_done = True
+            c0 = time.process_time()
+            cmd = controller.update(t, obs, scenario)
+            c1 = time.process_time()
+            r, rd, _ = scenario.at(t)
+            rows[k] = (obs.alt, obs.vz, obs.roll, obs.pitch, cmd.u, r, rd, obs.true_alt,
+                       cmd.u_ff, cmd.u_fb, obs.mass)
+            if abs(r - obs.true_alt) > DIVERGED_ERROR or not np.isfinite(obs.true_alt):
+                diverged = True
+                rows = rows[: k + 1]
+                break
+            obs = plant.step(cmd.u)
+            t_plant += time.process_time() - c1
+            t_ctrl += c1 - c0
     index = pd.Index(np.arange(rows.shape[0]) * dt, name="t")
     table = pd.DataFrame(rows, index=index, columns=list(COLUMNS))
     table.attrs = {"source": "etsid.control", "format": "sim", "scenario": scenario.name,

@@ -12,7 +12,6 @@ as the original would have.
 from __future__ import annotations
 
 import json
-import stat
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ import numpy as np
 
 from etsid.errors import ModelError
 from etsid.ets.state import LearnedState
+from etsid.files import read_bytes, read_text
 
 SCHEMA_NAME = "etsid.rules/2"
 #: versions this module reads (it writes :data:`SCHEMA_NAME`)
@@ -50,7 +50,7 @@ FREE_FIELDS = ("regressors", "lags")
 @lru_cache(maxsize=1)
 def schema() -> dict[str, Any]:
     """The JSON Schema shipped with the package."""
-    return json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
+    return json.loads(read_text(SCHEMA_PATH, "package", ModelError))
 
 
 def _listify(a: Any) -> Any:
@@ -378,22 +378,9 @@ def read_document(path: str | Path) -> Any:
         deeply; NaN/Infinity constants. Names the file.
     """
     p = Path(path)
+    raw = read_bytes(p, "rules", ModelError)
     try:
-        info = p.stat()
-        if not stat.S_ISREG(info.st_mode):
-            raise ModelError(f"{p}: not a regular file (a FIFO, device or socket): rule "
-                             "bases are read from files")
-        if info.st_size > MAX_FILE_BYTES:
-            raise ModelError(f"{p}: {info.st_size / 2**20:.0f} MiB is too large for a rule "
-                             f"base (limit {MAX_FILE_BYTES / 2**20:.0f} MiB)")
-        with p.open("rb") as handle:  # at most the limit, whatever the size said
-            raw = handle.read(MAX_FILE_BYTES + 1)
-        if len(raw) > MAX_FILE_BYTES:
-            raise ModelError(f"{p}: too large for a rule base (limit "
-                             f"{MAX_FILE_BYTES / 2**20:.0f} MiB)")
         text = raw.decode("utf-8")
-    except OSError as err:
-        raise ModelError(f"{p}: cannot read rule base ({err.strerror or err})") from err
     except UnicodeDecodeError as err:
         raise ModelError(f"{p}: not a JSON file ({err}); expected a {SCHEMA_NAME} rule base"
                          ) from err

@@ -102,6 +102,34 @@ def sensor_floors(flight: Flight) -> dict[str, float]:
     return out
 
 
+def own_error(sim: Flight, nominal: NominalModel, probe: NominalModel, hold: np.ndarray,
+              parts: list[np.ndarray]) -> dict[str, float]:
+    """SIM's own error per channel: the larger of the ``probe`` model's (fitted on SIM's
+    first part) RMSE on SIM's held-out ``hold``, and the full ``nominal`` model's RMSE on
+    each of ``parts`` of SIM (the parts REAL's evidence will be read on: all of it and the
+    split REAL is scored with).
+
+    A floor is "as good as SIM's own model does on SIM", measured as REAL will be measured:
+    SIM compared with itself by the verdict's own rules then never exceeds its floors,
+    whatever stretch of the flight is busier than the held-out one (a real flight's gyro
+    against its attitude varies by a factor of three along the flight, which a single
+    held-out stretch does not see)."""
+    ys = measured(sim)
+    probe_pred = probe.predict(sim)
+    full_pred = nominal.predict(sim)
+    out: dict[str, float] = {}
+    for c, y in ys.items():
+        if c not in probe_pred:
+            continue
+        terms = [float(np.sqrt(np.mean((y - probe_pred[c])[hold] ** 2)))] if np.any(hold) \
+            else []
+        if c in full_pred:
+            terms += [float(np.sqrt(np.mean((y - full_pred[c])[m] ** 2))) for m in parts
+                      if np.any(m)]
+        out[c] = max(terms) if terms else 0.0
+    return out
+
+
 def channel_floors(sim_error: dict[str, float], real: Flight) -> tuple[dict[str, float],
                                                                       dict[str, str]]:
     """Floor per channel: ``max(SIM's own held-out error, REAL's sensor noise, fixed

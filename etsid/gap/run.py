@@ -13,6 +13,7 @@ in :mod:`etsid.gap.verdict`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,8 +25,15 @@ import pandas as pd
 from etsid.errors import GapError
 from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
+from etsid.gap.detectable import cap_below_detectable, detectable_sizes
 from etsid.gap.fitting import Scorer, fit_candidates
-from etsid.gap.floors import broadband_slopes, channel_floors, own_predictability, response_gains
+from etsid.gap.floors import (
+    broadband_slopes,
+    channel_floors,
+    own_error,
+    own_predictability,
+    response_gains,
+)
 from etsid.gap.locate import ground_band, locate_channel, scheduling_variables, segments
 from etsid.gap.loop import BandResponse, band_response, caveat_loop_laws, could_hide
 from etsid.gap.loop_fit import choose_loop_law, innovation_shift
@@ -42,6 +50,7 @@ from etsid.gap.nominal import (
     measured,
     voltage_covered,
 )
+from etsid.gap.plausible import condition
 from etsid.gap.result import SCHEMA_NAME, write_gap_json
 from etsid.gap.select import (
     ENVELOPE_SHARE,
@@ -54,7 +63,15 @@ from etsid.gap.select import (
     select,
     select_response,
 )
-from etsid.gap.signals import MIN_AIRBORNE_S, Flight, describe, input_kinds, prepare
+from etsid.gap.signals import (
+    MIN_AIRBORNE_S,
+    SETPOINT_KINDS,
+    Flight,
+    describe,
+    excerpt,
+    input_kinds,
+    prepare,
+)
 from etsid.gap.summary import effect_entry, summary_sentence
 from etsid.gap.validation import blocked_split, time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
@@ -208,6 +225,10 @@ def airborne_problem(sim: Flight, real: Flight) -> str | None:
     return None
 
 
+METHOD = "tiers"
+"""How effects are chosen by default: ``"tiers"`` or ``"likelihood"`` (``analyse``'s
+``method``; the environment variable ``ETSID_GAP_METHOD`` overrides it for benchmarks)."""
+
 SPLIT = "time"
 """How REAL's evidence is split to fit and to score (:mod:`etsid.gap.validation`):
 ``"time"`` (first 60 % / last 40 %) or ``"blocked"`` (2 s blocks dealt alternately along
@@ -241,11 +262,11 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
     cover = voltage_covered(sim, real)
     nominal = fit_nominal(sim, k=k, voltage=cover is not None and cover >= MIN_VOLTAGE_COVER)
     probe = fit_nominal(sim, s_fit, law=(nominal.k, nominal.v_ref))
-    ys = measured(sim)
-    own = _rmse({c: ys[c] - v for c, v in probe.predict(sim).items()}, s_hold)
+    own = own_error(sim, nominal, probe, s_hold,
+                    [sim.airborne, *time_split(sim.airborne, FIT_SHARE)])
     sigma, source = channel_floors(own, real)
     nominal.reference = broadband_slopes(sim, nominal, RESPONSE_CHANNELS)
-    return Floors(nominal, sigma, source, band_response(sim, nominal, ys), cover)
+    return Floors(nominal, sigma, source, band_response(sim, nominal, measured(sim)), cover)
 
 
 def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
@@ -538,7 +559,8 @@ def located_by_driver(effects: list[dict[str, Any]], real: Flight) -> dict[str, 
 
 def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "SIM",
             real_name: str = "REAL", vehicle: Any = None,
-            progress: Callable[[str], None] | None = None) -> GapResult:
+            progress: Callable[[str], None] | None = None,
+            method: str | None = None) -> GapResult:
     """Compare a simulated and a recorded flight (FlightTables) and explain the gap.
 
     Parameters
@@ -551,6 +573,9 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         Vehicle description; sharpens the rotor-speed law and the ground-effect geometry.
     progress : callable, optional
         Called with one line as each stage starts (``etsid gap`` prints them on a terminal).
+    method : str, optional
+        ``"tiers"`` (the round-4 selection) or ``"likelihood"`` (one held-out likelihood
+        criterion, :mod:`etsid.gap.likelihood`); default :data:`METHOD`.
 
     Returns
     -------
@@ -566,6 +591,17 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say = progress or (lambda line: None)
     say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
+    method = method or os.environ.get("ETSID_GAP_METHOD") or METHOD
+    excerpts = []
+    if method == "likelihood":  # bounded cost and memory for long logs
+        sim, n_sim = excerpt(sim)
+        real, n_real = excerpt(real)
+        excerpts = [n for n in (n_sim, n_real) if n]
+    conditioned = condition(sim, real)
+    if sim.command_source:
+        cols = ", ".join(SETPOINT_KINDS[sim.command_source])
+        conditioned.insert(0, f"command: the {sim.command_source} ({cols}) of both logs, which "
+                              "have neither motor outputs nor stick commands")
     rotor_count = structural(sim, real)
     if rotor_count:
         return _different(sim, real, [rotor_count])
@@ -579,6 +615,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     floors = nominal_and_floors(sim, real, info.get("k"))
     nominal, sigma = floors.nominal, floors.sigma
     info["loop"] = floors.loop
+    notes.extend(conditioned)
     yr = measured(real)
     shared = tuple(c for c in nominal.channels if c in yr)
     nominal.channels = shared
@@ -617,10 +654,27 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                                                                                     real),
                   info.get("arm"))
     scorer = Scorer(ctx, yr, sigma)
+    if method == "likelihood":
+        notes.extend(excerpts)
+        from etsid.gap.likelihood import explain_by_likelihood
+
+        say("gap: what this pair could have seen (detectable size of every effect)")
+        base = {"detectable": detectable_sizes(scorer, [real.airborne], Z_MISMATCH),
+                "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+                "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
+                "units": {c: UNITS[c] for c in shared}, "vehicle_check": check,
+                "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
+                            "drag_law": nominal.drag_law, "speed_law": nominal.speed_law,
+                            "channels": list(shared)}}
+        data, series = explain_by_likelihood(sim, real, nominal, sigma, scorer, base, notes,
+                                             info, say)
+        return GapResult(data, sim, real, nominal, series)
     res0 = scorer.residuals()
     r_fit, r_hold = split_evidence(real, res0, sigma)
     mis = mismatch_scores(scorer, real, r_hold)
-    base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+    say("gap: what this pair could have seen (detectable size of every effect)")
+    seen = detectable_sizes(scorer, [real.airborne, r_hold], Z_MISMATCH)
+    base = {"detectable": seen, "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared},
             "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,
@@ -857,6 +911,7 @@ def assemble(base: dict[str, Any], sim: Flight, real: Flight, nominal: NominalMo
     undecided_look_alike(effects, sel)
     loop = info.get("loop")
     caveat_loop_laws(effects, loop, sim.name)
+    cap_below_detectable(effects, base.get("detectable") or {})
     named = [e["name"] for e in effects]
     if unexplained is not None:
         effects.append(unexplained)
@@ -1012,7 +1067,17 @@ def _beyond_range(sel: Selection | None) -> list[str]:
 
 def _ranking(sel: Selection) -> list[dict[str, Any]]:
     def row(s: Scored) -> dict[str, Any]:
-        return {"name": s.fit.name, "share": round(s.share, 4), "score": round(s.score, 4)}
+        # the fitted parameters (and a per-motor law's motor, 1-based as m1 … m8) tell
+        # apart the entries of one effect (weak_motor once per motor, two drag laws …)
+        params: dict[str, Any] = {}
+        for cand, theta, _ in s.fit.split():
+            prefix = f"{cand.name}." if len(s.fit.candidates) > 1 else ""
+            if cand.motor is not None:
+                params[f"{prefix}motor"] = f"m{cand.motor + 1}"
+            for p, value in zip(cand.params, theta, strict=True):
+                params[f"{prefix}{p.name}"] = {"value": float(f"{value:.4g}"), "unit": p.unit}
+        return {"name": s.fit.name, "share": round(s.share, 4), "score": round(s.score, 4),
+                "params": params}
     return [row(s) for s in sel.ranked]
 
 
@@ -1042,7 +1107,8 @@ def series_frame(result: GapResult) -> pd.DataFrame:
 
 def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | None = None,
             vehicle: str | Path | None = None, options: Any = None,
-            progress: Callable[[str], None] | None = None) -> GapResult:
+            progress: Callable[[str], None] | None = None,
+            method: str | None = None) -> GapResult:
     """Read two logs (or saved tables), analyse them, write ``out_dir/gap.json``.
 
     ``options`` is an :class:`etsid.ingest.ReadOptions` for both logs (default: none).
@@ -1055,7 +1121,7 @@ def run_gap(sim_path: str | Path, real_path: str | Path, out_dir: str | Path | N
     sim_table = read_log(sim_path, options)
     real_table = read_log(real_path, options)
     result = analyse(sim_table, real_table, Path(sim_path).name, Path(real_path).name, vehicle,
-                     progress)
+                     progress, method)
     if out_dir is not None:
         write_gap_json(result.data, out_dir)
         frame = series_frame(result)

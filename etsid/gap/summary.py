@@ -6,7 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from etsid.gap.candidates import Candidate
+from etsid.gap.candidates import BY_NAME, Candidate
+from etsid.gap.detectable import words
 from etsid.gap.fitting import Scorer
 from etsid.gap.loop import either
 from etsid.gap.nominal import LABELS, UNITS
@@ -154,7 +155,7 @@ def summary_sentence(data: dict[str, Any]) -> str:
         return f"{data['verdict'].capitalize()}: {data['reason']}." + (
             f" Could hide here: a change of {laws}, since {hide['why']}, and such a change "
             "alters how the loop answers that noise rather than showing its own law."
-            if hide else "")
+            if hide else "") + _blind_spots(data) + _twin(data)
     sim, real = data["sim"]["file"], data["real"]["file"]
     mis = data["mismatch"]
     regime = mis["regime"]
@@ -215,4 +216,39 @@ def summary_sentence(data: dict[str, Any]) -> str:
     elif names and b and a is not None:
         parts.append(f"Held-out RMSE of {LABELS[main]} {b:.3g} → {a:.3g} {UNITS[main]} "
                      f"({100 * (a - b) / b:+.0f} %).")
-    return " ".join(parts)
+    return " ".join(parts) + _blind_spots(data, brief=True) + _twin(data)
+
+
+SOURCE_WORDS = {"sim": "SIM's own model error", "real noise": "REAL's sensor noise",
+                "bias floor": "the flight-to-flight bias floor"}
+
+
+def _blind_spots(data: dict[str, Any], brief: bool = False) -> str:
+    """What the pair could not have seen (gap.json's ``detectable``), and the floors that
+    decided it: every effect's detectable size after a consistent verdict, only the effects
+    the pair is blind to after a mismatch (``brief``)."""
+    seen = data.get("detectable") or {}
+    if not seen:
+        return ""
+    named = {e["name"] for e in data.get("effects", [])}
+    keep = [n for n, e in seen.items() if n not in named
+            and (not brief or e["status"] == "insufficient")]
+    text = words(seen, keep)
+    if not text:
+        return ""
+    noise, source, units = data.get("noise", {}), data.get("noise_source", {}), data["units"]
+    chans = sorted({c for n in keep if seen[n]["status"] == "detectable"
+                    for c in BY_NAME[n].channels if c in noise}) if not brief else []
+    floors = "; ".join(f"{LABELS[c]} {noise[c]:.3g} {units.get(c, UNITS[c])} "
+                       f"({SOURCE_WORDS.get(source.get(c, ''), source.get(c, ''))})"
+                       for c in chans)
+    return (f" This pair could not have seen {text}"
+            + (f" (the floors that decide it: {floors})" if floors else "") + ".")
+
+
+def _twin(data: dict[str, Any]) -> str:
+    """The twin's divergence time, from the notes, as a sentence of the summary."""
+    for n in data.get("notes", []):
+        if "replayed twin that leaves its recording" in n:
+            return f" {n[0].upper()}{n[1:]}."
+    return ""

@@ -127,7 +127,7 @@ def motion_warnings(outputs: dict[str, Any], threshold: float) -> list[str]:
     notes = []
     for y, entry in outputs.items():
         block = ((entry or {}).get("validation") or {}).get("one_step") or {}
-        if block.get("informative") is False:
+        if block.get("informative") is False and not block.get("reason"):
             unit = entry.get("unit") or ""
             notes.append(f"warning: {y}: too little motion in the validation part (std "
                          f"{block['signal_std']:.3g} {unit} < {threshold:g}); its metrics "

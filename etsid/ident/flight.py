@@ -20,7 +20,11 @@ airborne rate dynamics must neither learn nor be judged there. ``--segments``:
     (:func:`armed_airborne`; a log that starts already flying — armed from its first
     sample, at hover thrust, moving — has no ground level and uses the thrust rule).
     Without either, the rule of :func:`airborne_rule` on the thrust command, the altitude
-    and the vertical speed. Without any of them every row counts.
+    and the vertical speed. Without any of them every row counts. A land detector that
+    never says *airborne* in the whole log is not trusted either (a log cut after the
+    take-off, or an autopilot generation whose detector is not run in every flight mode:
+    ArduCopter 3.1–3.2 in its manual-throttle modes): the rule decides, and the method
+    says so.
 ``all``
     Every row (the table's own segments).
 ``T0:T1[,T0:T1…]``
@@ -383,6 +387,10 @@ def select_flight(table: pd.DataFrame, mode: str = "auto") -> FlightSelection:
         landed = _column(table, LANDED)
         if landed is not None and not is_armed_state(table):
             raw_air, method = _detector_airborne(table, landed, t)
+            if not raw_air.any():  # a detector that never says airborne (module docstring)
+                source = (table.attrs.get("mapping") or {}).get(LANDED, LANDED)
+                raw_air, how = airborne_rule(table)
+                method = f"{how}; the land detector ({source}) never says airborne"
         elif landed is not None:
             with np.errstate(invalid="ignore"):
                 raw_air, method = armed_airborne(table, np.nan_to_num(landed, nan=1.0) < 0.5)

@@ -83,7 +83,7 @@ MIN_MOTORS = 4
 
 TORQUE_TOPICS = frozenset({
     "actuator_controls_0", "actuator_controls", "vehicle_torque_setpoint",
-    "vehicle_thrust_setpoint", "RATE", "/mavros/target_actuator_control",
+    "vehicle_thrust_setpoint", "RATE", "CTUN", "/mavros/target_actuator_control",
     "/fmu/out/vehicle_torque_setpoint", "/fmu/out/vehicle_thrust_setpoint",
     "/fmu/out/actuator_controls_0",
 })

@@ -15,7 +15,9 @@ from etsid.ident.regressors import Regression
 from etsid.progress import progress
 
 CHUNK = 4096
-"""Samples learned per call between progress-bar updates."""
+"""Most samples learned per call between progress-bar updates."""
+STEPS = 50
+"""Progress-bar updates over a pass (so the bar moves in steps of 2 %, not 0 → 68 → 100)."""
 
 
 def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
@@ -39,7 +41,8 @@ def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
     n = len(reg.X)
     yhat = np.full(reg.Y.shape, np.nan)
     frozen: dict[str, Any] | None = None
-    bounds = sorted({0, n, *range(0, n, CHUNK), *([stop_at] if 0 < stop_at <= n else [])})
+    chunk = max(64, min(CHUNK, -(-n // STEPS)))
+    bounds = sorted({0, n, *range(0, n, chunk), *([stop_at] if 0 < stop_at <= n else [])})
     with progress(n, label, show) as bar:
         for a, b in itertools.pairwise(bounds):
             S = None if reg.S is None else reg.S[a:b]
@@ -54,10 +57,16 @@ def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
 
 def _merge(model: ETS, reg: Regression, upto: int, merges: list[dict[str, Any]] | None
            ) -> None:
+    state = model.export_state()
+    born = {int(i): int(b) for i, b in zip(state.rule_ids, state.births, strict=True)}
     done = merge_rules(model, reg.X[:upto], reg.Y[:upto],
                        None if reg.S is None else reg.S[:upto])
     if merges is not None:
-        merges.extend({**m, "after_rows": upto, "t": float(reg.t[upto - 1])} for m in done)
+        last = len(reg.t) - 1
+        merges.extend({**m, "after_rows": upto, "t": float(reg.t[upto - 1]),
+                       "absorbed_born_t": float(reg.t[min(max(born.get(m["absorbed"], 1) - 1,
+                                                              0), last)])}
+                      for m in done)
 
 
 def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFrame]:

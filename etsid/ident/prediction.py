@@ -120,7 +120,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     split = 0 if sim_from is None else int(np.searchsorted(reg.t, sim_from, side="left"))
     frozen = ETS.from_dict(data, trusted=True)  # validated by load_rules
     if learn:
-        yhat, _ = learn_online(model, reg, -1, show_progress, "predict")
+        yhat, _ = learn_online(model, reg, -1, show_progress, "predict: samples")
     else:
         yhat = np.asarray(frozen.predict(reg.X, reg.S)).reshape(n, -1)
     cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)

@@ -25,6 +25,13 @@ import pandas as pd
 from etsid.errors import IdentError
 from etsid.ets import ETS
 from etsid.ident.attitude_check import check_attitude_states
+from etsid.ident.blocks import (
+    blocked_line,
+    blocked_validation,
+    not_validated_line,
+    still_tail_lines,
+    tail_informs,
+)
 from etsid.ident.checks import (
     data_warnings,
     excitation_warnings,
@@ -62,8 +69,10 @@ from etsid.ident.structure import (
     behind_lines,
     candidate,
     choose_structure,
+    fallbacks,
     validation_table,
 )
+from etsid.progress import done, say
 
 
 def _rate_note(work: pd.DataFrame) -> str:
@@ -139,6 +148,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     config = config or IdentConfig()
     rate_hz = config.rate_for(not config.outputs)
     table = add_motor_commands(table)
+    say("identify: choosing the inputs and the model")
     chosen = choose_model(table, config)
     spec = chosen.spec
     sigma_native = noise_std(table, spec.outputs)
@@ -155,6 +165,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                else np.ones(len(reg.X), dtype=bool))
     attitude = None
     if chosen.attitude and config.attitude == "auto":
+        say("identify: checking the attitude states on an inner split of the learning part")
         attitude = check_attitude_states(reg, spec, split_excited(excited, config.validate),
                                          excited, len(table), config.validate)
         chosen.notes = [attitude.note if note.startswith("attitude states") else note
@@ -166,6 +177,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     choice = None
     requested_spec, requested_config = spec, config
     if rate_model:
+        say("identify: choosing the structure on an inner split of the learning part")
         choice = _structure(reg, spec, config, excited, table)
         if choice.spec != spec:
             spec, config = choice.spec, choice.config
@@ -186,13 +198,14 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     try:
         merges: list[dict[str, Any]] = []
         yhat, frozen_dict = learn_online(model, reg, split if split < n else -1,
-                                         show_progress, "identify",
+                                         show_progress, "identify: learning online (samples)",
                                          rate_model if config.merge is None
                                          else config.merge, merges)
     except ValueError as err:
         raise IdentError(f"bad eTS parameter: {err}") from err
     if split == n:
         frozen_dict = model.to_dict()
+    say("identify: free run of the held-out part, metrics")
     frozen = ETS.from_dict(frozen_dict, trusted=True) if frozen_dict is not None else None
     cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
     history, consequents = history_frames(model, reg)
@@ -212,6 +225,17 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
                                   EXCITE_STD),
         "sample_rate": rate_info(table),
     }
+    blocked, still_used = None, {}
+    if rate_model and frozen is not None and split < n:
+        tail = tail_informs(reg, spec, split, EXCITE_STD)
+        blocked = blocked_validation(reg, spec, config, excited, config.validate, len(table),
+                                     cols["y_persist"], EXCITE_STD)
+        metrics["validation"]["tail_motion"] = tail
+        metrics["validation_blocks"] = blocked
+        lines, still_used = still_tail_lines(metrics["outputs"], tail, blocked)
+        unvalidated = not_validated_line(tail, blocked)
+        chosen.notes.extend(([blocked_line(blocked)] if blocked else []) + lines
+                            + ([unvalidated] if unvalidated else []))
     chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
     if choice is not None and frozen is not None and split < n:
         metrics["structure"] = {**choice.to_dict(), "validation": validation_table(
@@ -219,6 +243,9 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
                                          float(np.count_nonzero(excited[:split]) * dt),
                                          1.0 / dt, reg.X.shape[1] + 1))
+        used = {**fallbacks(metrics["outputs"]), **still_used}
+        for y in spec.outputs:
+            metrics["outputs"][y]["used"] = used.get(y, "eTS")
     metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
                                            split)
     run_config = {
@@ -232,6 +259,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
         "warnings": list(table.attrs.get("warnings") or []),
     }
     radius = rotor_radius(table.attrs)
+    done()
     return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
                history, consequents, rules_json(frozen_dict, spec, rate, radius),
                rules_json(model.to_dict(), spec, rate, radius))

@@ -19,7 +19,9 @@ is frozen and simulated over it. Criterion, fixed before any run: the mean free-
 over the body-rate outputs that move in the inner validation (std ≥ 0.05 rad/s); the
 simplest candidate (``arx`` < ``unscheduled`` < ``scheduled``) within :data:`MARGIN`
 points of the best is chosen, so a structure must earn its rules. The validation part is
-never looked at. On the validation part every candidate is scored and the chosen one is
+never looked at. When the learning part is too short for an inner split nothing can be
+checked, and the simplest candidate (one rule, ARX) is taken and said to be unchecked. On
+the validation part every candidate is scored and the chosen one is
 compared with ARX and no-change persistence (:func:`behind_lines`).
 """
 
@@ -50,7 +52,8 @@ ORDER = ("arx", "unscheduled", "scheduled")
 MARGIN = 0.5
 """Points of mean inner free-run fit a more complex structure must gain to be chosen."""
 MIN_INNER_ROWS = 50
-"""Fewest inner-validation rows for a decision; fewer keep the requested structure."""
+"""Fewest inner-validation rows for a decision; with fewer (or too few rows to learn on
+before them) nothing can be checked and the simplest candidate, one rule (ARX), is kept."""
 MOVING_STD = 0.05
 """Least std of an output in the inner validation to take part in the criterion, rad/s."""
 BEHIND = 1.02
@@ -124,11 +127,14 @@ def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
     names = [n for n in ORDER if n != "scheduled" or spec.antecedent]
     inner = split_excited(excited[:split], config.validate or 0.3) if split > 0 else 0
     n_params = reg.X.shape[1] + 1
-    requested = "scheduled" if spec.antecedent else "unscheduled"
     if split - inner < MIN_INNER_ROWS or inner < 2 * n_params:
-        return StructureChoice(requested, spec, config,
-                               f"structure: {requested} eTS, unchecked (learning part too "
-                               "short for an inner split)")
+        c_spec, c_config = candidate("arx", spec, config)
+        return StructureChoice("arx", c_spec, c_config,
+                               "structure: one rule (ARX), the simplest, unchecked: the "
+                               "learning part is too short for an inner split "
+                               f"({inner} learning and {split - inner} checking rows; want "
+                               f"≥ {2 * n_params} and ≥ {MIN_INNER_ROWS}), so no richer "
+                               "structure could earn its place; --structure to force")
     fits: dict[str, dict[str, float]] = {}
     for name in names:
         c_spec, c_config = candidate(name, spec, config)
@@ -194,16 +200,36 @@ def _block(reg: Regression, split: int, one: np.ndarray, sim: np.ndarray | None,
             for o, y in enumerate(spec.outputs)}
 
 
+def _one_step(block: dict[str, Any]) -> tuple[dict[str, Any], Any, Any, Any]:
+    one = (block.get("validation") or {}).get("one_step") or {}
+    arx = ((block.get("arx") or {}).get("validation") or {}).get("one_step") or {}
+    pers = (block.get("persistence") or {}).get("validation") or {}
+    return one, one.get("rmse"), arx.get("rmse"), pers.get("rmse")
+
+
+def fallbacks(outputs: dict[str, Any]) -> dict[str, str]:
+    """Per informative output where the chosen eTS is behind a baseline on validation
+    (one-step RMSE above :data:`BEHIND` × ARX's or above persistence's): the better of the
+    two baselines, ``ARX`` or ``no-change``, which is this run's model for that axis."""
+    out = {}
+    for y, block in outputs.items():
+        one, e, a, p = _one_step(block)
+        if e is None or one.get("informative") is False:
+            continue
+        if (a is not None and e > BEHIND * a) or (p is not None and e > p):
+            out[y] = "ARX" if a is not None and (p is None or a <= p) else "no-change"
+    return out
+
+
 def behind_lines(outputs: dict[str, Any], rules: int, excited_learn_s: float,
                  rate_hz: float, n_params: int) -> list[str]:
     """One line per informative output where the chosen eTS's validation one-step RMSE is
-    above :data:`BEHIND` × ARX's or above persistence's, with the likely reason."""
+    above :data:`BEHIND` × ARX's or above persistence's, with the likely reason and the
+    baseline this run uses for that axis instead (:func:`fallbacks`)."""
     lines = []
+    used = fallbacks(outputs)
     for y, block in outputs.items():
-        one = (block.get("validation") or {}).get("one_step") or {}
-        arx = ((block.get("arx") or {}).get("validation") or {}).get("one_step") or {}
-        pers = (block.get("persistence") or {}).get("validation") or {}
-        e, a, p = one.get("rmse"), arx.get("rmse"), pers.get("rmse")
+        one, e, a, p = _one_step(block)
         if e is None or one.get("informative") is False:
             continue
         behind = []
@@ -229,5 +255,6 @@ def behind_lines(outputs: dict[str, Any], rules: int, excited_learn_s: float,
             why = ("one regime only: one rule learnt recursively (RLS prior and start-up) "
                    "where batch least squares fits better")
         lines.append(f"warning: {y}: eTS validation one-step RMSE {e:.4g} is behind "
-                     f"{' and '.join(behind)}; likely reason: {why}")
+                     f"{' and '.join(behind)}; likely reason: {why}; {y} falls back to "
+                     f"{used[y]} (metrics.json outputs.{y}.used)")
     return lines

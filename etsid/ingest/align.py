@@ -26,6 +26,7 @@ import pandas as pd
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
+from etsid.ingest.outputs import drop_unused_outputs
 from etsid.ingest.plausibility import check_signals
 from etsid.ingest.vehicle import FACTS
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
@@ -214,4 +215,4 @@ def build_table(
     if isinstance(layout, dict) and "m1" in cleaned and cleaned["m1"].topic == layout.get("topic"):
         # the layout's motor order holds for the motor topic it names only
         table.attrs["motor_layout"] = {k: v for k, v in layout.items() if k != "topic"}
-    return validate(table)
+    return validate(drop_unused_outputs(table))

@@ -9,12 +9,12 @@ candidates (:mod:`etsid.ingest.mapping`) and putting them on one grid
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from etsid.escape import printable as printable  # the one escaping path, re-exported
 from etsid.pwm import DEFAULT_RC_MAP, DEFAULT_RC_RANGE_US
 
 
@@ -133,25 +133,6 @@ class ReadOptions:
     def field_requests(self) -> list[Override]:
         """Overrides that ask for an explicit field the reader must extract itself."""
         return [o for o in self.overrides if o.field]
-
-
-_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e\u2066-\u2069]")
-
-
-def printable(text: str) -> str:
-    r"""``text`` with control characters shown as ``\xNN`` (``\uNNNN`` for bidi marks).
-
-    Topic and message names come from the log: an ESC (CSI, OSC 52 "copy to
-    clipboard"), BEL, CR or newline in one must never reach a terminal or a report raw.
-
-    >>> printable("/x\x1b]52;c;ZWNobw==\x07")
-    '/x\\x1b]52;c;ZWNobw==\\x07'
-    """
-    def shown(match: re.Match[str]) -> str:
-        code = ord(match.group())
-        return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
-
-    return _UNPRINTABLE.sub(shown, text)
 
 
 def split_source(source: str) -> tuple[str, str]:

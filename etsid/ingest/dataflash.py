@@ -17,16 +17,19 @@ p q r        RATE R/P/Y deg/s, cdeg/s in 3.x (0), IMU GyrX… rad/s (2), IMU2 (3
 roll…        ATT Roll/Pitch/Yaw deg (0; Yaw 0…360 wrapped to ±180)
 sp_roll…     ATT DesRoll/DesPitch/DesYaw deg (0; DesYaw wrapped to ±180): attitude setpoints
 ax ay az     IMU AccX… m/s² (0), IMU2 (1), IMU3 (2)
-u_*          RCIN C1… via ``rc_map`` (0); RATE ROut/POut/YOut, AOut (5: controller outputs)
+u_*          RCIN C1… via ``rc_map`` (0); RATE ROut/POut/YOut, AOut (5: controller outputs);
+             u_thrust also CTUN ThrOut / ThO from 3.4 (7: the throttle sent to the motors,
+             0…1000 up to 3.3, 0…1 later)
 sp_*         RATE RDes/PDes/YDes deg/s (0)
 m1…m8        RCOU C1…C8, RC range (1000–2000 µs) → 0…1 (0)
 alt          RFND Dist (m; old logs' Dist1 in cm, decided from FMTU units or the field's
              integer type), downward (Orient 25) when the field exists (0);
              CTUN BarAlt/BAlt m (1), BARO Alt m (2): barometric height above arming
 vbat         BAT Volt (0)
-landed       EV Id (ArduPilot ``LogEvent``): with land-complete events in the log, a land
+landed       EV Id (ArduPilot ``LogEvent``): with a take-off event in the log, a land
              detector (0): LAND_COMPLETE 18, DISARMED 11, ARMED 10, AUTO_ARMED 15 → 1
-             (on the ground), NOT_LANDED 28 → 0; otherwise an armed state (1): DISARMED 11
+             (on the ground), NOT_LANDED 28 or TAKEOFF 16 (3.1–3.2) → 0; otherwise an
+             armed state (1): DISARMED 11
              → 1, ARMED 10 / AUTO_ARMED 15 → 0 (source ``EV.Id (armed)``). ARM ArmState
              (2, armed state: 0 → 1, 1 → 0). Events are sparse: the state is sampled at
              :data:`EVENT_STATE_HZ` from the first event to the end of the log (held).
@@ -54,12 +57,14 @@ from pathlib import Path
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.files import check
 from etsid.ingest import dataflash_index
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.dataflash_legacy import (
     BOOT_TIME_FIELDS,
     baro_altitude,
+    ctun_throttle_scale,
     file_times,
     out_scales,
     rate_scale,
@@ -72,8 +77,16 @@ DEG = np.pi / 180.0
 NEEDED = ("ATT", "RATE", "IMU", "IMU2", "IMU3", "RCIN", "RCOU", "BAT", "RFND", "GPS", "EV",
           "ARM", "CTUN", "BARO")
 EV_ARMED, EV_DISARMED, EV_AUTO_ARMED = 10, 11, 15
-EV_LAND_COMPLETE, EV_NOT_LANDED = 18, 28
-"""ArduPilot ``LogEvent`` ids (AP_Logger), the ones that say armed or landed."""
+EV_TAKEOFF, EV_LAND_COMPLETE, EV_NOT_LANDED = 16, 18, 28
+"""ArduCopter ``LogEvent`` ids (``DATA_*`` in ArduCopter/defines.h, AP_Logger since 4.x),
+the ones that say armed or landed. The numbers are the same in every generation 3.1–4.x;
+what a generation writes differs (:func:`_landed`): ``DATA_TAKEOFF`` (16) exists up to 3.2,
+where the manual-throttle modes log it at lift-off and never clear the land-complete flag
+(so a 3.1 flight in Stabilize has a LAND_COMPLETE and no NOT_LANDED); 16 is unused later."""
+EV_AIR = (EV_NOT_LANDED, EV_TAKEOFF)
+"""Events that mean the vehicle left the ground (in any generation)."""
+EV_GROUND = (EV_LAND_COMPLETE, EV_DISARMED, EV_ARMED, EV_AUTO_ARMED)
+"""Events that mean it is on the ground (arming happens there)."""
 EVENT_STATE_HZ = 10.0
 """Rate at which a state known from events (EV, ARM) is sampled, Hz."""
 _NP = {"b": "i1", "B": "u1", "h": "<i2", "H": "<u2", "i": "<i4", "I": "<u4", "q": "<i8",
@@ -156,7 +169,8 @@ def _reader_class() -> type:
 def _open(path: Path) -> tuple[object, str]:
     try:
         with _captured_output() as noise:
-            reader = _reader_class()(str(path), zero_time_base=False)
+            reader = _reader_class()(str(check(path, "log", IngestError)),
+                                     zero_time_base=False)
     except Exception as err:  # DFReader raises bare Exceptions on broken files
         raise IngestError(f"{path}: not a readable DataFlash log ({err})") from err
     return reader, "".join(noise)
@@ -266,6 +280,13 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
         out += _rangefinder(d)
     for name, d, field, prio in baro_altitude(msgs.get("CTUN"), msgs.get("BARO")):
         out.append(Signal("alt", d.t, d.f(field), f"{name}.{field}", prio))
+    if (d := msgs.get("CTUN")) is not None:
+        for field in ("ThrOut", "ThO"):  # ThO from 3.4 on
+            if d.has(field):
+                v = d.f(field)
+                out.append(Signal("u_thrust", d.t, v * ctun_throttle_scale(v), f"CTUN.{field}",
+                                  7))
+                break
     return out + _landed(msgs)
 
 
@@ -278,14 +299,18 @@ def _held_state(t: np.ndarray, v: np.ndarray, t_end: float) -> tuple[np.ndarray,
 
 
 def _landed(msgs: dict[str, _Decoded]) -> list[Signal]:
-    """``landed`` from EV events (land detector or armed state) and ARM (armed state)."""
+    """``landed`` from EV events (land detector or armed state) and ARM (armed state).
+
+    The events are a land detector only when the log holds a take-off event
+    (:data:`EV_AIR`: NOT_LANDED, or 3.1–3.2's TAKEOFF): a LAND_COMPLETE without one (3.1–3.2
+    in manual-throttle modes, or a log cut before the take-off) would say "on the ground"
+    for a whole flight; such a log's events are read as its armed state instead."""
     out: list[Signal] = []
     t_end = max((float(d.t[-1]) for d in msgs.values() if d.t.size), default=0.0)
     if (d := msgs.get("EV")) is not None and d.has("Id"):
         ids = d.rec["Id"].astype(np.int64)
-        if np.isin(ids, (EV_LAND_COMPLETE, EV_NOT_LANDED)).any():
-            ground, air, source, prio = ((EV_LAND_COMPLETE, EV_DISARMED, EV_ARMED, EV_AUTO_ARMED),
-                                         (EV_NOT_LANDED,), "EV.Id", 0)
+        if np.isin(ids, EV_AIR).any():  # a land detector needs a take-off to be one
+            ground, air, source, prio = EV_GROUND, EV_AIR, "EV.Id", 0
         else:
             ground, air, source, prio = ((EV_DISARMED,), (EV_ARMED, EV_AUTO_ARMED),
                                          "EV.Id (armed)", 1)

@@ -12,6 +12,9 @@
   4.x; the unit is decided by comparing ``RATE.R`` with the IMU gyro (:func:`rate_scale`).
   ``ROut POut YOut`` are ±4500 and ``AOut`` 0…1000 in 3.x, ±1 and 0…1 in 4.x
   (:func:`out_scales`).
+- **Throttle**: ``CTUN.ThrOut`` is an int16 0…1000 up to 3.3; from 3.4 ``CTUN.ThO`` a float
+  0…1 (:func:`ctun_throttle_scale`).
+- **Events**: :mod:`etsid.ingest.dataflash` ``_landed`` (TAKEOFF 16 up to 3.2).
 - **Altitude**: without a rangefinder the barometric height above the arming point,
   ``CTUN.BarAlt`` (3.x; ``BAlt`` in 4.x) or ``BARO.Alt`` (:func:`baro_altitude`).
 """
@@ -85,6 +88,20 @@ def out_scales(fields: dict[str, np.ndarray]) -> dict[str, float]:
     full scales (:data:`OUT_3X`) when any output exceeds 1.5 in magnitude, else 1."""
     big = any(np.nanmax(np.abs(v), initial=0.0) > 1.5 for v in fields.values() if v.size)
     return {name: (1.0 / OUT_3X[name] if big else 1.0) for name in fields}
+
+
+CTUN_THR_3X = 1000.0
+"""Full scale of ``CTUN.ThrOut`` up to 3.3 (an int16 0…1000); ``ThO`` (3.4 on) is 0…1."""
+
+
+def ctun_throttle_scale(thr_out: np.ndarray) -> float:
+    """Scale of ``CTUN.ThrOut`` to 0…1: ``1/1000`` when any value exceeds 1.5 (3.x), else 1.
+
+    >>> ctun_throttle_scale(np.array([0.0, 450.0]))
+    0.001
+    """
+    big = np.nanmax(np.abs(thr_out), initial=0.0) > 1.5
+    return 1.0 / CTUN_THR_3X if big else 1.0
 
 
 def baro_altitude(ctun: object | None, baro: object | None) -> list[tuple[str, object, str, int]]:

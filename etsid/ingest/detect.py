@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import importlib
-import stat
 from collections.abc import Callable
 from pathlib import Path
 
 from etsid.errors import IngestError
+from etsid.files import check, open_binary
 from etsid.ingest.base import RawLog, ReadOptions
 
 FORMATS: dict[str, str] = {
@@ -29,6 +29,16 @@ EXTENSIONS = {
     ".mcap": "mcap",
 }
 
+FORMAT_WORDS = {
+    "tlog": "a MAVLink telemetry log",
+    "bin": "an ArduPilot DataFlash log",
+    "ulog": "a PX4 ULog file",
+    "ros1": "a ROS 1 bag",
+    "ros2": "a ROS 2 bag database (SQLite)",
+    "mcap": "an MCAP file",
+}
+"""Each format in words, for messages (the keys are internal names, not what users know)."""
+
 MAGIC = {
     "bin": b"\xa3\x95",
     "ulog": b"ULog\x01\x12\x35",
@@ -39,20 +49,11 @@ MAGIC = {
 
 
 def _head(path: Path, size: int = 16) -> bytes:
-    try:
-        with path.open("rb") as handle:
+    with open_binary(path, "log", IngestError) as handle:
+        try:
             return handle.read(size)
-    except PermissionError as err:
-        raise IngestError(f"{path}: permission denied") from err
-    except OSError as err:
-        raise IngestError(f"{path}: cannot read ({err.strerror or err})") from err
-
-
-def special_kind(mode: int) -> str:
-    """What a file that is not a regular file is (its ``st_mode``), in words."""
-    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
-             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
-    return next((name for test, name in kinds if test(mode)), "a special file")
+        except OSError as err:
+            raise IngestError(f"{path}: cannot read ({err.strerror or err})") from err
 
 
 def detect_format(path: Path) -> str:
@@ -81,10 +82,7 @@ def detect_format(path: Path) -> str:
         storage = sorted(p.name for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
         hint = f" (it holds {', '.join(storage)}: pass that file instead)" if storage else ""
         raise IngestError(f"{path}: directory without metadata.yaml is not a ROS 2 bag{hint}")
-    info = path.stat()
-    if not stat.S_ISREG(info.st_mode):
-        raise IngestError(f"{path}: not a regular file but {special_kind(info.st_mode)}: "
-                          "logs are read from files")
+    info = check(path, "log", IngestError).stat()
     if info.st_size == 0:
         raise IngestError(f"{path}: empty file")
     head = _head(path)
@@ -98,7 +96,7 @@ def detect_format(path: Path) -> str:
                           "directory, or a saved .parquet/.csv table)")
     magic = MAGIC.get(fmt)
     if magic is not None and not head.startswith(magic[: len(head)]):
-        raise IngestError(f"{path}: not a {fmt} file (its first bytes are wrong)")
+        raise IngestError(f"{path}: not {FORMAT_WORDS[fmt]} (its first bytes are wrong)")
     if fmt == "tlog" and len(head) > 8 and head[8] not in (0xFE, 0xFD):
         raise IngestError(f"{path}: not a MAVLink telemetry log (no MAVLink packet after the "
                           "first 8-byte timestamp)")

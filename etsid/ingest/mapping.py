@@ -11,7 +11,10 @@ Rule when several signals can fill one column (documented in docs/ingest.md):
 4. rate beats priority for the inertial signals (body rates ``p q r`` and specific force
    ``ax ay az``): when the preferred source is slower than :data:`SLOW_RATE_HZ` (too slow
    for the rate loop, e.g. DataFlash ``RATE`` at 10 Hz) and another candidate is at least
-   twice as fast (``IMU.GyrX`` at 49 Hz), the fastest candidate wins (:func:`prefer_rate`).
+   twice as fast (``IMU.GyrX`` at 49 Hz), the fastest candidate wins (:func:`prefer_rate`);
+5. content beats name for the measured columns: a candidate empty over most of the
+   flight or stuck at one value gives way to a sound one
+   (:mod:`etsid.ingest.source_check`), and the note says which and why.
 
 A caller that has already chosen the signal of some columns by its own rule (identify's
 input family, :mod:`etsid.ident.inputs`) passes them as ``preset``; they are used as given
@@ -21,11 +24,12 @@ candidate is reported in ``attrs["warnings"]``.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from etsid.errors import IngestError
+from etsid.files import read_toml
 from etsid.ingest.base import DEFAULT_RC_MAP, Override, Signal, split_source
+from etsid.ingest.source_check import order_by_content, reference_span
 from etsid.table import COLUMNS
 
 
@@ -59,12 +63,9 @@ def load_mapping_file(path: str | Path) -> tuple[list[Override], dict[str, int]]
         u_yaw = 4
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise IngestError(f"{path}: mapping file not found") from err
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise IngestError(f"{path}: not a valid TOML mapping file ({err})") from err
+    if not path.exists():
+        raise IngestError(f"{path}: mapping file not found")
+    data = read_toml(path, "mapping", IngestError, "TOML mapping file")
     unknown = set(data) - {"map", "rc"}
     if unknown:
         raise IngestError(f"{path}: unknown section(s) {sorted(unknown)}; use [map] and [rc]")
@@ -136,6 +137,7 @@ def choose_signals(
     notes
         Human-readable notes on ambiguous columns.
     """
+    span = reference_span(signals)
     by_column: dict[str, list[Signal]] = {}
     for sig in signals:
         if sig.t.size:
@@ -162,10 +164,13 @@ def choose_signals(
                 )
             cands = picked
         cands = sorted(cands, key=signal_rank)
+        why = None
         if override is None:
-            cands = prefer_rate(column, cands)
+            cands, why = order_by_content(column, prefer_rate(column, cands), span)
         chosen[column] = cands[0]
-        if len({s.source for s in cands}) > 1 and override is None:
+        if why is not None:
+            notes.append(why)
+        elif len({s.source for s in cands}) > 1 and override is None:
             others = ", ".join(s.source for s in cands[1:])
             notes.append(f"{column}: used {cands[0].source} (also found {others})")
     for column, override in wanted.items():

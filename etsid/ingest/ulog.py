@@ -28,9 +28,11 @@ u_thrust     also the thrust setpoints: vehicle_rates_setpoint thrust (old) / �
              thrust command; used with rate or attitude setpoints as inputs)
 m1…m8        actuator_motors control[0..7] (0), actuator_outputs output[0..7] PWM,
              RC range (1000–2000 µs) → 0…1 (1)
-alt          distance_sensor current_distance, downward (orientation 25) (0),
-             vehicle_local_position dist_bottom where dist_bottom_valid (1), −z (5)
-vx vy vz     vehicle_local_position (0)
+alt          distance_sensor current_distance, downward (orientation 25), where
+             signal_quality ≠ 0 and within min/max_distance (0), vehicle_local_position
+             dist_bottom where dist_bottom_valid (1), −z where z_valid (5); then judged by
+             content (:mod:`etsid.ingest.source_check`)
+vx vy vz     vehicle_local_position (0), where v_xy_valid / v_z_valid
 vbat         battery_status voltage_filtered_v (0), voltage_v (1)
 ============ ============================================================================
 
@@ -47,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.frames import quat_to_euler
 from etsid.ingest import ulog_clean
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
@@ -159,12 +162,22 @@ def _setpoints(topics: dict[str, Topic]) -> list[Signal]:
     return out
 
 
+def _valid_only(sig: Signal, d: Topic, flag: str) -> Signal:
+    """``sig`` blanked (NaN) where the topic's validity ``flag`` is 0, when it has one."""
+    if d.has(flag) and np.any(d.data[flag] == 0):
+        sig.values = np.where(d.data[flag] != 0, sig.values, np.nan)
+    return sig
+
+
 def _position(topics: dict[str, Topic]) -> list[Signal]:
     out: list[Signal] = []
     if (d := topics.get("vehicle_local_position")) is not None:
-        out += [d.sig(c, c, 0) for c in ("vx", "vy", "vz") if d.has(c)]
+        for c in ("vx", "vy", "vz"):
+            if d.has(c):
+                out.append(_valid_only(d.sig(c, c, 0), d, "v_z_valid" if c == "vz"
+                                       else "v_xy_valid"))
         if d.has("z"):
-            out.append(d.sig("alt", "z", 5, -1.0))
+            out.append(_valid_only(d.sig("alt", "z", 5, -1.0), d, "z_valid"))
         if d.has("dist_bottom"):
             v = d.f("dist_bottom")
             if d.has("dist_bottom_valid"):
@@ -175,6 +188,11 @@ def _position(topics: dict[str, Topic]) -> list[Signal]:
         v = d.f("current_distance")
         if d.has("orientation"):
             v[d.data["orientation"] != 25] = np.nan
+        if d.has("signal_quality"):  # 0 = invalid signal, −1 unknown, 1…100 quality
+            v[d.data["signal_quality"] == 0] = np.nan
+        if d.has("min_distance") and d.has("max_distance"):
+            with np.errstate(invalid="ignore"):
+                v[(v < d.f("min_distance")) | (v > d.f("max_distance"))] = np.nan
         if np.isfinite(v).any():
             out.append(Signal("alt", d.t, v, f"{d.name}.current_distance", 0))
     return out
@@ -254,7 +272,8 @@ def _parse(path: Path, names: list[str], cleaned: ulog_clean.Cleaned) -> object:
         # the file is opened here and closed on every path: pyulog, given a name, leaves
         # its handle open when it gives up on a damaged file (a ResourceWarning later)
         with (io.BytesIO(ulog_clean.payload(path, cleaned)) if cleaned.changed
-              else path.open("rb")) as handle, contextlib.redirect_stdout(io.StringIO()), \
+              else open_binary(path, "log", IngestError)) as handle, \
+                contextlib.redirect_stdout(io.StringIO()), \
                 contextlib.redirect_stderr(io.StringIO()):
             return ULog(handle, message_name_filter_list=names)
     except Exception as err:  # pyulog raises many types on broken files

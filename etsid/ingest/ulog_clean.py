@@ -29,6 +29,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest import mapped
 
 HEADER_BYTES = 16
@@ -126,7 +128,8 @@ def clean(path: Path) -> Cleaned:
     if size <= HEADER_BYTES:
         out.spans = [(0, size)]
         return out
-    with path.open("rb") as handle, mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+    with open_binary(path, "log", IngestError) as handle, \
+            mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as mm:
         buf = np.frombuffer(mm, dtype=np.uint8)
         try:
             start = pos = HEADER_BYTES
@@ -216,7 +219,8 @@ def _recursive_formats(mm: mmap.mmap, spans: list[tuple[int, int]]
 def payload(path: Path, cleaned: Cleaned) -> bytes:
     """The bytes pyulog reads: the kept spans, with replaced format messages."""
     parts: list[bytes] = []
-    with path.open("rb") as handle, mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+    with open_binary(path, "log", IngestError) as handle, \
+            mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as mm:
         for a, b in cleaned.spans:
             pos = a
             for at in sorted(p for p in cleaned.replace if a <= p < b):

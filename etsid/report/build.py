@@ -15,11 +15,12 @@ from typing import Any
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from etsid.errors import IdentError, ReportError
+from etsid.files import read_bytes
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.page import HINT, esc, html_page, make_shared_dir, markdown_safe, table_html
 from etsid.report.regimes import regimes_html, regimes_markdown
-from etsid.report.tables import metrics_rows, rules_text
+from etsid.report.tables import merges_text, metrics_rows, rule_counts, rules_text
 
 FORMATS = ("png", "svg", "pdf")
 
@@ -156,19 +157,20 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet, base: Path | None = 
     report = Report(out)
     embedded: dict[str, tuple[str, str]] = {}
     count = len(FIGURES)
-    say(f"report: drawing {count} static figure{'s' if count != 1 else ''} ({fmt}) …")
-    for name, (builder, caption) in FIGURES.items():
+    for i, (name, (builder, caption)) in enumerate(FIGURES.items(), start=1):
+        say(f"report: drawing static figure {i}/{count}, {name}.{fmt} …")
         fig = _build(builder, run, caption)
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
         if fmt == "png":
             embedded[name] = ("image/png", base64.b64encode(
-                report.figures[name].read_bytes()).decode())
+                read_bytes(report.figures[name], "figure", ReportError)).decode())
         elif fmt == "svg":
             embedded[name] = ("image/svg+xml", base64.b64encode(
-                report.figures[name].read_bytes()).decode())
+                read_bytes(report.figures[name], "figure", ReportError)).decode())
         else:
             png = save_figure(fig, out / f"{name}.png")
-            embedded[name] = ("image/png", base64.b64encode(png.read_bytes()).decode())
+            embedded[name] = ("image/png", base64.b64encode(
+                read_bytes(png, "figure", ReportError)).decode())
     rules = rules_text(run)
     report.html = out / "index.html"
     report.html.write_text(render_html(run, embedded, rules,
@@ -195,15 +197,20 @@ def interactive_parts(run: Run, say: Say = quiet, base: Path | None = None
     say(f"report: reading {source} again for the flight overview …" if source else
         "report: building the interactive plots …")
     flight = read_flight(run, base)
-    say("report: building the interactive plots …")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t = run.predictions["t"].to_numpy(dtype=float)
         # one linked time range per section: each section is drawn on its own
-        groups = {"overview": overview_plots(run, flight, ia.shared_range(t)),
-                  "validation": validation_plots(run),
-                  "online": online_plots(run, ia.shared_range(t)),
-                  "structure": structure_plots(run, ia.shared_range(t))}
+        builders = {"overview": lambda: overview_plots(run, flight, ia.shared_range(t)),
+                    "validation": lambda: validation_plots(run),
+                    "online": lambda: online_plots(run, ia.shared_range(t)),
+                    "structure": lambda: structure_plots(run, ia.shared_range(t))}
+        groups: dict[str, Any] = {}
+        for i, (name, build_section) in enumerate(builders.items(), start=1):
+            say(f"report: building the interactive plots, section {i}/{len(builders)} "
+                f"({name}) …")
+            groups[name] = build_section()
+    say("report: writing index.html (the plots embedded) …")
     head, divs = ia.embed({k: ia.column(*v) for k, v in groups.items() if v})
     return head, divs, flight.notes
 
@@ -244,9 +251,11 @@ def summary_lines(run: Run) -> list[str]:
         f"{model.get('regressors', '')}.",
         f"{met.get('n_samples')} usable samples; skipped rows: "
         + ", ".join(f"{k} {v}" for k, v in (met.get("skipped") or {}).items()) + ".",
-        f"Rules: final {met['rules'].get('final')}, peak {met['rules'].get('peak')}, "
-        f"frozen model (rules.json) {met['rules'].get('frozen')}.",
+        rule_counts(met["rules"]).capitalize() + ".",
     ]
+    merged = merges_text(met["rules"], run.rules, val.get("n_learn"))
+    if merged:
+        lines.append(merged[0].upper() + merged[1:] + ".")
     if val.get("t_start") is not None:
         lines.append(f"Validation: last {val.get('n_validation')} samples from "
                      f"t = {val['t_start']:.2f} s, learned on the first {val.get('n_learn')}.")

@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from etsid import progress
 from etsid.errors import SimError
-from etsid.sim.engine import MEAS_COLUMNS, ROTOR_BLOCKS, TRUTH_COLUMNS, run_flight
+from etsid.sim.engine import MEAS_COLUMNS, ROTOR_BLOCKS, TRUTH_COLUMNS, advance, run_flight
 from etsid.sim.params import N_NOISE
 from etsid.sim.plant import initial_state, make_plant, noise_levels, noise_std
 from etsid.sim.scenarios import build_references, resolve_params
@@ -21,6 +22,32 @@ from etsid.sim.trim import hover_trim
 from etsid.sim.vehicle import Vehicle, load_vehicle
 
 MIN_PHYSICS_HZ = 1000.0
+MAX_SIM_BYTES = 2 * 2**30
+"""Memory a simulation may take (arrays of every physics step): 3600 s at 250 Hz needs
+about 0.6 GiB."""
+
+
+def refuse_non_finite(table: pd.DataFrame, what: str) -> None:
+    """Refuse a simulated table holding a NaN or infinity: the physics left its domain.
+
+    Raises
+    ------
+    SimError
+        Naming the first channel (in column order) that is not finite and the time, s.
+    """
+    values = table.to_numpy(dtype=float, na_value=np.nan)
+    bad = ~np.isfinite(values)
+    if not bad.any():
+        return
+    rows, cols = np.nonzero(bad)
+    first = int(np.argmin(rows))
+    share = 100.0 * bad.any(axis=1).mean()
+    raise SimError(f"{what}: the simulation left the physics' domain: {table.columns[cols[first]]} "
+                   f"is not finite from t = {table.index[rows[first]]:.3f} s ({share:.0f} % of "
+                   "the rows); check the vehicle's fields and the settings")
+
+PROGRESS_STEPS = 50
+"""Pieces a flight is flown in when the CLI shows progress (the same flight, bit for bit)."""
 
 
 @dataclass
@@ -107,6 +134,12 @@ def simulate(
     if n_out < 2:
         raise SimError(f"duration {params['duration']!r} s is too short for rate {rate_hz} Hz")
     n_steps = n_out * k_out
+    need = n_steps * 8.0 * (N_NOISE + 12) + n_out * 8.0 * (60 + 6 * veh.n_rotors)
+    if need > MAX_SIM_BYTES:
+        raise SimError(f"{params['duration']:g} s at {rate_hz:g} Hz ({n_steps} physics steps) "
+                       f"needs about {need / 2**30:.1f} GiB, more than the "
+                       f"{MAX_SIM_BYTES / 2**30:.0f} GiB a simulation may use: fly a shorter "
+                       "flight or a lower --rate")
     t = np.arange(n_steps) * dt
 
     alt0 = float(params["altitude"])
@@ -126,10 +159,13 @@ def simulate(
     S0 = initial_state(plant, alt0, ground_effect=ground_effect,
                        command=None if params["alt_hold"] else throttle)
     n_rot = veh.n_rotors
-    meas, truth = run_flight(S0, plant.P, plant.inertia, plant.rpos, plant.spin, plant.dists,
-                             plant.mix, refs.exc, refs.alt_sp, refs.alt_rate, refs.vel_sp,
-                             refs.thr_manual, np.zeros((0, n_rot)), noise, k_out,
-                             plant.rf_every)
+    args = (plant.P, plant.inertia, plant.rpos, plant.spin, plant.dists, plant.mix, refs.exc,
+            refs.alt_sp, refs.alt_rate, refs.vel_sp, refs.thr_manual, np.zeros((0, n_rot)),
+            noise, k_out, plant.rf_every)
+    if progress.enabled():
+        meas, truth = _fly_in_steps(S0, args, n_out, k_out, rate_hz, scenario)
+    else:
+        meas, truth = run_flight(S0, *args)
     index = pd.Index(np.arange(n_out) / rate_hz, name="t")
     motors = [f"m{i + 1}" for i in range(n_rot)]
     table = pd.DataFrame(meas, index=index, columns=[*MEAS_COLUMNS, *motors])
@@ -157,4 +193,34 @@ def simulate(
                          "spin": veh.spin.tolist()},
     }
     truth_df.attrs = dict(table.attrs)
+    refuse_non_finite(table, f"scenario {scenario!r} with vehicle {veh.name!r}")
     return SimFlight(table=table, truth=truth_df, vehicle=veh, params=params)
+
+
+def _fly_in_steps(S0: np.ndarray, args: tuple[Any, ...], n_out: int, k_out: int,
+                  rate_hz: float, scenario: str) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`run_flight` in pieces of whole output rows, with progress in flight seconds.
+
+    :func:`advance` continues from the state it leaves, so the rows are those of one call.
+    """
+    (P, inertia, rpos, spin, dists, mix, exc, alt_sp, alt_rate, vel_sp, thr_manual, motors,
+     noise, _, rf_every) = args
+    n_rot = rpos.shape[0]
+    meas = np.empty((n_out, len(MEAS_COLUMNS) + n_rot))
+    truth = np.empty((n_out, len(TRUTH_COLUMNS) + 5 * n_rot))
+    S = S0.copy()
+    rows = max(1, -(-n_out // PROGRESS_STEPS))
+    seconds = round(n_out / rate_hz)
+    with progress.progress(seconds, f"simulating {scenario} (flight s)", True) as bar:
+        said = 0
+        for a in range(0, n_out, rows):
+            b = min(n_out, a + rows)
+            i, j = a * k_out, b * k_out
+            piece = motors[i:j] if len(motors) else motors
+            advance(S, P, inertia, rpos, spin, dists, mix, exc[i:j], alt_sp[i:j],
+                    alt_rate[i:j], vel_sp[i:j], thr_manual[i:j], piece, noise[i:j], k_out,
+                    rf_every, meas[a:b], truth[a:b])
+            now = round(b / rate_hz)
+            bar.update(now - said)
+            said = now
+    return meas, truth

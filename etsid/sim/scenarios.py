@@ -16,6 +16,8 @@ import numpy as np
 
 from etsid.errors import SimError
 from etsid.sim.excitation import EXCITATIONS, stick_excitation, taper_window
+from etsid.sim.vehicle_params import SCENARIO as SCENARIO_PARAMS
+from etsid.sim.vehicle_params import check_number
 
 _COMMON: dict[str, Any] = {
     "duration": 60.0,        # s
@@ -68,10 +70,8 @@ SCENARIOS: dict[str, dict[str, Any]] = {
     },
 }
 
-_POSITIVE = {"duration", "altitude", "f_min", "f_max", "alt_period", "ramp", "dwell",
-             "transition"}
-_NONNEG = {"settle", "speed", "alt_amplitude", "alt_wander"}
-_UNIT = {"amplitude", "yaw_amplitude"}
+_RANGED = {k: p for k, p in SCENARIO_PARAMS.items() if p.kind == "num"}
+"""Number settings and their ranges: one declaration (etsid/sim/vehicle_params.py)."""
 
 
 @dataclass
@@ -110,14 +110,10 @@ def resolve_params(scenario: str, duration: float | None, settings: dict[str, An
         params["duration"] = duration
     where = f"scenario {scenario!r}: setting"
     for key, value in params.items():
-        if key in _POSITIVE | _NONNEG | _UNIT and not _is_number(value):
-            raise SimError(f"{where} {key!r} must be a number, got {value!r}")
-        if key in _POSITIVE and value <= 0:
-            raise SimError(f"{where} {key!r} must be positive, got {value!r}")
-        if key in _NONNEG and value < 0:
-            raise SimError(f"{where} {key!r} must not be negative, got {value!r}")
-        if key in _UNIT and not 0 <= value <= 1:
-            raise SimError(f"{where} {key!r} must lie in 0..1, got {value!r}")
+        if key in _RANGED and not (key == "throttle" and value is None):
+            wrong = check_number(_RANGED[key], value)
+            if wrong:
+                raise SimError(f"{where} {key!r} {wrong}, got {value!r}")
     if params["excitation"] not in EXCITATIONS:
         raise SimError(f"{where} 'excitation' must be one of {', '.join(EXCITATIONS)}, "
                        f"got {params['excitation']!r}")
@@ -130,11 +126,16 @@ def resolve_params(scenario: str, duration: float | None, settings: dict[str, An
     wind = params["wind"]
     if not (isinstance(wind, list | tuple) and len(wind) == 3 and all(map(_is_number, wind))):
         raise SimError(f"{where} 'wind' must be three numbers (NED m/s), got {wind!r}")
+    if any(check_number(SCENARIO_PARAMS["wind"], w) for w in wind):
+        raise SimError(f"{where} 'wind' must be three numbers "
+                       f"{SCENARIO_PARAMS['wind'].describe()}, got {wind!r}")
     params["wind"] = [float(w) for w in wind]
     if "high_altitudes" in params:
         highs = params["high_altitudes"]
-        if not (isinstance(highs, list | tuple) and highs and all(map(_is_number, highs))
-                and min(highs) > 0):
+        if not (isinstance(highs, list | tuple) and 0 < len(highs) <= 100
+                and all(map(_is_number, highs))
+                and not any(check_number(SCENARIO_PARAMS["high_altitudes"], h)
+                            for h in highs)):
             raise SimError(f"{where} 'high_altitudes' must be a list of positive numbers "
                            f"(m), got {highs!r}")
         params["high_altitudes"] = [float(h) for h in highs]

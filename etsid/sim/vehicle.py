@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,71 +17,33 @@ from typing import Any
 import numpy as np
 
 from etsid.errors import SimError
+from etsid.escape import clean
+from etsid.files import read_toml
+from etsid.sim.vehicle_params import EFFECTS as EFFECT_PARAMS
+from etsid.sim.vehicle_params import (
+    MAX_ROTORS,
+    MIN_ROTORS,
+    VEHICLE,
+    Param,
+    check_number,
+    hover_geometry_problem,
+    is_number,
+)
 
 VEHICLE_DIR = Path(__file__).parent / "vehicles"
 DEFAULT_VEHICLE = "tarot680"
-GROUND_MODELS = ("cheeseman-bennett", "sanchez-cuevas")
+GROUND_MODELS = VEHICLE["ground"]["model"].choices
 
-# kind of each field: "pos" > 0, "nonneg" >= 0, "real", "int", "bool", "str",
-# "vec3pos"/"vec3nonneg" (three numbers), "ratio" in (0, 1], "angles", "spin", "ground_model"
-_SCHEMA: dict[str, dict[str, str]] = {
-    "": {"name": "str", "mass": "pos"},
-    "inertia": {
-        "ixx": "pos", "iyy": "pos", "izz": "pos", "ixy": "real", "ixz": "real", "iyz": "real",
-    },
-    "frame": {"arm_length": "pos", "hub_z": "real", "angles_deg": "angles", "spin": "spin"},
-    "rotor": {
-        "radius": "pos", "blades": "int", "chord": "pos", "lift_slope": "pos",
-        "theta_75": "pos", "twist": "real", "cd0": "nonneg", "kappa": "pos", "inertia": "nonneg",
-    },
-    "motor": {"omega_max": "pos", "omega_idle": "nonneg", "time_constant": "pos", "v_ref": "pos"},
-    "battery": {
-        "cells": "int", "capacity_ah": "pos", "r_internal": "nonneg", "soc0": "ratio",
-        "efficiency": "ratio", "sag": "bool",
-    },
-    "drag": {"linear": "vec3nonneg", "quadratic": "vec3nonneg", "rotor_drag": "nonneg"},
-    "ground": {
-        "model": "ground_model", "k_body": "nonneg", "max_ratio": "pos",
-        "min_height_ratio": "pos", "gear_height": "nonneg", "contact_stiffness": "pos",
-        "contact_damping": "nonneg",
-    },
-    "controller": {
-        "rate_kp": "vec3nonneg", "rate_ki": "vec3nonneg", "rate_kd": "vec3nonneg",
-        "dterm_cutoff_hz": "pos", "angle_kp": "pos", "max_tilt_deg": "pos",
-        "max_rate_deg": "pos", "max_yaw_rate_deg": "pos", "yaw_mix_limit": "ratio",
-        "alt_kp": "pos", "vz_kp": "pos", "vz_ki": "nonneg", "max_climb": "pos",
-    },
-    "sensors": {
-        "gyro_std": "nonneg", "gyro_bias_std": "nonneg", "accel_std": "nonneg",
-        "att_std": "nonneg", "vel_std": "nonneg", "alt_std": "nonneg", "vbat_std": "nonneg",
-        "rangefinder_hz": "pos",
-    },
-    "environment": {"air_density": "pos", "gravity": "pos"},
-}
-
-ESTIMATORS = ("none", "mahony")
+# every field, its unit and physical range: one declaration (etsid/sim/vehicle_params.py)
+_SCHEMA: dict[str, dict[str, Param]] = VEHICLE
+ESTIMATORS = EFFECT_PARAMS["estimator"].choices
 
 # [effects]: optional physical effects, every one off by default (a vehicle file without the
-# section flies exactly as before). kind as above plus "vec3" (three numbers of any sign),
-# "lag" (two positive time constants), "scale3" (one positive number or three), "estimator";
-# None as default means "not set" (motor_lag: motor.time_constant both ways; gyro_bias:
-# drawn per flight from sensors.gyro_bias_std). Units and equations: docs/physics.md.
-EFFECTS: dict[str, tuple[str, Any]] = {
-    "time_delay": ("nonneg", 0.0),             # s, command -> motor transport delay
-    "motor_lag": ("lag", None),                # [spin-up, spin-down] time constants, s
-    "thrust_scale": ("pos", 1.0),              # multiplier on every rotor's thrust
-    "torque_scale": ("pos", 1.0),              # multiplier on every rotor's reaction torque
-    "cg_offset": ("vec3", [0.0, 0.0, 0.0]),    # m, CG position from the geometric centre, FRD
-    "torque_offset": ("vec3", [0.0, 0.0, 0.0]),  # N m, constant body moment, FRD
-    "inertia_scale": ("scale3", 1.0),          # multiplier on the inertia tensor (or per axis)
-    "gyro_bias": ("vec3", None),               # rad/s, exact constant gyro bias
-    "accel_bias": ("vec3", [0.0, 0.0, 0.0]),   # m/s^2, constant accelerometer bias
-    "estimator": ("estimator", "none"),        # "none": truth + noise; "mahony": filter
-    "estimator_kp": ("pos", 0.2),              # rad/s per unit error (tilt and heading)
-    "estimator_ki": ("nonneg", 0.05),          # rad/s^2 per unit error (gyro-bias learning)
-    "ground_effect_torque": ("bool", False),   # reaction torque follows the IGE inflow
-    "weak_motor": ("weak", None),              # [rotor (1-based), thrust/torque multiplier]
-}
+# section flies exactly as before); None as default means "not set" (motor_lag:
+# motor.time_constant both ways; gyro_bias: drawn per flight from sensors.gyro_bias_std).
+# Units and equations: docs/physics.md; kinds and ranges: etsid/sim/vehicle_params.py.
+EFFECTS: dict[str, tuple[str, Any]] = {name: (p.kind, p.default)
+                                       for name, p in EFFECT_PARAMS.items()}
 
 
 @dataclass(frozen=True)
@@ -240,81 +201,78 @@ def _fail(path: str, name: str, what: str, value: Any) -> SimError:
     return SimError(f"{path}: field '{name}' {what}, got {value!r}")
 
 
-def _number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+def _numbers(path: str, name: str, param: Param, values: list[Any], what: str) -> list[float]:
+    for v in values:
+        wrong = check_number(param, v)
+        if wrong:
+            raise _fail(path, name, f"{what}: each {wrong}", v if len(values) > 1 else values)
+    return [float(v) for v in values]
 
 
-def _check(path: str, name: str, kind: str, value: Any, n_rotors: int | None) -> Any:
+def _check(path: str, name: str, param: Param, value: Any, n_rotors: int | None) -> Any:
+    """``value`` of field ``name`` checked against its declaration (kind and range)."""
+    kind = param.kind
     if kind == "str":
-        if not isinstance(value, str) or not value:
-            raise _fail(path, name, "must be a non-empty string", value)
+        if not isinstance(value, str) or not value or len(value) > 200:
+            raise _fail(path, name, "must be a non-empty string of at most 200 characters",
+                        value if not isinstance(value, str) else value[:40])
         return value
     if kind == "bool":
         if not isinstance(value, bool):
             raise _fail(path, name, "must be true or false", value)
         return value
+    if kind == "choice":
+        if value not in param.choices:
+            raise _fail(path, name, f"must be {param.describe()}", value)
+        return value
     if kind == "int":
-        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-            raise _fail(path, name, "must be a positive integer", value)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise _fail(path, name, "must be an integer", value)
+        wrong = check_number(param, value)
+        if wrong:
+            raise _fail(path, name, wrong, value)
         return value
-    if kind == "ground_model":
-        if value not in GROUND_MODELS:
-            raise _fail(path, name, f"must be one of {', '.join(GROUND_MODELS)}", value)
-        return value
-    if kind == "estimator":
-        if value not in ESTIMATORS:
-            raise _fail(path, name, f"must be one of {', '.join(ESTIMATORS)}", value)
-        return value
-    if kind == "vec3":
-        if not (isinstance(value, list) and len(value) == 3 and all(_number(v) for v in value)):
-            raise _fail(path, name, "must be a list of three numbers", value)
-        return [float(v) for v in value]
-    if kind == "lag":
-        ok = isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value)
-        if not ok or min(value) <= 0:
-            raise _fail(path, name, "must be two positive time constants [spin_up, spin_down] "
-                        "in s", value)
-        return [float(v) for v in value]
+    if kind in ("vec3", "pair"):
+        size, word = (3, "three") if kind == "vec3" else (2, "two")
+        if not (isinstance(value, list) and len(value) == size):
+            raise _fail(path, name, f"must be a list of {word} numbers", value)
+        return _numbers(path, name, param, value, f"{word} numbers {param.describe()}")
     if kind == "weak":
-        ok = (isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value)
-              and float(value[0]).is_integer() and value[1] > 0)
-        if not ok or not 1 <= value[0] <= (n_rotors or 99):
-            raise _fail(path, name, "must be [rotor number 1..N, positive thrust multiplier]",
-                        value)
+        ok = (isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value)
+              and float(value[0]).is_integer() and 1 <= value[0] <= (n_rotors or MAX_ROTORS))
+        if not ok or check_number(param, value[1]):
+            raise _fail(path, name, "must be [rotor number 1..N, thrust multiplier "
+                        f"{param.describe()}]", value)
         return [float(value[0]), float(value[1])]
     if kind == "scale3":
         if isinstance(value, list):
-            ok = len(value) == 3 and all(_number(v) for v in value)
-            if not ok or min(value) <= 0:
-                raise _fail(path, name, "must be a positive number or three", value)
-            return [float(v) for v in value]
-        if not _number(value) or value <= 0:
-            raise _fail(path, name, "must be a positive number or three", value)
+            if len(value) != 3:
+                raise _fail(path, name, "must be one number or three", value)
+            return _numbers(path, name, param, value, f"three numbers {param.describe()}")
+        wrong = check_number(param, value)
+        if wrong:
+            raise _fail(path, name, wrong, value)
         return float(value)
-    if kind.startswith("vec3"):
-        ok = isinstance(value, list) and len(value) == 3 and all(_number(v) for v in value)
-        if not ok or min(value) < 0:
-            raise _fail(path, name, "must be a list of three non-negative numbers", value)
-        return [float(v) for v in value]
     if kind == "angles":
-        if not isinstance(value, list) or len(value) < 3 or not all(_number(v) for v in value):
-            raise _fail(path, name, "must be a list of at least three angles in degrees", value)
-        return [float(v) for v in value]
+        if (not isinstance(value, list) or not MIN_ROTORS <= len(value) <= MAX_ROTORS
+                or not all(is_number(v) for v in value)):
+            shown = value if not isinstance(value, list) else f"a list of {len(value)}"
+            raise _fail(path, name, f"must be a list of {MIN_ROTORS} to {MAX_ROTORS} angles in "
+                        "degrees", shown)
+        angles = _numbers(path, name, param, value, f"angles {param.describe()}")
+        problem = hover_geometry_problem(angles)
+        if problem:
+            raise _fail(path, name, problem, value)
+        return angles
     if kind == "spin":
         ok = isinstance(value, list) and all(v in ("cw", "ccw") for v in value)
         if not ok or len(value) != n_rotors:
             raise _fail(path, name, f"must list 'cw' or 'ccw' for each of {n_rotors} rotors", value)
         return list(value)
-    if not _number(value):
-        raise _fail(path, name, "must be a number", value)
-    value = float(value)
-    if kind == "pos" and value <= 0:
-        raise _fail(path, name, "must be positive", value)
-    if kind == "nonneg" and value < 0:
-        raise _fail(path, name, "must not be negative", value)
-    if kind == "ratio" and not 0 < value <= 1:
-        raise _fail(path, name, "must lie in (0, 1]", value)
-    return value
+    wrong = check_number(param, value)
+    if wrong:
+        raise _fail(path, name, wrong, value)
+    return float(value)
 
 
 def vehicle_from_dict(data: dict[str, Any], source: str = "<dict>") -> Vehicle:
@@ -340,12 +298,12 @@ def vehicle_from_dict(data: dict[str, Any], source: str = "<dict>") -> Vehicle:
         if not isinstance(table, dict):
             raise SimError(f"{source}: section [{section}] is missing or not a table")
         params[section] = {}
-        for name, kind in fields.items():
+        for name, param in fields.items():
             dotted = f"{section}.{name}" if section else name
             if name not in table:
                 raise SimError(f"{source}: field '{dotted}' is missing")
-            params[section][name] = _check(source, dotted, kind, table[name], n_rotors)
-            if kind == "angles":
+            params[section][name] = _check(source, dotted, param, table[name], n_rotors)
+            if param.kind == "angles":
                 n_rotors = len(params[section][name])
     effects = data.get("effects", {})
     if not isinstance(effects, dict):
@@ -355,10 +313,10 @@ def vehicle_from_dict(data: dict[str, Any], source: str = "<dict>") -> Vehicle:
         raise SimError(f"{source}: unknown field(s) [effects] {', '.join(unknown)}; known: "
                        f"{', '.join(sorted(EFFECTS))}")
     params["effects"] = {}
-    for name, (kind, default) in EFFECTS.items():
-        value = copy.deepcopy(effects.get(name, default))
+    for name, param in EFFECT_PARAMS.items():
+        value = copy.deepcopy(effects.get(name, param.default))
         if name in effects:
-            value = _check(source, f"effects.{name}", kind, value, n_rotors)
+            value = _check(source, f"effects.{name}", param, value, n_rotors)
         params["effects"][name] = value
     for section, fields in _SCHEMA.items():  # a typo must not silently be ignored
         table = data if section == "" else data[section]
@@ -375,7 +333,18 @@ def vehicle_from_dict(data: dict[str, Any], source: str = "<dict>") -> Vehicle:
     m = params["motor"]
     if m["omega_idle"] >= m["omega_max"]:
         raise _fail(source, "motor.omega_idle", "must be below motor.omega_max", m["omega_idle"])
+    i = params["inertia"]
+    tensor = np.array([[i["ixx"], -i["ixy"], -i["ixz"]], [-i["ixy"], i["iyy"], -i["iyz"]],
+                       [-i["ixz"], -i["iyz"], i["izz"]]])
+    moments = np.linalg.eigvalsh(tensor)
+    if moments[0] <= 0 or 2 * moments.max() > moments.sum() * (1 + 1e-9):
+        raise SimError(f"{source}: [inertia] is not the inertia of a rigid body (principal "
+                       f"moments {', '.join(f'{m:.3g}' for m in moments)} kg m^2: each must be "
+                       "positive and none larger than the sum of the other two)")
     desc = data.get("description", "")
+    if not isinstance(desc, str) or len(desc) > 2000:
+        raise SimError(f"{source}: field 'description' must be a string of at most 2000 "
+                       "characters")
     return Vehicle(name=params[""]["name"], description=str(desc), source=source, params=params)
 
 
@@ -407,14 +376,8 @@ def load_vehicle(vehicle: str | Path | Vehicle | None = None) -> Vehicle:
         if not path.exists():
             known = ", ".join(sorted(p.stem for p in VEHICLE_DIR.glob("*.toml")))
             raise SimError(f"unknown vehicle {str(vehicle)!r}: give a TOML file or one of {known}")
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except OSError as err:
-        raise SimError(f"{path}: cannot read vehicle file ({err.strerror})") from err
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise SimError(f"{path}: invalid TOML ({err})") from err
-    return vehicle_from_dict(data, str(path))
+    data = read_toml(path, "vehicle", SimError, "TOML vehicle file")
+    return vehicle_from_dict(clean(data), str(path))
 
 
 def list_vehicles() -> list[str]:

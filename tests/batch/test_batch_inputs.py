@@ -90,5 +90,7 @@ def test_pairs_csv(tmp_path: Path) -> None:
 def test_urls_and_run_names() -> None:
     assert is_url("s3://bucket/log.ulg") and is_url("file:///tmp/x.tlog")
     assert not is_url("/tmp/x.tlog") and not is_url("C://x")
-    assert run_name("s3://bucket/flight 1.ulg") == "flight_1"
+    assert run_name("s3://bucket/flight 1.ulg") == "flight_1-ulg"
+    assert {run_name(f"/d/f.{x}") for x in ("bag", "mcap", "tlog")} == {"f-bag", "f-mcap",
+                                                                        "f-tlog"}
     assert run_name("/data/bag_dir/") == "bag_dir"

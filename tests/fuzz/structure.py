@@ -15,10 +15,12 @@ test_structure.py runs the cheap ones.
 from __future__ import annotations
 
 import bz2
+import contextlib
 import json
 import os
 import random
 import shutil
+import signal
 import sqlite3
 import struct
 import subprocess
@@ -62,6 +64,11 @@ class Case:
     rows: int = 0
     cheap: bool = False
     what: str = ""
+    seconds: float = 0.0
+    """Time bound of this case, s (0: :data:`TIME_BOUND_S`)."""
+    check: Callable[[Path, Path, str], str] | None = None
+    """``check(out, built, output)``: what is wrong with what a successful run wrote ("" if
+    nothing); ``out`` is ``{out}``, ``built`` the built input, ``output`` stdout+stderr."""
 
 
 @dataclass
@@ -777,9 +784,10 @@ def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
     out = work / ("run" if "--out" in c.args else "table.parquet")
     args = [a.replace("{in}", str(path)).replace("{out}", str(out)) for a in c.args]
     start = time.perf_counter()
+    time_bound_s = c.seconds or time_bound_s
     proc = subprocess.Popen([sys.executable, "-m", "etsid", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=work,
-                            env={**os.environ, **(env or {})})
+                            env={**os.environ, **(env or {})}, start_new_session=True)
     peak, why = 0.0, ""
     while proc.poll() is None:
         peak = max(peak, _peak_rss_mb(proc.pid))
@@ -788,9 +796,12 @@ def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
         elif peak > kill_mb:
             why = f"memory (> {kill_mb:.0f} MB RSS)"
         if why:
-            proc.kill()
+            with contextlib.suppress(ProcessLookupError):  # its workers too (a pool)
+                os.killpg(proc.pid, signal.SIGKILL)
             break
         time.sleep(0.05)
+    with contextlib.suppress(ProcessLookupError, PermissionError):  # workers left behind
+        os.killpg(proc.pid, signal.SIGKILL)  # (they would hold the output pipes open)
     stdout, stderr = proc.communicate()
     seconds = time.perf_counter() - start
     text = stdout.decode("utf-8", "replace") + stderr.decode("utf-8", "replace")
@@ -805,7 +816,7 @@ def _judge(c: Case, code: int, stdout: bytes, stderr: bytes, out: Path, seconds:
     text = stdout.decode("utf-8", "replace") + "\n" + stderr.decode("utf-8", "replace")
     lines = [ln for ln in text.splitlines() if ln.strip()]
     err_lines = [ln for ln in stderr.decode("utf-8", "replace").splitlines() if ln.strip()]
-    bounds = seconds <= TIME_BOUND_S and peak <= MEMORY_BOUND_MB
+    bounds = seconds <= (c.seconds or TIME_BOUND_S) and peak <= MEMORY_BOUND_MB
     raw = stdout + stderr
     for bad in c.absent:
         if bad.encode("utf-8") in raw or (len(bad) == 1 and bytes([ord(bad)]) in raw
@@ -840,6 +851,9 @@ def _judge(c: Case, code: int, stdout: bytes, stderr: bytes, out: Path, seconds:
         if len(table) < c.rows:
             return Verdict(c.name, False, f"table has {len(table)} rows, the valid part "
                            f"gives at least {c.rows}", seconds, peak, lines)
+    wrong = c.check(out, path, text) if c.check is not None else ""
+    if wrong:
+        return Verdict(c.name, False, wrong, seconds, peak, lines)
     absent_notes = [n for n in c.note if n not in text]
     if absent_notes:
         return Verdict(c.name, False, f"no note naming {absent_notes}", seconds, peak, lines)

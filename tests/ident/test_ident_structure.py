@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from etsid.ident.structure import behind_lines
+from etsid.ident.structure import behind_lines, fallbacks
 
 
 def _outputs(ets: float, arx: float, persist: float, informative: bool = True,
@@ -39,3 +39,12 @@ def test_no_line_when_level_or_not_informative() -> None:
     assert behind_lines(_outputs(0.0122, 0.0121, 0.048), 1, 40.0, 50.0, 39) == []
     assert behind_lines(_outputs(0.02, 0.01, 0.005, informative=False), 1, 40.0, 50.0,
                         39) == []
+
+
+def test_the_better_baseline_is_used_for_an_axis_behind() -> None:
+    assert fallbacks(_outputs(0.0139, 0.0121, 0.048)) == {"p": "ARX"}
+    assert fallbacks(_outputs(0.0243, 0.0243, 0.0211)) == {"p": "no-change"}
+    assert fallbacks(_outputs(0.0122, 0.0121, 0.048)) == {}
+    assert fallbacks(_outputs(0.02, 0.01, 0.005, informative=False)) == {}
+    line = behind_lines(_outputs(0.0243, 0.0243, 0.0211), 1, 40.0, 50.0, 39)[0]
+    assert line.endswith("p falls back to no-change (metrics.json outputs.p.used)")

@@ -135,7 +135,7 @@ def test_no_usable_messages(tmp_path: Path) -> None:
 @pytest.mark.parametrize(("content", "match"), [
     (b"", "empty file"),
     (HEAD + bytes(range(7, 250)) * 8, "no DataFlash messages found"),
-    (b"definitely not dataflash", "not a bin file"),
+    (b"definitely not dataflash", "not an ArduPilot DataFlash log"),
 ])
 def test_bad_files(tmp_path: Path, content: bytes, match: str) -> None:
     path = tmp_path / "bad.bin"

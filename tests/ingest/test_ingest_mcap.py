@@ -110,7 +110,7 @@ def test_mcap_without_messages_and_random_bytes(tmp_path: Path) -> None:
         read_log(empty)
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(bytes(range(256)))
-    with pytest.raises(IngestError, match="junk.mcap: not a mcap file"):
+    with pytest.raises(IngestError, match="junk.mcap: not an MCAP file"):
         read_log(junk)
     result = CliRunner().invoke(cli, ["inspect", str(junk)])
     assert result.exit_code == 1 and "Traceback" not in result.output

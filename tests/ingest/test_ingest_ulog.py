@@ -118,7 +118,7 @@ def test_truncated_ulog_gives_valid_part_and_warning(tmp_path: Path) -> None:
 @pytest.mark.parametrize(("content", "match"), [
     (b"", "empty file"),
     (b"ULog\x01\x12\x35\x01" + bytes(range(256)) * 3, "no usable flight data"),
-    (b"random bytes, not a ulog at all", "not a ulog file"),
+    (b"random bytes, not a ulog at all", "not a PX4 ULog file"),
 ])
 def test_bad_files(tmp_path: Path, content: bytes, match: str) -> None:
     path = tmp_path / "bad.ulg"

@@ -50,11 +50,14 @@ def test_neutral_effects_fly_bit_identical(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "match"),
     [
-        ("thrust_scale = 0.0", "field 'effects.thrust_scale' must be positive"),
-        ("motor_lag = [0.05]", "field 'effects.motor_lag' must be two positive"),
+        ("thrust_scale = 0.0", r"field 'effects.thrust_scale' must lie in \[0.05, 20\]"),
+        ("thrust_scale = 1e300", r"field 'effects.thrust_scale' must lie in \[0.05, 20\]"),
+        ("motor_lag = [0.05]", "field 'effects.motor_lag' must be a list of two numbers"),
+        ("motor_lag = [0.05, 1e-300]", "field 'effects.motor_lag' two numbers in"),
         ("cg_offset = [0.01, 0.0]", "field 'effects.cg_offset' must be a list of three"),
         ("estimator = \"kalman\"", "field 'effects.estimator' must be one of none, mahony"),
-        ("time_delay = -0.01", "field 'effects.time_delay' must not be negative"),
+        ("time_delay = -0.01", r"field 'effects.time_delay' must lie in \[0, 1\] s"),
+        ("time_delay = 1e9", r"field 'effects.time_delay' must lie in \[0, 1\] s"),
         ("inertia_scale = [1.0, 0.0, 1.0]", "field 'effects.inertia_scale'"),
         ("thrust_scal = 1.1", r"unknown field\(s\) \[effects\] thrust_scal"),
     ],
@@ -76,7 +79,7 @@ def test_with_settings_reaches_effects_sections_and_aliases() -> None:
     assert base.effects["thrust_scale"] == 1.0 and base.mass == 4.2  # the original is intact
     with pytest.raises(SimError, match="unknown vehicle setting 'rotor.radios'"):
         base.with_settings({"rotor.radios": 0.2})
-    with pytest.raises(SimError, match="field 'mass' must be positive"):
+    with pytest.raises(SimError, match=r"field 'mass' must lie in \[0.005, 500\] kg"):
         base.with_settings({"mass": -1})
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest.base import Channel, Issue, Override, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import gap_note
 from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, Clock, autopilot_clock
@@ -123,7 +124,8 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
     size = path.stat().st_size
     carry = np.empty(0, np.uint8)
     base = 0
-    with path.open("rb") as handle, progress(size, f"reading {path.name}", show) as bar:
+    with open_binary(path, "log", IngestError) as handle, \
+            progress(size, f"reading {path.name}", show) as bar:
         while True:
             block = handle.read(CHUNK)
             final = handle.tell() >= size or not block

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
+from etsid.files import check, read_text
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.damage import decoder_errors, gap_note
 from etsid.ingest.ros import ros1_scan
@@ -129,6 +130,12 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
     errors = _errors()
     default = _LazyTypestore(ros1)
     conv = Converter(options)
+    for item in paths:  # rosbags opens them itself: regular files only
+        if item.is_dir():
+            for part in item.iterdir():
+                check(part, "log", IngestError)
+        else:
+            check(item, "log", IngestError)
     with AnyReader(paths, default_typestore=default) as reader:
         reader.typestore.register(_missing_types(
             default, reader.typestore, {c.msgtype for c in reader.connections}))
@@ -359,8 +366,8 @@ def _metadata_loads(path: Path) -> bool:
     import yaml
 
     try:
-        data = yaml.safe_load((path / "metadata.yaml").read_text())
-    except (OSError, ValueError, yaml.YAMLError):
+        data = yaml.safe_load(read_text(path / "metadata.yaml", "bag-metadata", IngestError))
+    except (IngestError, ValueError, yaml.YAMLError):
         return False
     info = data.get("rosbag2_bagfile_information") if isinstance(data, dict) else None
     files = info.get("relative_file_paths") if isinstance(info, dict) else None
@@ -375,7 +382,7 @@ def _metadata_seconds(path: Path) -> float | None:
     if not path.is_dir():
         return None
     try:
-        data = yaml.safe_load((path / "metadata.yaml").read_text())
+        data = yaml.safe_load(read_text(path / "metadata.yaml", "bag-metadata", IngestError))
         ns = data["rosbag2_bagfile_information"]["duration"]["nanoseconds"]
         seconds = float(ns) * 1e-9
     except (OSError, ValueError, TypeError, KeyError, yaml.YAMLError):

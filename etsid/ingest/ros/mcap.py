@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.damage import cut_note, describe, gap_note
 from etsid.ingest.ros.converter import Converter, TopicData
@@ -159,7 +160,7 @@ def _read_stream(path: Path, options: ReadOptions) -> RawLog | None:
 
     raw = RawLog(path=path, format="mcap")
     state = _State(options, raw)
-    with path.open("rb") as handle:
+    with open_binary(path, "log", IngestError) as handle:
         try:
             for record in StreamReader(handle).records:
                 if isinstance(record, Message):

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest import mapped
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.damage import cut_note, gap_note
@@ -209,7 +210,7 @@ class _Scan:
 
 def scan(path: Path, options: ReadOptions, raw: RawLog) -> Converter:
     """Read a ROS 1 bag without its index, keeping every complete message."""
-    with path.open("rb") as handle:
+    with open_binary(path, "log", IngestError) as handle:
         if handle.read(len(MAGIC)) != MAGIC:
             raise IngestError(f"{path}: not a ROS 1 bag (bad magic line)")
         with mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as data:

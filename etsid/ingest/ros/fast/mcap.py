@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest.inflate import MAX_RECORD_BYTES, Inflated, inflate, too_large
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -273,7 +275,7 @@ def records(path: Path) -> Iterator[Any]:
         Not a complete MCAP file (the caller falls back to the stream reader).
     """
     size = Path(path).stat().st_size
-    with Path(path).open("rb") as handle:
+    with open_binary(path, "log", IngestError) as handle:
         if size < 2 * len(MAGIC) + 9 or handle.read(len(MAGIC)) != MAGIC:
             raise NotFast("not an MCAP file")
         handle.seek(size - len(MAGIC))

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest import mapped
 from etsid.ingest.inflate import (
     MAX_CHUNK_BYTES,
@@ -313,7 +315,7 @@ def scan(path: Path) -> Iterator[Any]:
     size = Path(path).stat().st_size
     if size == 0:
         return
-    with Path(path).open("rb") as handle, \
+    with open_binary(path, "log", IngestError) as handle, \
             mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as buf:
         yield from _scan(buf, size)
 

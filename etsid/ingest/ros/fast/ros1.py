@@ -28,6 +28,8 @@ from typing import BinaryIO
 
 import numpy as np
 
+from etsid.errors import IngestError
+from etsid.files import open_handle
 from etsid.ingest.inflate import MAX_RECORD_BYTES, inflate
 
 _MAGIC = b"#ROSBAG V2.0\n"
@@ -141,7 +143,7 @@ class Ros1Bag:
 
     def __init__(self, path: Path) -> None:
         self.path = Path(path)
-        self.handle = self.path.open("rb")
+        self.handle = open_handle(self.path, "log", IngestError)
         try:
             self._open()
         except (NotFast, struct.error, KeyError, IndexError, UnicodeDecodeError) as err:

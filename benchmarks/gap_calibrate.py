@@ -1,0 +1,306 @@
+"""Calibrate ``etsid gap``'s likelihood criterion and score it generator by generator.
+
+The criterion (etsid/gap/criterion.py) decides from three numbers per pair that do not
+depend on any threshold: REAL's innovation-variance ratio per channel under the nominal
+model, every candidate's held-out log-likelihood gain per scored sample, and the gain of
+the best single's pairs over it. This script
+
+* ``record``: runs ``etsid gap`` (method ``likelihood``, with low recording thresholds so
+  that every model a calibration could name is evaluated) on pairs of a generator and
+  appends one JSON line per pair (the criterion's numbers, the label; with ``--old`` also
+  the answer of the round-4 tiers method, for the comparison);
+* ``fit``: sets the thresholds from the records of the generators named, at a stated
+  false-positive rate, and writes the calibration file (by default the package's
+  ``etsid/gap/calibration.json``):
+  - ``mismatch_ratio``: the (1 − α) quantile of the largest channel ratio of the
+    no-effect pairs,
+  - ``gain_per_sample``: the (1 − α) quantile of the best single's gain of the no-effect
+    pairs,
+  - ``pair_gain_per_sample``: the (1 − α) quantile of the best second effect's gain over
+    a correctly named first effect on the single-effect pairs;
+  each quantile from a log-normal fitted to the records (a handful of pairs per generator
+  cannot show a 1 % tail empirically; the log-normal extrapolates it, and the threshold is
+  never below the largest recorded value);
+* ``score``: decides the recorded pairs of a generator again under a calibration file and
+  prints named-right, false positives, out-of-vocabulary answers, the reliability of
+  confidence ≥ 0.9 and, where recorded, the old method pair by pair.
+
+Leave-one-generator-out::
+
+    python benchmarks/gap_calibrate.py record --etsid-seeds 700,701 --out rec.jsonl --old
+    python benchmarks/gap_calibrate.py record --dir SETDIR --out rec.jsonl --old
+    python benchmarks/gap_calibrate.py fit rec.jsonl --generators pyflyt,multirotor \\
+        --out cal_etsid.json
+    python benchmarks/gap_calibrate.py score rec.jsonl --generator etsid --calibration \\
+        cal_etsid.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from etsid.gap.calibration import (
+    CALIBRATION_ENV,
+    CALIBRATION_PATH,
+    Calibration,
+    calibration_dict,
+    load_calibration,
+)
+from etsid.gap.criterion import choose
+
+RECORDING = {"mismatch_ratio": 4.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
+"""Thresholds while recording: below any value a calibration has set, so that every model a
+calibrated run could name is fully evaluated."""
+CONFIDENT = 0.9
+AIRFRAME_SCALES = {"thrust_scale": (0.6, 1.6), "inertia_scale": (0.5, 2.2)}
+
+
+# ---------------------------------------------------------------- record
+def _answer(data: dict[str, Any]) -> str:
+    named = sorted(e["name"] for e in data.get("effects", []) if e["name"] != "unexplained")
+    return "+".join(named) if named else str(data.get("verdict"))
+
+
+def _etsid_pairs(seeds: list[int], labels: list[str] | None):
+    from gap_concealed import EFFECTS, make_pair
+    for s in seeds:
+        for j, effect in enumerate(EFFECTS):
+            if labels and effect not in labels:
+                continue
+            sim, real, truth = make_pair(effect, s * 100 + j)
+            expected = "+".join(sorted(truth["effects"])) or "consistent"
+            yield f"etsid-{s * 100 + j}", effect, expected, False, sim, real
+
+
+def _dir_pairs(folder: Path, labels: list[str] | None):
+    from etsid.ingest import read_log
+    entries = json.loads((folder / "labels.json").read_text())["pairs"]
+    for e in entries:
+        if labels and e["label"] not in labels:
+            continue
+        sim = read_log(folder / e["sim_log"])
+        real = read_log(folder / e["real_log"])
+        yield e["id"], e["label"], e["expected"], e["out_of_vocabulary"], sim, real
+
+
+def record(args: argparse.Namespace) -> None:
+    from etsid.gap.run import analyse
+
+    rec_file = Path(args.out).with_suffix(".recording.json")
+    rec_file.write_text(json.dumps({"schema": "etsid.gap.calibration/1",
+                                    "false_positive_rate": 0.0, "thresholds": RECORDING,
+                                    "source": {"note": "recording thresholds"}}))
+    labels = args.only.split(",") if args.only else None
+    pairs = (_etsid_pairs([int(s) for s in args.etsid_seeds.split(",")], labels)
+             if args.etsid_seeds else _dir_pairs(Path(args.dir), labels))
+    for pid, label, expected, oov, sim, real in pairs:
+        gen = pid.split("-")[0]
+        row: dict[str, Any] = {"id": pid, "generator": gen, "label": label,
+                               "expected": expected, "oov": oov}
+        os.environ[CALIBRATION_ENV] = str(rec_file)
+        t0 = time.process_time()
+        data = analyse(sim, real, "SIM", "REAL", method="likelihood").data
+        row["seconds_new"] = round(time.process_time() - t0, 1)
+        row["verdict"] = data["verdict"]
+        row["criterion"] = data.get("criterion")
+        row["effect_confidence"] = {e["name"]: e["confidence"] for e in data["effects"]}
+        if args.old:
+            t0 = time.process_time()
+            old = analyse(sim, real, "SIM", "REAL", method="tiers").data
+            row["seconds_old"] = round(time.process_time() - t0, 1)
+            row["old"] = {"answer": _answer(old), "verdict": old["verdict"],
+                          "confidence": {e["name"]: e["confidence"] for e in old["effects"]},
+                          "caveat": any(e.get("caveat") for e in old["effects"])}
+        with open(args.out, "a", encoding="utf-8") as out:
+            out.write(json.dumps(row) + "\n")
+        print(f"{pid:18s} {label:24s} new {row['seconds_new']:5.1f} s "
+              f"{('old ' + row['old']['answer']) if args.old else ''}", flush=True)
+
+
+# ---------------------------------------------------------------- decide
+def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
+    """The answer the criterion gives a recorded pair under ``cal``: verdict, names and
+    their confidences (the recorded pseudo-BMA weights)."""
+    crit = row.get("criterion")
+    if not crit:  # decided before the criterion (insufficient, different-vehicle)
+        return {"answer": row["verdict"], "verdict": row["verdict"], "confidence": {}}
+    models = crit["models"]
+    name = choose(models, cal)
+    if name is not None:
+        m = next(m for m in models if m["name"] == name)
+        theta = m["theta"]
+        i = 0
+        for part in name.split("+"):
+            lo, hi = AIRFRAME_SCALES.get(part, (-np.inf, np.inf))
+            if not lo <= theta[i] <= hi:
+                return {"answer": "different-vehicle", "verdict": "different-vehicle",
+                        "confidence": {}}
+            i += _n_params(part, models, theta)
+    ratio = crit["innovation_ratio"]
+    mismatch = any(v > cal.mismatch_ratio for v in ratio.values())
+    if name is None:
+        verdict = "mismatch" if mismatch else "consistent"
+        return {"answer": verdict, "verdict": verdict, "confidence": {}}
+    conf = {}
+    for part in name.split("+"):
+        conf[part] = float(sum(m["weight"] for m in models if part in m["name"].split("+")))
+    return {"answer": "+".join(sorted(name.split("+"))), "verdict": "mismatch",
+            "confidence": conf}
+
+
+def _n_params(part: str, models: list[dict[str, Any]], theta: list[float]) -> int:
+    single = next((m for m in models if m["name"] == part), None)
+    return len(single["theta"]) if single else len(theta)
+
+
+def _same(expected: str, named: str) -> bool:
+    from thirdparty.common import same_answer
+    return same_answer(expected, named)
+
+
+# ---------------------------------------------------------------- fit
+def _quantile(values: list[float], alpha: float) -> float:
+    """(1 − α) quantile of a log-normal fitted to positive ``values``, never below their
+    maximum."""
+    v = np.log(np.maximum(np.asarray(values, dtype=float), 1e-9))
+    mu, sd = float(np.mean(v)), float(np.std(v, ddof=1)) if v.size > 1 else 1.0
+    return float(max(np.exp(mu + stats.norm.ppf(1.0 - alpha) * sd), np.exp(v.max())))
+
+
+def load(paths: list[str]) -> list[dict[str, Any]]:
+    rows = []
+    for p in paths:
+        rows += [json.loads(line) for line in Path(p).read_text().splitlines() if line.strip()]
+    return rows
+
+
+def fit(args: argparse.Namespace) -> None:
+    rows = [r for r in load(args.records) if r["generator"] in args.generators.split(",")]
+    none = [r for r in rows if r["label"] == "none" and r.get("criterion")]
+    ratios = [max(r["criterion"]["innovation_ratio"].values()) for r in none]
+    gains = []
+    for r in none:
+        singles = [m["per_sample"] for m in r["criterion"]["models"]
+                   if "+" not in m["name"] and not m.get("refused")]
+        gains.append(max(singles) if singles else 1e-9)
+    extras = []
+    for r in rows:
+        if r["label"] == "none" or r.get("oov") or "+" in r["expected"] or not r.get("criterion"):
+            continue
+        models = r["criterion"]["models"]
+        singles = sorted((m for m in models if "+" not in m["name"] and not m.get("refused")),
+                         key=lambda m: -m["gain"])
+        if not singles or not _same(r["expected"], singles[0]["name"]):
+            continue
+        lead = singles[0]
+        ex = [(m["gain"] - lead["gain"]) / max(m["n_scored"], 1) for m in models
+              if "+" in m["name"] and m["name"].split("+")[0] == lead["name"]
+              and not m.get("refused")]
+        extras.append(max(ex) if ex else 1e-9)
+    if not none:
+        raise SystemExit("no no-effect pairs recorded for " + args.generators)
+    alpha = args.fpr
+    cal = Calibration(
+        mismatch_ratio=_quantile(ratios, alpha), gain_per_sample=_quantile(gains, alpha),
+        pair_gain_per_sample=_quantile(extras, alpha) if extras else _quantile(gains, alpha),
+        false_positive_rate=alpha,
+        source={"generators": args.generators.split(","), "records": args.records,
+                "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
+                "rule": "log-normal (1 - rate) quantile of the no-effect pairs' largest "
+                        "channel ratio and best single gain, and of the single-effect "
+                        "pairs' best second-effect gain, never below the largest recorded",
+                "written": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")})
+    out = Path(args.out) if args.out else CALIBRATION_PATH
+    out.write_text(json.dumps(calibration_dict(cal), indent=1) + "\n")
+    print(f"{len(none)} no-effect pairs ({args.generators}): largest channel ratio "
+          f"{np.round(sorted(ratios), 2).tolist()}")
+    print(f"  best single gain per sample {np.round(sorted(gains), 4).tolist()}")
+    print(f"{len(extras)} single-effect pairs named right: best second-effect gain per "
+          f"sample {np.round(sorted(extras), 4).tolist()}")
+    print(f"at a false-positive rate of {alpha:g}: mismatch_ratio {cal.mismatch_ratio:.3g}, "
+          f"gain_per_sample {cal.gain_per_sample:.3g}, pair_gain_per_sample "
+          f"{cal.pair_gain_per_sample:.3g}; written to {out}")
+
+
+# ---------------------------------------------------------------- score
+def score(args: argparse.Namespace) -> None:
+    cal = load_calibration(args.calibration)
+    rows = [r for r in load(args.records) if r["generator"] in args.generator.split(",")]
+    right = total = fp = n_none = conf_n = conf_ok = oov_bad = 0
+    old_right = both = only_new = only_old = 0
+    for r in rows:
+        d = decide(r, cal)
+        exp = r["expected"]
+        if r.get("oov"):
+            bad = any(c >= 0.5 for c in d["confidence"].values())
+            oov_bad += bad
+            ok = d["verdict"] != "consistent" and not bad
+        else:
+            ok = _same(exp, d["answer"])
+            total += 1
+            right += ok
+        if r["label"] == "none":
+            n_none += 1
+            fp += d["verdict"] != "consistent"
+        for name, c in d["confidence"].items():
+            if c >= CONFIDENT:
+                conf_n += 1
+                conf_ok += name in exp.split("+") or _same(exp, name)
+        old = r.get("old")
+        old_ok = None
+        if old is not None and not r.get("oov"):
+            old_ok = _same(exp, old["answer"])
+            old_right += old_ok
+            both += ok and old_ok
+            only_new += ok and not old_ok
+            only_old += old_ok and not ok
+        mark = "" if old_ok is None else ("ok" if old_ok else "NO")
+        print(f"{r['id']:18s} {r['label']:24s} expected {exp:24s} new {d['answer']:26s} "
+              f"{'ok ' if ok else 'NO '}"
+              + (f" old {old['answer']:24s} {mark}" if old else "")
+              + "  " + ", ".join(f"{k} {v:.2f}" for k, v in d["confidence"].items()))
+    print(f"\n{args.generator} under {args.calibration or 'the package calibration'}: "
+          f"named right {right}/{total}; false positives {fp}/{n_none}; out-of-vocabulary "
+          f"named at confidence >= 0.5: {oov_bad}; confidence >= {CONFIDENT}: "
+          f"{conf_ok}/{conf_n} right")
+    if any(r.get("old") for r in rows):
+        print(f"old method (tiers) named right {old_right}/{total}; both right {both}, only "
+              f"new {only_new}, only old {only_old}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("record", help="run etsid gap on pairs, append the criterion's numbers")
+    r.add_argument("--etsid-seeds", default=None, help="etsid's own generator: seeds")
+    r.add_argument("--dir", default=None, help="a third-party set (gap_thirdparty --generate)")
+    r.add_argument("--only", default=None, help="comma-separated labels")
+    r.add_argument("--out", required=True, help="JSON-lines file to append to")
+    r.add_argument("--old", action="store_true", help="also run the tiers method")
+    f = sub.add_parser("fit", help="thresholds from records, written to a calibration file")
+    f.add_argument("records", nargs="+")
+    f.add_argument("--generators", required=True, help="e.g. pyflyt,multirotor")
+    f.add_argument("--fpr", type=float, default=0.01, help="false-positive rate")
+    f.add_argument("--out", default=None, help="default: the package's calibration.json")
+    s = sub.add_parser("score", help="decide recorded pairs again under a calibration")
+    s.add_argument("records", nargs="+")
+    s.add_argument("--generator", required=True)
+    s.add_argument("--calibration", default=None)
+    args = ap.parse_args()
+    {"record": record, "fit": fit, "score": score}[args.cmd](args)
+
+
+if __name__ == "__main__":
+    main()

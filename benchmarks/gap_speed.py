@@ -1,0 +1,66 @@
+"""Speed of ``etsid gap`` on two 90 s flights and on two 1-hour flights, one core.
+
+Two 90 s flights of etsid's simulator (quad250, hover with altitude wander; REAL with a
+10 % thrust loss) are analysed as they are; the 1-hour pair is each flight repeated end to
+end for an hour (times shifted; a log of that length, not new physics). Prints the CPU
+time of the analysis and the process's peak resident memory.
+
+Run::
+
+    python benchmarks/gap_speed.py                     # likelihood criterion
+    python benchmarks/gap_speed.py --method tiers      # the round-4 selection
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+import pandas as pd
+
+from etsid.gap.run import analyse
+from etsid.sim import simulate
+
+
+def tiled(table: pd.DataFrame, seconds: float) -> pd.DataFrame:
+    """``table`` repeated end to end until it lasts ``seconds``."""
+    span = float(table.index[-1] - table.index[0]) + 1.0 / 50.0
+    parts, k = [], 0
+    while k * span < seconds:
+        part = table.copy()
+        part.index = part.index + k * span
+        parts.append(part)
+        k += 1
+    out = pd.concat(parts)
+    out.attrs = dict(table.attrs)
+    return out
+
+
+def run(sim: pd.DataFrame, real: pd.DataFrame, method: str, label: str) -> None:
+    t0 = time.process_time()
+    data = analyse(sim, real, "SIM", "REAL", method=method).data
+    cpu = time.process_time() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    named = [e["name"] for e in data["effects"]]
+    print(f"{label:28s} {method:10s} CPU {cpu:6.1f} s  peak RSS {peak:6.0f} MB  "
+          f"{data['verdict']} {named}", flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--method", default="likelihood", choices=["likelihood", "tiers"])
+    ap.add_argument("--hours", type=float, default=1.0)
+    args = ap.parse_args()
+    kw = {"alt_wander": 0.3, "amplitude": 0.4}
+    sim = simulate("hover-oge", "quad250", duration=90.0, seed=1, **kw).table
+    real = simulate("hover-oge", "quad250", duration=90.0, seed=2,
+                    settings={"vehicle.thrust_scale": 0.9}, **kw).table
+    run(sim, real, args.method, "two 90 s flights")
+    hours = 3600.0 * args.hours
+    run(tiled(sim, hours), tiled(real, hours), args.method,
+        f"two {args.hours:g}-hour flights")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,342 @@
+"""The one criterion of ``etsid gap``: held-out log-likelihood gain over the null.
+
+REAL's airborne evidence is cut into blocks of :data:`BLOCK_S` dealt alternately to
+:data:`N_FOLDS` folds (blocked cross-validation: neighbouring samples of a low-passed
+signal are not independent, whole blocks are). For every candidate model — the null
+(SIM's nominal model unchanged), every single effect of the registry and greedy pairs —
+the parameters are fitted on all folds but one and the model is scored on the one left
+out, fold by fold. The score is the log-likelihood of the held-out *innovations* under
+the noise model (:mod:`etsid.gap.noise`): per channel, the residual whitened by SIM's AR
+filter, Gaussian with the deviation the model reaches on its own fitting folds, never
+below the channel's floor. A model's gain is its summed held-out log-likelihood minus the
+null's; only channels a model changes can differ from the null, so the gain sums over them.
+
+A model is named when its gain per scored sample exceeds the calibrated threshold
+(:mod:`etsid.gap.calibration`); a second effect is added only when the pair's gain over
+the best single passes the same threshold. The weights of the candidates are pseudo-BMA+
+(Yao et al. 2018): softmax of the held-out log-likelihoods under a Bayesian bootstrap of
+the blocks, so that two look-alikes whose predictions the logs cannot separate share
+their weight.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from etsid.gap.calibration import Calibration
+from etsid.gap.candidates import Candidate, merge
+from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
+from etsid.gap.noise import NoiseModel
+from etsid.gap.signals import true_runs
+
+N_FOLDS = 2
+"""Folds of REAL's evidence: each model is fitted twice (on one half, scored on the other);
+more folds cost a fit each."""
+BLOCK_S = 4.0
+"""Block length, s: several times the slowest closed-loop time constants (≤ 1 s) so that
+blocks are nearly independent."""
+GAP_S = 0.5
+"""Samples scored only from this long after a block starts: the 8 Hz low-pass and the AR
+filter carry the neighbouring block's samples that long (≪ 0.5 s)."""
+BOOTSTRAP = 400
+"""Bayesian-bootstrap draws of the pseudo-BMA+ weights (Monte-Carlo error ≈ 1/√400)."""
+PAIR_POOL = 4
+"""Second effects tried jointly with the best single: the next best distinct singles."""
+SCREEN_SHARE = 0.5
+"""A single whose first-fold gain per sample is below this share of the threshold is not
+refitted on the other fold (it cannot be named); its gain is extrapolated from the first."""
+BOOTSTRAP_SEED = 20261128
+
+
+@dataclass
+class Folds:
+    """Blocked folds of REAL's evidence.
+
+    Attributes
+    ----------
+    score : list of ndarray
+        Per fold, the samples it scores (bool masks).
+    fit : list of ndarray
+        Per fold, the samples its model is fitted on (every other fold).
+    block : ndarray
+        Per sample, the index of its block (−1 outside every scored block).
+    n_blocks : int
+    """
+
+    score: list[np.ndarray]
+    fit: list[np.ndarray]
+    block: np.ndarray
+    n_blocks: int
+
+
+def make_folds(mask: np.ndarray, fs: float, n_folds: int = N_FOLDS,
+               block_s: float = BLOCK_S, gap_s: float = GAP_S) -> Folds:
+    """Blocks along REAL's airborne runs, dealt to folds in turn (by time)."""
+    n_block = max(round(block_s * fs), 4)
+    n_gap = round(gap_s * fs)
+    block = np.full(mask.size, -1, dtype=int)
+    score = [np.zeros(mask.size, dtype=bool) for _ in range(n_folds)]
+    k = 0
+    for a, b in true_runs(mask):
+        for start in range(a, b, n_block):
+            lo, hi = start + n_gap, min(start + n_block, b)
+            if hi - lo < max(n_block // 4, 2):
+                continue
+            score[k % n_folds][lo:hi] = True
+            block[lo:hi] = k
+            k += 1
+    fit = [mask & ~s for s in score]
+    return Folds(score, fit, block, k)
+
+
+@dataclass
+class Evaluated:
+    """One candidate model scored by the criterion.
+
+    Attributes
+    ----------
+    name : str
+        ``a`` or ``a+b`` (the null is ``"none"``).
+    candidates : tuple of Candidate
+    fits : list of Fit
+        Per fold, the fit on that fold's fitting samples.
+    loglik : ndarray
+        (n_blocks,) held-out log-likelihood per block, nats, summed over the channels the
+        model changes (the null's over the same channels subtracted: a gain).
+    n_scored : int
+        Samples scored (all folds).
+    extrapolated : bool
+        Scored on one fold only (screened out), the rest extrapolated.
+    """
+
+    name: str
+    candidates: tuple[Candidate, ...]
+    fits: list[Fit]
+    gain_blocks: np.ndarray
+    n_scored: int
+    extrapolated: bool = False
+    weight: float = 0.0
+    refused: str = ""
+
+    @property
+    def gain(self) -> float:
+        """Held-out log-likelihood gain over the null, nats."""
+        return float(np.sum(self.gain_blocks))
+
+    @property
+    def per_sample(self) -> float:
+        """Gain per scored sample, nats."""
+        return self.gain / max(self.n_scored, 1)
+
+    @property
+    def gain_se(self) -> float:
+        """Standard error of the gain from its block-to-block spread, nats."""
+        g = self.gain_blocks
+        return float(np.sqrt(g.size) * np.std(g, ddof=1)) if g.size > 1 else np.inf
+
+
+@dataclass
+class Criterion:
+    """What the criterion saw: the null's fit to REAL and every model's held-out gain."""
+
+    folds: Folds
+    ratio: dict[str, float]
+    """Channel → REAL's innovation variance under the null over its floor's (all
+    evidence)."""
+    models: list[Evaluated] = field(default_factory=list)
+    chosen: Evaluated | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+class LikelihoodScorer:
+    """Held-out innovation log-likelihoods of a model on REAL, per block."""
+
+    def __init__(self, scorer: Scorer, noise: NoiseModel, folds: Folds) -> None:
+        self.scorer = scorer
+        self.noise = noise
+        self.folds = folds
+        self.channels = tuple(c for c in scorer.measured if c in noise.channels
+                              and c in scorer.sigma)
+        null = scorer.residuals(None, self.channels)
+        self.null_innov = noise.innovations(null)
+        self.null_ll = {c: [self._loglik(c, self.null_innov[c], k) for k in range(len(
+            folds.score))] for c in self.channels}
+
+    def _loglik(self, c: str, innov: np.ndarray, k: int) -> np.ndarray:
+        """Per-sample log-likelihood of fold ``k``'s samples (NaN elsewhere) with the
+        deviation reached on that fold's fitting samples, floored."""
+        fit = self.folds.fit[k] & np.isfinite(innov)
+        var = float(np.mean(innov[fit] ** 2)) if np.any(fit) else 0.0
+        var = max(var, self.noise.channels[c].sigma ** 2)
+        out = np.full(innov.size, np.nan)
+        s = self.folds.score[k] & np.isfinite(innov)
+        out[s] = -0.5 * (np.log(2 * np.pi * var) + innov[s] ** 2 / var)
+        return out
+
+    def blocks(self, per_sample: np.ndarray) -> np.ndarray:
+        """Sum of a per-sample series over each block."""
+        ok = (self.folds.block >= 0) & np.isfinite(per_sample)
+        return np.bincount(self.folds.block[ok], weights=per_sample[ok],
+                           minlength=self.folds.n_blocks)
+
+    def gain(self, fits: list[Fit | None], base: list[Fit] | None = None
+             ) -> tuple[np.ndarray, int]:
+        """(per-block gain over the null, samples scored) of the fold fits ``fits``
+        (None: that fold not scored)."""
+        total = np.zeros(self.folds.n_blocks)
+        n = 0
+        for k, fit in enumerate(fits):
+            if fit is None:
+                continue
+            chans = channels_of(fit.candidates + (base[k].candidates if base else ()),
+                                self.scorer)
+            chans = tuple(c for c in chans if c in self.channels)
+            res = self.scorer.residuals(fit.mods, chans)
+            innov = self.noise.innovations(res)
+            for c in chans:
+                d = self._loglik(c, innov[c], k) - self.null_ll[c][k]
+                total += self.blocks(d)
+            n += int(np.sum(self.folds.score[k]))
+        return total, n
+
+    def ratio(self, mods=None) -> dict[str, float]:
+        """Channel → innovation variance over all evidence ÷ floor variance."""
+        mask = np.zeros(self.folds.block.size, dtype=bool)
+        for s in self.folds.score:
+            mask |= s
+        res = self.scorer.residuals(mods, self.channels) if mods is not None else None
+        innov = self.noise.innovations(res) if res is not None else self.null_innov
+        return {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].sigma ** 2)
+                for c in self.channels}
+
+
+def _fold_fits(cands: tuple[Candidate, ...], ls: LikelihoodScorer, folds: Folds,
+               folds_to_fit: range, x0: np.ndarray | None = None) -> list[Fit | None]:
+    """Per fold, the fit on its fitting samples (None for a fold not in ``folds_to_fit``);
+    a multi-parameter fit starts from ``x0``."""
+    fits: list[Fit | None] = [None] * len(folds.score)
+    for k in folds_to_fit:
+        fits[k] = fit_candidates(cands, ls.scorer, folds.fit[k], x0=x0)
+    return fits
+
+
+def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: float,
+             x0: np.ndarray | None = None, screen: bool = True,
+             base: Evaluated | None = None) -> Evaluated:
+    """One model through the folds (screened after the first fold when far below the
+    threshold; with ``base``, when its gain over ``base`` on that fold is)."""
+    folds = ls.folds
+    fits = _fold_fits(cands, ls, folds, range(1), x0=x0)
+    g, n = ls.gain(fits)
+    extrapolated = False
+    ref = 0.0
+    if base is not None:
+        s0 = folds.score[0]
+        ref = float(base.gain_blocks[np.unique(folds.block[s0 & (folds.block >= 0)])].sum())
+    if screen and (g.sum() - ref) / max(n, 1) < SCREEN_SHARE * threshold:
+        # the other folds as this one: the same gain per scored sample
+        n_all = int(sum(np.sum(s) for s in folds.score))
+        g = g * (n_all / max(n, 1))
+        n, extrapolated = n_all, True
+    else:
+        assert fits[0] is not None
+        rest = _fold_fits(cands, ls, folds, range(1, len(folds.score)),
+                          x0=fits[0].theta if fits[0].theta.size > 1 else None)
+        rest[0] = fits[0]
+        g, n = ls.gain(rest)
+        fits = rest
+    name = "+".join(c.name for c in cands)
+    return Evaluated(name, cands, [f for f in fits if f is not None], g, n, extrapolated)
+
+
+def pseudo_bma(models: list[Evaluated], seed: int = BOOTSTRAP_SEED) -> np.ndarray:
+    """Pseudo-BMA+ weights of ``models`` (the null is implied with gain 0 and is the last
+    weight): softmax of each model's block-summed held-out log-likelihood, averaged over
+    Bayesian-bootstrap reweightings of the blocks."""
+    if not models:
+        return np.array([1.0])
+    g = np.vstack([m.gain_blocks for m in models] + [np.zeros_like(models[0].gain_blocks)])
+    nb = g.shape[1]
+    rng = np.random.default_rng(seed)
+    alpha = rng.dirichlet(np.ones(nb), size=BOOTSTRAP) * nb
+    elpd = alpha @ g.T  # (draws, models)
+    elpd -= elpd.max(axis=1, keepdims=True)
+    w = np.exp(elpd)
+    w /= w.sum(axis=1, keepdims=True)
+    return w.mean(axis=0)
+
+
+def combined(fit_a: Fit, fit_b: Fit) -> Fit:
+    """Two fits as one (the pair's concatenated parameters)."""
+    return Fit(fit_a.candidates + fit_b.candidates, np.concatenate([fit_a.theta, fit_b.theta]),
+               np.concatenate([fit_a.stderr, fit_b.stderr]), merge(fit_a.mods, fit_b.mods))
+
+
+def choose(models: list[Any], cal: Calibration) -> str | None:
+    """The name of the model the criterion names, or None: the best admissible single whose
+    held-out gain per scored sample exceeds ``cal.gain_per_sample``, joined by a second
+    effect when the pair's gain over that single, per scored sample, exceeds
+    ``cal.pair_gain_per_sample``. ``models`` are :class:`Evaluated` or their gap.json rows
+    (``name``, ``gain``, ``per_sample``, ``n_scored``, ``refused``), so that a benchmark can
+    decide recorded runs again under another calibration."""
+    def get(m: Any, key: str) -> Any:
+        return m[key] if isinstance(m, dict) else getattr(m, key)
+    singles = sorted((m for m in models if "+" not in get(m, "name")
+                      and not get(m, "refused")), key=lambda m: -get(m, "gain"))
+    if not singles or get(singles[0], "per_sample") <= cal.gain_per_sample:
+        return None
+    lead = singles[0]
+    best, best_gain = str(get(lead, "name")), float(get(lead, "gain"))
+    for m in models:
+        name = str(get(m, "name"))
+        if "+" not in name or name.split("+")[0] != get(lead, "name") or get(m, "refused"):
+            continue
+        extra = (float(get(m, "gain")) - float(get(lead, "gain"))) / max(get(m, "n_scored"), 1)
+        if extra > cal.pair_gain_per_sample and float(get(m, "gain")) > best_gain:
+            best, best_gain = name, float(get(m, "gain"))
+    return best
+
+
+def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
+                  admissible) -> Criterion:
+    """Every single, greedy pairs on the best single, the weights and the chosen model.
+
+    ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
+    a bound, a channel made worse), "" when it may.
+    """
+    crit = Criterion(ls.folds, ls.ratio())
+    threshold = min(cal.gain_per_sample, cal.pair_gain_per_sample)
+    singles = [evaluate((c,), ls, threshold) for c in library]
+    for s in singles:
+        s.refused = admissible(s)
+    # one entry per effect: its best form (a per-motor law: its best motor)
+    best_of: dict[str, Evaluated] = {}
+    for s in singles:
+        if s.name not in best_of or s.gain > best_of[s.name].gain:
+            best_of[s.name] = s
+    ranked = sorted(best_of.values(), key=lambda m: -m.gain)
+    models = list(ranked)
+    usable = [m for m in ranked if not m.refused]
+    if usable and usable[0].per_sample > cal.gain_per_sample:
+        lead = usable[0]
+        for other in usable[1:1 + PAIR_POOL]:
+            x0 = np.concatenate([lead.fits[0].theta, other.fits[0].theta])
+            pair = evaluate(lead.candidates + other.candidates, ls, cal.pair_gain_per_sample,
+                            x0=x0, base=lead)
+            pair.refused = admissible(pair)
+            models.append(pair)
+    w = pseudo_bma(models)
+    for m, wi in zip(models, w[:-1], strict=True):
+        m.weight = float(wi)
+    crit.models = models
+    name = choose(models, cal)
+    crit.chosen = next((m for m in models if m.name == name), None)
+    return crit
+
+
+def effect_weight(crit: Criterion, name: str) -> float:
+    """Total weight of the models that contain effect ``name``."""
+    return float(sum(m.weight for m in crit.models if name in m.name.split("+")))

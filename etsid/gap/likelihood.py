@@ -1,0 +1,229 @@
+"""``etsid gap`` decided by the likelihood criterion (``method="likelihood"``).
+
+The stages after the nominal model and the airframe check: the noise model on SIM
+(:mod:`etsid.gap.noise`), the held-out log-likelihood of every candidate on REAL's blocked
+folds (:mod:`etsid.gap.criterion`), the calibrated thresholds
+(:mod:`etsid.gap.calibration`), the verdict rules kept from :mod:`etsid.gap.verdict`
+(a parameter at its bound or a channel made worse is not a finding; a thrust or inertia
+beyond one airframe's faults is another vehicle), and gap.json.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from etsid.gap.calibration import Calibration, load_calibration
+from etsid.gap.candidates import ground_excess
+from etsid.gap.criterion import (
+    Criterion,
+    Evaluated,
+    LikelihoodScorer,
+    effect_weight,
+    make_folds,
+    run_criterion,
+)
+from etsid.gap.detectable import cap_below_detectable
+from etsid.gap.effects import REGISTRY
+from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
+from etsid.gap.noise import fit_noise
+from etsid.gap.nominal import CUTOFF_HZ, LABELS, UNITS, NominalModel, measured
+from etsid.gap.signals import Flight
+from etsid.gap.summary import NICE, summary_sentence
+from etsid.gap.verdict import at_bound, worsened
+
+LOOK_ALIKE_NATS = 1.0
+"""Another effect whose weight is within a factor e of the named one's (one nat of held-out
+evidence, "barely worth mentioning" on Jeffreys' scale) is one the logs cannot tell apart
+from it."""
+
+
+def _admissible(scorer: Scorer, ls: LikelihoodScorer) -> Callable[[Evaluated], str]:
+    """Verdict rules 3 and 4 on a model's fold fits: why it may not be named, or ""."""
+    def check(ev: Evaluated) -> str:
+        for fit in ev.fits:
+            for cand, theta, _ in fit.split():
+                hits = at_bound(cand, theta)
+                if hits:
+                    return "at bound: " + hits[0].describe()
+        k = 0
+        fit = ev.fits[0]
+        chans = channels_of(fit.candidates, scorer)
+        mask = ls.folds.score[k]
+        worse = worsened(scorer.zscores(None, mask, chans), scorer.zscores(fit.mods, mask, chans))
+        if worse:
+            return "makes worse: " + ", ".join(f"{LABELS[c]} +{v:.1f} floors"
+                                               for c, v in worse.items())
+        return ""
+    return check
+
+
+def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
+    return {c: float(np.sqrt(np.mean(v[mask] ** 2))) for c, v in res.items()}
+
+
+def _entry(cand, theta: np.ndarray, err: np.ndarray, crit: Criterion, chosen: Evaluated,
+           res0: dict[str, np.ndarray], res1: dict[str, np.ndarray], hold: np.ndarray
+           ) -> dict[str, Any]:
+    chans = [c for c in cand.channels if c in res0]
+    params = {p.name: {"value": float(v), "unit": p.unit,
+                       "stderr": float(e) if np.isfinite(e) else None}
+              for p, v, e in zip(cand.params, theta, err, strict=True)}
+    if cand.motor is not None:
+        params["motor"] = {"value": cand.motor + 1, "unit": ""}
+    before = {c: float(np.sqrt(np.mean(res0[c][hold] ** 2))) for c in chans}
+    after = {c: float(np.sqrt(np.mean(res1[c][hold] ** 2))) for c in chans}
+    weight = effect_weight(crit, cand.name)
+    single = next((m for m in crit.models if m.name == cand.name), chosen)
+    evidence = (f"{cand.signature[0].upper()}{cand.signature[1:]}; fitted on one half of the "
+                f"recording's blocks and scored on the other, it raises the held-out "
+                f"log-likelihood by {single.gain:.0f} nats ({single.per_sample:.3f} per "
+                f"sample, ±{single.gain_se:.0f} nats over blocks)")
+    entry = {"name": cand.name, "channels": chans, "parameters": params,
+             "confidence": float(np.clip(weight, 0.0, 1.0)), "evidence": evidence,
+             "rmse_before": before, "rmse_after": after}
+    rivals = [(m.name, m.weight) for m in crit.models
+              if "+" not in m.name and m.name != cand.name
+              and m.weight >= weight * np.exp(-LOOK_ALIKE_NATS) and m.weight > 0]
+    if rivals:
+        entry["caveat"] = ("the logs cannot tell it apart from " + ", ".join(
+            f"{NICE.get(n, n)} (weight {w:.2f})" for n, w in rivals)
+            + f"; {NICE.get(cand.name, cand.name)} weight {weight:.2f}")
+    return entry
+
+
+AIRFRAME_SCALES = {"thrust_scale": (0.6, 1.6), "inertia_scale": (0.5, 2.2)}
+"""Fault ranges of the airframe-scale effects (physics: a lost 40 % of thrust or more than
+doubled inertia is another configuration of the vehicle, not a fault of it)."""
+
+
+def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
+                          sigma: dict[str, float], scorer: Scorer, base: dict[str, Any],
+                          notes: list[str], info: dict[str, Any],
+                          say: Callable[[str], None], cal: Calibration | None = None
+                          ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """gap.json's content and the report's series, decided by the likelihood criterion."""
+    from etsid.gap.run import locate, located_by_driver
+
+    cal = cal or load_calibration()
+    ys = measured(sim)
+    pred = nominal.predict(sim, None, scorer_channels(scorer))
+    res_sim = {c: ys[c] - v for c, v in pred.items() if c in ys}
+    noise = fit_noise(res_sim, sim.airborne, sigma, sim.fs, CUTOFF_HZ)
+    folds = make_folds(real.airborne, real.fs)
+    ls = LikelihoodScorer(scorer, noise, folds)
+    library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
+    say(f"gap: {len(library)} candidate effects, each fitted on one half of "
+        f"{real.name}'s {folds.n_blocks} blocks and scored on the other")
+    crit = run_criterion(ls, library, cal, _admissible(scorer, ls))
+    hold = np.zeros(real.n, dtype=bool)
+    for s in folds.score:
+        hold |= s
+    res0 = scorer.residuals()
+    mismatch = sorted((c for c, v in crit.ratio.items() if v > cal.mismatch_ratio),
+                      key=lambda c: -crit.ratio[c])
+    chosen = crit.chosen
+    final: Fit | None = None
+    if chosen is not None:
+        x0 = np.mean([f.theta for f in chosen.fits], axis=0)
+        final = fit_candidates(chosen.candidates, scorer, real.airborne, x0=x0)
+    res1 = scorer.residuals(final.mods) if final is not None else res0
+    ratio_after = ls.ratio(final.mods) if final is not None else crit.ratio
+    left = {c: {"z": ratio_after[c], "rmse": float(np.sqrt(np.mean(res1[c][hold] ** 2))),
+                "floor": sigma[c], "ratio": float(np.sqrt(ratio_after[c]))}
+            for c in ratio_after if ratio_after[c] > cal.mismatch_ratio}
+    effects: list[dict[str, Any]] = []
+    airframe: list[str] = []
+    radius, ground_law = info.get("radius"), None
+    if final is not None:
+        for cand, theta, err in final.split():
+            effects.append(_entry(cand, theta, err, crit, chosen, res0, res1, hold))
+            lo, hi = AIRFRAME_SCALES.get(cand.name, (-np.inf, np.inf))
+            if not lo <= float(theta[0]) <= hi:
+                airframe.append(f"{cand.name} {float(theta[0]):.3g} fitted, beyond a fault of "
+                                f"one airframe ({lo:g}–{hi:g})")
+            if cand.name == "ground_effect":
+                exponential = cand.params[0].name == "excess"
+                ground_law = ground_excess(theta, exponential)
+                if radius is None and not exponential:
+                    radius = float(theta[0])
+    cap_below_detectable(effects, base.get("detectable") or {})
+    for m in crit.models:
+        if m.refused and m.per_sample > cal.gain_per_sample and (
+                chosen is None or m.gain > chosen.gain):
+            notes.append(f"not kept: {m.name} ({m.refused})")
+    beyond = [m.refused[len("at bound: "):] for m in crit.models
+              if m.refused.startswith("at bound") and m.per_sample > cal.gain_per_sample
+              and (chosen is None or m.gain > chosen.gain)]
+    criterion = {"method": "likelihood", "folds": len(folds.score), "blocks": folds.n_blocks,
+                 "thresholds": {"mismatch_ratio": cal.mismatch_ratio,
+                                "gain_per_sample": cal.gain_per_sample,
+                                "pair_gain_per_sample": cal.pair_gain_per_sample},
+                 "innovation_ratio": crit.ratio,
+                 "models": [{"name": m.name, "gain": round(m.gain, 3),
+                             "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
+                             "weight": round(m.weight, 4),
+                             "theta": [round(float(v), 6) for v in np.mean(
+                                 [f.theta for f in m.fits], axis=0)],
+                             **({"refused": m.refused} if m.refused else {})}
+                            for m in sorted(crit.models, key=lambda m: -m.gain)]}
+    data = {**base, "effects": effects, "leftover": left, "beyond_range": beyond,
+            "notes": notes, "criterion": criterion,
+            "rmse_before": _rmse(res0, hold), "rmse_after": _rmse(res1, hold),
+            "candidates": [{"name": m.name, "share": round(m.weight, 4),
+                            "score": round(m.per_sample, 5)} for m in crit.models]}
+    data["nominal"] = {**data.get("nominal", {}), "z_all": crit.ratio, "z_held_out": crit.ratio}
+    series = {"res_before": res0, "res_after": res1, "fit": folds.score[0],
+              "hold": folds.score[-1], "scorer": scorer, "z_all": crit.ratio,
+              "mods": final.mods if final is not None else None}
+    if airframe:
+        data.update(verdict="different-vehicle", reason="; ".join(airframe), mismatch=None,
+                    effects=[], rmse_after=data["rmse_before"])
+        data["summary"] = (f"Different vehicle: {data['reason']}. One airframe with a fault "
+                           "does not explain both logs, so no missing physics is named.")
+        return data, series
+    named = [e["name"] for e in effects]
+    if not named and not mismatch:
+        data.update(verdict="consistent", mismatch=None, rmse_after=data["rmse_before"],
+                    reason=f"no channel of {real.name} departs from {sim.name}'s model beyond "
+                           "what no-effect pairs show, and no named effect predicts its "
+                           "held-out blocks better than the model unchanged")
+        data["summary"] = summary_sentence(data)
+        return data, series
+    channels = mismatch or sorted({c for e in effects for c in e["channels"]},
+                                  key=lambda c: -crit.ratio.get(c, 0.0))
+    if not named:
+        weight = 1.0 - max((m.weight for m in crit.models), default=0.0)
+        effects.append({"name": "unexplained", "channels": channels[:1], "parameters": {},
+                        "confidence": float(np.clip(weight, 0.0, 1.0)),
+                        "evidence": f"{LABELS[channels[0]]} departs from {sim.name}'s model "
+                                    "and no named effect predicts its held-out blocks",
+                        "rmse_before": {channels[0]: data["rmse_before"][channels[0]]},
+                        "rmse_after": {channels[0]: data["rmse_before"][channels[0]]}})
+    main = channels[0]
+    regime = locate(real, main, res0, sigma[main], radius, info.get("radius") is None,
+                    ground_law)
+    regime.update(located_by_driver(effects, real) or {})
+    segs = regime.pop("segments")
+    what = ", ".join(f"{LABELS[c]} {np.sqrt(crit.ratio[c]):.1f}×" for c in channels) + \
+        " their floor (innovations)"
+    data.update(verdict="mismatch",
+                reason=what + ("" if named else "; no named effect explains it on held-out "
+                               "data"),
+                mismatch={"channels": channels,
+                          "segments": [{"t_start": a, "t_end": b} for a, b in segs],
+                          "regime": regime})
+    data["summary"] = summary_sentence(data)
+    return data, series
+
+
+def scorer_channels(scorer: Scorer) -> tuple[str, ...]:
+    """The channels the scorer compares (those both logs have)."""
+    return tuple(c for c in scorer.ctx.nominal.channels if c in scorer.measured)
+
+
+def units_of(channels: list[str]) -> dict[str, str]:
+    """Channel → unit."""
+    return {c: UNITS[c] for c in channels}

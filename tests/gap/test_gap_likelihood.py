@@ -1,0 +1,155 @@
+"""The likelihood criterion's parts against known answers: the AR noise model, the blocked
+folds, the pseudo-BMA+ weights, the choice rule and the calibration file."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from etsid.errors import GapError
+from etsid.gap.calibration import Calibration, calibration_dict, load_calibration
+from etsid.gap.criterion import Evaluated, choose, make_folds, pseudo_bma
+from etsid.gap.noise import decimation, fit_ar, fit_noise
+
+
+def _ar2(n: int, a1: float, a2: float, sd: float, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    e = np.zeros(n)
+    w = rng.normal(0.0, sd, n)
+    for t in range(2, n):
+        e[t] = a1 * e[t - 1] + a2 * e[t - 2] + w[t]
+    return e
+
+
+def test_ar_fit_recovers_a_known_process_and_whitens_it():
+    e = _ar2(20000, 1.2, -0.5, 0.3, 1)
+    mask = np.ones(e.size, dtype=bool)
+    coef, sd = fit_ar(e, mask)
+    assert coef.size >= 2
+    assert coef[0] == pytest.approx(1.2, abs=0.03)
+    assert coef[1] == pytest.approx(-0.5, abs=0.03)
+    assert sd == pytest.approx(0.3, rel=0.03)
+    noise = fit_noise({"p": e}, mask, {"p": 0.0}, fs=100.0, cutoffs={"p": 100.0})
+    innov = noise.channels["p"].whiten(e)
+    ok = np.isfinite(innov)
+    lag1 = np.corrcoef(innov[ok][1:], innov[ok][:-1])[0, 1]
+    assert abs(lag1) < 0.03  # white, while the raw process is strongly correlated
+    assert np.corrcoef(e[1:], e[:-1])[0, 1] > 0.5
+
+
+def test_real_noise_raises_the_innovation_floor():
+    e = _ar2(5000, 0.5, 0.0, 1.0, 2)
+    mask = np.ones(e.size, dtype=bool)
+    rms = float(np.sqrt(np.mean(e**2)))
+    quiet = fit_noise({"p": e}, mask, {"p": 0.5 * rms}, 100.0, {"p": 100.0})
+    loud = fit_noise({"p": e}, mask, {"p": 3.0 * rms}, 100.0, {"p": 100.0})
+    assert quiet.channels["p"].sigma == pytest.approx(1.0, rel=0.05)
+    assert loud.channels["p"].sigma == pytest.approx(3.0 * quiet.channels["p"].sigma, rel=1e-9)
+
+
+def test_decimation_reads_a_slow_channel_sparsely():
+    assert decimation(100.0, 8.0) == 3
+    assert decimation(100.0, 0.5) == 50
+    assert decimation(10.0, 8.0) == 1
+
+
+def test_folds_are_disjoint_blocks_that_cover_the_evidence():
+    mask = np.zeros(5000, dtype=bool)
+    mask[100:2100] = True
+    mask[2500:4900] = True
+    folds = make_folds(mask, fs=100.0, n_folds=2, block_s=4.0, gap_s=0.5)
+    a, b = folds.score
+    assert not np.any(a & b)
+    assert not np.any((a | b) & ~mask)
+    assert np.all(folds.fit[0] == (mask & ~a))
+    assert abs(int(a.sum()) - int(b.sum())) <= 400
+    assert folds.n_blocks == 11  # 5 + 6 blocks of 4 s (the last one short)
+    assert set(np.unique(folds.block[a | b])) == set(range(folds.n_blocks))
+
+
+def _ev(name: str, blocks: list[float], n: int = 1000, refused: str = "") -> Evaluated:
+    return Evaluated(name, (), [], np.array(blocks, dtype=float), n, refused=refused)
+
+
+def test_look_alikes_share_their_weight_and_a_clear_winner_takes_it():
+    same = [5.0, 7.0, 6.0, 8.0, 5.5, 6.5]
+    w = pseudo_bma([_ev("thrust_scale", same), _ev("mass", same)])
+    assert w[0] == pytest.approx(0.5, abs=1e-9) and w[1] == pytest.approx(0.5, abs=1e-9)
+    assert w[2] < 1e-6  # the null
+    w = pseudo_bma([_ev("time_delay", [50.0] * 6), _ev("motor_lag", [10.0] * 6)])
+    assert w[0] > 0.999
+
+
+def test_choose_names_above_the_threshold_and_pairs_only_past_their_own():
+    cal = Calibration(4.0, 0.01, 0.05, 0.01, {})
+    lead = _ev("thrust_scale", [100.0], n=1000)  # 0.1 per sample
+    weak = _ev("gyro_bias", [5.0], n=1000)
+    pair_small = _ev("thrust_scale+gyro_bias", [130.0], n=1000)  # +0.03 per sample
+    assert choose([lead, weak, pair_small], cal) == "thrust_scale"
+    pair_big = _ev("thrust_scale+gyro_bias", [200.0], n=1000)  # +0.1
+    assert choose([lead, weak, pair_big], cal) == "thrust_scale+gyro_bias"
+    assert choose([_ev("thrust_scale", [5.0], n=1000)], cal) is None
+    refused = _ev("thrust_scale", [100.0], n=1000, refused="at bound")
+    assert choose([refused, weak], cal) is None
+    rows = [{"name": "thrust_scale", "gain": 100.0, "per_sample": 0.1, "n_scored": 1000,
+             "refused": ""}]
+    assert choose(rows, cal) == "thrust_scale"
+
+
+def test_calibration_file_round_trip_and_bad_file(tmp_path):
+    cal = Calibration(5.5, 0.012, 0.04, 0.01, {"generators": ["a", "b"]})
+    path = tmp_path / "cal.json"
+    path.write_text(json.dumps(calibration_dict(cal)))
+    back = load_calibration(str(path))
+    assert back == cal
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"schema": "something/1"}))
+    with pytest.raises(GapError, match="bad.json: not an etsid gap calibration"):
+        load_calibration(str(bad))
+    assert load_calibration().gain_per_sample > 0  # the package's own file reads
+
+
+def test_registry_is_the_authority_on_names():
+    from etsid.cli.gap_cmds import gap
+    from etsid.gap.candidates import LIBRARY
+    from etsid.gap.effects import REGISTRY, docs_table, vocabulary
+    from etsid.gap.result import SCHEMA_PATH, schema
+
+    shipped = json.loads(SCHEMA_PATH.read_text())
+    enum = shipped["properties"]["effects"]["items"]["properties"]["name"]["enum"]
+    assert sorted(enum) == sorted(vocabulary())
+    assert schema()["properties"]["effects"]["items"]["properties"]["name"]["enum"] == list(
+        vocabulary())
+    assert all(name in gap.help for name in vocabulary())
+    # every law of the library belongs to exactly one registered effect, with a prior
+    forms = [c for e in REGISTRY for c in e.forms]
+    assert len(forms) == len(LIBRARY)
+    for e in REGISTRY:
+        for c in e.forms:
+            assert np.isfinite(e.log_prior(c, np.array([p.x0 for p in c.params])))
+        assert f"`{e.name}`" in docs_table()
+
+
+def test_a_long_flight_is_read_as_evenly_spread_windows():
+    from etsid.gap.signals import LEAD_S, MAX_EVIDENCE_S, WINDOW_S, Flight, excerpt
+
+    fs, n = 50.0, 50 * 3600
+    t = np.arange(n) / fs
+    air = np.ones(n, dtype=bool)
+    air[:500] = False
+    z = np.zeros((n, 3))
+    f = Flight("long.ulg", t, fs, np.zeros((n, 4)), "motors", z, z, z, z, np.zeros(n),
+               np.zeros(n), air, {"alt"})
+    part, note = excerpt(f)
+    assert note is not None and "long.ulg" in note
+    assert part.airborne_s == pytest.approx(MAX_EVIDENCE_S, rel=0.03)  # a short last window
+    assert part.n == pytest.approx((MAX_EVIDENCE_S / WINDOW_S) * (WINDOW_S + LEAD_S) * fs,
+                                   rel=0.03)
+    assert np.all(np.diff(part.t) > 0)
+    assert part.t[0] < 100.0 and part.t[-1] > 3400.0  # spread over the whole hour
+    short, none = excerpt(Flight("short.ulg", t[:5000], fs, np.zeros((5000, 4)), "motors",
+                                 z[:5000], z[:5000], z[:5000], z[:5000], np.zeros(5000),
+                                 np.zeros(5000), air[:5000], set()))
+    assert none is None and short.n == 5000
