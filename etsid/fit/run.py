@@ -256,7 +256,7 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
     v0 = layout["v0"] or base["v0"]
     vehicle = build_vehicle(tmpl, values, layout, v0, name,
                             f"fitted by etsid fit from {len(tables)} flight(s); template "
-                            f"{tmpl.name}")
+                            f"{tmpl.name}", notes)
     layout_out = {k: v for k, v in layout.items()}
     return FitResult(params=params, vehicle=vehicle.to_dict(),
                      sources=[f.source for f in flights], layout=layout_out, counts=counts,
