@@ -103,6 +103,16 @@ class EtsidGroup(click.Group):
             progress.enable(False)
 
     def invoke(self, ctx: click.Context) -> Any:
+        from etsid.escape import TerminalStream
+
+        streams = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = TerminalStream(sys.stdout), TerminalStream(sys.stderr)
+        try:
+            return self._invoke(ctx)
+        finally:
+            sys.stdout, sys.stderr = streams
+
+    def _invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
         except EtsidError as err:
