@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
 #: most consequent snapshots / events one learning-kernel call buffers before it returns
-_SNAPSHOTS_PER_CALL = 64
+_SNAPSHOTS_PER_CALL = 16
 _EVENTS_PER_CALL = 4096
 #: rule counts where learning switches kernels: the rule-major ``learn_kernel`` runs while
 #: R <= _RULE_MAJOR_MAX, ``learn_lanes`` (vectorised across rules) while R >= _LANES_MIN;
