@@ -18,7 +18,7 @@ LAYERS: dict[str, int] = {
     "files": 0.5, "schemas": 0.5,  # the opener and the schemas: above errors, below the rest
     "table": 1,
     "ets": 2, "ingest": 2, "sim": 2,
-    "ident": 3,
+    "ident": 3, "fit": 3,
     "report": 4, "gap": 4, "control": 4,
     "batch": 5,
     "cli": 6,

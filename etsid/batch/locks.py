@@ -6,8 +6,9 @@ batches started with ``--resume`` on one folder, or a batch killed with SIGKILL,
 more things, both here:
 
 - :func:`log_lock`: an exclusive ``flock`` on ``.NAME-KEY.lock`` held while a log is worked
-  on; a second batch that reaches the same log waits for it and then skips it when the
-  first one put its run directory in place (no log is worked twice);
+  on; a second batch that reaches the same log waits for it, and skips it when another
+  batch put its run directory in place since the second one started
+  (:func:`done_elsewhere`): no log is worked twice;
 - :func:`remove_stale_staging`: staging folders whose lock nobody holds are what a killed
   worker left (partial Parquet files); ``--resume`` removes them.
 
@@ -22,9 +23,28 @@ import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
-RESUMING = "resuming"
-"""Put in the ``done`` keys of a ``--resume`` batch (never a 32-hex key): a worker that
-waited for a log's lock skips the log when the other batch put its run directory in place."""
+RESUMING = "resuming:"
+"""Prefix of a marker put in the ``done`` keys of a ``--resume`` batch (never a 32-hex key),
+followed by the batch's start time: a log whose run directory another batch put in place
+after that time is skipped (:func:`done_elsewhere`)."""
+
+
+def resume_marker(started: float) -> str:
+    """The marker of a ``--resume`` batch started at ``started`` (``time.time()``)."""
+    return f"{RESUMING}{started!r}"
+
+
+def done_elsewhere(final: Path, done: frozenset[str]) -> bool:
+    """True when this is a ``--resume`` batch and another batch put run directory
+    ``final`` in place since this one started (checked while holding the log's lock)."""
+    starts = [float(k[len(RESUMING):]) for k in done if k.startswith(RESUMING)]
+    if not starts:
+        return False
+    try:
+        return final.is_dir() and final.stat().st_mtime >= starts[0]
+    except OSError:
+        return False
+
 
 STAGING = re.compile(r"^\.(?P<final>.+-[0-9a-f]{12})\.(old\.)?[^.]+$")
 """A staging folder of run directory ``final`` (``tempfile.mkdtemp`` suffix)."""

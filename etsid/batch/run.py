@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from etsid.batch.locks import RESUMING, remove_stale_staging
+from etsid.batch.locks import remove_stale_staging, resume_marker
 from etsid.batch.results import RUNS, compact, done_keys, write_row
 from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
@@ -146,7 +146,7 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         if resume:  # a killed batch's staging folders (partial files), and the marker that
             # lets a worker skip a log another --resume batch finished while it waited
             stale = remove_stale_staging(out / RUNS)
-            done = done | {RESUMING}
+            done = done | {resume_marker(time.time())}
         runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb, dashboard)
     except BaseException:
         _remove_empty(made)  # an error before any log ran leaves no empty folder

@@ -40,6 +40,8 @@ class Report:
     figures: dict[str, Path] = field(default_factory=dict)
     html: Path | None = None
     markdown: Path | None = None
+    notes: list[str] = field(default_factory=list)
+    """What the report left out of its input and why (printed by the CLI)."""
 
 
 def save_figure(fig: Any, path: Path) -> Path:

@@ -305,8 +305,6 @@ def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None,
     if not is_batch_dir(batch_dir):
         raise EtsidError(f"{batch_dir}: not a batch directory (no batch.json and results/)")
     meta, frame = load_fleet(batch_dir)
-    for note in meta.get("notes") or []:
-        (say or (lambda _: None))(f"note: {note}")
     try:
         staging = Path(tempfile.mkdtemp(prefix=".report-", dir=batch_dir))
     except OSError as err:
@@ -324,6 +322,7 @@ def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None,
     report.directory = out
     report.figures = {name: out / path.name for name, path in report.figures.items()}
     report.html, report.markdown = out / "index.html", out / "report.md"
+    report.notes = list(meta.get("notes") or [])
     return report
 
 
