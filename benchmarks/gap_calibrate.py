@@ -239,7 +239,7 @@ def score(args: argparse.Namespace) -> None:
     cal = load_calibration(args.calibration)
     rows = [r for r in load(args.records) if r["generator"] in args.generator.split(",")]
     right = total = fp = n_none = conf_n = conf_ok = oov_bad = 0
-    old_right = both = only_new = only_old = 0
+    old_right = old_total = both = only_new = only_old = 0
     for r in rows:
         d = decide(r, cal)
         exp = r["expected"]
@@ -262,6 +262,7 @@ def score(args: argparse.Namespace) -> None:
         old_ok = None
         if old is not None and not r.get("oov"):
             old_ok = _same(exp, old["answer"])
+            old_total += 1
             old_right += old_ok
             both += ok and old_ok
             only_new += ok and not old_ok
@@ -276,8 +277,9 @@ def score(args: argparse.Namespace) -> None:
           f"named at confidence >= 0.5: {oov_bad}; confidence >= {CONFIDENT}: "
           f"{conf_ok}/{conf_n} right")
     if any(r.get("old") for r in rows):
-        print(f"old method (tiers) named right {old_right}/{total}; both right {both}, only "
-              f"new {only_new}, only old {only_old}")
+        print(f"on the {old_total} of these pairs also run with the old method (tiers): old "
+              f"named right {old_right}/{old_total}; both right {both}, only new {only_new}, "
+              f"only old {only_old}")
 
 
 def main() -> None:
