@@ -36,7 +36,7 @@ VARIANTS = {
 
 def sensitivity() -> None:
     """eTS tracking RMSE (mm, seed 0; final rules) against forgetting and height radius."""
-    names = ("sine", "hover-ige", "ige-sine", "mass-change")
+    names = ("sine-altitude", "hover-ige", "ige-sine", "mass-change")
     print("| forgetting | radius h | " + " | ".join(names) + " |")
     print("|---|---|" + "---|" * len(names))
     for forgetting in (0.9, 0.95, 0.98, 0.995):
@@ -66,7 +66,7 @@ def main() -> None:
           "effort, 1/s | rules | replacements | stable |")
     print("|---|---|---|---|---|---|---|---|---|")
     timing: dict[str, list[float]] = {k: [] for k in ("ets", "pid", "plant", "rt")}
-    for name in ("sine", "step", "hover-ige", "ige-sine", "mass-change"):
+    for name in ("sine-altitude", "altitude-steps", "hover-ige", "ige-sine", "mass-change"):
         for label, make in VARIANTS.items():
             ms = []
             for seed in seeds:

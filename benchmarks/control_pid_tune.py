@@ -48,14 +48,14 @@ def main() -> None:
     for kp, kd, ki in itertools.product(KP, KD, KI):
         gains = Gains(kp=kp, kd=kd, ki=ki)
         res = {}
-        for name in ("sine", "step"):
+        for name in ("sine-altitude", "altitude-steps"):
             sc = SCENARIOS[name]
             plant = SimPlant(seed=0)
             f = fly(sc, PIDController(plant.dt, plant.hover_command, gains), plant)
             res[name] = (f, flight_metrics(f.table, sc.step_times() or None))
-        ms, mt = res["sine"][1], res["step"][1]
-        os_ = overshoot(res["step"][0], SCENARIOS["step"].step_times())
-        ok = (not res["sine"][0].diverged and not res["step"][0].diverged
+        ms, mt = res["sine-altitude"][1], res["altitude-steps"][1]
+        os_ = overshoot(res["altitude-steps"][0], SCENARIOS["altitude-steps"].step_times())
+        ok = (not res["sine-altitude"][0].diverged and not res["altitude-steps"][0].diverged
               and mt["settling_time_max"] is not None and os_ <= MAX_OVERSHOOT
               and ms["control_effort"] <= MAX_EFFORT)
         rows.append((ms["tracking_rmse"], kp, kd, ki, mt["settling_time_mean"], os_,

@@ -55,6 +55,8 @@ RESPONSE_COLUMNS = ("p", "q", "r", "roll", "pitch", "yaw", "ax", "ay", "az", "vx
                     "alt")
 """Everything the vehicle's motion produces (sensors and estimates); the motor outputs and
 the pilot's commands are what it responds to."""
+ANGLES = ("roll", "pitch", "yaw")
+"""Columns that wrap at ±π (shifted on their unwrapped values)."""
 K_IDLE = 0.1
 """Idle offset k of rotor speed ∝ (m + k) used to turn a thrust change into the command a
 motor needs (etsid's own default; the real vehicles' k is not known)."""
@@ -75,7 +77,11 @@ def _late(table: pd.DataFrame, cols: tuple[str, ...], delay: float) -> pd.DataFr
         good = np.isfinite(v)
         if good.sum() < 2:
             continue
-        shifted = np.interp(t - delay, t[good], v[good])
+        angle = c in ANGLES
+        src = np.unwrap(v[good]) if angle else v[good]
+        shifted = np.interp(t - delay, t[good], src)
+        if angle:  # interpolated on the unwrapped angle: no spike across ±π
+            shifted = np.angle(np.exp(1j * shifted))
         shifted[~good] = np.nan
         out[c] = shifted
     return out
@@ -204,6 +210,7 @@ class Case:
     named: list[tuple[str, float]] | None = None
     detectable: dict[str, Any] | None = None
     worst_ratio: float = 0.0
+    caveats: list[str] | None = None
     seconds: float = 0.0
     skipped: str = ""
 
@@ -213,21 +220,29 @@ class Case:
         return ch.effect if ch else None
 
     def below(self) -> bool | None:
-        """Is the injected size below the pair's stated detectable size? None when the
-        verdict states none for this effect."""
+        """Is the injected size below the pair's stated detectable size of the injected
+        parameter, in the injected direction? True also when the verdict calls the effect
+        ``insufficient``; None when the verdict states nothing for it (or the change is
+        outside the vocabulary)."""
         ch = BY_NAME.get(self.change)
-        if ch is None or not self.detectable:
+        if ch is None or ch.effect is None or not self.detectable:
             return None
-        key = ch.effect or ch.name
-        entry = self.detectable.get(key)
-        if not entry or entry.get("size") is None:
-            return None if not entry else (entry.get("status") == "insufficient" or None)
-        size = abs(self.size) if ch.effect not in ("weak_motor", "thrust_scale") \
-            else abs(1.0 - self.size)
-        return size < float(entry["size"])
+        entry = self.detectable.get(ch.effect)
+        if not entry:
+            return None
+        if entry.get("status") == "insufficient":
+            return True
+        null = 1.0 if ch.effect in ("weak_motor", "thrust_scale") else 0.0
+        way = "up" if self.size >= null else "down"
+        limit = (entry.get("per_parameter") or {}).get(ch.parameter, {}).get(way)
+        if limit is None:
+            return True  # not detectable within the parameter's range in that direction
+        return abs(self.size - null) < float(limit)
 
     def outcome(self) -> str:
-        """``right``/``wrong``/``honest`` (below the stated detectable size, said so)."""
+        """``right``, ``look-alike`` (named as the chosen effect's look-alike), ``honest``
+        (below the stated detectable size, not named at confidence >= 0.5), ``seen`` /
+        ``unseen`` (outside the vocabulary: a mismatch or not) or ``wrong``."""
         if self.skipped:
             return "skipped"
         if self.verdict == "different-vehicle":
@@ -235,15 +250,17 @@ class Case:
         if self.change in ("identical", "parquet"):
             return "right" if self.verdict == "consistent" and self.worst_ratio <= 1.0 \
                 else "wrong"
-        names = {n: c for n, c in self.named or []}
-        below = self.below()
         exp = self.expected()
-        if below:
-            confident = [n for n, c in names.items() if c >= 0.5]
-            return "honest" if not confident else "wrong"
         if exp is None:
-            return "right" if self.verdict == "mismatch" else "wrong"
-        return "right" if exp in names else "wrong"
+            return "seen" if self.verdict == "mismatch" else "unseen"
+        names = dict(self.named or [])
+        if self.below():
+            return "honest" if names.get(exp, 0.0) < 0.5 else "wrong"
+        if exp in names:
+            return "right"
+        if any(exp.replace("_", " ") in c for c in self.caveats or []):
+            return "look-alike"
+        return "wrong"
 
 
 def run_case(sim: pd.DataFrame, real: pd.DataFrame, log: str, change: str, size: float
@@ -261,6 +278,7 @@ def run_case(sim: pd.DataFrame, real: pd.DataFrame, log: str, change: str, size:
     case.seconds = time.time() - t0
     case.verdict = data["verdict"]
     case.named = [(e["name"], float(e.get("confidence", 0.0))) for e in data["effects"]]
+    case.caveats = [str(e["caveat"]) for e in data["effects"] if e.get("caveat")]
     case.detectable = data.get("detectable")
     z = [v for d in (data.get("nominal", {}).get("z_all", {}),
                      data.get("nominal", {}).get("z_held_out", {})) for v in d.values()]
@@ -268,10 +286,10 @@ def run_case(sim: pd.DataFrame, real: pd.DataFrame, log: str, change: str, size:
     return case
 
 
-def cases_for(table: pd.DataFrame, log: str, changes: list[str], quick: bool = False
+def cases_for(table: pd.DataFrame, log: str, changes: list[str], pick: str = ""
               ) -> list[tuple]:
-    """(log, change, size, REAL table or skip reason) for every case of one log (``quick``:
-    each change at its largest size only)."""
+    """(log, change, size, REAL table or skip reason) for every case of one log (``pick``
+    ``"quick"``: each change at its largest size only; ``"ends"``: its smallest and largest)."""
     out: list[tuple] = []
     if "identical" in changes:
         out.append((log, "identical", 0.0, table.copy()))
@@ -281,7 +299,7 @@ def cases_for(table: pd.DataFrame, log: str, changes: list[str], quick: bool = F
     for ch in CHANGES:
         if ch.name not in changes:
             continue
-        sizes = ch.sizes[-1:] if quick else ch.sizes
+        sizes = {"quick": ch.sizes[-1:], "ends": (ch.sizes[0], ch.sizes[-1])}.get(pick, ch.sizes)
         for s in sizes:
             real = ch.make(table, s)
             out.append((log, ch.name, s, real if real is not None else
@@ -297,9 +315,12 @@ def table_lines(cases: list[Case]) -> list[str]:
         named = ", ".join(f"{n} {conf:.2f}" for n, conf in c.named or []) or "–"
         ch = BY_NAME.get(c.change)
         det = "–"
-        if c.detectable and ch is not None:
-            e = c.detectable.get(ch.effect or ch.name) or {}
-            det = (f"{e['size']:.3g}" if e.get("size") is not None else e.get("status", "–"))
+        if c.detectable and ch is not None and ch.effect:
+            e = c.detectable.get(ch.effect) or {}
+            ways = (e.get("per_parameter") or {}).get(ch.parameter, {})
+            limit = [v for v in ways.values() if v is not None]
+            det = (e.get("status", "–") if e.get("status") == "insufficient" or not limit
+                   else "/".join(f"{v:.3g}" for v in limit))
         rows.append(f"| {c.log} | {c.change} | {c.size:g} | {c.verdict} | {c.worst_ratio:.2f} "
                     f"| {named} | {det} | "
                     f"{c.outcome()} |")
@@ -313,8 +334,8 @@ def score(cases: list[Case]) -> dict[str, Any]:
         kind = c.change
         d = by.setdefault(kind, {})
         d[c.outcome()] = d.get(c.outcome(), 0) + 1
-    total = {k: sum(d.get(k, 0) for d in by.values()) for k in ("right", "honest", "wrong",
-                                                                 "skipped")}
+    total = {k: sum(d.get(k, 0) for d in by.values())
+             for k in ("right", "look-alike", "honest", "seen", "unseen", "wrong", "skipped")}
     dv = sum(c.verdict == "different-vehicle" for c in cases
              if c.change not in ("identical", "parquet"))
     return {"by_change": by, "total": total, "different_vehicle": dv}
@@ -329,6 +350,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", default=str(SHARED_LOGS), help="folder of the real logs")
     ap.add_argument("--quick", action="store_true",
                     help="the largest size of each change only (one case per change and log)")
+    ap.add_argument("--ends", action="store_true",
+                    help="the smallest and the largest size of each change")
     args = ap.parse_args(argv)
     folder = Path(args.data)
     if not folder.is_dir():
@@ -340,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
     cases: list[Case] = []
     for log in logs:
         table = load(log, folder)
-        for lg, change, size, real in cases_for(table, log, changes, args.quick):
+        pick = "quick" if args.quick else ("ends" if args.ends else "")
+        for lg, change, size, real in cases_for(table, log, changes, pick):
             if isinstance(real, str):
                 case = Case(lg, change, size, skipped=real)
             else:

@@ -33,7 +33,7 @@ def commands(out: Path) -> dict[str, list[str]]:
         "gap": ["gap", str(ROOT / "sample_logs" / "low_hover_1.parquet"),
                 str(ROOT / "sample_logs" / "low_hover_2.parquet"), "--out", str(out / "gap")],
         "simulate": ["simulate", "steps", "-o", str(out / "sim.tlog"), "--duration", "30"],
-        "control": ["control", "step", "--out", str(out / "control")],
+        "control": ["control", "sine-altitude", "--out", str(out / "control")],
         "batch": ["batch", "identify", bag, str(ROOT / "sample_logs" / "hexa_ige_oge.tlog"),
                   "--out", str(out / "fleet"), "-j", "2"],
         "fleet report": ["report", str(out / "fleet")],

@@ -42,3 +42,8 @@ class BatchError(EtsidError):
 
 class ControlError(EtsidError):
     """A control experiment cannot be set up (unknown scenario or controller, bad setting)."""
+
+
+class FitError(EtsidError):
+    """``etsid fit``: a log that cannot give an airframe's parameters (no motor outputs, too
+    few active motors, no airborne data)."""

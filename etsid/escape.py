@@ -75,6 +75,34 @@ def clean(value: Any) -> Any:
     return root[0]
 
 
+_TERMINAL_UNSAFE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028"
+                              "\u2029\u202a-\u202e\u2066-\u2069]")
+CLEAR_LINE = "\r\x1b[K"
+"""The one control sequence etsid itself writes to a terminal (the progress line)."""
+
+
+def for_stream(text: str) -> str:
+    """``text`` safe on a terminal, keeping newlines, tabs and :data:`CLEAR_LINE`."""
+    return CLEAR_LINE.join(_TERMINAL_UNSAFE.sub(_shown, part)
+                           for part in text.split(CLEAR_LINE))
+
+
+class TerminalStream:
+    """A text stream whose writes pass through :func:`for_stream`: file names and other
+    strings from files printed by any command cannot write escape sequences (the CLI wraps
+    stdout and stderr in it)."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        self._stream.write(for_stream(text))
+        return len(text)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def for_terminal(text: object) -> str:
     """``str(text)`` safe to print on a terminal."""
     return printable(str(text))

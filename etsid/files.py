@@ -56,6 +56,7 @@ LIMITS: dict[str, int | None] = {
     "bag-metadata": 16 * MIB,
     "figure": 64 * MIB,
     "package": 16 * MIB,
+    "calibration": 1 * MIB,
 }
 """Bytes etsid reads of one file of each kind (``None``: streamed or read in bounded pieces
 by its reader). A vehicle file or a mapping is a few kB; a sidecar or batch.json well under
@@ -66,7 +67,7 @@ WORDS: dict[str, str] = {
     "vehicle": "vehicle files", "mapping": "mapping files", "rules": "rule bases",
     "run": "run folders' files", "batch": "batch folders' files", "gap": "gap reports",
     "list": "lists of inputs", "bag-metadata": "bag metadata files", "figure": "figures",
-    "package": "package files",
+    "package": "package files", "calibration": "calibration files",
 }
 REFUSED_ROOTS = ("/proc", "/sys")
 """Pseudo file systems whose "regular" files are generated, without end or size."""

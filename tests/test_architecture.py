@@ -12,11 +12,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # Layers, lowest first: a room may import only rooms on a strictly lower layer.
 LAYERS: dict[str, int] = {
-    "errors": 0, "progress": 0, "frames": 0, "pwm": 0, "rosmsgs": 0, "etsid": 0,
-    "files": 0, "escape": 0, "schemas": 0,
+    "errors": 0, "progress": 0, "frames": 0, "pwm": 0, "rosmsgs": 0, "cachedir": 0,
+    "etsid": 0.5,  # the package's __init__: sets the numba cache folder (cachedir)
+    "escape": 0,
+    "files": 0.5, "schemas": 0.5,  # the opener and the schemas: above errors, below the rest
     "table": 1,
     "ets": 2, "ingest": 2, "sim": 2,
-    "ident": 3,
+    "ident": 3, "fit": 3,
     "report": 4, "gap": 4, "control": 4,
     "batch": 5,
     "cli": 6,

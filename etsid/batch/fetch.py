@@ -84,6 +84,11 @@ def url_fs(url: str) -> tuple[Any, str]:
         raise BatchError(f"{url}: cannot open this URL ({_reason(err)})") from err
 
 
+def _shown(item: str, most: int = 200) -> str:
+    """``item`` cut to ``most`` characters for a message (with how long it was)."""
+    return item if len(item) <= most else f"{item[:most]}… ({len(item)} characters)"
+
+
 def _reason(err: BaseException) -> str:
     text = str(err).strip().splitlines()
     return f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
@@ -121,7 +126,12 @@ def local_copy(item: str, protocols: tuple[str, ...] = DEFAULT_PROTOCOLS) -> Ite
     """
     if not is_url(item):
         path = Path(item)
-        if not path.exists():
+        try:
+            found = path.exists()
+        except OSError as err:  # e.g. a name longer than the system allows
+            raise BatchError(f"{_shown(item)}: not a usable path ({err.strerror or err})"
+                             ) from err
+        if not found:
             raise BatchError(f"{item}: no such file or directory")
         yield path
         return

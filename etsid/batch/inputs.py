@@ -28,6 +28,7 @@ from etsid.batch.fetch import (
     url_fs,
 )
 from etsid.errors import BatchError
+from etsid.files import read_text
 
 LOG_SUFFIXES = (".tlog", ".bin", ".ulg", ".bag", ".db3", ".mcap")
 """File extensions searched for in directories (the readers of :mod:`etsid.ingest`)."""
@@ -95,10 +96,7 @@ def _walk_url(url: str, tables: list[str]) -> list[str]:
 
 
 def _read_list(path: Path) -> list[str]:
-    try:
-        lines = path.read_text().splitlines()
-    except (OSError, UnicodeDecodeError) as err:
-        raise BatchError(f"{path}: cannot read the list of inputs ({err})") from err
+    lines = read_text(path, "list", BatchError).splitlines()
     items = []
     for line in lines:
         text = line.split("#", 1)[0].strip()
@@ -156,10 +154,15 @@ def find_inputs(items: Iterable[str | Path], exclude: Path | None = None,
                 add(found)
             continue
         path = Path(item)
-        if path.is_dir():
+        try:
+            is_dir, is_file = path.is_dir(), path.is_file()
+        except OSError:  # a name longer than the system allows: that input's error row
+            add(item)
+            continue
+        if is_dir:
             for found in _walk_local(path, exclude, tables):
                 add(found)
-        elif path.is_file() and path.suffix.lower() in LIST_SUFFIXES:
+        elif is_file and path.suffix.lower() in LIST_SUFFIXES:
             for listed in find_inputs(_read_list(path), exclude, tables, protocols):
                 add(listed)
         else:
@@ -181,10 +184,7 @@ def read_pairs(items: Iterable[str | Path]) -> list[tuple[str, str]]:
     pairs: list[tuple[str, str]] = []
     for raw in items:
         path = Path(raw)
-        try:
-            rows = list(csv.reader(path.read_text().splitlines()))
-        except (OSError, UnicodeDecodeError) as err:
-            raise BatchError(f"{path}: cannot read the pairs CSV ({err})") from err
+        rows = list(csv.reader(read_text(path, "list", BatchError).splitlines()))
         for number, row in enumerate(rows, start=1):
             cells = [c.strip() for c in row]
             if not cells or not any(cells) or cells[0].startswith("#"):

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from etsid.batch.results import compact, done_keys, write_row
+from etsid.batch.locks import remove_stale_staging, resume_marker
+from etsid.batch.results import RUNS, compact, done_keys, write_row
 from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
 from etsid.batch.worker import Item, Outcome
@@ -139,8 +140,13 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         raise BatchError(f"{out}: cannot create the batch directory ({err.strerror})") from err
     jobs = max(1, jobs or default_jobs())
     digest = spec.digest()
+    stale = 0
     try:
         done = done_keys(out, spec.command, digest, retry_failed) if resume else frozenset()
+        if resume:  # a killed batch's staging folders (partial files), and the marker that
+            # lets a worker skip a log another --resume batch finished while it waited
+            stale = remove_stale_staging(out / RUNS)
+            done = done | {resume_marker(time.time())}
         runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb, dashboard)
     except BaseException:
         _remove_empty(made)  # an error before any log ran leaves no empty folder
@@ -150,7 +156,7 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
         "schema": "etsid.batch/1", "command": spec.command, "options_digest": digest,
         "options": spec.options(), "inputs": len(items), "jobs": jobs,
         "scheduler": scheduler, "resume": resume,
-        "retry_failed": retry_failed,
+        "retry_failed": retry_failed, "stale_staging_removed": stale,
         "started": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
     }
     _write_meta(out, meta)

@@ -21,6 +21,7 @@ import numpy as np
 from etsid.batch.schema import RATE_OUTPUTS
 from etsid.batch.spec import BatchSpec
 from etsid.errors import BatchError
+from etsid.files import read_json
 from etsid.ingest.vehicle import FACTS
 
 GAP_UNAVAILABLE = "gap analysis is not available in this version"
@@ -207,7 +208,7 @@ def identify(path: Path, spec: BatchSpec, run_dir: Path) -> dict[str, Any]:
     row.update(metrics_fields(run.metrics, run.config))
     rules_path = run_dir / "rules.json"
     if rules_path.is_file():  # the rule base as written, not a second computation
-        row.update(regimes_fields(json.loads(rules_path.read_text())))
+        row.update(regimes_fields(read_json(rules_path, "rules", BatchError)))
     row["warnings"] = len(run.config.get("warnings") or []) + len(
         [n for n in _get(run.config, "model", "notes") or [] if str(n).startswith("warning")])
     return row

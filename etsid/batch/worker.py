@@ -29,6 +29,7 @@ from etsid.batch import tasks
 from etsid.batch.fetch import local_copy
 from etsid.batch.inputs import run_name
 from etsid.batch.lifeline import die_with_parent
+from etsid.batch.locks import done_elsewhere, log_lock
 from etsid.batch.results import RUNS, write_row
 from etsid.batch.spec import BatchSpec
 from etsid.errors import EtsidError
@@ -160,8 +161,11 @@ def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[st
                 return False
             run_dir = out / RUNS / f"gap-{digest[:8]}" / f"{run_name(item[1])}-{row['_key'][:12]}"
             row["run_dir"] = run_dir.relative_to(out).as_posix()
-            with staged_dir(run_dir) as staging:
-                row.update(tasks.gap(sim, real, spec, staging))
+            with log_lock(run_dir):
+                if done_elsewhere(run_dir, done):
+                    return False  # another batch did this log since this one started
+                with staged_dir(run_dir) as staging:
+                    row.update(tasks.gap(sim, real, spec, staging))
             return True
         path = stack.enter_context(local_copy(item, spec.protocols))
         row["_local"] = str(path)
@@ -171,8 +175,11 @@ def _run(item: Item, spec: BatchSpec, out: Path, digest: str, done: frozenset[st
         name = f"{run_name(item)}-{row['_key'][:12]}"
         run_dir = out / RUNS / f"{spec.command}-{digest[:8]}" / name
         row["run_dir"] = run_dir.relative_to(out).as_posix()
-        with staged_dir(run_dir) as staging:
-            row.update(tasks.RUNNERS[spec.command](path, spec, staging))
+        with log_lock(run_dir):
+            if done_elsewhere(run_dir, done):
+                return False  # another batch did this log since this one started
+            with staged_dir(run_dir) as staging:
+                row.update(tasks.RUNNERS[spec.command](path, spec, staging))
         return True
 
 

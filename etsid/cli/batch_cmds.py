@@ -220,6 +220,46 @@ def batch_gap(pairs: tuple[Path, ...], vehicle: str | None, **kw: Any) -> None:
     _run(list(read_pairs(pairs)), (), spec, options)
 
 
+@batch.command("fit")
+@click.argument("root", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("-o", "--out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for fleet.csv (one row per flight), flags.json and fleet.png.")
+@click.option("--full", is_flag=True,
+              help="The full fit per flight (default: the quick fit, about 5x faster: a "
+                   "100 Hz grid and the coarse lag/delay grid; docs/fit.md).")
+def batch_fit(root: Path, out: Path, full: bool) -> None:
+    """etsid fit on every flight below ROOT (one row per flight), grouped by airframe (the
+    log's vehicle id where it has one, else its folder); flags a parameter that leaves
+    its reference (the first flights) at the flight where the change starts."""
+    import json
+
+    from etsid.fit.fleet import fit_fleet
+    from etsid.ingest import read_log
+    from etsid.report.fit_fleet import fleet_figure
+
+    def say(line: str) -> None:
+        if wanted(False):
+            click.echo(line, err=True)
+
+    result = fit_fleet(root, read_log, progress=say, quick=not full)
+    out.mkdir(parents=True, exist_ok=True)
+    result.rows.to_csv(out / "fleet.csv", index=False)
+    (out / "flags.json").write_text(json.dumps({"flags": result.flags,
+                                                "errors": result.errors}, indent=1),
+                                    encoding="utf-8")
+    for error in result.errors:
+        click.echo(f"failed: {error}", err=True)
+    if not result.rows.empty:
+        fleet_figure(result.rows, result.flags, out / "fleet.png")
+    n_air = result.rows["airframe"].nunique() if not result.rows.empty else 0
+    click.echo(f"{len(result.rows)} flights of {n_air} airframes fitted, "
+               f"{len(result.errors)} failed; {len(result.flags)} change(s) flagged")
+    for flag in result.flags:
+        click.echo(f"  {flag['airframe']}: {flag['param']} changes from flight "
+                   f"{flag['flight']} ({flag['name']}, z = {flag['z']:+.1f})")
+    click.echo(f"wrote {out}/fleet.csv, flags.json, fleet.png")
+
+
 for _command, _single in ((batch_inspect, inspect_cmd), (batch_ingest, ingest_cmd),
                           (batch_identify, identify_cmd), (batch_gap, inspect_cmd)):
     _command.params.extend(_borrowed(_single))

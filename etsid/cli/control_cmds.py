@@ -6,13 +6,24 @@ from pathlib import Path
 
 import click
 
-SCENARIO_NAMES = ("hover-ige", "ige-sine", "mass-change", "sine", "step")
+from etsid.progress import stage
+
+SCENARIO_NAMES = ("altitude-steps", "hover-ige", "ige-sine", "mass-change", "sine-altitude")
 """Kept in step with :data:`etsid.control.scenarios.SCENARIOS` (tests check it), so that
 ``--help`` does not import the simulator."""
+SCENARIO_ALIASES = {"sine": "sine-altitude", "step": "altitude-steps"}
+"""Former names still accepted (:data:`etsid.control.scenarios.ALIASES`)."""
+
+
+def _scenario(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    name = SCENARIO_ALIASES.get(value, value)
+    if name not in SCENARIO_NAMES:
+        raise click.BadParameter(f"{value!r} is not one of {', '.join(SCENARIO_NAMES)}")
+    return name
 
 
 @click.command()
-@click.argument("scenario", type=click.Choice(SCENARIO_NAMES))
+@click.argument("scenario", metavar="{" + "|".join(SCENARIO_NAMES) + "}", callback=_scenario)
 @click.option("-o", "--out", "out", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="RUN_DIR to write (flight, metrics, rules, report/); "
               "default ./control-SCENARIO-CONTROLLER.")
@@ -30,15 +41,18 @@ def control(scenario: str, out: Path | None, controller: str, vehicle: Path | No
             duration: float | None, seed: int, no_report: bool) -> None:
     """Fly SCENARIO with the vertical loop closed by CONTROLLER; write RUN_DIR and figures.
 
-    Scenarios: sine (2.0 ± 1.0 m, 10 s), step, hover-ige (0.32 m), mass-change (+1 kg at
-    30 s), ige-sine (0.30–1.20 m). Scores start after the first 10 s.
+    Scenarios: sine-altitude (2.0 ± 1.0 m, 10 s; the task of `etsid simulate
+    sine-altitude`), altitude-steps, hover-ige (0.32 m), mass-change (+1 kg at 30 s),
+    ige-sine (0.30–1.20 m); the former names sine and step still work. Scores start after
+    the first 10 s.
     """
     from etsid.control import run_control
 
     if out is None:
         out = Path(f"control-{scenario}-{controller}")
-    result = run_control(scenario, controller, vehicle=vehicle, duration=duration, seed=seed,
-                         out=out)
+    with stage(f"control: {scenario} with {controller}"):  # the simulator loads, flies
+        result = run_control(scenario, controller, vehicle=vehicle, duration=duration,
+                             seed=seed, out=out)
     m = result.metrics
     line = (f"{out}: {controller} on {scenario}, {m['duration_s']:.0f} s, "
             f"{'stable' if m['stable'] else 'DIVERGED'}")
@@ -51,7 +65,8 @@ def control(scenario: str, out: Path | None, controller: str, vehicle: Path | No
     if not no_report:
         from etsid.report.control import make_control_report
 
-        rep = make_control_report(out)
+        with stage(f"control report: drawing the figures into {out}/report/"):
+            rep = make_control_report(out)
         click.echo(f"wrote {rep.directory}/: index.html, report.md, "
                    + ", ".join(p.name for p in rep.figures.values()))
 

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from etsid.errors import GapError
+from etsid.files import read_text
 from etsid.gap.effects import vocabulary
 from etsid.gap.run import run_gap
 from etsid.progress import done, on_terminal, say
@@ -34,7 +36,7 @@ def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
     files = ", ".join(["gap.json", "index.html (interactive)", "report.md",
                        *(p.name for p in report.figures.values())])
     if as_json:
-        click.echo((out_dir / "gap.json").read_text(encoding="utf-8").rstrip())
+        click.echo(read_text(out_dir / "gap.json", "gap", GapError).rstrip())
         if on_terminal():
             click.echo(f"wrote {out_dir}/ ({files})", err=True)
     else:

@@ -15,8 +15,9 @@ from etsid.cli.options import (
     log_options,
     read_options,
 )
-from etsid.errors import IdentError
+from etsid.errors import IdentError, ModelError
 from etsid.ets.params import CLUSTERINGS, RLS_KINDS, VARIANTS
+from etsid.files import read_json
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
 from etsid.ident.defaults import ATTITUDE_MODES
@@ -25,9 +26,9 @@ from etsid.ident.ranges import NORMALISE_MODES
 from etsid.ident.resample import DEFAULT_RATE_HZ
 from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import read_log
-from etsid.progress import wanted
+from etsid.progress import stage, wanted
 from etsid.report.regimes import regime_text
-from etsid.report.tables import rules_text, summary_table
+from etsid.report.tables import merges_text, rules_text, summary_table
 
 
 def _outputs(text: str | None) -> list[str] | None:
@@ -51,10 +52,10 @@ def _print_run(run: Run, out: Path, as_json: bool) -> None:
     for note in run.config.get("model", {}).get("notes") or []:
         click.echo(note)
     click.echo(summary_table(run))
-    merges = (run.metrics.get("rules") or {}).get("merges") or []
-    if merges:
-        click.echo("merged (consequents indistinguishable): " + "; ".join(
-            f"rule id {m['absorbed']} into {m['kept']} at {m['t']:.1f} s" for m in merges))
+    merged = merges_text(run.metrics.get("rules") or {}, run.rules,
+                         (run.metrics.get("validation") or {}).get("n_learn"))
+    if merged:
+        click.echo(merged)
     compared = _structure_text(run.metrics.get("structure"))
     if compared:
         click.echo(compared)
@@ -211,10 +212,11 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     """
     check_output_dir(out)
     options = read_options(maps, mapping_file, sysid, quiet)
-    if outputs:
-        table = read_log(log, options, rate_hz=rate_hz)
-    else:
-        table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
+    with stage(f"identify: reading {log}"):
+        if outputs:
+            table = read_log(log, options, rate_hz=rate_hz)
+        else:
+            table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
     if vehicle:
         table.attrs["rotor_radius_m"] = _rotor_radius(vehicle)
     table_rate = _table_rate(table)
@@ -313,10 +315,11 @@ def _control_rules(path: Path) -> dict | None:
     file = path / "rules.json" if path.is_dir() else path
     config = file.parent / "config.json"
     try:
-        if json.loads(config.read_text()).get("kind") != "control":
+        kind = read_json(config, "run", ModelError)
+        if not isinstance(kind, dict) or kind.get("kind") != "control":
             return None
-        data = json.loads(file.read_text())
-    except (OSError, ValueError, AttributeError):
+        data = read_json(file, "rules", ModelError)
+    except ModelError:
         return None
     from etsid.ets import ETS
 

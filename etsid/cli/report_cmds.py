@@ -32,6 +32,8 @@ def report(run_dir: Path, fmt: str) -> None:
         done()
     names = ["index.html (interactive; open it in a browser)", "report.md",
              *(p.name for p in result.figures.values())]
+    for note in result.notes:
+        click.echo(f"note: {note}", err=True)
     click.echo(f"wrote {result.directory}/: {', '.join(names)}")
 
 

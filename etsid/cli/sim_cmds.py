@@ -10,6 +10,7 @@ import click
 
 from etsid.cli.settings import parse_assignments
 from etsid.errors import SimError
+from etsid.progress import stage
 from etsid.sim.vehicle_params import RUN
 from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
 
@@ -138,7 +139,8 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
                             ground_effect=ground_effect == "on", rate_hz=rate_hz,
                             settings=settings)
     table = flight.table
-    written = _write(table, flight.truth, out, fmt)
+    with stage(f"simulate: writing {out}"):
+        written = _write(table, flight.truth, out, fmt)
     click.echo(f"{written}: {scenario}, {table.index[-1]:.1f} s at {rate_hz:g} Hz, "
                f"vehicle {table.attrs.get('vehicle', '?')}, seed {seed}, "
                f"ground effect {ground_effect}")

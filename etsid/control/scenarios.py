@@ -7,8 +7,8 @@ velocity step at t = 0). The numbers are documented in docs/control.md.
 
 >>> from etsid.control.scenarios import SCENARIOS
 >>> sorted(SCENARIOS)
-['hover-ige', 'ige-sine', 'mass-change', 'sine', 'step']
->>> r, rd, rdd = SCENARIOS["sine"].reference(0.0)
+['altitude-steps', 'hover-ige', 'ige-sine', 'mass-change', 'sine-altitude']
+>>> r, rd, rdd = SCENARIOS["sine-altitude"].reference(0.0)
 >>> float(r), float(rd), float(rdd)
 (2.0, 0.0, 0.0)
 """
@@ -119,17 +119,18 @@ class Scenario:
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
-        Scenario("sine", "sine 2.0 ± 1.0 m, period 10 s (chapter Fig. 1.12 task), "
+        Scenario("sine-altitude", "sine 2.0 ± 1.0 m, period 10 s (chapter Fig. 1.12 task), "
                  "above ground effect (ground-effect thrust gain ≤ 2 % at 1 m)",
                  duration=60.0, start=2.0, centre=2.0, amplitude=1.0, period=10.0),
-        Scenario("step", "height steps 1.5 → 2.5 → 1.5 → 3.0 → 2.0 → 1.0 → 2.0 m every "
+        Scenario("altitude-steps", "height steps 1.5 → 2.5 → 1.5 → 3.0 → 2.0 → 1.0 → 2.0 m every "
                  "10 s", duration=62.0, start=1.5, centre=1.5,
                  steps=((2.0, 2.5), (12.0, 1.5), (22.0, 3.0), (32.0, 2.0), (42.0, 1.0),
                         (52.0, 2.0))),
         Scenario("hover-ige", "low hover in ground effect: 0.32 ± 0.05 m, period 8 s "
                  "(thrust per command 13–19 % above free air)", duration=40.0, start=0.32,
                  centre=0.32, amplitude=0.05, period=8.0),
-        Scenario("mass-change", "the sine task with a 1.0 kg payload (+24 %) added at 30 s",
+        Scenario("mass-change", "the sine-altitude task with a 1.0 kg payload (+24 %) added "
+                 "at 30 s",
                  duration=60.0, start=2.0, centre=2.0, amplitude=1.0, period=10.0,
                  mass_change=(30.0, 1.0)),
         Scenario("ige-sine", "sine 0.75 ± 0.45 m, period 10 s: dips to 0.30 m, deep into "
@@ -137,13 +138,18 @@ SCENARIOS: dict[str, Scenario] = {
                  start=0.75, centre=0.75, amplitude=0.45, period=10.0),
     )
 }
-"""Scenario name → :class:`Scenario`."""
+"""Scenario name → :class:`Scenario` (``sine-altitude`` is the task of ``etsid simulate
+sine-altitude``; the names are shared where the task is)."""
+
+ALIASES = {"sine": "sine-altitude", "step": "altitude-steps"}
+"""Former names, still accepted (``step`` was too close to simulate's stick ``steps``)."""
 
 
 def get_scenario(name: str) -> Scenario:
-    """The scenario called ``name``; :class:`~etsid.errors.ControlError` if there is none."""
+    """The scenario called ``name`` (or a former name of :data:`ALIASES`);
+    :class:`~etsid.errors.ControlError` if there is none."""
     try:
-        return SCENARIOS[name]
+        return SCENARIOS[ALIASES.get(name, name)]
     except KeyError:
         raise ControlError(f"unknown control scenario {name!r}; choose one of "
                            f"{', '.join(sorted(SCENARIOS))}") from None

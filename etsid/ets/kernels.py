@@ -103,11 +103,6 @@ def _add_rule(
     return rid
 
 
-#: the rule loops of the learning kernel run over a multiple of this many lanes, so the
-#: vectorised loop bodies need no scalar remainder
-LANES = 4
-
-
 @njit(cache=True)
 def remove_rule(
     i, n_rules, ids, cz, rad, scat, pot, birth, support, lamsum, tsum, Pi, Cl, Cg, is_global
@@ -151,31 +146,28 @@ def _refresh_scales(lo, hi, s, w2, isx, n, xo) -> None:
 
 
 @njit(cache=True, boundscheck=False)
-def _sync_rule(i, cz, rad, s, czT, aT) -> None:
-    """Copy rule i's focal point into the transposed work array and refresh its firing
-    coefficients aT[j, i] = 4 / (s_j r_ij)^2 (hoisted inverse radii squared)."""
-    for j in range(cz.shape[1]):
-        czT[j, i] = cz[i, j]
-    for j in range(aT.shape[0]):
+def _sync_rule(i, rad, s, ac) -> None:
+    """Refresh rule i's firing coefficients ac[i, j] = 4 / (s_j r_ij)^2 (hoisted inverse
+    radii squared)."""
+    for j in range(ac.shape[1]):
         q = s[j] * rad[i, j]
-        aT[j, i] = 4.0 / (q * q)
+        ac[i, j] = 4.0 / (q * q)
 
 
 @njit(cache=True, boundscheck=False)
-def _fire(X, t, czT, aT, R, ex, lam) -> None:
-    """Normalised firing lambda_i of rules 0..R-1 for input row X[t] (rules in the inner loop).
+def _fire(z, cz, ac, R, ex, lam) -> None:
+    """Normalised firing lambda_i of rules 0..R-1 for the antecedent inputs z[:na].
 
-    Same value as the reference's firing: tau_i = exp(-sum_j aT[j, i] (x_j - x*_ij)^2), normalised
-    with the smallest exponent subtracted first.
+    tau_i = exp(-sum_j ac[i, j] (z_j - z*_ij)^2), normalised with the smallest exponent
+    subtracted first (the reference's firing, same summation order).
     """
-    n = aT.shape[0]
+    na = ac.shape[1]
     for i in range(R):
-        ex[i] = 0.0
-    for j in range(n):
-        xj = X[t, j]
-        for i in range(R):
-            dj = xj - czT[j, i]
-            ex[i] += dj * dj * aT[j, i]
+        e = 0.0
+        for j in range(na):
+            dj = z[j] - cz[i, j]
+            e += dj * dj * ac[i, j]
+        ex[i] = e
     emin = np.inf
     for i in range(R):
         emin = min(emin, ex[i])
@@ -190,48 +182,16 @@ def _fire(X, t, czT, aT, R, ex, lam) -> None:
 
 
 @njit(cache=True, boundscheck=False)
-def _to_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
-    """Copy consequents (and local covariances) of rules 0..R-1 into the rule-minor work
-    arrays PiT[a, o, i], CT[a, b, i] so the per-rule updates vectorise over rules."""
-    n1 = Pi.shape[1]
-    m = Pi.shape[2]
-    for a in range(n1):
-        for o in range(m):
-            for i in range(R):
-                PiT[a, o, i] = Pi[i, a, o]
-        if not is_global:
-            for b in range(n1):
-                for i in range(R):
-                    CT[a, b, i] = Cl[i, a, b]
-
-
-@njit(cache=True, boundscheck=False)
-def _from_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
-    """Write the work arrays of rules 0..R-1 back into the state layout."""
-    n1 = Pi.shape[1]
-    m = Pi.shape[2]
-    for i in range(R):
-        for a in range(n1):
-            for o in range(m):
-                Pi[i, a, o] = PiT[a, o, i]
-            if not is_global:
-                for b in range(n1):
-                    Cl[i, a, b] = CT[a, b, i]
-
-
-@njit(cache=True, boundscheck=False)
-def _rule_outputs(xe, PiT, R, yrT) -> None:
-    """yrT[o, i] = x_e^T Pi_i[:, o] for every live rule (rules in the inner loop)."""
+def _rule_outputs(xe, Pi, R, yr) -> None:
+    """yr[i, o] = x_e^T Pi_i[:, o] for every live rule."""
     n1 = xe.shape[0]
-    m = yrT.shape[0]
-    for o in range(m):
-        for i in range(R):
-            yrT[o, i] = 0.0
-    for a in range(n1):
-        xa = xe[a]
+    m = yr.shape[1]
+    for i in range(R):
         for o in range(m):
-            for i in range(R):
-                yrT[o, i] += xa * PiT[a, o, i]
+            acc = 0.0
+            for a in range(n1):
+                acc += xe[a] * Pi[i, a, o]
+            yr[i, o] = acc
 
 
 @njit(cache=True, boundscheck=False)
@@ -258,27 +218,26 @@ def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo) -> None:
     w2 = np.empty(d)
     isx = np.empty(n)
     _refresh_scales(lo, hi, s, w2, isx, n, xo)
-    czT = np.empty((d, R))
-    aT = np.empty((na, R))
+    ac = np.empty((R, na))
     for i in range(R):
-        _sync_rule(i, cz, rad, s, czT, aT)
-    PiT = np.empty((n1, m, R))
-    CT = np.empty((1, 1, 1))
-    _to_soa(R, Pi, CT, PiT, CT, True)
+        _sync_rule(i, rad, s, ac)
     ex = np.empty(R)
     lam = np.empty(R)
     xe = np.empty(n1)
-    yrT = np.empty((m, R))
+    yr = np.empty((R, m))
+    za = np.empty(na)
     for t in range(N):
-        _fire(S, t, czT, aT, R, ex, lam)
+        for j in range(na):
+            za[j] = S[t, j]
+        _fire(za, cz, ac, R, ex, lam)
         xe[0] = 1.0
         for j in range(n):
             xe[j + 1] = (X[t, j] - lo[xo + j]) * isx[j]
-        _rule_outputs(xe, PiT, R, yrT)
+        _rule_outputs(xe, Pi, R, yr)
         for o in range(m):
             acc = 0.0
             for i in range(R):
-                acc += lam[i] * yrT[o, i]
+                acc += lam[i] * yr[i, o]
             Yhat[t, o] = acc
 
 
@@ -291,6 +250,14 @@ def learn_kernel(
     hist,
     ev,
     nev,
+    snap_k,
+    snap_ids,
+    snap_pi,
+    snap_lo,
+    snap_s,
+    nsnap,
+    every,
+    max_rules_here,
     si,
     lo,
     hi,
@@ -314,8 +281,12 @@ def learn_kernel(
     r0,
     fp,
     ip,
-) -> None:
-    """Online predict-then-learn over all rows of X (N, n), Y (N, m); mutates the state.
+) -> int:
+    """Online predict-then-learn over the rows of X (N, n), Y (N, m); mutates the state.
+    Returns the number of rows learned: all N, or fewer when the event or snapshot buffers
+    filled up (the caller empties them and calls again with the remaining rows) or a sample
+    left more than ``max_rules_here`` rules (the caller goes on with
+    :func:`etsid.ets.kernels_lanes.learn_lanes`, faster for larger rule bases).
 
     ``S`` (N, na) holds the antecedent inputs: potentials, firing and births work on
     z_a = S (scheduled, ``ip[IP_SCHEDULED] = 1``, then z = [s; y; x] and the potential
@@ -323,8 +294,13 @@ def learn_kernel(
 
     Writes the one-step predictions made *before* each update into ``Yhat`` and the
     per-sample history (rules, potential, focal max, focal min) into ``hist``. Events
-    (step, kind, rule id) are appended to ``ev`` from row ``nev[0]``; the caller sizes ``ev``
-    for the worst case (4 N + max_rules rows).
+    (step, kind, rule id) are appended to ``ev`` from row ``nev[0]``; the kernel stops after
+    a sample once fewer than ``max_rules + 2`` rows are left (the most one sample can add).
+    Every ``every`` learned samples (k a multiple of ``every``) a snapshot is appended at
+    row ``nsnap[0]``: step ``snap_k``, live rule ids ``snap_ids[:, :R]`` (−1 beyond), the
+    normalised consequents ``snap_pi[:, :R]`` and the consequent inputs' ``lo`` and widths
+    ``s`` of that moment (``ETS.consequents_raw`` turns them into original units); the
+    kernel stops when ``snap_k`` is full.
 
     Wind-up guard (trace-bounded, or conditional, forgetting — a standard remedy for
     estimator wind-up under poor excitation, Åström & Wittenmark, *Adaptive Control*,
@@ -339,13 +315,16 @@ def learn_kernel(
     forgetting and wind-up guard as a rule) and written into every rule's column, so the
     fuzzy blend returns it unchanged; births copy it (the blend of identical columns).
 
-    Speed (docs/performance.md): all work arrays are allocated once per call; 1/s, 1/s^2 and
-    the firing coefficients 4/(s r)^2 are recomputed only when a range widens, a rule is
-    born, moved or removed, or a spread adapts; focal points are mirrored into a transposed
-    array so the per-rule loops (firing, potentials) run over rules in the inner loop; the
-    firing strengths and per-rule outputs of the prediction are reused by the update when
-    the rule base and the ranges did not change; covariance updates are written on whole
-    rows as C_ab - c (g_a g_b), which is exactly symmetric without mirroring.
+    Speed (docs/performance.md): one call per ``run`` (snapshots and events are written
+    here, not by a Python loop per ``history_every`` samples); all work arrays are
+    allocated once per call; 1/s, 1/s^2 and the firing coefficients 4/(s r)^2 are
+    recomputed only when a range widens, a rule is born, moved or removed, or a spread
+    adapts; every per-rule loop works on the state arrays in place (rule-major, no
+    transposed copies), over the live rules only; the firing strengths and per-rule
+    outputs of the prediction are reused by the update when the rule base and the ranges
+    did not change; a rule with λ_i = 0 exactly is skipped by the RLS (its update is
+    exactly no change); covariance updates are written on whole rows as
+    (C_ab − c g_a g_b) / f_i, which is exactly symmetric without mirroring, in one pass.
     """
     N, n = X.shape
     na = S.shape[1]
@@ -369,25 +348,19 @@ def learn_kernel(
     rho_s = fp[FP_SPREAD_RHO]
     coverage = ip[IP_COVERAGE] == 1
     evq = ip[IP_CLUSTERING] == 1
+    ev_cap = ev.shape[0] - rmax - 2
+    snap_cap = snap_k.shape[0]
+    next_snap = (si[0] // every + 1) * every  # the next k that is a multiple of every
 
     s = np.empty(d)
     w2 = np.empty(d)
     isx = np.empty(n)
     lo_old = np.empty(n)
     hi_old = np.empty(n)
-    # rule-minor work arrays, lanes padded to a multiple of LANES; the padding lanes are
-    # zero or hold a removed rule, have lambda = 0 and are never read into a result
-    rpad = (rmax + LANES - 1) // LANES * LANES
-    czT = np.zeros((d, rpad))
-    aT = np.zeros((na, rpad))
-    ex = np.zeros(rpad)
-    lam = np.zeros(rpad)
-    yrT = np.zeros((m, rpad))
-    PiT = np.zeros((n1, m, rpad))
-    CT = np.zeros((1, 1, 1) if is_global else (n1, n1, rpad))
-    gT = np.zeros((n1, rpad))
-    cw = np.zeros(rpad)
-    fiv = np.zeros(rpad)
+    ac = np.zeros((rmax, na))
+    ex = np.zeros(rmax)
+    lam = np.zeros(rmax)
+    yr = np.zeros((rmax, m))
     xe = np.empty(n1)
     z = np.empty(d)
     yh = np.empty(m)
@@ -406,8 +379,7 @@ def learn_kernel(
 
     _refresh_scales(lo, hi, s, w2, isx, n, xo)
     for i in range(si[1]):
-        _sync_rule(i, cz, rad, s, czT, aT)
-    _to_soa(si[1], Pi, Cl, PiT, CT, is_global)
+        _sync_rule(i, rad, s, ac)
 
     for t in range(N):
         k = si[0]
@@ -419,25 +391,23 @@ def learn_kernel(
         if scheduled:
             for j in range(n):
                 z[xo + j] = X[t, j]
-        # lanes processed by the vectorised rule loops: R rounded up to a multiple of LANES
-        RL = (R + LANES - 1) // LANES * LANES
         # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
         # _fire and _rule_outputs written out: a call costs an atomic reference-count
         # increment and decrement per array argument, more than the arithmetic here
         if R > 0:
-            for i in range(RL):
-                ex[i] = 0.0
-            for j in range(na):
-                xj = z[j]
-                for i in range(RL):
-                    dj = xj - czT[j, i]
-                    ex[i] += dj * dj * aT[j, i]
+            for i in range(R):
+                e = 0.0
+                for j in range(na):
+                    dj = z[j] - cz[i, j]
+                    e += dj * dj * ac[i, j]
+                ex[i] = e
             emin = np.inf
             for i in range(R):
                 emin = min(emin, ex[i])
             tot = 0.0
             for i in range(R):
-                v = np.exp(emin - ex[i])
+                # exp(0) = 1 exactly: the nearest rule needs no call
+                v = 1.0 if ex[i] == emin else np.exp(emin - ex[i])
                 lam[i] = v
                 tot += v
             itot = 1.0 / tot
@@ -446,18 +416,16 @@ def learn_kernel(
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
-            for o in range(m):
-                for i in range(RL):
-                    yrT[o, i] = 0.0
-            for a in range(n1):
-                xa = xe[a]
+            for i in range(R):
                 for o in range(m):
-                    for i in range(RL):
-                        yrT[o, i] += xa * PiT[a, o, i]
+                    acc = 0.0
+                    for a in range(n1):
+                        acc += xe[a] * Pi[i, a, o]
+                    yr[i, o] = acc
             for o in range(m):
                 acc = 0.0
                 for i in range(R):
-                    acc += lam[i] * yrT[o, i]
+                    acc += lam[i] * yr[i, o]
                 Yhat[t, o] = acc
                 yh[o] = acc
         else:
@@ -492,15 +460,13 @@ def learn_kernel(
             _refresh_scales(lo, hi, s, w2, isx, n, xo)
         if changed_a:
             for i in range(R):
-                _sync_rule(i, cz, rad, s, czT, aT)
+                _sync_rule(i, rad, s, ac)
         if changed_x and R > 0:
-            _from_soa(R, Pi, Cl, PiT, CT, is_global)
             reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
                           is_global)
             if n_shared > 0:
                 reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], 1, p_none,
                               cs3, Cg, False)
-            _to_soa(R, Pi, Cl, PiT, CT, is_global)
         # 3. running mean / variance of z (Welford)
         k += 1
         si[0] = k
@@ -509,7 +475,7 @@ def learn_kernel(
             dj = z[j] - mean[j]
             mean[j] += dj * ik
             m2[j] += dj * (z[j] - mean[j])
-        # 4. potentials of the sample and of every focal point (rules in the inner loop)
+        # 4. potentials of the sample and of every focal point
         pmax = -np.inf
         pmin = np.inf
         if k >= 2:
@@ -522,16 +488,12 @@ def learn_kernel(
             vterm *= ik
             kk = k / (k - 1.0)
             P = 1.0 / (1.0 + (acc + vterm) * kk)
-            for i in range(RL):
-                ex[i] = vterm
-            for j in range(dp):
-                mj = mean[j]
-                wj = w2[j]
-                for i in range(RL):
-                    dj = czT[j, i] - mj
-                    ex[i] += dj * dj * wj
             for i in range(R):
-                pi_ = 1.0 / (1.0 + ex[i] * kk)
+                e = vterm
+                for j in range(dp):
+                    dj = cz[i, j] - mean[j]
+                    e += dj * dj * w2[j]
+                pi_ = 1.0 / (1.0 + e * kk)
                 pot[i] = pi_
                 pmax = max(pmax, pi_)
                 pmin = min(pmin, pi_)
@@ -591,7 +553,7 @@ def learn_kernel(
                     for j in range(d):
                         cz[target, j] = z[j]
                     pot[target] = P
-                    _sync_rule(target, cz, rad, s, czT, aT)
+                    _sync_rule(target, rad, s, ac)
                     ev[nev[0], 0] = k
                     ev[nev[0], 1] = EV_REPLACE
                     ev[nev[0], 2] = ids[target]
@@ -599,12 +561,12 @@ def learn_kernel(
                     changed = True
                 elif grow:
                     if changed_a:
-                        _fire(S, t, czT, aT, R, ex, lam)
+                        _fire(z, cz, ac, R, ex, lam)
                     for a in range(n1):
                         for o in range(m):
                             acc = 0.0
                             for i in range(R):
-                                acc += lam[i] * PiT[a, o, i]
+                                acc += lam[i] * Pi[i, a, o]
                             pnew[a, o] = acc
         if grow:
             for j in range(na):
@@ -633,13 +595,7 @@ def learn_kernel(
                 Cg,
                 is_global,
             )
-            _sync_rule(R, cz, rad, s, czT, aT)
-            for a in range(n1):
-                for o in range(m):
-                    PiT[a, o, R] = Pi[R, a, o]
-                if not is_global:
-                    for b in range(n1):
-                        CT[a, b, R] = Cl[R, a, b]
+            _sync_rule(R, rad, s, ac)
             ev[nev[0], 0] = k
             ev[nev[0], 1] = EV_BIRTH
             ev[nev[0], 2] = rid
@@ -647,18 +603,17 @@ def learn_kernel(
             changed = True
             born = True
         R = si[1]
-        RL = (R + LANES - 1) // LANES * LANES
         # 6. firing with the updated rule base; support, age, spreads, utility
         if changed:
-            _fire(S, t, czT, aT, R, ex, lam)
+            _fire(z, cz, ac, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
-            _rule_outputs(xe, PiT, R, yrT)
+            _rule_outputs(xe, Pi, R, yr)
             for o in range(m):
                 acc = 0.0
                 for i in range(R):
-                    acc += lam[i] * yrT[o, i]
+                    acc += lam[i] * yr[i, o]
                 yh[o] = acc
         if not born:
             w = 0
@@ -674,14 +629,11 @@ def learn_kernel(
                     rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
                     rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
                     q = s[j] * rad[w, j]
-                    aT[j, w] = 4.0 / (q * q)  # as _sync_rule
+                    ac[w, j] = 4.0 / (q * q)  # as _sync_rule
             if evq:
                 # the winner's focal point is the mean of the samples it has won
                 for j in range(d):
                     cz[w, j] += (z[j] - cz[w, j]) / support[w]
-                _sync_rule(w, cz, rad, s, czT, aT)
-        for i in range(R, RL):
-            lam[i] = 0.0  # padding lanes: no update
         for i in range(R):
             lamsum[i] += lam[i]
         # 7. consequents: fuzzily weighted RLS
@@ -724,14 +676,11 @@ def learn_kernel(
                     ga = g[a]
                     for b in range(p):
                         Cg[a, b] = (Cg[a, b] - (ga * g[b]) * iden) * ifg
-            for a in range(n1):
-                for i in range(R):
-                    gT[a, i] = g[i * n1 + a] * iden
-            for a in range(n1):
-                for o in range(m):
-                    eo = err[o]
-                    for i in range(R):
-                        PiT[a, o, i] += gT[a, i] * eo
+            for i in range(R):
+                for a in range(n1):
+                    ga = g[i * n1 + a] * iden
+                    for o in range(m):
+                        Pi[i, a, o] += ga * err[o]
         else:
             if n_shared > 0:
                 # shared outputs: plain RLS on the common consequent (rule 0's column)
@@ -755,85 +704,81 @@ def learn_kernel(
                     if sh[o] == 1:
                         eo = z[na + o]
                         for a in range(n1):
-                            eo -= xe[a] * PiT[a, o, 0]
+                            eo -= xe[a] * Pi[0, a, o]
                         for a in range(n1):
-                            ths[a, o] = PiT[a, o, 0] + gs[a] * iden * eo
+                            ths[a, o] = Pi[0, a, o] + gs[a] * iden * eo
                 ifs = 1.0 / fs
                 for a in range(n1):
                     ga = gs[a]
                     for b in range(n1):
                         Cs[a, b] = (Cs[a, b] - (ga * gs[b]) * iden) * ifs
-            # every rule at once, rules in the inner (contiguous) loop; a rule with
-            # lambda = 0 gets f_i = 1 and gain 0, i.e. exactly no change
-            for i in range(RL):
-                fiv[i] = 1.0 - lam[i] * omf
-                cw[i] = 0.0
-            if forget != 1.0:
-                # wind-up guard (trace-bounded forgetting): rule i forgets only while
-                # trace(C_i) <= omega (n + 1), the trace of a new rule's covariance
-                for i in range(R):
+            # one rule after the other, on its own covariance and consequent in place; a
+            # rule with lambda = 0 would get f_i = 1 and gain 0, i.e. exactly no change
+            for i in range(R):
+                wi = lam[i]
+                if wi == 0.0:
+                    continue
+                fi = 1.0 - wi * omf
+                if forget != 1.0:
+                    # wind-up guard (trace-bounded forgetting): rule i forgets only while
+                    # trace(C_i) <= omega (n + 1), the trace of a new rule's covariance
                     tr = 0.0
                     for a in range(n1):
-                        tr += CT[a, a, i]
+                        tr += Cl[i, a, a]
                     if tr > cbound:
-                        fiv[i] = 1.0
-            for a in range(n1):
-                for i in range(RL):
-                    gT[a, i] = 0.0
+                        fi = 1.0
+                # g = C_i x_e as a sum of columns; C_i is exactly symmetric, so column b
+                # equals row b and every g[a] is summed in the order of the row dot product
+                for a in range(n1):
+                    g[a] = 0.0
                 for b in range(n1):
                     xb = xe[b]
-                    for i in range(RL):
-                        gT[a, i] += CT[a, b, i] * xb
-            for a in range(n1):
-                xa = xe[a]
-                for i in range(RL):
-                    cw[i] += xa * gT[a, i]
-            for i in range(RL):
-                wi = lam[i]
-                cw[i] = wi / (fiv[i] + wi * cw[i])
-            # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
-            for a in range(n1):
-                for b in range(n1):
-                    for i in range(RL):
-                        CT[a, b, i] -= cw[i] * (gT[a, i] * gT[b, i])
-            if forget != 1.0:
-                for i in range(RL):
-                    fiv[i] = 1.0 / fiv[i]
+                    for a in range(n1):
+                        g[a] += Cl[i, b, a] * xb
+                cwi = 0.0
                 for a in range(n1):
-                    for b in range(n1):
-                        for i in range(RL):
-                            CT[a, b, i] *= fiv[i]
-            for o in range(m):
-                yo = z[na + o]
-                for i in range(RL):
-                    yrT[o, i] = yo - yrT[o, i]
-            for a in range(n1):
-                for i in range(RL):
-                    gT[a, i] *= cw[i]
+                    cwi += xe[a] * g[a]
+                c = wi / (fi + wi * cwi)
+                # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
+                if fi != 1.0:
+                    ifi = 1.0 / fi
+                    for a in range(n1):
+                        ga = g[a]
+                        for b in range(n1):
+                            Cl[i, a, b] = (Cl[i, a, b] - c * (ga * g[b])) * ifi
+                else:
+                    for a in range(n1):
+                        ga = g[a]
+                        for b in range(n1):
+                            Cl[i, a, b] -= c * (ga * g[b])
                 for o in range(m):
-                    for i in range(RL):
-                        PiT[a, o, i] += gT[a, i] * yrT[o, i]
+                    err[o] = z[na + o] - yr[i, o]
+                for a in range(n1):
+                    ga = g[a] * c
+                    for o in range(m):
+                        Pi[i, a, o] += ga * err[o]
             if n_shared > 0:
                 for a in range(n1):
                     for o in range(m):
                         if sh[o] == 1:
                             for i in range(R):
-                                PiT[a, o, i] = ths[a, o]
+                                Pi[i, a, o] = ths[a, o]
         # 8. eTS+ quality: remove rules of low utility or tiny support
+        removed = False
         if variant == 1:
             i = R - 1
-            removed = False
             while i >= 0 and R > 1:
                 life = k - birth[i]
-                if life >= prune_after:
+                # lamsum / (life + 1) < umin needs lamsum < umin (life + 1) (1 + 1e-12):
+                # the division is made only for the rules that might fail
+                if life >= prune_after and (support[i] < min_support or
+                                            lamsum[i] < umin * (life + 1.0) * (1.0 + 1e-12)):
                     u = lamsum[i] / (life + 1.0)
                     if u < umin or support[i] < min_support:
                         ev[nev[0], 0] = k
                         ev[nev[0], 1] = EV_REMOVAL
                         ev[nev[0], 2] = ids[i]
                         nev[0] += 1
-                        if not removed:
-                            _from_soa(R, Pi, Cl, PiT, CT, is_global)
                         remove_rule(
                             i,
                             R,
@@ -857,16 +802,36 @@ def learn_kernel(
                 i -= 1
             if removed:
                 for i in range(R):
-                    _sync_rule(i, cz, rad, s, czT, aT)
-                _to_soa(R, Pi, Cl, PiT, CT, is_global)
-        # 9. history
-        fmax = -np.inf
-        fmin = np.inf
-        for i in range(R):
-            fmax = max(fmax, pot[i])
-            fmin = min(fmin, pot[i])
+                    _sync_rule(i, rad, s, ac)
+        # 9. history (the focal potentials of step 4 unless the rule base changed since)
+        fmax = pmax
+        fmin = pmin
+        if changed or removed or R == 0:
+            fmax = -np.inf
+            fmin = np.inf
+            for i in range(R):
+                fmax = max(fmax, pot[i])
+                fmin = min(fmin, pot[i])
         hist[t, 0] = R
         hist[t, 1] = P
         hist[t, 2] = fmax
         hist[t, 3] = fmin
-    _from_soa(si[1], Pi, Cl, PiT, CT, is_global)
+        if k == next_snap:
+            next_snap += every
+            q = nsnap[0]
+            snap_k[q] = k
+            for i in range(rmax):
+                snap_ids[q, i] = ids[i] if i < R else -1
+            for i in range(R):
+                for a in range(n1):
+                    for o in range(m):
+                        snap_pi[q, i, a, o] = Pi[i, a, o]
+            for j in range(n):
+                snap_lo[q, j] = lo[xo + j]
+                snap_s[q, j] = s[xo + j]
+            nsnap[0] = q + 1
+            if q + 1 >= snap_cap:
+                return t + 1
+        if nev[0] > ev_cap or max_rules_here < R:
+            return t + 1
+    return N

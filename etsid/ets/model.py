@@ -12,6 +12,7 @@ import numpy as np
 from etsid.ets import layout as L
 from etsid.ets.history import History, HistoryRecorder
 from etsid.ets.kernels import learn_kernel, predict_kernel
+from etsid.ets.kernels_lanes import learn_lanes
 from etsid.ets.normalisation import scales
 from etsid.ets.params import CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
 from etsid.ets.state import LearnedState
@@ -19,6 +20,23 @@ from etsid.ets.state import LearnedState
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
+#: most consequent snapshots / events one learning-kernel call buffers before it returns
+_SNAPSHOTS_PER_CALL = 64
+_EVENTS_PER_CALL = 4096
+#: rule counts where learning switches kernels: the rule-major ``learn_kernel`` runs while
+#: R <= _RULE_MAJOR_MAX, ``learn_lanes`` (vectorised across rules) while R >= _LANES_MIN;
+#: in between whichever ran last goes on (docs/performance.md measured the crossover)
+_RULE_MAJOR_MAX = 6
+_LANES_MIN = 4
+
+
+def raw_consequents(Pi: np.ndarray, lo: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Consequents ``Pi`` (R, n + 1, m) on x_e = [1, (x - lo) / s] re-expressed in the
+    original units: row 0 the intercept, row j the coefficient of input j."""
+    out = np.empty_like(Pi)
+    out[:, 1:, :] = Pi[:, 1:, :] / s[None, :, None]
+    out[:, 0, :] = Pi[:, 0, :] - np.einsum("rjo,j->ro", out[:, 1:, :], lo)
+    return out
 
 
 def _finite_2d(a: Any, name: str, width: int | None = None) -> np.ndarray:
@@ -349,30 +367,42 @@ class ETS:
         st = self.state_
         ip, fp = self._kernel_params()
         N = Xa.shape[0]
+        n, m = self.n_inputs_, self.n_outputs_
         Yhat = np.empty_like(Ya)
+        hist = np.empty((N, 4))
         every = int(self.history_every)
         rmax = int(self.max_rules)
+        k0 = int(st["si"][0])
+        # buffers the kernel fills; it returns early when one is full and is called again
+        n_snap = min(max(1, (k0 + N) // every - k0 // every), _SNAPSHOTS_PER_CALL)
+        snap_k = np.empty(n_snap, dtype=np.int64)
+        snap_ids = np.empty((n_snap, rmax), dtype=np.int64)
+        snap_pi = np.empty((n_snap, rmax, n + 1, m))
+        snap_lo = np.empty((n_snap, n))
+        snap_s = np.empty((n_snap, n))
+        ev = np.empty((min(4 * N, _EVENTS_PER_CALL) + rmax + 3, 3), dtype=np.int64)
+        counts = np.zeros(2, dtype=np.int64)  # events, snapshots written by the last call
+        rec = self.recorder_
         start = 0
         while start < N:
             k0 = int(st["si"][0])
-            stop = min(N, start + every - (k0 % every))
-            nc = stop - start
-            hist = np.empty((nc, 4))
-            ev = np.empty((4 * nc + rmax + 1, 3), dtype=np.int64)
-            nev = np.zeros(1, dtype=np.int64)
-            learn_kernel(
-                Xa[start:stop], Sa[start:stop], Ya[start:stop], Yhat[start:stop], hist, ev, nev,
-                *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
+            counts[:] = 0
+            lanes = int(st["si"][1]) > _RULE_MAJOR_MAX
+            kernel, bound = (learn_lanes, _LANES_MIN) if lanes else (learn_kernel,
+                                                                      _RULE_MAJOR_MAX)
+            done = kernel(
+                Xa[start:], Sa[start:], Ya[start:], Yhat[start:], hist[start:], ev,
+                counts[0:1], snap_k, snap_ids, snap_pi, snap_lo, snap_s, counts[1:2], every,
+                bound, *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
             )  # fmt: skip
-            rec = self.recorder_
-            rec.add(k0 + 1, hist)
-            for step, kind, rid in ev[: nev[0]].tolist():
+            rec.add(k0 + 1, hist[start : start + done])
+            for step, kind, rid in ev[: counts[0]].tolist():
                 rec.add_event(step, L.EVENT_KINDS[kind], rid)
-            k1 = int(st["si"][0])
-            if k1 % every == 0:
-                R = int(st["si"][1])
-                rec.add_snapshot(k1, st["ids"][:R], self.consequents_raw())
-            start = stop
+            for q in range(int(counts[1])):
+                R = int(np.count_nonzero(snap_ids[q] >= 0))
+                rec.add_snapshot(int(snap_k[q]), snap_ids[q, :R],
+                                 raw_consequents(snap_pi[q, :R], snap_lo[q], snap_s[q]))
+            start += done
         return Yhat[:, 0] if y1d else Yhat
 
     def learn_one(self, x: Any, y: Any, s: Any = None) -> ETS:
@@ -442,13 +472,7 @@ class ETS:
         """
         st = self.state_
         n, R, xo = self.n_inputs_, self.n_rules, self.x_offset_
-        s = self.scales()[xo : xo + n]
-        lo = st["lo"][xo : xo + n]
-        Pi = st["Pi"][:R]
-        out = np.empty_like(Pi)
-        out[:, 1:, :] = Pi[:, 1:, :] / s[None, :, None]
-        out[:, 0, :] = Pi[:, 0, :] - np.einsum("rjo,j->ro", out[:, 1:, :], lo)
-        return out
+        return raw_consequents(st["Pi"][:R], st["lo"][xo : xo + n], self.scales()[xo : xo + n])
 
     def names(self) -> tuple[list[str], list[str]]:
         """Input and output names (defaults x1.., y1..)."""

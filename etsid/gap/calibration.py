@@ -8,7 +8,6 @@ writes it.
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass
 from functools import lru_cache
@@ -16,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from etsid.errors import GapError
+from etsid.files import read_json
 
 CALIBRATION_PATH = Path(__file__).with_name("calibration.json")
 CALIBRATION_SCHEMA = "etsid.gap.calibration/1"
@@ -76,10 +76,9 @@ def load_calibration(path: str | None = None) -> Calibration:
 def _load(path: str) -> Calibration:
     p = Path(path)
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise GapError(f"{p}: cannot read the gap calibration ({err}); run python "
-                       "benchmarks/gap_calibrate.py") from err
+        data = read_json(p, "calibration", GapError, "gap calibration JSON")
+    except GapError as err:
+        raise GapError(f"{err}; run python benchmarks/gap_calibrate.py") from err
     return from_dict(data, str(p))
 
 

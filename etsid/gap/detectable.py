@@ -29,10 +29,14 @@ from etsid.gap.candidates import BY_NAME, Candidate, Context
 from etsid.gap.fitting import Scorer
 from etsid.gap.nominal import Mods
 
-FRACTIONS = np.array([0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0])
+FRACTIONS = np.array([0.02, 0.2, 1.0])
 """Steps along a parameter's range (share of the distance from no effect to the bound)
 at which the change of the prediction is evaluated; between steps it is interpolated in
-log-log (the changes grow as a power of the size)."""
+log-log (the changes grow as a power of the size), below the first extrapolated with the
+first two steps' power."""
+OFFSETS = {"gyro_bias", "accel_bias", "torque_offset"}
+"""Effects that add their parameter to a channel's prediction: the change is the parameter
+itself (``mean(Δ²) = θ²``), no prediction needed."""
 SKIP = {("wind", "lift"), ("ground_effect", "exponent")}
 """Parameters that do nothing alone (lift needs a wind; the exponent needs a radius)."""
 BELOW_CONFIDENCE = 0.45
@@ -71,17 +75,16 @@ def _excess(scorer: Scorer, mods: Mods, base: dict[str, np.ndarray], chans: tupl
 
 
 def _crossing(sizes: np.ndarray, excess: np.ndarray, need: float) -> float | None:
-    """Smallest size at which ``excess`` reaches ``need`` (log-log interpolation)."""
+    """Smallest size at which ``excess`` reaches ``need`` (log-log interpolation between
+    steps, extrapolation below the first)."""
     above = np.flatnonzero(excess >= need)
     if not above.size:
         return None
-    i = int(above[0])
-    if i == 0:
-        return float(sizes[0])
+    i = max(int(above[0]), 1)
     x0, x1 = np.log(sizes[i - 1]), np.log(sizes[i])
-    y0, y1 = np.log(max(excess[i - 1], 1e-300)), np.log(excess[i])
+    y0, y1 = np.log(max(excess[i - 1], 1e-300)), np.log(max(excess[i], 1e-300))
     if y1 <= y0:
-        return float(sizes[i])
+        return float(sizes[int(above[0])])
     return float(np.exp(x0 + (np.log(need) - y0) * (x1 - x0) / (y1 - y0)))
 
 
@@ -95,6 +98,13 @@ def _one_parameter(cand: Candidate, j: int, scorer: Scorer, base: dict[str, np.n
     for way, bound in (("down", p.lo), ("up", p.hi)):
         span = bound - null
         if abs(span) < 1e-12:
+            continue
+        if cand.name in OFFSETS:
+            mods = cand.mods(_theta(cand, j, null + np.sign(span)), scorer.ctx)
+            sig = [scorer.sigma[c] for c, v in mods.offset.items() if v and c in base
+                   and c in scorer.sigma]
+            size = float(np.sqrt(need) * min(sig)) if sig else None
+            out[way] = size if size is not None and size <= abs(span) else None
             continue
         sizes = np.abs(span) * FRACTIONS
         ex = np.array([_excess(scorer, cand.mods(_theta(cand, j, null + np.sign(span) * s),

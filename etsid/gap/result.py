@@ -11,6 +11,8 @@ from typing import Any
 import jsonschema
 
 from etsid.errors import GapError
+from etsid.escape import clean as printable_strings
+from etsid.files import read_json
 
 SCHEMA_NAME = "etsid.gap/1"
 SCHEMA_PATH = Path(__file__).with_name("gap.schema.json")
@@ -23,7 +25,7 @@ def schema() -> dict[str, Any]:
     readers without etsid, and a test keeps the two equal)."""
     from etsid.gap.effects import vocabulary
 
-    data = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
+    data = read_json(SCHEMA_PATH, "package", GapError)
     data["properties"]["effects"]["items"]["properties"]["name"]["enum"] = list(vocabulary())
     return data
 
@@ -67,9 +69,6 @@ def write_gap_json(data: dict[str, Any], out_dir: str | Path) -> Path:
 
 def load_gap_json(path: str | Path) -> dict[str, Any]:
     """Read and validate a gap.json."""
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise GapError(f"{path}: cannot read gap.json ({err})") from err
+    data = read_json(path, "gap", GapError, "gap.json")
     validate(data)
-    return data
+    return printable_strings(data)

@@ -65,6 +65,7 @@ from etsid.gap.select import (
 )
 from etsid.gap.signals import (
     MIN_AIRBORNE_S,
+    SETPOINT_KINDS,
     Flight,
     describe,
     excerpt,
@@ -597,6 +598,10 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
         real, n_real = excerpt(real)
         excerpts = [n for n in (n_sim, n_real) if n]
     conditioned = condition(sim, real)
+    if sim.command_source:
+        cols = ", ".join(SETPOINT_KINDS[sim.command_source])
+        conditioned.insert(0, f"command: the {sim.command_source} ({cols}) of both logs, which "
+                              "have neither motor outputs nor stick commands")
     rotor_count = structural(sim, real)
     if rotor_count:
         return _different(sim, real, [rotor_count])
@@ -1062,7 +1067,17 @@ def _beyond_range(sel: Selection | None) -> list[str]:
 
 def _ranking(sel: Selection) -> list[dict[str, Any]]:
     def row(s: Scored) -> dict[str, Any]:
-        return {"name": s.fit.name, "share": round(s.share, 4), "score": round(s.score, 4)}
+        # the fitted parameters (and a per-motor law's motor, 1-based as m1 … m8) tell
+        # apart the entries of one effect (weak_motor once per motor, two drag laws …)
+        params: dict[str, Any] = {}
+        for cand, theta, _ in s.fit.split():
+            prefix = f"{cand.name}." if len(s.fit.candidates) > 1 else ""
+            if cand.motor is not None:
+                params[f"{prefix}motor"] = f"m{cand.motor + 1}"
+            for p, value in zip(cand.params, theta, strict=True):
+                params[f"{prefix}{p.name}"] = {"value": float(f"{value:.4g}"), "unit": p.unit}
+        return {"name": s.fit.name, "share": round(s.share, 4), "score": round(s.score, 4),
+                "params": params}
     return [row(s) for s in sel.ranked]
 
 

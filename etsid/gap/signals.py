@@ -74,6 +74,9 @@ class Flight:
     vbat: np.ndarray
     airborne: np.ndarray
     have: set[str] = field(default_factory=set)
+    command_source: str = ""
+    """Where ``"commands"`` come from when not the sticks: ``"rate setpoints"`` or
+    ``"attitude targets"`` (:data:`SETPOINT_KINDS`); empty for sticks and motors."""
 
     @property
     def n(self) -> int:
@@ -172,14 +175,30 @@ def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
 COMMANDS = ("u_thrust", "u_roll", "u_pitch", "u_yaw")
 
 
+RATE_SETPOINTS = ("u_thrust", "sp_p", "sp_q", "sp_r")
+ATTITUDE_TARGETS = ("u_thrust", "sp_roll", "sp_pitch", "sp_yaw")
+SETPOINT_KINDS = {"rate setpoints": RATE_SETPOINTS, "attitude targets": ATTITUDE_TARGETS}
+"""Commands read from the autopilot's own setpoints when a log has neither motor outputs nor
+sticks: the collective and the rate setpoints (the rate loop's demand), else the collective
+and the attitude errors to the attitude targets (the attitude loop's demand)."""
+
+
+def _has(table: pd.DataFrame, cols: tuple[str, ...]) -> bool:
+    return all(c in table.columns and table[c].notna().sum() >= 10 for c in cols)
+
+
 def input_kinds(table: pd.DataFrame) -> tuple[str, ...]:
-    """The kinds of inputs a table offers, best first: ``"motors"`` (m1..mN, N ≥ 3) and
-    ``"commands"`` (the four loop commands)."""
+    """The kinds of inputs a table offers, best first: ``"motors"`` (m1..mN, N ≥ 3),
+    ``"commands"`` (the four loop commands), then, only when it has neither, ``"rate
+    setpoints"`` or ``"attitude targets"`` (:data:`SETPOINT_KINDS`)."""
     kinds = []
     if len(_motor_columns(table)) >= 3:
         kinds.append("motors")
-    if all(c in table.columns and table[c].notna().sum() >= 10 for c in COMMANDS):
+    if _has(table, COMMANDS):
         kinds.append("commands")
+    if not kinds:
+        kinds += [k for k, cols in SETPOINT_KINDS.items() if _has(table, cols)
+                  and (k != "attitude targets" or _has(table, ("roll", "pitch", "yaw")))]
     return tuple(kinds)
 
 
@@ -204,9 +223,11 @@ def prepare(table: pd.DataFrame, name: str, inputs: str | None = None) -> Flight
     missing = [c for c in REQUIRED if c not in table.columns or table[c].notna().sum() < 10]
     kinds = input_kinds(table)
     inputs = inputs if inputs in kinds else (kinds[0] if kinds else None)
-    motors = _motor_columns(table) if inputs == "motors" else list(COMMANDS)
+    motors = _motor_columns(table) if inputs == "motors" else list(
+        SETPOINT_KINDS.get(inputs or "", COMMANDS))
     if inputs is None:
-        missing.append("m1..mN motor outputs (or u_thrust/u_roll/u_pitch/u_yaw)")
+        missing.append("m1..mN motor outputs (or u_thrust/u_roll/u_pitch/u_yaw, or u_thrust "
+                       "with rate setpoints sp_p/sp_q/sp_r or attitude targets)")
     if missing:
         raise GapError(f"{name}: lacks {', '.join(missing)}; the gap analysis needs body "
                        "rates, vertical specific force and motor outputs or commands")
@@ -240,7 +261,10 @@ def prepare(table: pd.DataFrame, name: str, inputs: str | None = None) -> Flight
     if "roll" in have:
         att[:, 2] = np.unwrap(att[:, 2]) if np.all(np.isfinite(att[:, 2])) else 0.0
     m = np.column_stack([col(c) for c in motors])
-    thrust = m[:, 0] if inputs == "commands" else np.mean(m, axis=1)
+    if inputs == "attitude targets":  # the attitude loop's demand: the error to the target
+        m[:, 1:] = m[:, 1:] - att
+        m[:, 3] = np.angle(np.exp(1j * m[:, 3]))
+    thrust = m[:, 0] if inputs != "motors" else np.mean(m, axis=1)
     alt = col("alt")
     v_body = np.zeros((t.size, 3))
     if "vx" in have and "roll" in have:
@@ -251,14 +275,18 @@ def prepare(table: pd.DataFrame, name: str, inputs: str | None = None) -> Flight
     air = _airborne(table, t, thrust, alt, fs)
     for arr in (rates, acc[:, 2:], m):
         air &= np.all(np.isfinite(arr), axis=1)
-    return Flight(name=name, t=t - t[0], fs=fs, motors=m, inputs=inputs, rates=rates, acc=acc,
-                  att=att, v_body=v_body, alt=alt, vbat=col("vbat"), airborne=air, have=have)
+    source = inputs if inputs in SETPOINT_KINDS else ""
+    return Flight(name=name, t=t - t[0], fs=fs, motors=m,
+                  inputs="commands" if source else inputs, rates=rates, acc=acc, att=att,
+                  v_body=v_body, alt=alt, vbat=col("vbat"), airborne=air, have=have,
+                  command_source=source)
 
 
 def describe(flight: Flight) -> dict[str, Any]:
     """Short provenance of a prepared flight for gap.json."""
     return {"file": flight.name, "rate_hz": flight.fs, "inputs": flight.inputs,
             "n_inputs": int(flight.motors.shape[1]), "airborne_s": round(flight.airborne_s, 2),
+            **({"command_source": flight.command_source} if flight.command_source else {}),
             "duration_s": round(float(flight.t[-1]), 2),
             "signals": sorted(flight.have)}
 

@@ -57,10 +57,16 @@ def learn_online(model: ETS, reg: Regression, stop_at: int, show: bool,
 
 def _merge(model: ETS, reg: Regression, upto: int, merges: list[dict[str, Any]] | None
            ) -> None:
+    state = model.export_state()
+    born = {int(i): int(b) for i, b in zip(state.rule_ids, state.births, strict=True)}
     done = merge_rules(model, reg.X[:upto], reg.Y[:upto],
                        None if reg.S is None else reg.S[:upto])
     if merges is not None:
-        merges.extend({**m, "after_rows": upto, "t": float(reg.t[upto - 1])} for m in done)
+        last = len(reg.t) - 1
+        merges.extend({**m, "after_rows": upto, "t": float(reg.t[upto - 1]),
+                       "absorbed_born_t": float(reg.t[min(max(born.get(m["absorbed"], 1) - 1,
+                                                              0), last)])}
+                      for m in done)
 
 
 def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFrame]:

@@ -41,6 +41,8 @@ OGE_FROM_ZR = 4.0
 METRE_EDGES = (0.5, 1.0)
 """Altitude band edges, m, when the rotor radius is not known."""
 ALTITUDE = "alt"
+INV_ALTITUDE = "inv_alt"
+"""The ground-effect coordinate 1/alt (1/m) the default model schedules its rules on."""
 THRUST = "u_thrust"
 """Thrust command column (0 … 1) of the rule table's thrust column."""
 #: the commanded input of each body rate in the default rate model
@@ -218,8 +220,8 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
 
     Each entry: ``rule`` (1-based, as ``etsid rules`` prints), ``id``, ``focal`` (antecedent
     name → focal value, raw units), ``alt_m`` and ``alt_source`` (the focal altitude when
-    altitude is an antecedent, else the median altitude of the learning rows the rule
-    leads), ``thrust`` and ``thrust_source`` (the same for the thrust command),
+    altitude or 1/altitude is an antecedent, else the median altitude of the learning rows
+    the rule leads), ``thrust`` and ``thrust_source`` (the same for the thrust command),
     ``share`` (fraction of the learning rows it leads), ``support``, ``born_t`` (s),
     ``lifetime_s`` (from birth to the freeze), ``regime``.
     """
@@ -236,6 +238,8 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
     if A is not None and rows > 0 and R:
         lead = model.leading_rule(A[:rows])
     alt_term = next((j for j, name in enumerate(names) if _column(name) == ALTITUDE), None)
+    inv_term = next((j for j, name in enumerate(names) if _column(name) == INV_ALTITUDE),
+                    None)
     thrust_term = next((j for j, name in enumerate(names) if _column(name) == THRUST), None)
     t_freeze = float(t[split - 1]) if split > 0 else float("nan")
     out = []
@@ -243,6 +247,9 @@ def rule_table(rules: dict[str, Any], A: np.ndarray | None, alt: np.ndarray | No
         mine = lead == i
         if alt_term is not None:
             alt_m, source = float(focal[i, alt_term]), "focal"
+        elif inv_term is not None and focal[i, inv_term] > 0:
+            # the altitude of the focal point, as `etsid rules` and the rule book print it
+            alt_m, source = 1.0 / float(focal[i, inv_term]), "focal"
         elif alt is not None and mine.any():
             alt_m, source = float(np.nanmedian(alt[:rows][mine])), "led rows"
         else:

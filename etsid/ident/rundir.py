@@ -26,6 +26,10 @@ import pandas as pd
 
 from etsid import __version__
 from etsid.errors import IdentError
+from etsid.escape import clean, printable
+from etsid.files import open_binary, read_json, read_parquet_frame
+from etsid.files import sha256 as file_sha256
+from etsid.schemas import CONFIG, METRICS, validate
 
 if TYPE_CHECKING:  # pragma: no cover
     from etsid.ident.regressors import RegressorSpec
@@ -68,9 +72,10 @@ def sha256(path: str | Path) -> str:
     """SHA-256 of a file (hex), or of every file below a directory in name order."""
     path = Path(path)
     digest = hashlib.sha256()
-    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
-    for item in files:
-        with item.open("rb") as handle:
+    if not path.is_dir():
+        return file_sha256(path, IdentError)
+    for item in sorted(p for p in path.rglob("*") if p.is_file()):
+        with open_binary(item, "hash", IdentError) as handle:
             for block in iter(lambda: handle.read(1 << 20), b""):
                 digest.update(block)
     return digest.hexdigest()
@@ -246,17 +251,23 @@ def read_run(path: str | Path) -> Run:
     if missing:
         raise IdentError(f"{path}: not a complete run directory, missing {', '.join(missing)}")
     try:
-        predictions = pd.read_parquet(path / "predictions.parquet")
-        history = pd.read_parquet(path / "history.parquet")
+        predictions = read_parquet_frame(path / "predictions.parquet", "table", IdentError)
+        history = read_parquet_frame(path / "history.parquet", "table", IdentError)
         cons_path = path / "consequents.parquet"
-        consequents = pd.read_parquet(cons_path) if cons_path.exists() else pd.DataFrame()
-        metrics = json.loads((path / "metrics.json").read_text())
-        config = json.loads((path / "config.json").read_text())
-        rules = json.loads((path / "rules.json").read_text())
-        final_path = path / "rules_final.json"
-        rules_final = json.loads(final_path.read_text()) if final_path.exists() else None
+        consequents = (read_parquet_frame(cons_path, "table", IdentError) if cons_path.exists()
+                       else pd.DataFrame())
     except (OSError, ValueError) as err:
         raise IdentError(f"{path}: unreadable run file ({err})") from err
+    metrics = clean(validate(read_json(path / "metrics.json", "run", IdentError),
+                             METRICS, path / "metrics.json", IdentError, "metrics.json"))
+    config = clean(validate(read_json(path / "config.json", "run", IdentError),
+                            CONFIG, path / "config.json", IdentError, "config.json"))
+    rules = clean(read_json(path / "rules.json", "rules", IdentError))
+    final_path = path / "rules_final.json"
+    rules_final = (clean(read_json(final_path, "rules", IdentError)) if final_path.exists()
+                   else None)
+    predictions.columns = [printable(c) if isinstance(c, str) else c
+                           for c in predictions.columns]
     outputs = metrics.get("outputs") if isinstance(metrics, dict) else None
     if not isinstance(outputs, dict) or not outputs:
         raise IdentError(f"{path}: metrics.json has no 'outputs' (not written by etsid)")

@@ -15,11 +15,12 @@ from typing import Any
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from etsid.errors import IdentError, ReportError
+from etsid.files import read_bytes
 from etsid.ident.rundir import Run, read_run
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.page import HINT, esc, html_page, make_shared_dir, markdown_safe, table_html
 from etsid.report.regimes import regimes_html, regimes_markdown
-from etsid.report.tables import metrics_rows, rules_text
+from etsid.report.tables import merges_text, metrics_rows, rule_counts, rules_text
 
 FORMATS = ("png", "svg", "pdf")
 
@@ -39,6 +40,8 @@ class Report:
     figures: dict[str, Path] = field(default_factory=dict)
     html: Path | None = None
     markdown: Path | None = None
+    notes: list[str] = field(default_factory=list)
+    """What the report left out of its input and why (printed by the CLI)."""
 
 
 def save_figure(fig: Any, path: Path) -> Path:
@@ -162,13 +165,14 @@ def _write(run: Run, out: Path, fmt: str, say: Say = quiet, base: Path | None = 
         report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
         if fmt == "png":
             embedded[name] = ("image/png", base64.b64encode(
-                report.figures[name].read_bytes()).decode())
+                read_bytes(report.figures[name], "figure", ReportError)).decode())
         elif fmt == "svg":
             embedded[name] = ("image/svg+xml", base64.b64encode(
-                report.figures[name].read_bytes()).decode())
+                read_bytes(report.figures[name], "figure", ReportError)).decode())
         else:
             png = save_figure(fig, out / f"{name}.png")
-            embedded[name] = ("image/png", base64.b64encode(png.read_bytes()).decode())
+            embedded[name] = ("image/png", base64.b64encode(
+                read_bytes(png, "figure", ReportError)).decode())
     rules = rules_text(run)
     report.html = out / "index.html"
     report.html.write_text(render_html(run, embedded, rules,
@@ -249,9 +253,11 @@ def summary_lines(run: Run) -> list[str]:
         f"{model.get('regressors', '')}.",
         f"{met.get('n_samples')} usable samples; skipped rows: "
         + ", ".join(f"{k} {v}" for k, v in (met.get("skipped") or {}).items()) + ".",
-        f"Rules: final {met['rules'].get('final')}, peak {met['rules'].get('peak')}, "
-        f"frozen model (rules.json) {met['rules'].get('frozen')}.",
+        rule_counts(met["rules"]).capitalize() + ".",
     ]
+    merged = merges_text(met["rules"], run.rules, val.get("n_learn"))
+    if merged:
+        lines.append(merged[0].upper() + merged[1:] + ".")
     if val.get("t_start") is not None:
         lines.append(f"Validation: last {val.get('n_validation')} samples from "
                      f"t = {val['t_start']:.2f} s, learned on the first {val.get('n_learn')}.")

@@ -18,9 +18,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from etsid.errors import ControlError
-from etsid.report.figures import WIDTH, style
+from etsid.escape import clean
+from etsid.files import read_json, read_parquet_frame
+from etsid.report.figures import WIDTH, legend_outside, style
 
 if TYPE_CHECKING:  # pragma: no cover
     from etsid.report.build import Report
@@ -47,9 +50,10 @@ def is_control_run(run_dir: str | Path) -> bool:
     if not cfg.is_file():
         return False
     try:
-        return json.loads(cfg.read_text()).get("kind") == CONTROL_KIND
-    except (OSError, ValueError, AttributeError):
+        data = read_json(cfg, "run", ControlError)
+    except ControlError:
         return False
+    return isinstance(data, dict) and data.get("kind") == CONTROL_KIND
 
 
 def read_control_run(run_dir: str | Path) -> ControlRun:
@@ -59,12 +63,9 @@ def read_control_run(run_dir: str | Path) -> ControlRun:
     path = Path(run_dir)
 
     def _json(name: str) -> dict[str, Any]:
-        try:
-            data = json.loads((path / name).read_text())
-        except FileNotFoundError:
-            raise ControlError(f"{path}: no {name}; not a control run directory") from None
-        except (OSError, ValueError) as err:
-            raise ControlError(f"{path / name}: not readable JSON ({err})") from err
+        if not (path / name).exists():
+            raise ControlError(f"{path}: no {name}; not a control run directory")
+        data = clean(read_json(path / name, "run", ControlError))
         if not isinstance(data, dict):
             raise ControlError(f"{path / name}: expected a JSON object")
         return data
@@ -74,7 +75,9 @@ def read_control_run(run_dir: str | Path) -> ControlRun:
         if not file.exists():
             return None
         try:
-            return pd.read_parquet(file)
+            return read_parquet_frame(file, "table", ControlError)
+        except ControlError:
+            raise
         except Exception as err:  # pyarrow raises many types for broken files
             raise ControlError(f"{file}: not a readable parquet file ({err})") from err
 
@@ -107,8 +110,8 @@ def find_comparison(run: ControlRun) -> ControlRun | None:
         if path.resolve() == run.path.resolve() or not is_control_run(path):
             continue
         try:
-            metrics = json.loads((path / "metrics.json").read_text())
-        except (OSError, ValueError):
+            metrics = read_json(path / "metrics.json", "run", ControlError)
+        except ControlError:
             continue
         if (isinstance(metrics, dict) and metrics.get("scenario") == scenario
                 and metrics.get("controller") not in (None, me)):
@@ -135,28 +138,32 @@ def _mark_mass_change(ax: Any, run: ControlRun) -> None:
 
 def fig_tracking(run: ControlRun, other: ControlRun | None = None) -> Figure:
     """Fig. 1.12a: reference and flown height (and the other controller's, when given), and
-    the tracking errors. The reference is drawn on top, dashed, so it stays visible where
-    the height follows it closely."""
+    the tracking errors. The reference is wide and pale, under the heights; this run's
+    height is solid and the other's dashed on top, so none hides another where they
+    coincide. Legends sit outside the plot area."""
     f = run.flight
     t = f.index.to_numpy()
-    fig = Figure(figsize=(WIDTH, 4.2))
+    fig = Figure(figsize=(WIDTH, 4.2), layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
     name = run.metrics.get("controller", "?")
-    ax.plot(t, f["true_alt"], color="tab:blue", lw=1.6, label=f"height h, {name}")
+    ax.plot(t, f["alt_ref"], color="tab:orange", lw=4.0, alpha=0.35, zorder=1,
+            label="reference r")
+    ax.plot(t, f["true_alt"], color="tab:blue", lw=1.4, alpha=0.85, zorder=2,
+            label=f"height h, {name}")
     if other is not None:
         ax.plot(other.flight.index.to_numpy(), other.flight["true_alt"], color="tab:green",
-                lw=1.0, label=f"height h, {other.metrics.get('controller', '?')}")
-    ax.plot(t, f["alt_ref"], color="tab:orange", ls=(0, (4, 2)), lw=1.3, zorder=5,
-            label="reference r")
+                lw=1.1, ls="--", zorder=3,
+                label=f"height h, {other.metrics.get('controller', '?')}")
     _mark_mass_change(ax, run)
     ax.set_ylabel("height above ground, m")
-    ax.legend(loc="upper right", ncol=4)
+    legend_outside(ax)
     ax.set_title(f"Tracking — {_title(run)}")
-    ax2.plot(t, f["alt_ref"] - f["true_alt"], color="tab:blue", lw=0.9, label=name)
+    ax2.plot(t, f["alt_ref"] - f["true_alt"], color="tab:blue", lw=0.9, alpha=0.85,
+             label=name)
     if other is not None:
         o = other.flight
         ax2.plot(o.index.to_numpy(), o["alt_ref"] - o["true_alt"], color="tab:green", lw=0.9,
-                 label=str(other.metrics.get("controller", "?")))
+                 ls="--", label=str(other.metrics.get("controller", "?")))
     after = run.metrics.get("score_after_s", 10.0)
     ax2.axvspan(t[0], after, color="0.9", label=f"first {after:g} s (not scored)")
     rmse = run.metrics.get("tracking_rmse")
@@ -168,14 +175,15 @@ def fig_tracking(run: ControlRun, other: ControlRun | None = None) -> Figure:
             text += (f", {other.metrics.get('controller')} "
                      f"{other.metrics['tracking_rmse']:.4f} m")
         ax2.set_title(text, fontsize=8)
-    ax2.legend(loc="upper right", ncol=3)
+    ax2.yaxis.set_major_locator(MaxNLocator(nbins=3))  # small panel: no overlap
+    legend_outside(ax2)
     return fig
 
 
 def fig_potential(run: ControlRun) -> Figure:
     """Fig. 1.12b: the sample potential between the running bounds P_max and P_min."""
     h = run.history
-    fig = Figure(figsize=(WIDTH, 3.2))
+    fig = Figure(figsize=(WIDTH, 3.2), layout="constrained")
     ax = fig.subplots()
     ax.plot(h["t"], h["potential"], color="tab:blue", lw=0.6, label="P(z_k), sample")
     ax.plot(h["t"], h["focal_max"], color="tab:red", label="P_max (focal points)")
@@ -190,14 +198,14 @@ def fig_potential(run: ControlRun) -> Figure:
     ax.set_ylabel("potential")
     ax.set_xlabel("time, s")
     ax.set_title("Potential of the data sample and its bounds (eTS structure test)")
-    ax.legend(loc="lower right", ncol=3)
+    legend_outside(ax)
     return fig
 
 
 def fig_replacements(run: ControlRun) -> Figure:
     """Fig. 1.12c: cumulative rule replacements (and births, and the rule count)."""
     h = run.history
-    fig = Figure(figsize=(WIDTH, 3.0))
+    fig = Figure(figsize=(WIDTH, 3.0), layout="constrained")
     ax = fig.subplots()
     ax.step(h["t"], h["replacements"], where="post", color="tab:orange",
             label="rule replacements (cumulative)")
@@ -207,7 +215,7 @@ def fig_replacements(run: ControlRun) -> Figure:
     ax.set_ylabel("count")
     ax.set_xlabel("time, s")
     ax.set_title("Evolution of the rule base")
-    ax.legend(loc="upper left")
+    legend_outside(ax)
     return fig
 
 
@@ -215,7 +223,7 @@ def fig_thrust(run: ControlRun) -> Figure:
     """The collective command and its feed-forward and feedback parts."""
     f = run.flight
     t = f.index.to_numpy()
-    fig = Figure(figsize=(WIDTH, 3.2))
+    fig = Figure(figsize=(WIDTH, 3.2), layout="constrained")
     ax = fig.subplots()
     ax.plot(t, f["u_thrust"], color="0.2", lw=0.6, label="u_thrust (sent)")
     if "u_ff" in f:
@@ -226,7 +234,7 @@ def fig_thrust(run: ControlRun) -> Figure:
     ax.set_ylabel("collective, 0..1")
     ax.set_xlabel("time, s")
     ax.set_title("Thrust command")
-    ax.legend(loc="center right", ncol=3)
+    legend_outside(ax)
     return fig
 
 
@@ -289,6 +297,9 @@ def _interactive(run: ControlRun, other: ControlRun | None) -> tuple[str, dict[s
 
     runs = [run] + ([other] if other is not None else [])
     colors = [ia.COLORS["one_step"], ia.COLORS["arx"]]
+    # this run solid under, the run beside it dashed on top: where the two coincide (the
+    # thrust of eTS and PID in steady flight) both stay visible
+    dashes, alphas = ["solid", "dashed"], [0.85, 1.0]
     t0 = run.flight.index.to_numpy(dtype=float)
     x_range = ia.shared_range(t0)
     track = ia.time_figure("height above ground (m)", "Reference and flown height (true)",
@@ -303,18 +314,19 @@ def _interactive(run: ControlRun, other: ControlRun | None) -> tuple[str, dict[s
                          "ref": f["alt_ref"].to_numpy(dtype=float),
                          "e": (f["alt_ref"] - f["true_alt"]).to_numpy(dtype=float),
                          "u": f["u_thrust"].to_numpy(dtype=float)})
-        track_lines = [ia.Line("h", f"height, {name}", colors[k], 1.8 if k == 0 else 1.2)]
-        if k == len(runs) - 1:  # the reference last: on top of every height
-            track_lines.append(ia.Line("ref", "reference r", ia.COLORS["reference"], 2.0,
-                                       "dashed"))
+        track_lines = [ia.Line("h", f"height, {name}", colors[k], 1.8 if k == 0 else 1.4,
+                               dashes[k], alphas[k])]
+        if k == 0:  # the reference first, wide and pale: under the heights that track it
+            track_lines.insert(0, ia.Line("ref", "reference r", ia.COLORS["reference"], 4.0,
+                                          "solid", 0.35))
         ia.add_lines(track, src, track_lines, digits="0.000", unit="m")
         rmse = r.metrics.get("tracking_rmse")
         label = name + (f" (RMSE {rmse:.4f} m after {r.metrics.get('score_after_s', 10):g} s)"
                         if rmse is not None else "")
-        ia.add_lines(err, src, [ia.Line("e", label, colors[k], 1.0)], digits="0.0000",
-                     unit="m")
-        ia.add_lines(thrust, src, [ia.Line("u", f"u_thrust, {name}", colors[k], 0.9)],
-                     digits="0.000")
+        ia.add_lines(err, src, [ia.Line("e", label, colors[k], 1.2, dashes[k], alphas[k])],
+                     digits="0.0000", unit="m")
+        ia.add_lines(thrust, src, [ia.Line("u", f"u_thrust, {name}", colors[k], 1.2,
+                                           dashes[k], alphas[k])], digits="0.000")
     after = float(run.metrics.get("score_after_s", 10.0))
     for fig in (track, err, thrust):
         ia.shade(fig, float(t0[0]), after, "#888888", 0.12)

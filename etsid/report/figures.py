@@ -98,6 +98,21 @@ def zoom_window(t: np.ndarray, y: np.ndarray, fraction: float = 0.06) -> tuple[f
     return float(t[i]), float(t[min(n - 1, i + w - 1)])
 
 
+def legend_outside(ax: Axes, **kwargs: Any) -> None:
+    """The legend of ``ax`` to the right of its plot area, where it covers no data (the
+    figure needs ``layout="constrained"`` to make room for it)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                  frameon=False, **kwargs)
+
+
+def legend_above(fig: Figure, ax: Axes, ncols: int = 4) -> None:
+    """One legend of ``ax``'s lines above every panel of ``fig`` (constrained layout)."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside upper center", ncols=ncols, frameon=False)
+
+
 def fig_rates(run: Run) -> Figure:
     """Measured vs online one-step prediction per output, full record and a zoom (Fig. 1.10 a–c)."""
     pred = run.predictions
@@ -112,9 +127,10 @@ def fig_rates(run: Run) -> Figure:
             tg, mg, hg = with_gaps(t, meas, hat)
             t0, t1 = zoom_window(t, meas)
             for col, ax in enumerate(axes[row]):
-                ax.plot(tg, mg, color=COLORS["measured"], label="measured", lw=1.3, zorder=3)
-                ax.plot(tg, hg, color=COLORS["one_step"], label="eTS one-step", lw=0.7,
-                        alpha=0.9, zorder=2)
+                # measured thin and grey under the prediction, which stays visible on top
+                ax.plot(tg, mg, color="0.45", label="measured", lw=0.8, alpha=0.8, zorder=2)
+                ax.plot(tg, hg, color=COLORS["one_step"], label="eTS one-step", lw=0.8,
+                        alpha=0.9, zorder=3)
                 ax.set_ylabel(label_of(run, y))
                 if col == 1:
                     ax.set_xlim(t0, t1)
@@ -131,7 +147,7 @@ def fig_rates(run: Run) -> Figure:
                     if rmse is not None:
                         ax.set_title(f"online one-step, RMSE {rmse:.4g} {unit_of(run, y)}",
                                      loc="left")
-            axes[row, 0].legend(loc="upper right", ncols=2)
+        legend_above(fig, axes[0, 0], ncols=2)
         for ax in axes[-1]:
             ax.set_xlabel("time t (s)")
     return fig
@@ -159,8 +175,8 @@ def fig_structure(run: Run) -> Figure:
                       label="potential of the sample $P_k(z_k)$")
             ax_p.plot(t, hist["focal_max"].to_numpy(), color="tab:blue",
                       label="max focal potential")
-            ax_p.plot(t, hist["focal_min"].to_numpy(), color="tab:purple",
-                      label="min focal potential")
+            ax_p.plot(t, hist["focal_min"].to_numpy(), color="tab:purple", ls="--",
+                      label="min focal potential")  # dashed: equal to max with one rule
             ax_r.step(t, hist["n_rules"].to_numpy(), where="post", color="k",
                       label="rules")
             counts = hist.set_index("t")["n_rules"]
@@ -175,13 +191,13 @@ def fig_structure(run: Run) -> Figure:
                       transform=ax_p.transAxes, ha="center")
         ax_p.set_ylabel("potential (–)")
         _potential_limits(ax_p, hist)
-        ax_p.legend(loc="lower right", ncols=3, markerscale=4)
+        legend_outside(ax_p, markerscale=4)
         ax_p.set_title("(a) cluster potential", loc="left")
         ax_r.set_ylabel("number of rules")
         ax_r.yaxis.set_major_locator(MaxNLocator(integer=True))
         ax_r.set_xlabel("time t (s)")
         ax_r.set_title("(b) rule-base size, with structural events", loc="left")
-        ax_r.legend(loc="lower right", ncols=4)
+        legend_outside(ax_r)
     return fig
 
 
@@ -297,7 +313,7 @@ def fig_residuals(run: Run, max_lag: int = 40) -> Figure:
             ax_h.set_xlabel(f"residual {y} − ŷ ({unit})")
             ax_h.set_ylabel(f"density (1/{unit})" if unit and unit != "1" else "density")
             ax_h.set_title(what, loc="left")
-            ax_h.legend(loc="upper right")
+            legend_outside(ax_h)
             lag_count = min(max_lag, res.size - 1)  # short validation parts: fewer lags
             lags = np.arange(lag_count + 1)
             ac = autocorrelation(res, lag_count)
@@ -308,7 +324,7 @@ def fig_residuals(run: Run, max_lag: int = 40) -> Figure:
                          label=f"95 % band ±{band:.3f}")
             ax_a.set_xlabel("lag (samples)")
             ax_a.set_ylabel(f"r({y} residual)")
-            ax_a.legend(loc="upper right")
+            legend_outside(ax_a)
     return fig
 
 
@@ -322,8 +338,8 @@ def _keep_measured_range(ax: Axes, measured: np.ndarray) -> None:
 
 
 def fig_validation(run: Run) -> Figure:
-    """Validation part: measured (on top) against eTS frozen one-step, eTS free run and ARX
-    free run; under each output the free-run errors of eTS and ARX."""
+    """Validation part: measured (thin grey, under) against eTS frozen one-step, eTS free
+    run and ARX free run; under each output the free-run errors of eTS and ARX."""
     pred = run.predictions
     outputs = outputs_of(run)
     val = pred[pred["part"] == "validation"] if "part" in pred else pred.iloc[0:0]
@@ -340,27 +356,31 @@ def fig_validation(run: Run) -> Figure:
                 ax.text(0.5, 0.5, "no validation part (--validate 0)", transform=ax.transAxes,
                         ha="center")
                 continue
-            series = [(f"{y}_val", "eTS one-step (frozen)", COLORS["one_step"], 0.6, "-"),
-                      (f"{y}_arx_sim", "ARX free-run", COLORS["arx"], 0.8, "--"),
-                      (f"{y}_sim", "eTS free-run", COLORS["free_run"], 0.8, "--"),
-                      (y, "measured", "k", 1.3, "-")]
+            # measured first, thin and grey (under); then each model with its own colour,
+            # width and dash; ARX dashed last, so where it meets eTS both stay visible
+            series = [(y, "measured", "0.45", 0.8, "-", 0.8),
+                      (f"{y}_val", "eTS one-step (frozen)", COLORS["one_step"], 0.8, ":", 1.0),
+                      (f"{y}_sim", "eTS free-run", COLORS["free_run"], 1.0, "-", 0.85),
+                      (f"{y}_arx_sim", "ARX free-run", COLORS["arx"], 1.0, "--", 1.0)]
             cols = [val[c].to_numpy(dtype=float) if c in val else np.full(len(t), np.nan)
                     for c, *_ in series]
             tg, *gs = with_gaps(t, *cols)
-            for z, ((_, label, color, lw, ls), g) in enumerate(zip(series, gs, strict=True)):
-                ax.plot(tg, g, color=color, label=label, lw=lw, ls=ls, zorder=2 + z)
-            _keep_measured_range(ax, cols[-1])
-            for col, label, color in ((1, "ARX", COLORS["arx"]),
-                                      (2, "eTS", COLORS["free_run"])):
-                err = gs[-1] - gs[col]
+            for z, ((_, label, color, lw, ls, alpha), g) in enumerate(
+                    zip(series, gs, strict=True)):
+                ax.plot(tg, g, color=color, label=label, lw=lw, ls=ls, alpha=alpha,
+                        zorder=2 + z)
+            _keep_measured_range(ax, cols[0])
+            for col, label, color, ls in ((2, "eTS", COLORS["free_run"], "-"),
+                                          (3, "ARX", COLORS["arx"], "--")):
+                err = gs[0] - gs[col]
                 finite = err[np.isfinite(err)]
                 if finite.size:
                     rmse = float(np.sqrt(np.mean(finite**2)))
-                    ax_e.plot(tg, err, color=color, lw=0.7,
+                    ax_e.plot(tg, err, color=color, lw=0.8, ls=ls,
                               label=f"{label} free-run error, RMSE {rmse:.3g}")
             ax_e.axhline(0, color="k", lw=0.5)
-            if ax_e.lines:
-                ax_e.legend(loc="upper right", ncols=2)
+            ax_e.yaxis.set_major_locator(MaxNLocator(nbins=3))  # small panel: no overlap
+            legend_outside(ax_e)
             block = (((run.metrics["outputs"][y] or {}).get("validation") or {})
                      .get("free_run") or {})
             arx = (((((run.metrics["outputs"][y] or {}).get("arx") or {}).get("validation")
@@ -379,7 +399,7 @@ def fig_validation(run: Run) -> Figure:
                          + (f" (fit {fr:.1f} % before)" if fr is not None else ""))
             if title:
                 ax.set_title(title, loc="left")
-        grid[0].legend(loc="upper right", ncols=4)
+        legend_above(fig, grid[0], ncols=4)
         grid[-1].set_xlabel("time t (s)")
     return fig
 
@@ -395,8 +415,9 @@ FIGURES = {
                                      "as in the tables."),
     "residuals": (fig_residuals, "Residual histogram and autocorrelation with the 95 % "
                                  "band of white noise."),
-    "validation": (fig_validation, "Validation part: measured (black, on top) against the "
-                                   "frozen one-step prediction and the free runs of eTS and "
-                                   "ARX; under each output the free-run errors."),
+    "validation": (fig_validation, "Validation part: measured (thin grey, under the models) "
+                                   "against the frozen one-step prediction (dotted) and the "
+                                   "free runs of eTS (solid) and ARX (dashed); under each "
+                                   "output the free-run errors."),
 }
 """Report figures: name → (builder, caption)."""

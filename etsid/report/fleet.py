@@ -10,8 +10,6 @@ the Parquet dataset ``DIR/results/`` (rows of the latest batch's options only).
 from __future__ import annotations
 
 import base64
-import html
-import json
 import os
 import re
 import shutil
@@ -26,10 +24,13 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from etsid.errors import EtsidError
+from etsid.escape import clean, for_html, printable
+from etsid.files import read_bytes, read_json, read_parquet_dataset
 from etsid.report.build import Report, save_figure
 from etsid.report.figures import WIDTH, style
 from etsid.report.page import markdown_safe
 from etsid.report.parallel import PRELOAD, InProcess, Runner, write_report
+from etsid.schemas import BATCH, validate
 
 FIGURES = {
     "duration_s": "log duration, s",
@@ -64,11 +65,11 @@ def load_fleet(path: str | Path) -> tuple[dict[str, Any], pd.DataFrame]:
     """``batch.json`` and the rows of its command and options, sorted by input; one row per
     log, the latest (a compacted dataset may hold an older row of a log run again)."""
     path = Path(path)
-    try:
-        meta = json.loads((path / "batch.json").read_text())
-        frame = pd.read_parquet(path / "results")
-    except (OSError, ValueError) as err:
-        raise EtsidError(f"{path}: unreadable batch directory ({err})") from err
+    meta = clean(validate(read_json(path / "batch.json", "batch", EtsidError), BATCH,
+                          path / "batch.json", EtsidError, "batch.json"))
+    frame = read_parquet_dataset(path / "results", "batch", EtsidError)
+    frame, notes = checked_rows(frame, path / "results")
+    meta["notes"] = notes
     if "command" in frame.columns:
         frame = frame[frame["command"].astype(str) == meta.get("command")]
     if meta.get("options_digest") and "options_digest" in frame.columns:
@@ -77,6 +78,54 @@ def load_fleet(path: str | Path) -> tuple[dict[str, Any], pd.DataFrame]:
         frame = frame.sort_values("finished", kind="stable", na_position="first")
         frame = frame.drop_duplicates(subset=["sim_input", "input"], keep="last")
     return meta, frame.sort_values("input", kind="stable").reset_index(drop=True)
+
+
+ROW_RANGES: dict[str, tuple[float, float]] = {
+    "duration_s": (0.0, 1e7), "airborne_s": (0.0, 1e7), "rows": (0.0, 1e10),
+    "rate_hz": (0.0, 1e6), "wall_s": (0.0, 1e7), "cpu_s": (0.0, 1e8),
+    "peak_rss_mb": (0.0, 1e8), "rules_final": (0.0, 1e6), "rules_peak": (0.0, 1e6),
+    "rules_frozen": (0.0, 1e6), "regime_count": (0.0, 1e6), "warnings": (0.0, 1e9),
+    "n_samples": (0.0, 1e10), "channels": (0.0, 1e9), "ndei_one_step": (0.0, 1e6),
+}
+"""Physical range of the numeric result columns the fleet report draws or ranks; a fit (%)
+is at most 100 (columns named fit_* or *_fit_*; unbounded below: a bad model's fit is
+very negative, but finite)."""
+TEXT_COLUMNS = ("input", "status", "error", "error_kind", "format", "run_dir", "vehicle",
+                "autopilot", "firmware", "hardware", "command", "options_digest",
+                "finished", "sim_input", "worker")
+
+
+def checked_rows(frame: pd.DataFrame, source: Path) -> tuple[pd.DataFrame, list[str]]:
+    """Result rows as the report can use them, and a note per column of values it dropped.
+
+    ``input`` and ``status`` must be there (else one-line error naming ``source``); text
+    columns are made printable; a numeric value that is not finite or outside its
+    physical range (:data:`ROW_RANGES`, fits at most 100 %) becomes missing and is
+    counted in a note, never drawn.
+    """
+    missing = [c for c in ("input", "status") if c not in frame.columns]
+    if missing:
+        raise EtsidError(f"{source}: result rows lack {', '.join(missing)} (not written by "
+                         "etsid batch)")
+    frame = frame.copy()
+    notes: list[str] = []
+    for column in frame.columns:
+        values = frame[column]
+        if column in TEXT_COLUMNS or values.dtype == object:
+            frame[column] = values.map(lambda v: printable(v) if isinstance(v, str) else v)
+            continue
+        if not pd.api.types.is_numeric_dtype(values) or pd.api.types.is_bool_dtype(values):
+            continue
+        numbers = pd.to_numeric(values, errors="coerce").astype(float)
+        low, high = ROW_RANGES.get(column, (-np.inf, np.inf))
+        if column.startswith("fit") or "_fit_" in column:
+            low, high = -1e12, 100.0
+        bad = numbers.notna() & ~(np.isfinite(numbers) & (numbers >= low) & (numbers <= high))
+        if bad.any():
+            notes.append(f"{source}: {int(bad.sum())} value(s) of {column} not finite or "
+                         "outside its physical range, left out")
+            frame[column] = numbers.mask(bad)
+    return frame, notes
 
 
 def cause_of(error: str, item: str) -> str:
@@ -186,7 +235,7 @@ def _fmt(value: Any) -> str:
 
 def _html_table(frame: pd.DataFrame, columns: list[str],
                 links: dict[str, str] | None = None) -> str:
-    esc = html.escape
+    esc = for_html
     links = links or {}
     head = "".join(f"<th>{esc(c)}</th>" for c in columns)
     rows = []
@@ -226,6 +275,7 @@ def summary_lines(meta: dict[str, Any], frame: pd.DataFrame) -> list[str]:
              f"{meta.get('jobs')} jobs on the {meta.get('scheduler')} scheduler; "
              f"started {meta.get('started')}, {meta.get('ended', 'running')}"
              + (f" after {meta['wall_s']:.1f} s." if meta.get("wall_s") else ".")]
+    lines += [str(note) for note in meta.get("notes") or []]
     if "wall_s" in frame and frame["wall_s"].notna().any():
         lines.append(f"CPU-side time per log: median {frame['wall_s'].median():.2f} s, "
                      f"max {frame['wall_s'].max():.2f} s; peak worker memory max "
@@ -272,6 +322,7 @@ def make_fleet_report(batch_dir: str | Path, fmt: str = "png", say: Any = None,
     report.directory = out
     report.figures = {name: out / path.name for name, path in report.figures.items()}
     report.html, report.markdown = out / "index.html", out / "report.md"
+    report.notes = list(meta.get("notes") or [])
     return report
 
 
@@ -333,7 +384,7 @@ def _draw(frame: pd.DataFrame, figure: str | None, report: Report, fmt: str
         if fmt == "pdf":
             png = save_figure(fig, out / "distributions.png")
         mime = "image/svg+xml" if fmt == "svg" else "image/png"
-        image = (mime, base64.b64encode(png.read_bytes()).decode())
+        image = (mime, base64.b64encode(read_bytes(png, "figure", EtsidError)).decode())
     return image, _interactive(frame, figure)
 
 
@@ -366,7 +417,7 @@ class _Parts:
              interactive: tuple[str, str] = ("", "")) -> str:
         from etsid.report.page import html_page
 
-        esc = html.escape
+        esc = for_html
         head_js, div = interactive
         parts = [
             '<section id="summary"><h2>Summary</h2><ul>'
@@ -434,21 +485,33 @@ def _interactive(frame: pd.DataFrame, figure: str | None) -> tuple[str, str]:
     if y_col is None or "duration_s" not in ok or not ok[y_col].notna().any():
         return "", ""
     ok = ok[ok[y_col].notna() & ok["duration_s"].notna()]
-    src = ColumnDataSource({"x": ok["duration_s"].to_numpy(dtype=float),
-                            "y": ok[y_col].to_numpy(dtype=float),
+    duration = ok["duration_s"].to_numpy(dtype=float)
+    y = ok[y_col].to_numpy(dtype=float)
+    x, x_label, against = duration, FIGURES["duration_s"], "against log duration"
+    if len(ok) > 1 and np.ptp(duration) <= max(0.5, 0.01 * float(np.median(duration))):
+        # every flight as long as the others: duration tells nothing, the flights in the
+        # order of the inputs spread them out instead
+        x = np.arange(1, len(ok) + 1, dtype=float)
+        x_label = "flight (order of the inputs)"
+        against = f"per flight (every log lasts {float(np.median(duration)):.1f} s)"
+    hidden = len(ok) - len({(float(a), float(b)) for a, b in zip(x, y, strict=True)})
+    src = ColumnDataSource({"x": x, "y": y, "duration": duration,
                             "input": ok["input"].astype(str).to_numpy(),
                             "rules": (ok["rules_frozen"] if "rules_frozen" in ok
                                       else ok["duration_s"] * np.nan).to_numpy(dtype=float)})
+    title = (f"{FIGURES.get(y_col, y_col)} {against}, one dot per flight (hover for its "
+             "name)")
+    if hidden:
+        title += (f"; {hidden} dot{'s' if hidden > 1 else ''} on top of another (the same "
+                  "values): hover lists every flight under the pointer")
     fig = bokeh_figure(height=300, sizing_mode="stretch_width",
-                       tools="pan,wheel_zoom,box_zoom,reset,save",
-                       title=f"{FIGURES.get(y_col, y_col)} against log duration, one dot "
-                             "per flight (hover for its name)")
+                       tools="pan,wheel_zoom,box_zoom,reset,save", title=title)
     fig.toolbar.logo = None
     dots = fig.scatter("x", "y", source=src, size=8, alpha=0.7, color="#1f77b4")
     fig.add_tools(HoverTool(renderers=[dots], tooltips=[
-        ("log", "@input"), ("duration", "@x{0.0} s"), (y_col, "@y{0.00}"),
+        ("log", "@input"), ("duration", "@duration{0.0} s"), (y_col, "@y{0.00}"),
         ("rules", "@rules{0}")]))
-    fig.xaxis.axis_label = FIGURES["duration_s"]
+    fig.xaxis.axis_label = x_label
     fig.yaxis.axis_label = FIGURES.get(y_col, y_col)
     if y_col == "rules_frozen":
         ia.integer_axis(fig)

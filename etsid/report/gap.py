@@ -7,7 +7,6 @@ held-out part marked.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -17,8 +16,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from etsid.errors import ReportError
+from etsid.escape import clean
+from etsid.files import read_json, read_parquet_frame
 from etsid.report.build import Report, save_figure
 from etsid.report.page import markdown_safe
+from etsid.schemas import validate
 
 SERIES_FILE = "gap_series.parquet"
 VAR_TEXT = {"alt": "height above ground (m)", "speed": "horizontal speed (m/s)",
@@ -27,18 +29,20 @@ VAR_TEXT = {"alt": "height above ground (m)", "speed": "horizontal speed (m/s)",
 
 
 GAP_SCHEMA = "etsid.gap/1"
+GAP_SCHEMA_PATH = Path(__file__).resolve().parents[1] / "gap" / "gap.schema.json"
+"""The schema ``etsid gap`` validates gap.json with when writing it (a data file: the
+report does not import the gap package)."""
 NEEDED = ("verdict", "summary", "effects", "rmse_before", "rmse_after", "noise", "units")
 
 
 def read_gap_json(path: Path) -> dict[str, Any]:
     """A gap.json written by ``etsid gap`` (validated against its schema when written);
     checked here for the schema name and the keys the report uses."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise ReportError(f"{path}: cannot read gap.json ({err})") from err
+    data = read_json(path, "gap", ReportError, "gap.json")
     if not isinstance(data, dict) or data.get("schema") != GAP_SCHEMA:
         raise ReportError(f"{path}: not a gap.json of schema {GAP_SCHEMA}")
+    schema = read_json(GAP_SCHEMA_PATH, "package", ReportError)
+    data = clean(validate(data, schema, path, ReportError, "gap.json"))
     missing = [k for k in NEEDED if k not in data]
     if missing:
         raise ReportError(f"{path}: gap.json lacks {', '.join(missing)}")
@@ -99,7 +103,8 @@ def _residual_figure(series: pd.DataFrame, data: dict[str, Any], ch: str) -> Fig
     ax.set_xlabel(VAR_TEXT.get(col[4:], col[4:]))
     ax.set_ylabel(f"{ch} residual ({data['units'].get(ch, '')})")
     ax.set_title(f"{ch}: residual on held-out data against the locating variable")
-    ax.legend(handles=handles, fontsize=8)
+    ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              borderaxespad=0.0, frameon=False)
     return fig
 
 
@@ -108,19 +113,21 @@ def _time_figure(series: pd.DataFrame, data: dict[str, Any], ch: str) -> Figure:
     ax = fig.add_subplot()
     t = series.index.to_numpy(dtype=float)
     air = series["airborne"].to_numpy(bool)
-    for col, label, colour, lw, ls in (
-            (f"{ch}_nominal", "nominal model from SIM", "tab:red", 0.8, "--"),
-            (f"{ch}_augmented", "augmented model", "tab:blue", 0.8, "-"),
-            (ch, "REAL (filtered)", "k", 1.2, "-")):
+    # REAL first, thin and grey (under): the augmented model that follows it stays visible
+    for col, label, colour, lw, ls, alpha in (
+            (ch, "REAL (filtered)", "0.45", 0.8, "-", 0.8),
+            (f"{ch}_nominal", "nominal model from SIM", "tab:red", 1.0, "--", 1.0),
+            (f"{ch}_augmented", "with the named effects", "tab:blue", 1.1, "-", 0.85)):
         values = np.where(air, series[col].to_numpy(dtype=float), np.nan)
-        ax.plot(t, values, color=colour, lw=lw, ls=ls, label=label)
+        ax.plot(t, values, color=colour, lw=lw, ls=ls, alpha=alpha, label=label)
     hold = series["held_out"].to_numpy(bool)
     if hold.any():
         ax.axvspan(t[hold][0], t[hold][-1], color="0.9", zorder=-1, label="held out")
     ax.set_xlabel("time (s)")
     ax.set_ylabel(f"{ch} ({data['units'].get(ch, '')})")
     ax.set_title(f"{ch}: before and after")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+              frameon=False)
     return fig
 
 
@@ -223,9 +230,10 @@ def _html(data: dict[str, Any], figures: dict[str, Path],
              table_html(RMSE_HEAD, _rmse_rows(data))]
     if data.get("candidates"):
         body += ['<h2 id="candidates">Candidate effects tried</h2>',
-                 table_html(["effect", "share of the excess removed", "score"],
-                            [[c["name"], f"{c['share']:.3f}", f"{c['score']:.3f}"]
-                             for c in data["candidates"]])]
+                 table_html(["effect", "fitted parameters", "share of the excess removed",
+                             "score"],
+                            [[c["name"], candidate_params(c), f"{c['share']:.3f}",
+                              f"{c['score']:.3f}"] for c in data["candidates"]])]
     if data.get("notes"):
         body += ['<h2 id="notes">Notes</h2>',
                  "<ul>" + "".join(f"<li>{esc(n)}</li>" for n in data["notes"]) + "</ul>"]
@@ -234,6 +242,19 @@ def _html(data: dict[str, Any], figures: dict[str, Path],
         body += [image_html(_embeddable(path), name, CAPTIONS.get(name, name))
                  for name, path in figures.items()]
     return html_page("Gap report: simulation vs recording", body, head_js)
+
+
+def candidate_params(candidate: dict[str, Any]) -> str:
+    """``motor m3, scale 0.82``: a ranked candidate's fitted parameters in words."""
+    parts = []
+    for name, value in (candidate.get("params") or {}).items():
+        if isinstance(value, dict):
+            unit = value.get("unit") or ""
+            unit = "" if unit in ("", "1") else f" {unit}"
+            parts.append(f"{name} {value.get('value'):.3g}{unit}")
+        else:
+            parts.append(f"{name} {value}")
+    return ", ".join(parts) or "–"
 
 
 def _embeddable(path: Path) -> Path:
@@ -280,19 +301,21 @@ def _interactive(series: pd.DataFrame, data: dict[str, Any]) -> tuple[str, dict[
             for a, b, flag in ia.intervals(t, inside & air):
                 if flag:
                     ia.shade(err, a, b, "#ff7f0e", 0.15)
-        ia.add_lines(fig, src, [ia.Line("nominal", "nominal model from SIM",
-                                        ia.COLORS["free_run"], 1.0, "dashed"),
+        # REAL first (thin grey, under): the model that follows it closely stays visible
+        ia.add_lines(fig, src, [ia.Line("real", "REAL (filtered)", **ia.MEASURED_STYLE),
+                                ia.Line("nominal", "nominal model from SIM",
+                                        ia.COLORS["free_run"], 1.4, "dashed"),
                                 ia.Line("augmented", "with the named effects",
-                                        ia.COLORS["one_step"], 1.0),
-                                ia.Line("real", "REAL (filtered)", **ia.MEASURED_STYLE)],
+                                        ia.COLORS["one_step"], 1.5, "solid", 0.85)],
                      unit=unit)
         rms = {k: float(np.sqrt(np.nanmean(cols[k][hold] ** 2))) if hold.any() else np.nan
                for k in ("e_nominal", "e_augmented")}
         ia.add_lines(err, src, [ia.Line("e_nominal", f"before (held-out RMSE "
-                                        f"{rms['e_nominal']:.3g})", ia.COLORS["free_run"], 0.9),
+                                        f"{rms['e_nominal']:.3g})", ia.COLORS["free_run"], 1.0,
+                                        "solid", 0.8),
                                 ia.Line("e_augmented", f"after (held-out RMSE "
                                         f"{rms['e_augmented']:.3g})", ia.COLORS["one_step"],
-                                        0.9)], unit=unit)
+                                        1.2, "dashed")], unit=unit)
         figs += [fig, err]
     plots = {"timeseries": ia.column(*figs)}
     regime_fig = _regime_scatter(series, data, channels[0], hold)
@@ -356,7 +379,7 @@ def make_gap_report(out_dir: str | Path, fmt: str = "png",
     interactive: tuple[str, dict[str, str]] = ("", {})
     if series_path.is_file() and ch is not None:
         try:
-            series = pd.read_parquet(series_path)
+            series = read_parquet_frame(series_path, "table", ReportError)
         except (OSError, ValueError) as err:
             raise ReportError(f"{series_path}: cannot read ({err})") from err
         if ch in series:

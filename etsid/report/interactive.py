@@ -50,8 +50,21 @@ class Line:
     alpha: float = 1.0
 
 
-MEASURED_STYLE = {"color": COLORS["measured"], "width": 1.8}
-"""Measured data: dark and thick, drawn last (on top)."""
+MEASURED_STYLE = {"color": "#6e6e6e", "width": 1.0, "alpha": 0.8}
+"""Measured data under predictions: grey and thin, drawn first (under them), so that a
+prediction that follows it closely still shows on top instead of vanishing under it."""
+
+SIGNAL_STYLE = {"color": COLORS["measured"], "width": 1.4}
+"""A measured signal drawn alone (altitude, thrust command of the overview)."""
+
+MODEL_STYLES = {
+    "one_step": {"color": COLORS["one_step"], "width": 1.0, "dash": "dotted"},
+    "free_run": {"color": COLORS["free_run"], "width": 1.5, "dash": "solid", "alpha": 0.85},
+    "arx": {"color": COLORS["arx"], "width": 1.5, "dash": "dashed"},
+}
+"""eTS one-step, eTS free-run and ARX free-run: a colour, a width and a dash each (one
+colour alone does not tell two close lines apart); ARX dashed on top of eTS solid, so
+where they coincide both stay visible."""
 
 
 def gap_cuts(t: np.ndarray) -> np.ndarray:
@@ -128,6 +141,9 @@ def time_figure(y_label: str, title: str = "", x_range: Any = None,
                  active_drag="xpan", active_scroll="xwheel_zoom", **kwargs)
     fig.xaxis.axis_label = x_label
     fig.yaxis.axis_label = y_label
+    if height < HEIGHT:  # a small panel: fewer y ticks, so their labels do not overlap
+        fig.yaxis.ticker.desired_num_ticks = 3
+        fig.yaxis.major_label_text_font_size = "8pt"
     fig.toolbar.logo = None
     fig.title.text_font_size = "10pt"
     fig.min_border_left = 70
@@ -149,7 +165,12 @@ def shared_range(t: np.ndarray) -> Any:
 def add_lines(fig: Any, src: Any, lines: Sequence[Line], digits: str = "0.0000",
               unit: str = "") -> list[Any]:
     """Draw ``lines`` from ``src`` in order (the last on top) with a legend (click hides a
-    line) and one hover box listing every line's value at the pointer's time."""
+    line) and one hover box listing every line's value at the pointer's time.
+
+    Bokeh renders a tooltip's value template as HTML, so nothing from a file goes into it:
+    the unit goes into the row's label (set as text) and a column whose name is not plain
+    is read through an alias column (values substituted from data are escaped by Bokeh).
+    """
     from bokeh.models import HoverTool
 
     renderers = []
@@ -157,12 +178,25 @@ def add_lines(fig: Any, src: Any, lines: Sequence[Line], digits: str = "0.0000",
         renderers.append(fig.line("t", line.column, source=src, color=line.color,
                                   line_width=line.width, line_dash=line.dash,
                                   alpha=line.alpha, legend_label=line.label))
-    suffix = f" {unit}" if unit and unit != "1" else ""
-    tips = [("t", "@t{0.000} s")] + [(ln.label, f"@{{{ln.column}}}{{{digits}}}{suffix}")
-                                      for ln in lines]
+    suffix = f" ({unit})" if unit and unit != "1" else ""
+    tips = [("t (s)", "@t{0.000}")] + [(f"{ln.label}{suffix}",
+                                         f"@{{{_field(src, ln.column)}}}{{{digits}}}")
+                                        for ln in lines]
     fig.add_tools(HoverTool(renderers=renderers[-1:], tooltips=tips, mode="vline"))
     legend_above(fig)
     return renderers
+
+
+_PLAIN = re.compile(r"[A-Za-z0-9_.\-\[\]]+")
+
+
+def _field(src: Any, column: str) -> str:
+    """A name of ``column`` in ``src`` safe inside ``@{...}`` of a tooltip template."""
+    if _PLAIN.fullmatch(column):
+        return column
+    alias = f"_col{sorted(src.data).index(column)}"
+    src.data[alias] = src.data[column]
+    return alias
 
 
 def legend_above(fig: Any) -> None:
@@ -182,11 +216,19 @@ def legend_above(fig: Any) -> None:
                               border_line_alpha=0, glyph_width=22), "above")
 
 
-def shade(fig: Any, start: float, end: float, color: str = "#999999", alpha: float = 0.12
-          ) -> None:
-    """A vertical band from ``start`` to ``end`` (s) behind the lines."""
+def shade(fig: Any, start: float, end: float, color: str = "#999999", alpha: float = 0.12,
+          hatch: str | None = None) -> None:
+    """A vertical band from ``start`` to ``end`` (s) behind the lines; with ``hatch`` (a
+    Bokeh hatch pattern such as ``"/"``) hatched lines instead of a fill, which does not
+    mix with other shading into colours no legend has."""
     from bokeh.models import BoxAnnotation
 
+    if hatch:
+        fig.add_layout(BoxAnnotation(left=start, right=end, fill_alpha=0, line_alpha=0,
+                                     hatch_pattern=hatch, hatch_color=color,
+                                     hatch_alpha=min(1.0, 3 * alpha), hatch_scale=14,
+                                     level="underlay"))
+        return
     fig.add_layout(BoxAnnotation(left=start, right=end, fill_color=color, fill_alpha=alpha,
                                  level="underlay"))
 

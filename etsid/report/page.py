@@ -8,10 +8,13 @@ the network, so a report opens offline, from a mail attachment or a file share.
 from __future__ import annotations
 
 import base64
-import html
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+
+from etsid.errors import ReportError
+from etsid.escape import for_html, printable
+from etsid.files import read_bytes
 
 CSS = (
     "body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:76em;"
@@ -37,16 +40,20 @@ HINT = ("Interactive plots: drag to pan along time, scroll to zoom time, box-zoo
 
 
 def esc(text: object) -> str:
-    """HTML-escaped ``str(text)``."""
-    return html.escape(str(text))
+    """``str(text)`` for HTML: control and bidi characters shown escaped (``\\xNN``),
+    then HTML-escaped (:func:`etsid.escape.for_html`)."""
+    return for_html(text)
 
 
 def markdown_safe(text: str) -> str:
     """Markdown with raw HTML made inert: ``<`` and ``>`` outside code spans and fenced blocks
     become ``&lt;``/``&gt;`` (names from a log — topics, fields, files — can hold
-    ``<script>``; a Markdown viewer renders raw HTML). Code keeps its characters."""
+    ``<script>``; a Markdown viewer renders raw HTML). Code keeps its characters. Control
+    and bidi characters are shown escaped (``\\xNN``) everywhere (a newline from a file
+    cannot start a line: it was escaped where the string entered)."""
     out, fenced = [], False
-    for line in text.split("\n"):
+    for raw in text.replace("\r\n", "\n").split("\n"):
+        line = printable(raw)
         if line.lstrip().startswith("```"):
             fenced = not fenced
             out.append(line)
@@ -79,7 +86,7 @@ def table_html(head: Sequence[str], rows: Iterable[Sequence[object]],
 def image_html(path: Path, name: str, caption: str) -> str:
     """A static figure (PNG or SVG file) as an inline ``<figure>`` with a data URI."""
     mime = "image/svg+xml" if path.suffix == ".svg" else "image/png"
-    data = base64.b64encode(path.read_bytes()).decode()
+    data = base64.b64encode(read_bytes(path, "figure", ReportError)).decode()
     return (f'<figure id="{esc(name)}"><img alt="{esc(name)}" src="data:{mime};base64,{data}">'
             f"<figcaption>{esc(caption)}</figcaption></figure>")
 

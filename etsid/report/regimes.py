@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from etsid.escape import for_html
 from etsid.ident.rundir import Run
 from etsid.report.tables import fmt, text_table
 
@@ -127,9 +128,8 @@ def regimes_markdown(run: Run) -> list[str]:
 
 def regimes_html(run: Run) -> list[str]:
     """index.html parts of the regime section (none for runs without regimes)."""
-    import html
 
-    esc = html.escape
+    esc = for_html
     block = regimes_of(run)
     if not block:
         return []

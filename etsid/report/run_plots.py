@@ -3,7 +3,7 @@
 * ``overview``: altitude with the leading rule shaded, thrust command, sticks, the leading
   rule number; the validation part shaded and the freeze marked. Time axis linked with
   ``online`` and ``structure``.
-* ``validation``: per output, measured (thick, on top) against eTS frozen one-step (thin),
+* ``validation``: per output, measured (thin grey, under) against eTS frozen one-step,
   eTS free-run and ARX free-run (dashed), and under it the free-run errors of eTS and ARX.
   Time axes linked among themselves.
 * ``online``: per output, measured and the online one-step prediction, and its error.
@@ -39,7 +39,7 @@ def _validation_start(run: Run) -> float | None:
 def _mark_parts(fig: Any, run: Run, t_end: float) -> None:
     start = _validation_start(run)
     if start is not None:
-        ia.shade(fig, start, t_end, color="#f2c14e", alpha=0.13)
+        ia.shade(fig, start, t_end, color="#a07800", alpha=0.15, hatch="/")
         ia.mark(fig, start)
 
 
@@ -63,7 +63,7 @@ def overview_plots(run: Run, flight: Overview, x_range: Any) -> list[Any]:
     figs = []
     if "alt" in table:
         fig = ia.time_figure("altitude (m)", "Altitude, shaded by the rule that leads "
-                             "(yellow band: validation part, dashed line: model frozen)",
+                             "(hatched: validation part, dashed line: model frozen)",
                              x_range)
         if flight.lead is not None and flight.lead_t is not None:
             names = _rule_names(run)
@@ -72,7 +72,7 @@ def overview_plots(run: Run, flight: Overview, x_range: Any) -> list[Any]:
                             {r: names.get(r, f"Rule {r}") for r in rules},
                             {r: ia.RULE_COLORS[(r - 1) % 10] for r in rules})
         src = ia.source(t, {"alt": table["alt"].to_numpy(dtype=float)})
-        ia.add_lines(fig, src, [ia.Line("alt", "altitude", **ia.MEASURED_STYLE)],
+        ia.add_lines(fig, src, [ia.Line("alt", "altitude", **ia.SIGNAL_STYLE)],
                      digits="0.000", unit="m")
         finite = table["alt"].to_numpy(dtype=float)
         finite = finite[np.isfinite(finite)]
@@ -86,7 +86,7 @@ def overview_plots(run: Run, flight: Overview, x_range: Any) -> list[Any]:
     if "u_thrust" in table:
         fig = ia.time_figure("thrust command (0…1)", "Thrust command", x_range, height=180)
         src = ia.source(t, {"u_thrust": table["u_thrust"].to_numpy(dtype=float)})
-        ia.add_lines(fig, src, [ia.Line("u_thrust", "u_thrust", **ia.MEASURED_STYLE)],
+        ia.add_lines(fig, src, [ia.Line("u_thrust", "u_thrust", **ia.SIGNAL_STYLE)],
                      digits="0.000")
         _mark_parts(fig, run, t_end)
         figs.append(fig)
@@ -130,15 +130,12 @@ def validation_plots(run: Run) -> list[Any]:
         unit = unit_of(run, y)
         cols = {"measured": val[y].to_numpy(dtype=float)}
         lines = []
-        for col, key, label, color, width, dash in (
-                (f"{y}_val", "one_step", "eTS one-step (frozen)", ia.COLORS["one_step"],
-                 0.9, "solid"),
-                (f"{y}_arx_sim", "arx", "ARX free-run", ia.COLORS["arx"], 1.2, "dashed"),
-                (f"{y}_sim", "free_run", "eTS free-run", ia.COLORS["free_run"], 1.2,
-                 "dashed")):
+        for col, key, label in ((f"{y}_val", "one_step", "eTS one-step (frozen)"),
+                                (f"{y}_sim", "free_run", "eTS free-run"),
+                                (f"{y}_arx_sim", "arx", "ARX free-run")):
             if col in val:
                 cols[key] = val[col].to_numpy(dtype=float)
-                lines.append(ia.Line(key, label, color, width, dash))
+                lines.append(ia.Line(key, label, **ia.MODEL_STYLES[key]))
         block = (((run.metrics["outputs"].get(y) or {}).get("validation") or {})
                  .get("free_run") or {})
         arx = ((((run.metrics["outputs"].get(y) or {}).get("arx") or {}).get("validation")
@@ -153,7 +150,7 @@ def validation_plots(run: Run) -> list[Any]:
         if "arx" in cols:
             errors["e_arx"] = cols["measured"] - cols["arx"]
         src = ia.source(t, {**cols, **errors})
-        ia.add_lines(fig, src, [*lines, ia.Line("measured", "measured", **ia.MEASURED_STYLE)],
+        ia.add_lines(fig, src, [ia.Line("measured", "measured", **ia.MEASURED_STYLE), *lines],
                      unit=unit)
         _keep_measured_range(fig, cols["measured"])
         figs.append(fig)
@@ -162,12 +159,12 @@ def validation_plots(run: Run) -> list[Any]:
                                      f"{y}: free-run error, measured − prediction", x_range,
                                      height=150)
             err_lines = []
-            if "e_arx" in errors:
-                err_lines.append(ia.Line("e_arx", f"ARX (RMSE {_rmse(errors['e_arx']):.4g})",
-                                         ia.COLORS["arx"], 1.0))
             if "e_ets" in errors:
                 err_lines.append(ia.Line("e_ets", f"eTS (RMSE {_rmse(errors['e_ets']):.4g})",
-                                         ia.COLORS["free_run"], 1.0))
+                                         **{**ia.MODEL_STYLES["free_run"], "width": 1.1}))
+            if "e_arx" in errors:  # dashed, on top: where the errors agree both show
+                err_lines.append(ia.Line("e_arx", f"ARX (RMSE {_rmse(errors['e_arx']):.4g})",
+                                         **{**ia.MODEL_STYLES["arx"], "width": 1.1}))
             ia.add_lines(err_fig, src, err_lines, unit=unit)
             _zero_line(err_fig)
             figs.append(err_fig)
@@ -204,9 +201,10 @@ def online_plots(run: Run, x_range: Any) -> list[Any]:
         src = ia.source(t, {"measured": meas, "hat": hat, "err": meas - hat})
         fig = ia.time_figure(label_of(run, y), f"{label_of(run, y)}: online one-step "
                              "prediction", x_range)
-        ia.add_lines(fig, src, [ia.Line("hat", "eTS one-step (online)", ia.COLORS["one_step"],
-                                        0.9),
-                                ia.Line("measured", "measured", **ia.MEASURED_STYLE)],
+        ia.add_lines(fig, src, [ia.Line("measured", "measured", **ia.MEASURED_STYLE),
+                                ia.Line("hat", "eTS one-step (online)",
+                                        **{**ia.MODEL_STYLES["one_step"], "dash": "solid",
+                                           "alpha": 0.85})],
                      unit=unit)
         _mark_parts(fig, run, t_end)
         err = ia.time_figure(f"error ({unit})" if unit and unit != "1" else "error",
@@ -229,9 +227,11 @@ def structure_plots(run: Run, x_range: Any) -> list[Any]:
                         for c in ("potential", "focal_max", "focal_min", "n_rules")})
     pot = ia.time_figure("potential (–)", "(a) potential of each sample against the focal "
                          "potentials", x_range)
-    ia.add_lines(pot, src, [ia.Line("potential", "sample P(z)", "#999999", 0.7),
-                            ia.Line("focal_max", "max focal", "#1f77b4", 1.3),
-                            ia.Line("focal_min", "min focal", "#9467bd", 1.3)])
+    # min focal dashed over max focal (equal with one rule: both still show), the sample's
+    # potential thin and translucent on top of both (it sits on them while a rule leads)
+    ia.add_lines(pot, src, [ia.Line("focal_max", "max focal", "#1f77b4", 1.4),
+                            ia.Line("focal_min", "min focal", "#9467bd", 1.4, "dashed"),
+                            ia.Line("potential", "sample P(z)", "#666666", 0.8, "solid", 0.7)])
     count = ia.time_figure("rules", "(b) number of rules", x_range, height=150)
     ia.add_lines(count, src, [ia.Line("n_rules", "rules", "#222222", 1.5)], digits="0")
     ia.integer_axis(count)

@@ -83,11 +83,58 @@ def summary_table(run: Run) -> str:
     """The short stdout summary of ``identify`` / ``predict``: key metrics and rules."""
     keep = [0, 2, 3, 4, 7, 12, 14, 10, 13]
     head, rows = metrics_rows(run)
+    # a column of only "–" says nothing (no noise estimate, no ARX baseline in predict);
+    # the online RMSE equals the 1-step one when every row is scored without learning
+    keep = [i for i in keep if any(r[i] != "–" for r in rows)]
+    if all(r[3] == r[7] for r in rows) and 3 in keep and 7 in keep:
+        keep.remove(3)
     table = text_table([head[i] for i in keep], [[r[i] for i in keep] for r in rows])
-    rules = run.metrics["rules"]
-    return (f"{table}\nrules: final {rules.get('final')}, peak {rules.get('peak')}, "
-            f"saved (frozen) {rules.get('frozen')}; samples {run.metrics['n_samples']}, "
-            f"skipped {sum((run.metrics.get('skipped') or {}).values())}")
+    counts = rule_counts(run.metrics["rules"])
+    if run.config.get("command") == "predict":
+        counts = f"rules: {run.metrics['rules'].get('frozen')} (the rule base applied)"
+        if run.metrics["rules"].get("final") != run.metrics["rules"].get("frozen"):
+            counts += f", {run.metrics['rules'].get('final')} after learning on (--learn)"
+    return (f"{table}\n{counts}; samples "
+            f"{run.metrics['n_samples']}, skipped "
+            f"{sum((run.metrics.get('skipped') or {}).values())}")
+
+
+def rule_counts(rules: dict[str, Any]) -> str:
+    """The rule counts of metrics.json ``rules`` in one phrase, the saved rule base first
+    (the one every table, ``etsid rules`` and the report show)."""
+    saved, peak, final = rules.get("frozen"), rules.get("peak"), rules.get("final")
+    text = f"rules: {saved} in rules.json (saved at the end of the learning part)"
+    if peak is not None and final is not None:
+        text += f"; while learning: at most {peak}, {final} at the end of the flight"
+    return text
+
+
+def merges_text(rules: dict[str, Any], saved: dict[str, Any] | None,
+                n_learn: int | None) -> str:
+    """The merges of metrics.json ``rules`` in words, rules numbered as in rules.json
+    (``saved``: its dict), the tables and ``etsid rules``; a rule merged away is named by
+    its birth time. ``n_learn``: rows of the learning part (merges after it are not in
+    rules.json)."""
+    merges = rules.get("merges") or []
+    if not merges:
+        return ""
+    number = {int(r["id"]): k + 1 for k, r in enumerate((saved or {}).get("rules") or [])}
+    saved_part, later = [], []
+    for m in merges:
+        born = m.get("absorbed_born_t")
+        what = f"the rule born at {born:.1f} s" if born is not None else "a rule"
+        if n_learn is None or m["after_rows"] <= n_learn:
+            kept = number.get(int(m["kept"]))
+            into = f"rule {kept}" if kept is not None else "a rule merged later"
+            saved_part.append(f"{what} into {into} at {m['t']:.1f} s")
+        else:
+            later.append(m)
+    text = "merged (consequents indistinguishable): " + ("; ".join(saved_part) or "none")
+    text += " before rules.json was saved"
+    if later:
+        text += (f"; {len(later)} more after it, at {later[0]['t']:.1f} s, in the online "
+                 "model only")
+    return text
 
 
 def rules_text(run: Run | dict[str, Any]) -> str:

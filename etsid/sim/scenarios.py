@@ -106,14 +106,15 @@ def resolve_params(scenario: str, duration: float | None, settings: dict[str, An
         raise SimError(f"scenario {scenario!r}: unknown setting {unknown[0]!r} "
                        f"(known: {', '.join(sorted(params))})")
     params.update(settings)
-    if duration is not None:
-        params["duration"] = duration
     where = f"scenario {scenario!r}: setting"
-    for key, value in params.items():
-        if key in _RANGED and not (key == "throttle" and value is None):
+    for key, value in [*params.items(), *([("duration", duration)] if duration is not None
+                                          else [])]:  # a setting is checked even when
+        if key in _RANGED and not (key == "throttle" and value is None):  # --duration wins
             wrong = check_number(_RANGED[key], value)
             if wrong:
                 raise SimError(f"{where} {key!r} {wrong}, got {value!r}")
+    if duration is not None:
+        params["duration"] = duration
     if params["excitation"] not in EXCITATIONS:
         raise SimError(f"{where} 'excitation' must be one of {', '.join(EXCITATIONS)}, "
                        f"got {params['excitation']!r}")

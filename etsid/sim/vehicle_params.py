@@ -275,3 +275,19 @@ def hover_geometry_problem(angles_deg: list[float]) -> str:
         return (f"leaves a gap of {max(gaps):.0f}° between neighbouring arms: the CG is not "
                 "inside the rotors, the vehicle cannot hover")
     return ""
+
+
+def ranges_markdown() -> str:
+    """The ranges as a Markdown table (docs/physics.md, "Ranges", shows this output)."""
+    rows = ["| setting | unit | range | meaning |", "|---|---|---|---|"]
+    every = [(f"{s}.{n}" if s else n, p) for s, fields in VEHICLE.items()
+             for n, p in fields.items()]
+    every += [(f"effects.{n}", p) for n, p in EFFECTS.items()]
+    every += [(f"scenario.{n}", p) for n, p in SCENARIO.items()]
+    for name, p in every:
+        shown = p.describe().removesuffix(f" {p.unit}")
+        if p.kind == "angles":
+            shown = f"{MIN_ROTORS} to {MAX_ROTORS} angles {shown}; CG inside the rotors"
+        rows.append(f"| `{name}` | {p.unit if p.unit not in ('', '1') else '–'} | "
+                    f"{shown.removeprefix('in ')} | {p.doc} |")
+    return "\n".join(rows)

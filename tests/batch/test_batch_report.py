@@ -74,7 +74,7 @@ def test_ranked_flights_reports_are_written_at_once_linked_and_reused(
     ranked = page.split('<section id="best-worst">')[1].split("</section>")[0]
     assert f"No report of {html.escape(broken_log)}: " in ranked
     why = ranked.split(f"No report of {html.escape(broken_log)}: ")[1].split("</p>")[0]
-    assert why.startswith(str(run_dir)) and "unreadable run file" in why
+    assert why.startswith(str(run_dir)) and "metrics.json: not valid JSON" in why
     assert not (run_dir / "report").exists()
     for log, target in reports.items():
         if log != broken_log:

@@ -6,8 +6,8 @@ import pytest
 
 from etsid.control.run import ControlResult, run_control
 
-DURATIONS = {"sine": 30.0, "step": 25.0, "hover-ige": 20.0, "ige-sine": 30.0,
-             "mass-change": 45.0}
+DURATIONS = {"sine-altitude": 30.0, "altitude-steps": 25.0, "hover-ige": 20.0,
+             "ige-sine": 30.0, "mass-change": 45.0}
 """Shortened flights (s) for the tests: 20 s scored after the 10 s of learning, 15 s after
 the payload; docs/control.md's table uses the full scenarios."""
 

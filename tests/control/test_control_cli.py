@@ -22,9 +22,9 @@ def test_scenario_names_of_the_cli_are_the_package_scenarios() -> None:
 
 def test_control_writes_run_dir_and_figures_and_report_rerenders_it(tmp_path: Path) -> None:
     out = tmp_path / "RUN"
-    res = invoke("control", "sine", "--out", out, "--duration", 12, "--seed", 2)
+    res = invoke("control", "sine-altitude", "--out", out, "--duration", 12, "--seed", 2)
     assert res.exit_code == 0, res.output
-    assert "ets on sine, 12 s, stable, tracking RMSE" in res.output
+    assert "ets on sine-altitude, 12 s, stable, tracking RMSE" in res.output
     for name in ("flight.parquet", "metrics.json", "config.json", "rules.json",
                  "history.parquet", "events.parquet"):
         assert (out / name).is_file(), name
@@ -48,7 +48,8 @@ def test_control_writes_run_dir_and_figures_and_report_rerenders_it(tmp_path: Pa
 def test_pid_run_has_no_rule_base_and_steps_have_settling_times(tmp_path: Path) -> None:
     out = tmp_path / "PID"
     res = invoke("control", "step", "--out", out, "--controller", "pid", "--duration", 15)
-    assert res.exit_code == 0, res.output
+    assert res.exit_code == 0, res.output  # "step": the former name of altitude-steps
+    assert json.loads((out / "config.json").read_text())["scenario"]["name"] == "altitude-steps"
     assert not (out / "rules.json").exists()
     assert sorted(p.stem for p in (out / "report").glob("*.png")) == ["thrust", "tracking"]
     metrics = json.loads((out / "metrics.json").read_text())

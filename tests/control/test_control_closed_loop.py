@@ -25,19 +25,19 @@ def test_closed_loop_is_stable_on_every_scenario(
     table = res.flight.table
     err = (table["alt_ref"] - table["true_alt"]).to_numpy()
     # bounded error, and the last 5 s no worse than the scored flight as a whole: no growth
-    assert m["max_error_all"] < (1.6 if scenario == "step" else 0.6)
+    assert m["max_error_all"] < (1.6 if scenario == "altitude-steps" else 0.6)
     last = table.index >= table.index[-1] - 5.0
     assert np.sqrt(np.mean(err[last] ** 2)) <= 1.5 * m["tracking_rmse"] + 0.01
     # never on the ground; saturated only briefly (at the 1–1.5 m reference steps)
     assert table["true_alt"].min() > 0.2
     u = table["u_thrust"].to_numpy()
-    assert np.mean((u <= 0.05) | (u >= 0.95)) < (0.05 if scenario == "step" else 0.002)
+    assert np.mean((u <= 0.05) | (u >= 0.95)) < (0.05 if scenario == "altitude-steps" else 0.002)
 
 
 def test_ets_tracks_the_sine_below_the_documented_bound_and_beats_the_pid(
         flights: dict[tuple[str, str], ControlResult]) -> None:
-    ets = flights[("sine", "ets")].metrics
-    pid = flights[("sine", "pid")].metrics
+    ets = flights[("sine-altitude", "ets")].metrics
+    pid = flights[("sine-altitude", "pid")].metrics
     assert ets["tracking_rmse"] < SINE_RMSE_BOUND
     assert ets["tracking_rmse"] <= pid["tracking_rmse"]
 
@@ -54,7 +54,7 @@ def test_ets_starts_from_zero_rules_and_grows_its_rule_base(
     plant = SimPlant(seed=0)
     fresh = ETSController(plant.dt, plant.hover_command)
     assert fresh.model.n_rules == 0 and len(fresh.model.history.events) == 0
-    res = flights[("sine", "ets")]
+    res = flights[("sine-altitude", "ets")]
     ctrl = res.flight.controller
     events = ctrl.model.history.events
     assert events[0] == {"step": 1, "kind": "birth", "rule_id": 0}

@@ -27,12 +27,12 @@ def test_reference_derivatives_match_finite_differences(name: str) -> None:
 
 def test_documented_envelopes() -> None:
     t = np.linspace(0.0, 60.0, 60_001)
-    assert SCENARIOS["sine"].reference(t)[0].min() == pytest.approx(1.0, abs=1e-6)
-    assert SCENARIOS["sine"].reference(t)[0].max() == pytest.approx(3.0, abs=1e-6)
+    assert SCENARIOS["sine-altitude"].reference(t)[0].min() == pytest.approx(1.0, abs=1e-6)
+    assert SCENARIOS["sine-altitude"].reference(t)[0].max() == pytest.approx(3.0, abs=1e-6)
     r_ige = SCENARIOS["ige-sine"].reference(t)[0]
     assert r_ige.min() == pytest.approx(0.30, abs=1e-6)
     assert SCENARIOS["hover-ige"].reference(t[t <= 40])[0].max() <= 0.40
-    steps = SCENARIOS["step"]
+    steps = SCENARIOS["altitude-steps"]
     r = steps.reference(np.array([1.9, 2.0, 12.5, 61.0]))[0]
     np.testing.assert_allclose(r, [1.5, 2.5, 1.5, 2.0])
     assert SCENARIOS["mass-change"].mass_change == (30.0, 1.0)

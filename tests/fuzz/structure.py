@@ -787,7 +787,8 @@ def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
     time_bound_s = c.seconds or time_bound_s
     proc = subprocess.Popen([sys.executable, "-m", "etsid", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=work,
-                            env={**os.environ, **(env or {})}, start_new_session=True)
+                            env={**os.environ, "ETSID_PROGRESS": "off", **(env or {})},
+                            start_new_session=True)  # progress lines: as in the test suite
     peak, why = 0.0, ""
     while proc.poll() is None:
         peak = max(peak, _peak_rss_mb(proc.pid))
@@ -819,8 +820,8 @@ def _judge(c: Case, code: int, stdout: bytes, stderr: bytes, out: Path, seconds:
     bounds = seconds <= (c.seconds or TIME_BOUND_S) and peak <= MEMORY_BOUND_MB
     raw = stdout + stderr
     for bad in c.absent:
-        if bad.encode("utf-8") in raw or (len(bad) == 1 and bytes([ord(bad)]) in raw
-                                          and ord(bad) < 128):
+        if bad.encode("utf-8") in raw or (len(bad) == 1 and ord(bad) < 128
+                                          and bytes([ord(bad)]) in raw):
             return Verdict(c.name, False, f"raw {bad!r} printed", seconds, peak, lines)
     if "Traceback" in text or "internal error" in text:
         last = err_lines[-1] if err_lines else ""

@@ -201,3 +201,24 @@ def test_rule_table_gives_each_rules_thrust_command() -> None:
     assert all(r["thrust_source"] == "focal" for r in scheduled.metrics["regimes"]["rules"])
     plain = identify(_table(), IdentConfig(**BASE, antecedent="alt[k-1]"))
     assert all(r["thrust"] is None for r in plain.metrics["regimes"]["rules"])
+
+
+def test_a_rule_on_inv_alt_has_its_focal_altitude_in_every_table() -> None:
+    """The rule → regime table gave the median altitude of the rows a rule leads (1.66 m)
+    where `etsid rules` gave its focal point's (1.18 m) for the same rule: now both give
+    the focal point's, 1 / inv_alt, under the same rule number."""
+    from etsid.report.regimes import regimes_markdown
+    from etsid.report.rulebook import readable, summarize
+
+    run = identify(_table(), IdentConfig(**BASE, antecedent="inv_alt[k-1]"))
+    table = run.metrics["regimes"]["rules"]
+    assert len(table) >= 2 and all(r["alt_source"] == "focal" for r in table)
+    book = summarize(run.rules)
+    text = readable(run.rules)
+    for row, rule in zip(table, book, strict=True):
+        assert row["rule"] == rule.number
+        assert row["alt_m"] == pytest.approx(1.0 / rule.focal["inv_alt[k-1]"], rel=1e-12)
+        assert f"Rule {rule.number} " in text and f"(alt {row['alt_m']:.3g} m)" in text
+    low = min(table, key=lambda r: r["alt_m"])
+    assert low["alt_m"] < 0.5 and low["regime"] == "in ground effect"
+    assert f"| {low['alt_m']:.2f} |" in "\n".join(regimes_markdown(run))

@@ -3,8 +3,12 @@
 Each page is loaded from disk with the network unused, Bokeh is waited for until its
 document is idle, and the test fails on a JavaScript console error, a request for any
 resource (the page must work offline), a plot without data, a static figure that does not
-decode, or a section that is missing. A full-page screenshot of each lands in
-``test-artifacts/browser/`` (gitignored; CI keeps it as an artefact).
+decode, or a section that is missing. Each page is scrolled from top to bottom in a
+1280 × 900 window as a user would, every view waited for (sections are drawn as they come
+near) and screenshot; then every plotted series is checked to be visible (drawn, told apart
+from the others of its plot, not lying under an opaque line drawn on top). The views and a
+full-page screenshot of each land in ``test-artifacts/browser/`` (gitignored; CI keeps
+them as artefacts).
 
 Chromium and chromedriver come from Debian (``apt-get install chromium chromium-driver``;
 ``.ci/run`` installs them). Without them the tests skip, unless ``ETSID_REQUIRE_BROWSER=1``
@@ -98,26 +102,134 @@ def browser() -> Any:
     driver.quit()
 
 
+IN_VIEW_DRAWN = """
+const h = window.innerHeight;
+const lazy = [...document.querySelectorAll("div.bk-lazy")].filter(d => {
+  const r = d.getBoundingClientRect(); return r.bottom > 0 && r.top < h; });
+if (!lazy.every(d => d.dataset.drawn)) return false;
+if (!lazy.length) return true;
+const views = Object.values(Bokeh.index);
+return lazy.every(d => views.some(v => d.contains(v.el))) &&
+       Bokeh.documents.every(doc => doc.is_idle);
+"""
+"""Every plot section in the viewport drawn (sections are drawn as they near it) and idle."""
+
+VISIBILITY = """
+const val = p => (p !== null && typeof p === "object" && "value" in p) ? p.value : p;
+const col = (src, spec) => (spec && spec.field !== undefined) ?
+  Array.from(src.data[spec.field] || [], Number) : null;
+const problems = [];
+for (const doc of Bokeh.documents) {
+  for (const m of doc.all_models) {
+    if (m.type !== "Figure") continue;
+    const title = m.title ? m.title.text : "";
+    const pxPerUnit = (m.inner_height || m.height) /
+                      Math.max(Math.abs(m.y_range.end - m.y_range.start), 1e-300);
+    const drawn = [];
+    for (const r of m.renderers) {
+      if (r.type !== "GlyphRenderer") continue;
+      const g = r.glyph;
+      const ys = col(r.data_source, g.y), xs = col(r.data_source, g.x);
+      if (!ys) continue;
+      const line = g.type === "Line";
+      const dash = JSON.stringify(val(g.line_dash) ?? "solid");
+      const style = {kind: g.type, dash: dash === '"solid"' || dash === "[]" ? "solid" : dash,
+                     color: String(line ? val(g.line_color) : val(g.fill_color)),
+                     width: Number(line ? val(g.line_width) : val(g.size)) || 0,
+                     alpha: Number(line ? val(g.line_alpha) : val(g.fill_alpha)) ?? 1};
+      const name = `${g.y.field} (${style.color}, ${style.dash})`;
+      if (!r.visible || style.alpha < 0.05 || style.width <= 0 || g.type === undefined)
+        problems.push(`${title}: ${name} is not drawn visibly`);
+      drawn.push({name, xs, ys, style, line});
+    }
+    for (let i = 0; i < drawn.length; i++) {
+      for (let j = i + 1; j < drawn.length; j++) {
+        const a = drawn[i], b = drawn[j];  // b drawn after a: on top of it
+        if (a.style.kind === b.style.kind && a.style.color === b.style.color &&
+            a.style.dash === b.style.dash)
+          problems.push(`${title}: ${a.name} and ${b.name} look the same`);
+        if (!(a.line && b.line) || b.style.dash !== "solid" || b.style.alpha < 0.9) continue;
+        // share of a's points inside b's stroke (both half widths, in data units)
+        const reach = 0.5 * (a.style.width + b.style.width) / pxPerUnit;
+        let inside = 0, finite = 0;
+        const same = a.xs.length === b.xs.length && a.xs.every((x, k) => x === b.xs[k]);
+        for (let k = 0; k < a.ys.length; k++) {
+          if (!Number.isFinite(a.ys[k])) continue;
+          let yb = NaN;
+          if (same) yb = b.ys[k];
+          else {
+            let lo = 0, hi = b.xs.length - 1;
+            while (hi - lo > 1) { const mid = (lo + hi) >> 1;
+                                  if (b.xs[mid] <= a.xs[k]) lo = mid; else hi = mid; }
+            if (b.xs[lo] <= a.xs[k] && a.xs[k] <= b.xs[hi]) yb = b.ys[lo];
+          }
+          finite += 1;
+          if (Number.isFinite(yb) && Math.abs(a.ys[k] - yb) <= reach) inside += 1;
+        }
+        if (finite && inside / finite >= 0.5)
+          problems.push(`${title}: ${a.name} is ${Math.round(100 * inside / finite)} % ` +
+                        `under ${b.name}`);
+      }
+    }
+  }
+}
+return JSON.stringify(problems);
+"""
+"""Problems with the plotted series: one not drawn visibly (hidden, transparent, zero
+width), two in one plot that look the same (colour, dash and glyph), or one whose points
+lie mostly (≥ 50 %) inside the stroke of an opaque solid line drawn on top of it."""
+
+STEP_PX = 700
+"""Scroll step of the simulated user, px (the window is 900 px tall: views overlap)."""
+
+
+def scroll_through(driver: Any, page: Path, shot: str, deadline: float) -> int:
+    """Scroll from the top to the bottom as a user would, waiting at each position for the
+    sections in view to be drawn, and screenshot each view; returns the number of views."""
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    for old in ARTIFACTS.glob(f"{shot}-view*.png"):
+        old.unlink()
+    driver.execute_script("window.scrollTo(0, 0)")
+    position, view = 0, 0
+    while True:
+        while not driver.execute_script(IN_VIEW_DRAWN):
+            assert time.monotonic() < deadline, \
+                f"{page}: the plots in view at {position} px were never drawn"
+            time.sleep(0.05)
+        time.sleep(0.2)  # the layout settles before the screenshot
+        driver.save_screenshot(str(ARTIFACTS / f"{shot}-view{view:02d}.png"))
+        height = driver.execute_script("return document.documentElement.scrollHeight")
+        inner = driver.execute_script("return window.innerHeight")
+        if position + inner >= height or view >= 40:
+            return view + 1
+        position += STEP_PX
+        driver.execute_script(f"window.scrollTo(0, {position})")
+        view += 1
+
+
 def open_report(driver: Any, page: Path, shot: str) -> dict[str, Any]:
-    """Load ``page``, wait for Bokeh to be idle, screenshot it, return what it shows; fail
-    on console errors, network requests, plots without data and undecodable figures."""
+    """Load ``page`` in a 1280 × 900 window, scroll through it as a user would (each view
+    drawn and screenshot), screenshot the whole page, return what it shows; fail on console
+    errors, network requests, plots without data, series that cannot be seen and
+    undecodable figures."""
     driver.set_window_size(1280, 900)
     driver.get(page.resolve().as_uri())
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + 60
     while driver.execute_script("return document.readyState") != "complete":
         assert time.monotonic() < deadline, f"{page}: never finished loading"
         time.sleep(0.05)
-    # a window as tall as the page: every section is in view, so every one is drawn
+    views = scroll_through(driver, page, shot, deadline)
+    assert views >= 1
+    # every section was drawn by scrolling (none needs a tall window to appear)
+    assert driver.execute_script(IDLE), f"{page}: scrolling did not draw every section"
     height = driver.execute_script("return document.documentElement.scrollHeight")
     driver.set_window_size(1280, min(int(height) + 40, 16000))
-    while not driver.execute_script(IDLE):
-        assert time.monotonic() < deadline, f"{page}: the plots were never all drawn"
-        time.sleep(0.05)
     time.sleep(0.3)  # the last layout settles before the screenshot
     state = json.loads(driver.execute_script(PAGE_STATE))
+    hidden = json.loads(driver.execute_script(VISIBILITY))
     errors = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
     driver.save_screenshot(str(ARTIFACTS / f"{shot}.png"))
+    assert hidden == [], f"{page}: plotted series that cannot be seen: {hidden}"
     assert errors == [], f"{page}: JavaScript console errors {errors}"
     assert state["resources"] == [], f"{page}: fetched {state['resources']} (not offline)"
     assert state["roots"] and all(r["w"] > 300 and r["h"] > 100 for r in state["roots"]), \
@@ -177,7 +289,7 @@ def test_identify_report_in_chromium(browser: Any, identify_run: Path) -> None:
     for y in ("p", "q", "r"):  # each rate with the free-run errors of eTS and ARX under it
         errors = next(p for p in state["plots"] if p["title"] == f"{y}: free-run error, "
                       "measured − prediction")
-        assert [s["field"] for s in errors["series"]] == ["e_arx", "e_ets"]
+        assert [s["field"] for s in errors["series"]] == ["e_ets", "e_arx"]
     assert [i["alt"] for i in state["images"]] == [
         "rates", "structure", "consequents", "residuals", "validation"]
 
@@ -204,17 +316,26 @@ def test_gap_report_in_chromium(browser: Any, tmp_path: Path) -> None:
     assert "az: REAL against the models" in titles and "az: REAL − model" in titles
     assert any(t.startswith("az: held-out residual against height") for t in titles)
     assert [i["alt"] for i in state["images"]] == ["gap_residual", "gap_timeseries"]
+    # the candidates tried: entries of one effect told apart by their fitted parameters
+    ranked = json.loads((out / "gap.json").read_text())["candidates"]
+    shown = [(c["name"], json.dumps(c["params"], sort_keys=True)) for c in ranked]
+    assert all(c["params"] for c in ranked) and len(set(shown)) == len(shown)
+    assert sum(c["name"] == "weak_motor" for c in ranked) in (0, 6)
+    page = (out / "index.html").read_text()
+    assert all(f"motor m{k}, scale" in page for k in range(1, 7)
+               if any(c["name"] == "weak_motor" for c in ranked))
 
 
 def test_control_report_in_chromium(browser: Any, tmp_path: Path) -> None:
-    invoke("control", "sine", "--duration", 12, "--controller", "pid", "--no-report",
-           "--out", tmp_path / "control-sine-pid")
-    invoke("control", "sine", "--duration", 12, "--out", tmp_path / "control-sine-ets")
-    state = open_report(browser, tmp_path / "control-sine-ets" / "report" / "index.html",
-                        "control")
+    invoke("control", "sine-altitude", "--duration", 12, "--controller", "pid",
+           "--no-report", "--out", tmp_path / "control-sine-altitude-pid")
+    invoke("control", "sine-altitude", "--duration", 12, "--out",
+           tmp_path / "control-sine-altitude-ets")
+    state = open_report(browser, tmp_path / "control-sine-altitude-ets" / "report" /
+                        "index.html", "control")
     track = next(p for p in state["plots"] if p["title"] == "Reference and flown height (true)")
-    # eTS height, PID height (the run beside it) and the reference, drawn last (on top)
-    assert [s["field"] for s in track["series"]] == ["h", "h", "ref"]
+    # the reference first (wide, pale, under), the eTS height, the PID height on top
+    assert [s["field"] for s in track["series"]] == ["ref", "h", "h"]
     assert [i["alt"] for i in state["images"]] == [
         "tracking", "potential", "replacements", "thrust"]
 

@@ -176,7 +176,8 @@ def test_helpers() -> None:
 def test_tables() -> None:
     head, rows = metrics_rows(fake_run())
     assert head[0] == "output" and len(rows) == 3 and rows[0][2] == "0.02"
-    assert "rules: final 4, peak 4" in summary_table(fake_run())
+    assert ("rules: 4 in rules.json (saved at the end of the learning part); while "
+            "learning: at most 4, 4 at the end of the flight") in summary_table(fake_run())
 
 
 def test_make_report_writes_self_contained_html(tmp_path: Path) -> None:

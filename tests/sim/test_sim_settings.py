@@ -95,3 +95,26 @@ def test_split_settings_and_simulate_settings() -> None:
                                              "scenario.altitude": 2.0})
     assert flight.vehicle.mass == 4.0 and flight.params["altitude"] == 2.0
     assert flight.table.index[-1] == pytest.approx(1.0 - 1 / 250)
+
+
+def test_physics_page_shows_the_declared_ranges() -> None:
+    from etsid.sim.vehicle_params import ranges_markdown
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "physics.md").read_text("utf-8")
+    assert ranges_markdown() in page, "docs/physics.md: paste ranges_markdown() again"
+
+
+def _numeric_fields() -> list[tuple[str, float]]:
+    from etsid.sim.vehicle_params import EFFECTS, VEHICLE
+
+    out = [(f"{s}.{n}" if s else n, p.high) for s, fields in VEHICLE.items()
+           for n, p in fields.items() if p.kind == "num"]
+    return out + [(f"effects.{n}", p.high) for n, p in EFFECTS.items() if p.kind == "num"]
+
+
+@pytest.mark.parametrize(("key", "high"), _numeric_fields())
+def test_every_numeric_setting_is_refused_beyond_its_range(key: str, high: float) -> None:
+    base = load_vehicle("tarot680")
+    for value in (high * 10 + 1, float("inf"), float("nan")):
+        with pytest.raises(SimError, match=f"field '{key}' must"):
+            base.with_settings({key: value})

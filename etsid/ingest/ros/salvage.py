@@ -22,6 +22,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from etsid.errors import IngestError
+from etsid.files import open_binary
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.ros.converter import Converter
 
@@ -42,8 +43,9 @@ class LostRows:
 def _padded_copy(storage: Path, tmp: Path) -> Path:
     """``storage`` copied into ``tmp``, padded with zeros to the size its header promises."""
     copy = tmp / storage.name
-    shutil.copyfile(storage, copy)
-    with copy.open("rb+") as handle:
+    with open_binary(storage, "log", IngestError) as source, copy.open("wb") as out:
+        shutil.copyfileobj(source, out)
+    with copy.open("r+b") as handle:  # etsid's own copy, read and padded in place
         head = handle.read(100)
         if len(head) < 100 or not head.startswith(b"SQLite format 3\0"):
             raise IngestError(f"{storage}: not an SQLite database (its header is damaged)")

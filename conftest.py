@@ -1,4 +1,5 @@
-"""Settings for the whole test suite."""
+"""Settings for the whole test suite (at the root: a tests/conftest.py clashes with the
+sub-folders' conftest modules under --doctest-modules)."""
 
 from __future__ import annotations
 

@@ -1,0 +1,287 @@
+"""Angular acceleration against differential thrust: control effectiveness, motor time
+constant and command-to-response delay.
+
+Euler's equation about each body axis with the per-rotor specific thrust f_j = K x_j²
+(:mod:`etsid.fit.thrust`), unit-arm moment rows g (:func:`etsid.fit.layout.geometry_rows`):
+
+    ṗ = (m l / Ixx) Σ g_roll,j f_j + (Iyy − Izz)/Ixx · q r − D_p p + S_v v + b_p
+    q̇ = (m l / Iyy) Σ g_pitch,j f_j + (Izz − Ixx)/Iyy · p r − D_q q + S_u u + b_q
+    ṙ = (m κ_Q / Izz) Σ s_j f_j + (J_r Ω_top / Izz) Σ s_j ẋ_j + (Ixx − Iyy)/Izz · p q
+        − D_r r + b_r
+
+(κ_Q = rotor torque per thrust, m; D the rotors' rate damping — a rotor rising with the
+body's rotation sees more inflow and lifts less; S the speed stability — rotor H-forces
+below or above the CG and the fore/aft inflow difference in translation, with u v the
+body-axis velocities; b the moment of a CG offset or trim). The coefficients
+m l/I and m κ_Q/Izz are what a log determines; l, m, κ_Q and I each alone are not.
+
+Logged motor outputs are samples of a signal that jitters faster than the log (the rate
+loop's D term on gyro noise): as regressors they carry noise that would bias every
+coefficient towards zero. The regressions are therefore instrumental-variable ones
+(two-stage least squares): regressors and target are projected on the history of the
+pilot's commands (:meth:`etsid.fit.signals.Flight.instruments`). The motor lag τ and delay
+d enter through x_j and are chosen on a grid by the projected residual of the roll and
+pitch equations (their regressors are rotor-speed differences, the signal the lag shapes);
+every standard error, τ's and d's included, is a delete-one-block jackknife over
+:data:`etsid.fit.regress.N_BLOCKS` contiguous blocks (autocorrelation inside a block
+does not fool it), combined with the grid's resolution for τ and d, and for the
+coefficients with their shift when the same equations are fitted on half the bandwidth
+(a model that holds gives the same coefficients at every frequency; the shift measures
+what the unmodelled dynamics move).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from etsid.errors import FitError
+from etsid.fit.regress import N_BLOCKS, Moments, block_ids, instrument_basis, jackknife_se
+from etsid.fit.signals import Flight, motor_state
+
+TAU_GRID = np.round(np.geomspace(0.005, 0.25, 29), 5)
+"""s, motor time constants tried (log-spaced, 15 % apart)."""
+DELAY_STEP = 0.002
+"""s, delay grid step (0 … :data:`DELAY_MAX`)."""
+DELAY_MAX = 0.04
+MIN_ROWS = 50
+"""Rows near hover a flight needs to enter the moment equations."""
+MIN_MOTOR_HZ = 40.0
+"""Hz: motor outputs logged slower cannot resolve a lag of tens of milliseconds."""
+
+
+@dataclass
+class AxisFit:
+    """Coefficients of one axis (0 = effectiveness) with jackknife standard errors."""
+
+    coef: np.ndarray
+    se: np.ndarray
+
+
+@dataclass
+class RotationFit:
+    """Result of :func:`fit_rotation`."""
+
+    tau: float
+    tau_se: float
+    delay: float
+    delay_se: float
+    axes: dict[str, AxisFit]
+    tau_at_edge: bool
+    instrumented: bool
+
+
+class _Prep:
+    """What does not depend on τ and d, per flight: kept rows, the instrument basis,
+    projected targets and extra regressors, per block."""
+
+    def __init__(self, f: Flight, blocks: np.ndarray) -> None:
+        self.flight = f
+        keep = f.hover.copy()
+        keep[:5] = keep[-5:] = False
+        self.keep = keep
+        self.blocks = [int(b) for b in np.unique(blocks)]
+        edges = np.searchsorted(blocks, np.arange(N_BLOCKS + 1))
+        self.slices = {b: slice(edges[b], edges[b + 1]) for b in self.blocks}
+        p, q, r = f.gyro.T
+        one = np.ones(len(f.t))
+        vb = f.vel_body if f.vel_body is not None else np.zeros((len(f.t), 3))
+        extra = [f.lowpass(np.column_stack([q * r, p, vb[:, 1], one]))[keep],
+                 f.lowpass(np.column_stack([p * r, q, vb[:, 0], one]))[keep],
+                 f.lowpass(np.column_stack([p * q, r, one]))[keep]]
+        z = f.instruments(np.column_stack([q * r, p * r, p * q]))
+        self.instrumented = z is not None
+        self.q = instrument_basis(z[keep]) if z is not None else None
+        self.qt = np.ascontiguousarray(self.q.T) if self.q is not None else None
+        acc = f.lowpass(np.gradient(f.gyro, f.dt, axis=0))[keep]
+        self.target = self.reduce(acc)
+        self.extra = [self.reduce(e) for e in extra]
+        self.target_raw = {b: acc[sl] for b, sl in self.slices.items()}
+        self.extra_raw = [{b: e[sl] for b, sl in self.slices.items()} for e in extra]
+        # leave-one-block-out first stage (jackknife IV): block b's fitted regressors come
+        # from the other blocks' first stage, so its own noise cannot leak in
+        self.jive_ok = self.q is not None and len(self.blocks) >= 3
+        if self.jive_ok:
+            zb = {b: self.q[sl] for b, sl in self.slices.items()}
+            gram = {b: zb[b].T @ zb[b] for b in self.blocks}
+            total = sum(gram.values())
+            self.zb = zb
+            self.inv_rest = {b: np.linalg.pinv(total - gram[b]) for b in self.blocks}
+
+    def jive(self, x: np.ndarray) -> dict[int, np.ndarray]:
+        """Per block, x predicted from the instruments by the first stage fitted on the
+        other blocks (x itself when there are no instruments)."""
+        if not self.jive_ok:
+            return self.reduce(x)
+        cross = {b: self.zb[b].T @ x[sl] for b, sl in self.slices.items()}
+        total = sum(cross.values())
+        return {b: self.zb[b] @ (self.inv_rest[b] @ (total - cross[b])) for b in self.blocks}
+
+    def reduce(self, x: np.ndarray) -> dict[int, np.ndarray]:
+        """Per block, the rows of x's projection on the instruments (of x itself without
+        instruments)."""
+        if self.q is not None:
+            x = self.q @ (self.qt @ x)
+        return {b: x[sl] for b, sl in self.slices.items()}
+
+
+def _prepare(flights: list[Flight], cutoff_scale: float = 1.0) -> list[_Prep]:
+    sizes = []
+    for f in flights:
+        keep = f.hover.copy()
+        keep[:5] = keep[-5:] = False
+        sizes.append(int(keep.sum()))
+    ids = block_ids(sum(sizes))
+    out, start = [], 0
+    for f, n in zip(flights, sizes, strict=True):
+        if cutoff_scale != 1.0:
+            f = replace(f, cutoff_scale=cutoff_scale, _sos=None)
+        out.append(_Prep(f, ids[start:start + n]))
+        start += n
+    return out
+
+
+def _moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: float,
+             delay: float, axes: tuple[int, ...]) -> list[Moments]:
+    p_cols = {0: 5, 1: 5, 2: 5}
+    out = []
+    per_axis = {a: Moments(np.zeros((N_BLOCKS, p_cols[a], p_cols[a])),
+                           np.zeros((N_BLOCKS, p_cols[a])), np.zeros(N_BLOCKS)) for a in axes}
+    for pr in preps:
+        f = pr.flight
+        x = motor_state(f, idle, tau, delay)
+        fs = pr.reduce(f.lowpass((k * x * x) @ geom.T)[pr.keep])
+        dx = (pr.reduce(f.lowpass(np.gradient(x, f.dt, axis=0) @ geom[2])[pr.keep][:, None])
+              if 2 in axes else None)
+        for a in axes:
+            m = per_axis[a]
+            for b in pr.blocks:
+                cols = [fs[b][:, a:a + 1]]
+                if a == 2:
+                    cols.append(dx[b])
+                cols.append(pr.extra[a][b])
+                xb = np.hstack(cols)
+                yb = pr.target[b][:, a]
+                m.xtx[b] += xb.T @ xb
+                m.xty[b] += xb.T @ yb
+                m.yty[b] += yb @ yb
+    for a in axes:
+        out.append(per_axis[a])
+    return out
+
+
+def _objective(preps: list[_Prep], geom: np.ndarray, k: float, idle: float,
+               taus: np.ndarray, delays: np.ndarray) -> np.ndarray:
+    """Σ log SSR of the projected roll and pitch equations on the (τ, d) grid: [0] with all
+    blocks, [b + 1] with block b left out."""
+    obj = np.zeros((N_BLOCKS + 1, taus.size, delays.size))
+    for i, tau in enumerate(taus):
+        for j, d in enumerate(delays):
+            for m in _moments(preps, geom, k, idle, float(tau), float(d), (0, 1)):
+                obj[0, i, j] += np.log(m.solve()[1])
+                for b in range(N_BLOCKS):
+                    obj[b + 1, i, j] += np.log(m.solve(b)[1])
+    return obj
+
+
+def _jive_moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: float,
+                  delay: float) -> list[Moments]:
+    """Moments of the jackknife-IV estimator per axis (roll, pitch, yaw): X̂ᵀX and X̂ᵀy
+    with X̂ from the leave-block-out first stage."""
+    per_axis = [Moments(np.zeros((N_BLOCKS, 5, 5)), np.zeros((N_BLOCKS, 5)),
+                        np.zeros(N_BLOCKS)) for _ in range(3)]
+    for pr in preps:
+        f = pr.flight
+        x = motor_state(f, idle, tau, delay)
+        fs_raw = f.lowpass((k * x * x) @ geom.T)[pr.keep]
+        dx_raw = f.lowpass(np.gradient(x, f.dt, axis=0) @ geom[2])[pr.keep][:, None]
+        for a in range(3):
+            cols = [fs_raw[:, a:a + 1]] + ([dx_raw] if a == 2 else [])
+            raw = np.hstack(cols)
+            fitted = pr.jive(raw)
+            extra_hat = pr.jive(np.vstack([pr.extra_raw[a][b] for b in pr.blocks]))
+            m = per_axis[a]
+            for b, sl in pr.slices.items():
+                xb = np.hstack([raw[sl], pr.extra_raw[a][b]])
+                xh = np.hstack([fitted[b], extra_hat[b]])
+                yb = pr.target_raw[b][:, a]
+                m.xtx[b] += xh.T @ xb
+                m.xty[b] += xh.T @ yb
+                m.yty[b] += yb @ yb
+    return per_axis
+
+
+def _argmin2(table: np.ndarray) -> tuple[int, int]:
+    i, j = np.unravel_index(np.argmin(table), table.shape)
+    return int(i), int(j)
+
+
+def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
+    """Parabolic interpolation of the minimum around grid index i."""
+    if i == 0 or i == len(grid) - 1:
+        return float(grid[i])
+    g = np.log(grid[i - 1:i + 2]) if log else grid[i - 1:i + 2]
+    y = values[i - 1:i + 2]
+    denom = y[0] - 2 * y[1] + y[2]
+    if denom <= 0:
+        return float(grid[i])
+    step = g[1] - g[0]
+    off = 0.5 * (y[0] - y[2]) / denom * step
+    v = g[1] + float(np.clip(off, -step, step))
+    return float(np.exp(v)) if log else float(v)
+
+
+def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
+                 tau_default: float, fine: bool = True) -> RotationFit:
+    """Fit τ, d and each axis's coefficients (module docstring).
+
+    With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
+    resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
+    """
+    flights = [f for f in flights if f.hover.sum() > MIN_ROWS]
+    if not flights:
+        raise FitError(f"{MIN_ROWS} rows near hover needed for the moment equations; the "
+                       "log has fewer (too slow a log, or no slow flight)")
+    preps = _prepare(flights)
+    slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
+    delays = np.round(np.arange(0.0, DELAY_MAX + 1e-9, max(DELAY_STEP, 0.0)), 4)
+    if slow:
+        tau, delay, tau_se, d_se, edge = tau_default, 0.0, float("inf"), float("inf"), False
+    else:
+        tau_c = TAU_GRID[::2]
+        delay_c = delays[::2]
+        coarse = _objective(preps, geom, k, idle, tau_c, delay_c)
+        if fine:
+            ic, jc = _argmin2(coarse[0])
+            tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
+            delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
+            obj = _objective(preps, geom, k, idle, tau_f, delays)
+        else:
+            tau_f, delays, obj = tau_c, delay_c, coarse
+        i, j = _argmin2(obj[0])
+        tau = _refine(tau_f, obj[0, :, j], i, True)
+        delay = _refine(delays, obj[0, i, :], j, False)
+        reps_tau, reps_d = [], []
+        for b in range(1, N_BLOCKS + 1):
+            ib, jb = _argmin2(obj[b])
+            reps_tau.append(_refine(tau_f, obj[b, :, jb], ib, True))
+            reps_d.append(_refine(delays, obj[b, ib, :], jb, False))
+        # plus the grid's own resolution (a uniform error over one step, parabolic
+        # interpolation notwithstanding)
+        log_step = float(np.log(tau_f[1] / tau_f[0])) if tau_f.size > 1 else 0.0
+        d_step = float(delays[1] - delays[0]) if delays.size > 1 else DELAY_STEP
+        tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), tau * log_step / np.sqrt(12)))
+        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), d_step / np.sqrt(12)))
+        edge = tau_f[i] in (TAU_GRID[0], TAU_GRID[-1])
+    axes = {}
+    full = _jive_moments(preps, geom, k, idle, tau, delay)
+    half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
+    for name, m, mh in zip(("roll", "pitch", "yaw"), full, half, strict=True):
+        coef, se = m.jackknife()
+        # model error: the same equation fitted on half the bandwidth must give the same
+        # coefficients if the model holds; what unmodelled dynamics move is added
+        shift = np.abs(coef - mh.solve()[0])
+        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift))
+    return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
+                       tau_at_edge=edge, instrumented=all(p.instrumented for p in preps))
