@@ -172,9 +172,13 @@ def _same(expected: str, named: str) -> bool:
 
 # ---------------------------------------------------------------- fit
 def _quantile(values: list[float], alpha: float) -> float:
-    """(1 − α) quantile of a log-normal fitted to positive ``values``, never below their
-    maximum."""
-    v = np.log(np.maximum(np.asarray(values, dtype=float), 1e-9))
+    """(1 − α) quantile of a log-normal fitted to the positive ``values``, never below
+    their maximum (a value ≤ 0, a model that loses to its base, is below any threshold
+    and not part of the tail)."""
+    pos = [float(x) for x in values if x > 0]
+    if not pos:
+        return 0.0
+    v = np.log(np.asarray(pos))
     mu, sd = float(np.mean(v)), float(np.std(v, ddof=1)) if v.size > 1 else 1.0
     return float(max(np.exp(mu + stats.norm.ppf(1.0 - alpha) * sd), np.exp(v.max())))
 
@@ -216,7 +220,8 @@ def fit(args: argparse.Namespace) -> None:
         mismatch_ratio=_quantile(ratios, alpha), gain_per_sample=_quantile(gains, alpha),
         pair_gain_per_sample=_quantile(extras, alpha) if extras else _quantile(gains, alpha),
         false_positive_rate=alpha,
-        source={"generators": args.generators.split(","), "records": args.records,
+        source={"generators": args.generators.split(","),
+                "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
                 "rule": "log-normal (1 - rate) quantile of the no-effect pairs' largest "
                         "channel ratio and best single gain, and of the single-effect "
