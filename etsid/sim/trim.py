@@ -78,6 +78,11 @@ def hover_trim(vehicle: Vehicle, height: float | None = None) -> HoverTrim:
     if b["sag"]:
         vbat = voc - b["r_internal"] * n * torque * omega / (b["efficiency"] * voc)
     top = m["omega_max"] * vbat / m["v_ref"]
+    top_full = m["omega_max"] * voc / m["v_ref"]  # on the unloaded pack
+    if omega > top_full or vbat <= 0:  # the motors cannot spin the rotors fast enough
+        raise SimError(f"vehicle {vehicle.name!r}: its rotors cannot lift {vehicle.mass:g} kg "
+                       f"(hover needs {omega:.0f} rad/s, its motors reach {top_full:.0f} rad/s "
+                       f"on a {voc:.1f} V pack); check mass, rotor and motor fields")
     command = (omega - m["omega_idle"]) / (top - m["omega_idle"])
     return HoverTrim(omega=omega, thrust=t_oge * ratio * fx["thrust_scale"], torque=torque,
                      v_i=lam * omega * r["radius"], lam_i=lam, ge_ratio=ratio, vbat=vbat,
