@@ -78,6 +78,10 @@ def hover_trim(vehicle: Vehicle, height: float | None = None) -> HoverTrim:
     if b["sag"]:
         vbat = voc - b["r_internal"] * n * torque * omega / (b["efficiency"] * voc)
     top = m["omega_max"] * vbat / m["v_ref"]
+    if omega >= top:
+        raise SimError(f"vehicle {vehicle.name!r}: its rotors cannot lift {vehicle.mass:g} kg "
+                       f"at full command (hover needs {omega:.0f} rad/s, the motors reach "
+                       f"{top:.0f} rad/s at {vbat:.1f} V); check mass, rotor and motor fields")
     command = (omega - m["omega_idle"]) / (top - m["omega_idle"])
     return HoverTrim(omega=omega, thrust=t_oge * ratio * fx["thrust_scale"], torque=torque,
                      v_i=lam * omega * r["radius"], lam_i=lam, ge_ratio=ratio, vbat=vbat,
