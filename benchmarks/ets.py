@@ -102,7 +102,6 @@ def rls_time(X: np.ndarray, Y: np.ndarray) -> float:
 _BENCH = dict(radius=0.3, adaptive_spread=False, utility_threshold=0.05, forgetting=1.0)
 SPEED_ROWS = [
     ("bench, 2 rules", 4, dict(_BENCH, max_rules=2)),
-    ("bench, 10 rules", 4, dict(_BENCH, max_rules=10)),
     ("defaults, 2 rules", 4, dict(max_rules=2)),
     ("defaults, 10 rules", 4, dict(max_rules=10)),
     ("bench, local", 4, dict(_BENCH, max_rules=20)),

@@ -46,6 +46,7 @@ VEHICLES: dict[str, tuple[str, dict[str, Any]]] = {
 
 SCORED = ("hover_command", "thrust_to_weight", "idle_ratio", "motor_time_constant",
           "time_delay", "roll_effectiveness", "pitch_effectiveness", "yaw_effectiveness",
+          "roll_accel_per_command", "pitch_accel_per_command", "yaw_accel_per_command",
           "inertia_ratio_yx", "drag_x", "drag_y", "drag_quad_x", "drag_quad_y")
 
 

@@ -55,6 +55,8 @@ RESPONSE_COLUMNS = ("p", "q", "r", "roll", "pitch", "yaw", "ax", "ay", "az", "vx
                     "alt")
 """Everything the vehicle's motion produces (sensors and estimates); the motor outputs and
 the pilot's commands are what it responds to."""
+ANGLES = ("roll", "pitch", "yaw")
+"""Columns that wrap at ±π (shifted on their unwrapped values)."""
 K_IDLE = 0.1
 """Idle offset k of rotor speed ∝ (m + k) used to turn a thrust change into the command a
 motor needs (etsid's own default; the real vehicles' k is not known)."""
@@ -75,7 +77,11 @@ def _late(table: pd.DataFrame, cols: tuple[str, ...], delay: float) -> pd.DataFr
         good = np.isfinite(v)
         if good.sum() < 2:
             continue
-        shifted = np.interp(t - delay, t[good], v[good])
+        angle = c in ANGLES
+        src = np.unwrap(v[good]) if angle else v[good]
+        shifted = np.interp(t - delay, t[good], src)
+        if angle:  # interpolated on the unwrapped angle: no spike across ±π
+            shifted = np.angle(np.exp(1j * shifted))
         shifted[~good] = np.nan
         out[c] = shifted
     return out

@@ -1,6 +1,7 @@
 """Identification: throughput of a full identify run, and the quality table.
 
 Run:  python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
+      python benchmarks/identify.py --phases [--duration 600]   # where the CPU goes
 
 1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6 and the roll/pitch
    states with their inner-split check, rules scheduled on ``inv_alt[k-1]`` (radius 0.3,
@@ -20,6 +21,12 @@ Run:  python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
 
 5. ``--targets``: the ige-oge targets of issue 11 (``benchmarks/scheduled.py --seeds 4``:
    eTS against ARX free-run on held-out seeds, rules and their focal altitudes).
+
+6. ``--phases``: CPU time of each phase of ``etsid identify`` on a ``--duration`` s
+   simulated hover-ige flight written as a 250 Hz tlog (ingest, segmenting and decimation,
+   regressor build, structure choice, learning, validation, writing RUN_DIR), measured by
+   timing the functions ``etsid.ident.run.identify`` calls (exclusive: a phase's time does
+   not include the phases it calls), after a warm-up run (imports, numba cache).
 
 Regime scheduling (the oracle ceiling and the study that chose ``--antecedent auto``) is
 ``benchmarks/scheduled.py``.
@@ -50,6 +57,80 @@ def throughput(duration: float) -> None:
           f"{run.metrics['rules']['peak']}")
     print(f"  wall {wall:.2f} s, CPU {cpu:.2f} s: {len(table) / wall:,.0f} table rows/s, "
           f"{n / wall:,.0f} identification samples/s (wall)")
+
+
+#: phases of identify and the functions of ``etsid.ident.run`` that make them up
+PHASES = {
+    "segmenting, decimation": ("add_motor_commands", "select_flight", "apply_selection",
+                               "decimate", "excited_mask", "split_excited", "noise_std",
+                               "refuse_coarse"),
+    "regressor build": ("build",),
+    "structure choice": ("choose_model", "check_attitude_states", "_structure"),
+    "learning": ("learn_online", "_new_model", "fixed_ranges", "schedule_range"),
+    "validation": ("prediction_columns", "history_frames", "output_metrics", "tail_informs",
+                   "blocked_validation", "still_tail_lines", "not_validated_line",
+                   "validation_table", "regime_summary_of", "rate_info", "predictions_frame",
+                   "rules_json"),
+}
+
+
+def phases(duration: float) -> None:
+    """CPU seconds per identify phase on a ``duration`` s 250 Hz log (see the docstring)."""
+    import tempfile
+    from pathlib import Path
+
+    import etsid.ident.run as run_module
+    from etsid.ident import write_run
+    from etsid.ident.inputs import load_for_ident
+    from etsid.sim.writers import write_log
+
+    spent: dict[str, float] = {}
+    stack: list[float] = []  # CPU time of the nested timed calls, to keep phases exclusive
+
+    def timed(phase: str, fn):  # type: ignore[no-untyped-def]
+        def wrapper(*args, **kwargs):  # type: ignore[no-untyped-def]
+            t0 = time.process_time()
+            stack.append(0.0)
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                inner = stack.pop()
+                dt = time.process_time() - t0
+                spent[phase] = spent.get(phase, 0.0) + dt - inner
+                if stack:
+                    stack[-1] += dt
+        return wrapper
+
+    for phase, names in PHASES.items():
+        for name in names:
+            setattr(run_module, name, timed(phase, getattr(run_module, name)))
+    with tempfile.TemporaryDirectory() as tmp:
+        warm = Path(tmp) / "warm.tlog"
+        write_log(simulate("hover-ige", duration=20.0, seed=99).table, warm)
+        write_run(identify(load_for_ident(warm)), Path(tmp) / "warm_run")  # warm-up
+        log = Path(tmp) / "flight.tlog"
+        write_log(simulate("hover-ige", duration=duration, seed=5).table, log)
+        spent.clear()
+        total0 = time.process_time()
+        t0 = time.process_time()
+        table = load_for_ident(log)
+        spent["ingest (read the tlog)"] = time.process_time() - t0
+        t0 = time.process_time()
+        run = identify(table)
+        body = time.process_time() - t0
+        t0 = time.process_time()
+        write_run(run, Path(tmp) / "run")
+        spent["writing RUN_DIR"] = time.process_time() - t0
+        total = time.process_time() - total0
+    spent["identify, rest"] = body - sum(spent[p] for p in PHASES if p in spent)
+    print(f"phases of identify, {duration:g} s hover-ige tlog, {len(table)} rows at 250 Hz "
+          f"({run.metrics['n_samples']} at {run.metrics['sample_rate']['rate_hz']:g} Hz), "
+          f"CPU s after the imports:")
+    print("| phase | CPU s | share |\n|---|---|---|")
+    for phase in ["ingest (read the tlog)", *PHASES, "identify, rest", "writing RUN_DIR"]:
+        v = spent.get(phase, 0.0)
+        print(f"| {phase} | {v:.3f} | {100 * v / total:.0f} % |")
+    print(f"| total | {total:.3f} | |")
 
 
 def quality(scenario: str, seeds: list[int], config: IdentConfig, label: str) -> None:
@@ -158,7 +239,12 @@ def main() -> None:
                         help="only the ige-oge targets of issue 11 (benchmarks/scheduled.py)")
     parser.add_argument("--normalise-study", action="store_true",
                         help="only the --normalise / radius study on --seeds")
+    parser.add_argument("--phases", action="store_true",
+                        help="only the CPU time per identify phase on a --duration s tlog")
     args = parser.parse_args()
+    if args.phases:
+        phases(args.duration)
+        return
     if args.lag_study:
         lag_study([1, 2, 3])
         return

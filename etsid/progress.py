@@ -79,6 +79,7 @@ class Narrator:
         self.delay_s, self.every_s = delay_s, every_s
         self._lock = threading.Lock()
         self._label: str | None = None
+        self._outer: list[str] = []  # labels of the enclosing steps (:meth:`push`)
         self._start = 0.0
         self._said_at: float | None = None
         self._thread: threading.Thread | None = None
@@ -105,11 +106,30 @@ class Narrator:
                 self._thread.start()
 
     def done(self) -> None:
-        """The step is over (a transient line is cleared)."""
+        """The step is over, and every step around it (a transient line is cleared)."""
         with self._lock:
             if self._label is not None and self._terminal and self._stream is not None:
                 click.echo("\r\033[K", file=self._stream, nl=False)
             self._label = None
+            self._outer.clear()
+
+    def push(self, label: str) -> None:
+        """A step inside the current one (a bar inside "reading …"); :meth:`pop` ends it."""
+        if not enabled():
+            return
+        with self._lock:
+            if self._label is not None:
+                self._outer.append(self._label)
+        self.say(label)
+
+    def pop(self) -> None:
+        """End the innermost step; the step around it, if any, is said again from now."""
+        with self._lock:
+            outer = self._outer.pop() if self._outer else None
+        if outer is None:
+            self.done()
+        else:
+            self.say(outer)
 
     def _watch(self) -> None:
         while True:
@@ -148,12 +168,13 @@ def done() -> None:
 
 @contextmanager
 def stage(label: str) -> Iterator[None]:
-    """Say ``label`` for the duration of the ``with`` block."""
-    say(label)
+    """Say ``label`` for the duration of the ``with`` block (inside another step: that
+    step is said again after it)."""
+    NARRATOR.push(label)
     try:
         yield
     finally:
-        done()
+        NARRATOR.pop()
 
 
 class Progress:
@@ -182,11 +203,11 @@ def progress(total: int, label: str, enabled: bool) -> Iterator[Progress]:
         yield Progress(None)
         return
     if not on_terminal():
-        NARRATOR.say(f"{label}: 0 % (0/{total})")
+        NARRATOR.push(f"{label}: 0 % (0/{total})")
         try:
             yield Progress(None, label, total)
         finally:
-            NARRATOR.done()
+            NARRATOR.pop()
         return
     with click.progressbar(length=total, label=label, file=sys.stderr,
                            show_eta=True, show_percent=True,

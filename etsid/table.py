@@ -17,13 +17,15 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import pandas as pd
 
 from etsid import escape, files, schemas
 from etsid.errors import TableError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 Interp = Literal["linear", "hold", "angle"]
 
@@ -108,6 +110,8 @@ def validate(table: pd.DataFrame) -> pd.DataFrame:
         Index not named ``t``, not float, not strictly increasing, or a known column
         that is not numeric or holds inf.
     """
+    import pandas as pd
+
     if table.index.name != "t":
         raise TableError(f"table index must be named 't' (seconds), got {table.index.name!r}")
     t = np.asarray(table.index, dtype=float)
@@ -192,6 +196,8 @@ def load_table(path: str | Path) -> pd.DataFrame:
     attrs are checked against :data:`etsid.schemas.TABLE_ATTRS` and their strings (and the
     column names) made printable (:func:`etsid.escape.clean`).
     """
+    import pandas as pd
+
     path = Path(path)
     suffix = path.suffix.lower()
     attrs: dict[str, Any] = {}

@@ -102,3 +102,22 @@ def test_the_learning_bar_moves_in_small_steps(monkeypatch: pytest.MonkeyPatch) 
     learn.learn_online(ETS(radius=0.5), reg, 4200, True, "identify")
     assert sum(steps) == n
     assert max(steps) <= 0.03 * n
+
+
+def test_a_step_inside_another_gives_the_outer_one_back(
+        fast_narrator: progress.Narrator, capsys: pytest.CaptureFixture[str]) -> None:
+    """Reading a log: a bar over the bytes, then the rest of the reading is still said."""
+    progress.enable(True)
+    try:
+        with progress.stage("reading flight.bag"):
+            with progress.progress(10, "decoding", True) as bar:
+                bar.update(10)
+                time.sleep(0.15)
+            time.sleep(0.15)
+        time.sleep(0.1)
+    finally:
+        progress.enable(False)
+    lines = capsys.readouterr().err.splitlines()
+    decoding = [i for i, line in enumerate(lines) if line.startswith("decoding: 100 %")]
+    assert decoding, lines
+    assert any(line.startswith("reading flight.bag") for line in lines[decoding[-1] + 1:])

@@ -87,9 +87,9 @@ def test_readme_commands_in_one_venv_in_either_order(tmp_path: Path) -> None:
     check(tmp_path)
     _run([python, "-c", KERNEL], tmp_path, env)
     assert not list((clone / "etsid").rglob("*.nbi")), "numba cache inside the clone"
-    out = _run([python, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+    out = _run([python, "-m", "pytest", "-p", "no:cacheprovider",
                 "tests/test_table.py::test_resample_linear_hold_and_angle"], clone, env)
-    assert "1 passed" in out
+    assert "1 passed" in out, out  # pyproject's addopts: -q, a summary line
 
     # and command 1 again after command 2 (the other order)
     _run([python, "-m", "pip", "install", "-q", "."], clone, pip_env)

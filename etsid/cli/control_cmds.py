@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from etsid.progress import stage
+
 SCENARIO_NAMES = ("altitude-steps", "hover-ige", "ige-sine", "mass-change", "sine-altitude")
 """Kept in step with :data:`etsid.control.scenarios.SCENARIOS` (tests check it), so that
 ``--help`` does not import the simulator."""
@@ -48,8 +50,9 @@ def control(scenario: str, out: Path | None, controller: str, vehicle: Path | No
 
     if out is None:
         out = Path(f"control-{scenario}-{controller}")
-    result = run_control(scenario, controller, vehicle=vehicle, duration=duration, seed=seed,
-                         out=out)
+    with stage(f"control: {scenario} with {controller}"):  # the simulator loads, flies
+        result = run_control(scenario, controller, vehicle=vehicle, duration=duration,
+                             seed=seed, out=out)
     m = result.metrics
     line = (f"{out}: {controller} on {scenario}, {m['duration_s']:.0f} s, "
             f"{'stable' if m['stable'] else 'DIVERGED'}")
@@ -62,7 +65,8 @@ def control(scenario: str, out: Path | None, controller: str, vehicle: Path | No
     if not no_report:
         from etsid.report.control import make_control_report
 
-        rep = make_control_report(out)
+        with stage(f"control report: drawing the figures into {out}/report/"):
+            rep = make_control_report(out)
         click.echo(f"wrote {rep.directory}/: index.html, report.md, "
                    + ", ".join(p.name for p in rep.figures.values()))
 

@@ -16,7 +16,11 @@ import click
                    "ratio) stand in for what logs cannot determine (default: by arm "
                    "length).")
 @click.option("--name", default=None, help="Vehicle name in the file (default: OUT's stem).")
-def fit(logs: tuple[Path, ...], out: Path, template: str | None, name: str | None) -> None:
+@click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=None, help="Also replay each log with the fitted vehicle and write "
+                                 "twin_<log>.png and twin.json here (docs/fit.md).")
+def fit(logs: tuple[Path, ...], out: Path, template: str | None, name: str | None,
+        report_dir: Path | None) -> None:
     """Fit an airframe's physical parameters from its LOGS (flights of one airframe, pooled)
     and write them as a vehicle file the simulator flies.
 
@@ -36,6 +40,27 @@ def fit(logs: tuple[Path, ...], out: Path, template: str | None, name: str | Non
     click.echo(result.summary())
     click.echo(f"rotors: {result.layout['n']} ({result.layout['source']})")
     click.echo(f"wrote {vehicle_path} and {json_path}")
+    if report_dir is not None:
+        import json
+
+        from etsid.report.fit_twin import twin_report
+        from etsid.sim.vehicle import load_vehicle as load
+
+        report_dir.mkdir(parents=True, exist_ok=True)
+        fitted = load(vehicle_path)
+        reports = []
+        for path, table in zip(logs, tables, strict=True):
+            rep = twin_report(table, fitted, report_dir / f"twin_{path.stem}.png")
+            reports.append(rep)
+            div = rep["divergence"]
+            click.echo(f"twin of {path.name}: " + ("follows the recording" if div is None
+                       else f"diverges at {div['t']:.1f} s ({div['what']})"))
+            for ch, m in rep["channels"].items():
+                click.echo(f"  {ch:5s} RMSE/std twin {m['twin']:.2f}, ARX {m['arx']:.2f}, "
+                           f"log noise {m['noise']:.2f}")
+        (report_dir / "twin.json").write_text(json.dumps(reports, indent=1, default=str),
+                                              encoding="utf-8")
+        click.echo(f"wrote {report_dir}/twin.json and the twin figures")
 
 
 COMMANDS = [fit]

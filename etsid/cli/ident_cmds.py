@@ -26,7 +26,7 @@ from etsid.ident.ranges import NORMALISE_MODES
 from etsid.ident.resample import DEFAULT_RATE_HZ
 from etsid.ident.rundir import Run, jsonable
 from etsid.ingest import read_log
-from etsid.progress import wanted
+from etsid.progress import stage, wanted
 from etsid.report.regimes import regime_text
 from etsid.report.tables import merges_text, rules_text, summary_table
 
@@ -212,10 +212,11 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     """
     check_output_dir(out)
     options = read_options(maps, mapping_file, sysid, quiet)
-    if outputs:
-        table = read_log(log, options, rate_hz=rate_hz)
-    else:
-        table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
+    with stage(f"identify: reading {log}"):
+        if outputs:
+            table = read_log(log, options, rate_hz=rate_hz)
+        else:
+            table = load_for_ident(log, options, inputs=inputs, rate_hz=rate_hz)
     if vehicle:
         table.attrs["rotor_radius_m"] = _rotor_radius(vehicle)
     table_rate = _table_rate(table)

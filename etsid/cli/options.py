@@ -5,14 +5,16 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
-import pandas as pd
 
 from etsid.ingest.base import ReadOptions
 from etsid.ingest.mapping import load_mapping_file, parse_override
 from etsid.progress import wanted
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 MAX_RATE_HZ = 100_000.0
 """Highest grid or identification rate accepted, Hz (no flight log samples faster)."""

@@ -257,6 +257,7 @@ def learn_kernel(
     snap_s,
     nsnap,
     every,
+    max_rules_here,
     si,
     lo,
     hi,
@@ -283,7 +284,9 @@ def learn_kernel(
 ) -> int:
     """Online predict-then-learn over the rows of X (N, n), Y (N, m); mutates the state.
     Returns the number of rows learned: all N, or fewer when the event or snapshot buffers
-    filled up (the caller empties them and calls again with the remaining rows).
+    filled up (the caller empties them and calls again with the remaining rows) or a sample
+    left more than ``max_rules_here`` rules (the caller goes on with
+    :func:`etsid.ets.kernels_lanes.learn_lanes`, faster for larger rule bases).
 
     ``S`` (N, na) holds the antecedent inputs: potentials, firing and births work on
     z_a = S (scheduled, ``ip[IP_SCHEDULED] = 1``, then z = [s; y; x] and the potential
@@ -347,6 +350,7 @@ def learn_kernel(
     evq = ip[IP_CLUSTERING] == 1
     ev_cap = ev.shape[0] - rmax - 2
     snap_cap = snap_k.shape[0]
+    next_snap = (si[0] // every + 1) * every  # the next k that is a multiple of every
 
     s = np.empty(d)
     w2 = np.empty(d)
@@ -812,7 +816,8 @@ def learn_kernel(
         hist[t, 1] = P
         hist[t, 2] = fmax
         hist[t, 3] = fmin
-        if k % every == 0:
+        if k == next_snap:
+            next_snap += every
             q = nsnap[0]
             snap_k[q] = k
             for i in range(rmax):
@@ -827,6 +832,6 @@ def learn_kernel(
             nsnap[0] = q + 1
             if q + 1 >= snap_cap:
                 return t + 1
-        if nev[0] > ev_cap:
+        if nev[0] > ev_cap or max_rules_here < R:
             return t + 1
     return N

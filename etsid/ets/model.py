@@ -12,6 +12,7 @@ import numpy as np
 from etsid.ets import layout as L
 from etsid.ets.history import History, HistoryRecorder
 from etsid.ets.kernels import learn_kernel, predict_kernel
+from etsid.ets.kernels_lanes import learn_lanes
 from etsid.ets.normalisation import scales
 from etsid.ets.params import CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
 from etsid.ets.state import LearnedState
@@ -22,6 +23,11 @@ if TYPE_CHECKING:  # pragma: no cover
 #: most consequent snapshots / events one learning-kernel call buffers before it returns
 _SNAPSHOTS_PER_CALL = 64
 _EVENTS_PER_CALL = 4096
+#: rule counts where learning switches kernels: the rule-major ``learn_kernel`` runs while
+#: R <= _RULE_MAJOR_MAX, ``learn_lanes`` (vectorised across rules) while R >= _LANES_MIN;
+#: in between whichever ran last goes on (docs/performance.md measured the crossover)
+_RULE_MAJOR_MAX = 6
+_LANES_MIN = 4
 
 
 def raw_consequents(Pi: np.ndarray, lo: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -381,10 +387,13 @@ class ETS:
         while start < N:
             k0 = int(st["si"][0])
             counts[:] = 0
-            done = learn_kernel(
+            lanes = int(st["si"][1]) > _RULE_MAJOR_MAX
+            kernel, bound = (learn_lanes, _LANES_MIN) if lanes else (learn_kernel,
+                                                                      _RULE_MAJOR_MAX)
+            done = kernel(
                 Xa[start:], Sa[start:], Ya[start:], Yhat[start:], hist[start:], ev,
                 counts[0:1], snap_k, snap_ids, snap_pi, snap_lo, snap_s, counts[1:2], every,
-                *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
+                bound, *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
             )  # fmt: skip
             rec.add(k0 + 1, hist[start : start + done])
             for step, kind, rid in ev[: counts[0]].tolist():

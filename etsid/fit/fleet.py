@@ -30,8 +30,8 @@ from etsid.fit.run import fit_tables
 IDENTITY_KEYS = ("vehicle_uuid", "sys_uuid", "sys_id", "serial", "airframe_id")
 """Table attrs that name one airframe, in order of trust."""
 SUFFIXES = (".tlog", ".bin", ".ulg", ".bag", ".mcap", ".parquet", ".csv")
-TRACKED = ("hover_command", "motor_time_constant", "roll_effectiveness",
-           "pitch_effectiveness", "yaw_effectiveness", "thrust_to_weight")
+TRACKED = ("hover_command", "motor_time_constant", "roll_accel_per_command",
+           "pitch_accel_per_command", "yaw_accel_per_command")
 """Parameters trended besides each motor's share of the work."""
 N_REFERENCE = 5
 Z_FLAG = 3.0
@@ -68,7 +68,8 @@ def airframe_of(table: pd.DataFrame, path: Path, root: Path) -> str:
 
 
 def fit_fleet(root: Path, read: Callable[[Path], pd.DataFrame],
-              progress: Callable[[str], None] | None = None) -> FleetResult:
+              progress: Callable[[str], None] | None = None, quick: bool = True
+              ) -> FleetResult:
     """Fit every flight below ``root`` and trend each airframe's parameters.
 
     Raises
@@ -83,7 +84,7 @@ def fit_fleet(root: Path, read: Callable[[Path], pd.DataFrame],
     for path in paths:
         try:
             table = read(path)
-            result = fit_tables([table], name=path.stem)
+            result = fit_tables([table], name=path.stem, quick=quick)
         except EtsidError as err:
             errors.append(f"{path}: {err}")
             continue

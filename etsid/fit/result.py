@@ -16,6 +16,8 @@ TOLERANCE: dict[str, float] = {
     "hover_command": 0.05, "thrust_to_weight": 0.05, "thrust_slope": 0.05,
     "idle_ratio": 0.20, "motor_time_constant": 0.20, "roll_effectiveness": 0.20,
     "pitch_effectiveness": 0.20, "yaw_effectiveness": 0.20, "inertia_ratio_yx": 0.20,
+    "roll_accel_per_command": 0.20, "pitch_accel_per_command": 0.20,
+    "yaw_accel_per_command": 0.20,
     "drag_x": 0.20, "drag_y": 0.20, "drag_quad_x": 0.20, "drag_quad_y": 0.20,
 }
 """Relative half-width of the 95 % interval below which a parameter counts as identified

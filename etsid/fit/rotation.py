@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from etsid.errors import FitError
 from etsid.fit.regress import N_BLOCKS, Moments, block_ids, instrument_basis, jackknife_se
 from etsid.fit.signals import Flight, motor_state
 
@@ -44,6 +45,8 @@ TAU_GRID = np.round(np.geomspace(0.005, 0.25, 29), 5)
 DELAY_STEP = 0.002
 """s, delay grid step (0 … :data:`DELAY_MAX`)."""
 DELAY_MAX = 0.04
+MIN_ROWS = 50
+"""Rows near hover a flight needs to enter the moment equations."""
 MIN_MOTOR_HZ = 40.0
 """Hz: motor outputs logged slower cannot resolve a lag of tens of milliseconds."""
 
@@ -230,13 +233,16 @@ def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
 
 
 def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
-                 tau_default: float) -> RotationFit:
+                 tau_default: float, fine: bool = True) -> RotationFit:
     """Fit τ, d and each axis's coefficients (module docstring).
 
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
     resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
     """
-    flights = [f for f in flights if f.hover.sum() > 100]
+    flights = [f for f in flights if f.hover.sum() > MIN_ROWS]
+    if not flights:
+        raise FitError(f"{MIN_ROWS} rows near hover needed for the moment equations; the "
+                       "log has fewer (too slow a log, or no slow flight)")
     preps = _prepare(flights)
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
     delays = np.round(np.arange(0.0, DELAY_MAX + 1e-9, max(DELAY_STEP, 0.0)), 4)
@@ -246,10 +252,13 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         tau_c = TAU_GRID[::2]
         delay_c = delays[::2]
         coarse = _objective(preps, geom, k, idle, tau_c, delay_c)
-        ic, jc = _argmin2(coarse[0])
-        tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
-        delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
-        obj = _objective(preps, geom, k, idle, tau_f, delays)
+        if fine:
+            ic, jc = _argmin2(coarse[0])
+            tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
+            delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
+            obj = _objective(preps, geom, k, idle, tau_f, delays)
+        else:
+            tau_f, delays, obj = tau_c, delay_c, coarse
         i, j = _argmin2(obj[0])
         tau = _refine(tau_f, obj[0, :, j], i, True)
         delay = _refine(delays, obj[0, i, :], j, False)
@@ -260,9 +269,10 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
             reps_d.append(_refine(delays, obj[b, ib, :], jb, False))
         # plus the grid's own resolution (a uniform error over one step, parabolic
         # interpolation notwithstanding)
-        log_step = float(np.log(TAU_GRID[1] / TAU_GRID[0]))
+        log_step = float(np.log(tau_f[1] / tau_f[0])) if tau_f.size > 1 else 0.0
+        d_step = float(delays[1] - delays[0]) if delays.size > 1 else DELAY_STEP
         tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), tau * log_step / np.sqrt(12)))
-        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), DELAY_STEP / np.sqrt(12)))
+        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), d_step / np.sqrt(12)))
         edge = tau_f[i] in (TAU_GRID[0], TAU_GRID[-1])
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)

@@ -31,7 +31,8 @@ def choose_template(layout: dict) -> Vehicle:
     return load_vehicle("quad250" if layout["arm"] < SMALL_ARM else "tarot680")
 
 
-def _flights(tables: Sequence[pd.DataFrame]) -> tuple[list[Flight], dict, dict[str, int]]:
+def _flights(tables: Sequence[pd.DataFrame], max_rate_hz: float | None
+             ) -> tuple[list[Flight], dict, dict[str, int]]:
     counts: dict[str, int] = {}
     motors0: list[str] | None = None
     layout: dict | None = None
@@ -53,7 +54,7 @@ def _flights(tables: Sequence[pd.DataFrame]) -> tuple[list[Flight], dict, dict[s
     vb = [float(np.nanmedian(t["vbat"].to_numpy(dtype=float))) for t in tables if "vbat" in t]
     if vb:
         v0 = float(np.median(vb))
-    flights = [prepare(t, m, v0) for t, m in prepared]
+    flights = [prepare(t, m, v0, max_rate_hz) for t, m in prepared]
     for f in flights:
         for k, v in f.counts.items():
             counts[k] = counts.get(k, 0) + v
@@ -83,9 +84,17 @@ def _param(name: str, value: float, se: float, unit: str, meaning: str,
                  verdict=verdict or judge(name, value, se), meaning=meaning, note=note)
 
 
+QUICK_RATE_HZ = 100.0
+"""Hz: the grid of a quick fit (the regressions are low-passed at ≤ 15 Hz anyway)."""
+
+
 def fit_tables(tables: Sequence[pd.DataFrame], *, template: Vehicle | None = None,
-               name: str = "fitted") -> FitResult:
+               name: str = "fitted", quick: bool = False) -> FitResult:
     """Fit one airframe from its flights (module docstring of :mod:`etsid.fit`).
+
+    ``quick``: the flights on a ≤ 100 Hz grid, one pass of thrust and moment fits (not
+    two), and the (τ, d) grid without its fine stage — about 5× faster, for fleets of many
+    flights; τ and d are then known to the coarse grid's resolution (their se says so).
 
     Raises
     ------
@@ -97,13 +106,14 @@ def fit_tables(tables: Sequence[pd.DataFrame], *, template: Vehicle | None = Non
     try:  # skinny least squares: BLAS threads only contend (2 cores shared here)
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover
-        return _fit(tables, template, name)
+        return _fit(tables, template, name, quick)
     with threadpool_limits(limits=1, user_api="blas"):
-        return _fit(tables, template, name)
+        return _fit(tables, template, name, quick)
 
 
-def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) -> FitResult:
-    flights, layout, counts = _flights(tables)
+def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
+         quick: bool) -> FitResult:
+    flights, layout, counts = _flights(tables, QUICK_RATE_HZ if quick else None)
     tmpl = template or choose_template(layout)
     base = vehicle_truth(tmpl)
     g = tmpl["environment"]["gravity"]
@@ -117,11 +127,11 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
     k, idle, tau, delay = base["k"] * n / tmpl.n_rotors, base["idle_ratio"], \
         base["motor_time_constant"], 0.0
     thrust = rot = None
-    for _ in range(2):
+    for _ in range(1 if quick else 2):
         thrust = fit_thrust(flights, tau, delay)
         if thrust is not None:
             k, idle = thrust.k, thrust.idle
-        rot = fit_rotation(flights, geom, k, idle, base["motor_time_constant"])
+        rot = fit_rotation(flights, geom, k, idle, base["motor_time_constant"], fine=not quick)
         tau, delay = rot.tau, rot.delay
     assert rot is not None
     params: dict[str, Param] = {}
@@ -168,6 +178,23 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
                    if axis == "pitch" else "mass × rotor torque-per-thrust / Izz")
         add(f"{axis}_effectiveness", _param(f"{axis}_effectiveness", fit.coef[0], fit.se[0],
                                             "1/m", meaning))
+    # what a hover flight determines without the thrust curve: angular acceleration per
+    # unit of motor-output difference, c × ∂f/∂m at hover (K's error cancels in it)
+    m_h = params["hover_command"].value if "hover_command" in params else \
+        (math.sqrt(g / (k * n)) - idle) / (1.0 - idle)
+    dfdm = 2.0 * k * (idle + (1.0 - idle) * m_h) * (1.0 - idle)
+    loose_curve = params.get("thrust_to_weight") is None or \
+        params["thrust_to_weight"].verdict != "identified"
+    for axis in ("roll", "pitch", "yaw"):
+        fit = rot.axes[axis]
+        key = f"{axis}_accel_per_command"
+        add(key, _param(key, fit.coef[0] * dfdm, fit.se[0] * dfdm, "rad/s²",
+                        f"{axis} angular acceleration per unit of Σ (moment row × motor "
+                        "output) at hover"))
+        if loose_curve and params[f"{axis}_effectiveness"].verdict == "identified":
+            params[f"{axis}_effectiveness"].verdict = "not-determined"
+            params[f"{axis}_effectiveness"].note = "scales with the thrust curve, which " \
+                "this flight does not determine"
     cr, cp = rot.axes["roll"], rot.axes["pitch"]
     ratio = cr.coef[0] / cp.coef[0]
     rse = abs(ratio) * math.hypot(cr.se[0] / cr.coef[0], cp.se[0] / cp.coef[0])
@@ -216,10 +243,20 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str) ->
     for key in ("motor_time_constant", "time_delay"):
         if key not in values and not slow and not rot.tau_at_edge:
             values[key] = params[key].value    # the best estimate, loose or not
+    # the twin's effectiveness reproduces the measured acceleration per command with the
+    # thrust curve the vehicle file gets
+    k_v = values.get("k", base["k"])
+    idle_v = values.get("idle_ratio", base["idle_ratio"])
+    x_v = math.sqrt(g / (k_v * n))
+    dfdm_v = 2.0 * k_v * x_v * (1.0 - idle_v)
+    for axis in ("roll", "pitch", "yaw"):
+        p = params[f"{axis}_accel_per_command"]
+        if p.value > 0 and p.se < 0.5 * p.value:
+            values[f"{axis}_effectiveness"] = p.value / dfdm_v
     v0 = layout["v0"] or base["v0"]
     vehicle = build_vehicle(tmpl, values, layout, v0, name,
                             f"fitted by etsid fit from {len(tables)} flight(s); template "
-                            f"{tmpl.name}")
+                            f"{tmpl.name}", notes)
     layout_out = {k: v for k, v in layout.items()}
     return FitResult(params=params, vehicle=vehicle.to_dict(),
                      sources=[f.source for f in flights], layout=layout_out, counts=counts,

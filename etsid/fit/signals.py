@@ -99,7 +99,8 @@ def _rotate_to_body(table: pd.DataFrame) -> np.ndarray | None:
     return np.stack([np.sum(r1 * v, 1), np.sum(r2 * v, 1), np.sum(r3 * v, 1)], axis=1)
 
 
-def prepare(table: pd.DataFrame, motors: list[str], v0: float | None) -> Flight:
+def prepare(table: pd.DataFrame, motors: list[str], v0: float | None,
+            max_rate_hz: float | None = None) -> Flight:
     """A :class:`Flight` from a FlightTable and its active motor columns.
 
     Airborne: not ``landed`` where the log says, and the mean motor output above 40 % of
@@ -115,6 +116,8 @@ def prepare(table: pd.DataFrame, motors: list[str], v0: float | None) -> Flight:
         raise FitError(f"{src}: no body rates p q r; a fit needs the gyro")
     t = table.index.to_numpy(dtype=float)
     dt = float(np.median(np.diff(t)))
+    if max_rate_hz is not None and dt < 1.0 / max_rate_hz:
+        dt = dt * np.ceil(1.0 / (max_rate_hz * dt))   # a whole multiple of the log period
     grid = t[0] + dt * np.arange(round((t[-1] - t[0]) / dt) + 1)
     tab = table.reindex(table.index.union(grid)).interpolate("index", limit_area="inside")
     tab = tab.loc[grid].ffill().bfill()

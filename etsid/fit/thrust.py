@@ -3,9 +3,11 @@
 Per rotor, thrust over mass is f_j = K x_j² with x_j = Ω_j/Ω_top(V0) from the motor law of
 :func:`etsid.fit.signals.motor_state` (idle ratio ι = Ω_idle/Ω_top). Along the body z axis
 the accelerometer reads the sum: −a_z = K Σ_j x_j² + c_w v_z,body (the v_z term: climb
-inflow and vertical drag). K (m/s² per rotor at full command and V0) and ι are fitted,
-ι by profile likelihood (K linear for each ι). Mass and the thrust coefficient only ever
-appear as their ratio: a log of accelerations cannot separate them.
+inflow and vertical drag), + c_h Σ_j x_j² (u² + v²) (translational lift: at the same rotor
+speed a rotor moving edgewise makes more thrust, its inflow swept away). K (m/s² per rotor
+at full command and V0) and ι are fitted, ι by profile likelihood (K linear for each ι).
+Mass and the thrust coefficient only ever appear as their ratio: a log of accelerations
+cannot separate them.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from etsid.fit.signals import Flight, motor_state
 CHI2_95 = 3.841
 """χ²₁ 95 % quantile: the profile-likelihood interval threshold."""
 
-IDLE_GRID = np.round(np.arange(0.0, 0.61, 0.01), 3)
+IDLE_GRID = np.round(np.arange(0.0, 0.6001, 0.005), 4)
 """Idle ratios tried, Ω_idle/Ω_top."""
 
 
@@ -46,13 +48,15 @@ def _design(flights: list[Flight], idle: float, tau: float, delay: float
             continue
         x = motor_state(f, idle, tau, delay)
         cols = [np.sum(x * x, axis=1)]
-        cols.append(f.vel_body[:, 2] if f.vel_body is not None else np.zeros(len(f.t)))
+        vb = f.vel_body if f.vel_body is not None else np.zeros((len(f.t), 3))
+        cols.append(vb[:, 2])
+        cols.append(cols[0] * (vb[:, 0] ** 2 + vb[:, 1] ** 2))
         reg = f.lowpass(np.column_stack(cols))
         y = f.lowpass(-f.accel[:, 2])
         xs.append(reg[f.hover])
         ys.append(y[f.hover])
     if not xs:
-        return np.zeros((0, 2)), np.zeros(0)
+        return np.zeros((0, 3)), np.zeros(0)
     return np.vstack(xs), np.concatenate(ys)
 
 
@@ -71,7 +75,14 @@ def fit_thrust(flights: list[Flight], tau: float, delay: float) -> ThrustFit | N
         fits.append((float(idle), coef, float(r @ r)))
     ssr_a = np.array(ssr)
     best = int(np.argmin(ssr_a))
-    x, y = _design(flights, float(IDLE_GRID[best]), tau, delay)
+    idle = float(IDLE_GRID[best])
+    if 0 < best < IDLE_GRID.size - 1:   # parabolic interpolation between grid points
+        y0, y1, y2 = ssr_a[best - 1:best + 2]
+        den = y0 - 2 * y1 + y2
+        step = float(IDLE_GRID[1] - IDLE_GRID[0])
+        if den > 0:
+            idle += float(np.clip(0.5 * (y0 - y2) / den, -0.5, 0.5)) * step
+    x, y = _design(flights, idle, tau, delay)
     lin = robust_lstsq(x, y)
     n_eff = effective_n(lin.resid)
     accept = n_eff * np.log(ssr_a / ssr_a[best]) <= CHI2_95
@@ -81,7 +92,7 @@ def fit_thrust(flights: list[Flight], tau: float, delay: float) -> ThrustFit | N
     ks = np.array([fits[i][1][0] for i in idx])
     k_se = float(lin.se[0])
     n_rot = flights[0].motors.shape[1]
-    return ThrustFit(k=float(lin.coef[0]), k_se=k_se, idle=float(IDLE_GRID[best]),
+    return ThrustFit(k=float(lin.coef[0]), k_se=k_se, idle=idle,
                      idle_interval=(lo, hi),
                      k_range=(float(ks.min() - 1.96 * k_se), float(ks.max() + 1.96 * k_se)),
                      c_w=float(lin.coef[1]), fit=lin, n_rotors=n_rot)

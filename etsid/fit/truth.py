@@ -26,7 +26,8 @@ def vehicle_truth(vehicle: Vehicle, v0: float | None = None) -> dict[str, float]
     Keys: ``k`` (m/s² per rotor at full command), ``idle_ratio``, ``thrust_to_weight``,
     ``hover_command``, ``thrust_slope`` (d(T/W)/dm at hover), ``motor_time_constant`` (s),
     ``time_delay`` (s), ``roll_effectiveness`` / ``pitch_effectiveness`` (m l/I, 1/m),
-    ``yaw_effectiveness`` (m κ_Q/Izz, 1/m), ``inertia_ratio_yx`` (Iyy/Ixx), ``drag_x``,
+    ``yaw_effectiveness`` (m κ_Q/Izz, 1/m), ``roll_accel_per_command`` … (the
+    effectiveness × ∂f/∂m at hover, rad/s²), ``inertia_ratio_yx`` (Iyy/Ixx), ``drag_x``,
     ``drag_y`` (1/s), ``drag_quad_x``, ``drag_quad_y`` (1/m), ``arm`` (m), ``kappa_q`` (m).
     """
     trim = hover_trim(vehicle)
@@ -46,7 +47,11 @@ def vehicle_truth(vehicle: Vehicle, v0: float | None = None) -> dict[str, float]
     tau = float(np.mean(lag)) if lag is not None else mot["time_constant"]
     drag = vehicle["drag"]
     rotor_h = drag["rotor_drag"] * n * trim.omega
+    dfdm = 2.0 * k * x_h * (1.0 - idle)
+    eff = {"roll": mass * arm / inertia[0, 0], "pitch": mass * arm / inertia[1, 1],
+           "yaw": mass * trim.torque / trim.thrust / inertia[2, 2]}
     return {
+        **{f"{a}_accel_per_command": e * dfdm for a, e in eff.items()},
         "k": k, "idle_ratio": idle, "thrust_to_weight": k * n / g,
         "hover_command": (x_h - idle) / (1.0 - idle),
         "thrust_slope": 2.0 * k * n * x_h * (1.0 - idle) / g,

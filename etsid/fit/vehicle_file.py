@@ -2,8 +2,9 @@
 
 The template vehicle (a packaged one) supplies every field a log cannot determine; the
 fitted combinations are turned into the schema's fields with the declared mass, arm and
-rotor torque ratio (:func:`build_vehicle`). The result is validated by loading it back with
-the simulator's own loader (:func:`etsid.sim.vehicle.vehicle_from_dict`).
+rotor torque ratio (:func:`build_vehicle`). Every field's range is the simulator's one
+declaration (:mod:`etsid.sim.vehicle_params`); the result is validated by loading it back
+with the simulator's own loader (:func:`etsid.sim.vehicle.vehicle_from_dict`).
 """
 
 from __future__ import annotations
@@ -16,10 +17,12 @@ import numpy as np
 
 from etsid.fit.truth import effectiveness, vehicle_truth
 from etsid.sim.vehicle import Vehicle, vehicle_from_dict
+from etsid.sim.vehicle_params import in_range, is_number, vehicle_param
 
 
 def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str, Any],
-                  v0: float, name: str, description: str) -> Vehicle:
+                  v0: float, name: str, description: str,
+                  notes: list[str] | None = None) -> Vehicle:
     """The simulator vehicle with the fitted ``values`` (keys of
     :func:`etsid.fit.truth.vehicle_truth`; absent ones keep the template's).
 
@@ -28,6 +31,7 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
     geometry, the rotors' H-force (lumped into linear drag), a battery at the log's median
     voltage without sag.
     """
+    notes = [] if notes is None else notes
     base = vehicle_truth(template)
     data = template.to_dict()
     mass = template.mass
@@ -67,6 +71,7 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
     cells = max(1, round(v0 / 3.85))
     data["battery"].update(cells=int(cells), soc0=float(min(max((v0 / cells - 3.5) / 0.7,
                                                                   0.01), 1.0)), sag=False)
+    _keep_in_range(data, template.to_dict(), notes)
     fitted = vehicle_from_dict(data, f"fitted {name}")
     # controller gains scaled so the loop gain per axis is the template's
     ratio = effectiveness(template, base) / effectiveness(fitted, vehicle_truth(fitted))
@@ -77,7 +82,27 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
     for key in ("rate_kp", "rate_ki", "rate_kd"):
         ctl[key] = [float(g * r) for g, r in zip(ctl[key], np.clip(ratio, 0.05, 20.0),
                                                  strict=True)]
+    _keep_in_range(data, template.to_dict(), notes)
     return vehicle_from_dict(data, f"fitted {name}")
+
+
+def _keep_in_range(data: dict[str, Any], template: dict[str, Any], notes: list[str]) -> None:
+    """A fitted number outside its declared physical range (:mod:`etsid.sim.vehicle_params`)
+    is replaced by the template's, and said so in ``notes``."""
+    for section, values in data.items():
+        if not isinstance(values, dict):
+            continue
+        for key, value in values.items():
+            try:
+                param = vehicle_param(section, key)
+            except KeyError:
+                continue
+            items = value if isinstance(value, list) else [value]
+            if all(not is_number(v) or in_range(param, float(v)) for v in items):
+                continue
+            values[key] = template.get(section, {}).get(key, value)
+            notes.append(f"{section}.{key} = {value} is outside its physical range "
+                         f"({param.describe()}): the template's value is kept")
 
 
 def _toml_value(value: Any) -> str:

@@ -283,7 +283,7 @@ def choose(models: list[Any], cal: Calibration) -> str | None:
     (``name``, ``gain``, ``per_sample``, ``n_scored``, ``refused``), so that a benchmark can
     decide recorded runs again under another calibration."""
     def get(m: Any, key: str) -> Any:
-        return m[key] if isinstance(m, dict) else getattr(m, key)
+        return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
     singles = sorted((m for m in models if "+" not in get(m, "name")
                       and not get(m, "refused")), key=lambda m: -get(m, "gain"))
     if not singles or get(singles[0], "per_sample") <= cal.gain_per_sample:

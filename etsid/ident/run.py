@@ -184,6 +184,8 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
             reg = build(table, spec)
             excited = excited_mask(table, spec.outputs)[reg.rows]
             chosen.notes = [n for n in chosen.notes if not n.startswith("rules fire on")]
+        elif choice.chosen == "scheduled":
+            config = choice.config  # it may leave outputs unscheduled (structure.py)
         chosen.notes.append(choice.note)
     n = len(reg.X)
     dt = 1.0 / float(table.attrs["decimation"]["rate_hz"])

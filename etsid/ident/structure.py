@@ -18,7 +18,10 @@ The learning part's last ``validate`` share of excited rows is an inner validati
 is frozen and simulated over it. Criterion, fixed before any run: the mean free-run fit %
 over the body-rate outputs that move in the inner validation (std ≥ 0.05 rad/s); the
 simplest candidate (``arx`` < ``unscheduled`` < ``scheduled``) within :data:`MARGIN`
-points of the best is chosen, so a structure must earn its rules. The validation part is
+points of the best is chosen, so a structure must earn its rules. The same holds per output
+of a chosen scheduled model: an output whose scheduling gains less than :data:`MARGIN`
+points over one rule on the inner split (or that does not move there) gets one linear model
+shared by every rule (``--unscheduled``; :func:`unpaid_outputs`). The validation part is
 never looked at. When the learning part is too short for an inner split nothing can be
 checked, and the simplest candidate (one rule, ARX) is taken and said to be unchecked. On
 the validation part every candidate is scored and the chosen one is
@@ -158,7 +161,27 @@ def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
         (f" chosen on an inner split of the learning part (mean free-run fit % of "
          f"{'/'.join(spec.outputs[o] for o in moving)}: {text}; the simplest within "
          f"{MARGIN:g} points of the best; --structure to force)")
+    if chosen == "scheduled" and (config.unscheduled or "none").strip().lower() == "none":
+        flat = unpaid_outputs(fits, spec.outputs, moving)
+        if flat:
+            c_config = replace(c_config, unscheduled=",".join(flat))
+            gains = ", ".join(f"{y} {fits['scheduled'][y] - fits['arx'][y]:+.2f}" for y in flat)
+            note += (f"; {', '.join(flat)} not scheduled: one linear model shared by every "
+                     f"rule, the scheduling gaining less than {MARGIN:g} points of free-run "
+                     f"fit on the inner split there ({gains}; --structure scheduled to "
+                     "schedule every output)")
     return StructureChoice(chosen, c_spec, c_config, note, fits)
+
+
+def unpaid_outputs(fits: dict[str, dict[str, float]], outputs: tuple[str, ...],
+                   moving: list[int]) -> list[str]:
+    """Outputs of a chosen scheduled model whose scheduling does not pay on the inner split:
+    its free-run fit there is less than :data:`MARGIN` points above one rule's (ARX), or
+    the output does not move there (no evidence). Empty when that would be every output
+    (the scheduled model was chosen for some output's gain)."""
+    flat = [y for o, y in enumerate(outputs)
+            if o not in moving or not fits["scheduled"][y] >= fits["arx"][y] + MARGIN]
+    return flat if len(flat) < len(outputs) else []
 
 
 def validation_table(table: Any, reg: Regression, spec: RegressorSpec, config: IdentConfig,

@@ -8,10 +8,9 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from etsid.errors import EtsidError, IngestError, TableError
 from etsid.ingest.align import build_table, native_rate
@@ -20,6 +19,9 @@ from etsid.ingest.damage import decoder_errors, describe
 from etsid.ingest.detect import FORMATS, detect_format, open_reader
 from etsid.ingest.mapping import choose_signals
 from etsid.table import COLUMNS, is_table_path, load_table
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 __all__ = [
     "FORMATS",
@@ -183,6 +185,8 @@ def read_table(path: str | Path, options: ReadOptions | None = None,
     cut = table[(t >= lo) & (t <= hi)].copy()
     if len(cut) < 2:
         raise IngestError(f"{path}: the window --start/--end selects fewer than two rows")
+    import pandas as pd
+
     cut.index = pd.Index(cut.index.to_numpy(dtype=float) - cut.index[0], name="t")
     cut.attrs = dict(table.attrs)
     return cut

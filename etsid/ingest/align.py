@@ -20,9 +20,9 @@ Rules (docs/ingest.md):
 from __future__ import annotations
 
 from dataclasses import asdict
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from etsid.errors import IngestError
 from etsid.ingest.base import Issue, RawLog, Signal
@@ -30,6 +30,9 @@ from etsid.ingest.outputs import drop_unused_outputs
 from etsid.ingest.plausibility import check_signals
 from etsid.ingest.vehicle import FACTS
 from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 MAX_GRID_POINTS = 50_000_000
 """Refuse grids larger than this (a typo in ``--rate`` would otherwise exhaust memory)."""
@@ -184,6 +187,8 @@ def build_table(
     # segment counts up after every dropped stretch of the grid
     jumps = np.diff(grid) > 1.5 / rate
     data[SEGMENT] = np.concatenate(([0], np.cumsum(jumps))).astype(np.int64)
+    import pandas as pd
+
     table = pd.DataFrame(data, index=pd.Index(grid - grid[0], name="t"))
     for column in table.columns:
         if column != SEGMENT:

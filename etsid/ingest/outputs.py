@@ -14,8 +14,12 @@ warning.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 STILL_SPAN = 0.005
 """Peak-to-peak (share of the 0…1 output range) at or below which an output does not move:

@@ -175,8 +175,8 @@ def fig_structure(run: Run) -> Figure:
                       label="potential of the sample $P_k(z_k)$")
             ax_p.plot(t, hist["focal_max"].to_numpy(), color="tab:blue",
                       label="max focal potential")
-            ax_p.plot(t, hist["focal_min"].to_numpy(), color="tab:purple",
-                      label="min focal potential")
+            ax_p.plot(t, hist["focal_min"].to_numpy(), color="tab:purple", ls="--",
+                      label="min focal potential")  # dashed: equal to max with one rule
             ax_r.step(t, hist["n_rules"].to_numpy(), where="post", color="k",
                       label="rules")
             counts = hist.set_index("t")["n_rules"]

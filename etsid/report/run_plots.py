@@ -227,9 +227,11 @@ def structure_plots(run: Run, x_range: Any) -> list[Any]:
                         for c in ("potential", "focal_max", "focal_min", "n_rules")})
     pot = ia.time_figure("potential (–)", "(a) potential of each sample against the focal "
                          "potentials", x_range)
-    ia.add_lines(pot, src, [ia.Line("potential", "sample P(z)", "#999999", 0.7),
-                            ia.Line("focal_max", "max focal", "#1f77b4", 1.3),
-                            ia.Line("focal_min", "min focal", "#9467bd", 1.3)])
+    # min focal dashed over max focal (equal with one rule: both still show), the sample's
+    # potential thin and translucent on top of both (it sits on them while a rule leads)
+    ia.add_lines(pot, src, [ia.Line("focal_max", "max focal", "#1f77b4", 1.4),
+                            ia.Line("focal_min", "min focal", "#9467bd", 1.4, "dashed"),
+                            ia.Line("potential", "sample P(z)", "#666666", 0.8, "solid", 0.7)])
     count = ia.time_figure("rules", "(b) number of rules", x_range, height=150)
     ia.add_lines(count, src, [ia.Line("n_rules", "rules", "#222222", 1.5)], digits="0")
     ia.integer_axis(count)

@@ -205,3 +205,75 @@ def test_broken_files_give_model_error(tmp_path, text: str) -> None:
 def test_missing_file_gives_model_error(tmp_path) -> None:
     with pytest.raises(ModelError, match="cannot read"):
         ETS.load(tmp_path / "nope.json")
+
+
+def _kernel_run(monkeypatch, bounds: tuple[int, int], kw: dict, X: np.ndarray, Y: np.ndarray,
+                S: np.ndarray | None = None) -> tuple[ETS, np.ndarray]:
+    """Run with the kernel switch at ``bounds`` = (_RULE_MAJOR_MAX, _LANES_MIN)."""
+    import etsid.ets.model as model_module
+
+    monkeypatch.setattr(model_module, "_RULE_MAJOR_MAX", bounds[0])
+    monkeypatch.setattr(model_module, "_LANES_MIN", bounds[1])
+    model = ETS(**kw)
+    half = len(X) // 2
+    Yhat = np.concatenate([model.run(X[:half], Y[:half], None if S is None else S[:half]),
+                           model.run(X[half:], Y[half:], None if S is None else S[half:])])
+    return model, Yhat
+
+
+SWITCH_CONFIGS = [
+    dict(radius=0.25, max_rules=12, history_every=23),
+    dict(radius=0.25, max_rules=12, rls="global", forgetting=0.97, history_every=23),
+    dict(radius=0.2, variant="ets", max_rules=9, adaptive_spread=False, forgetting=1.0),
+    dict(radius=0.2, clustering="evq", max_rules=12, shared_outputs=[1]),
+]
+
+
+@pytest.mark.parametrize("kw", SWITCH_CONFIGS, ids=lambda c: "-".join(str(v) for v in c.values()))
+def test_rule_major_and_lanes_kernels_are_bit_identical(monkeypatch, kw: dict) -> None:
+    """learn_kernel alone, learn_lanes alone and the switching between them (rule counts
+    that cross the switch both ways) give the same predictions, state and history bit for
+    bit."""
+    X, Y = _stream(1500, seed=3)
+    runs = {name: _kernel_run(monkeypatch, bounds, kw, X, Y)
+            for name, bounds in (("rule-major", (10**6, 10**6)), ("lanes", (-1, -1)),
+                                 ("switching", (3, 5)))}  # fmt: skip
+    counts = runs["switching"][0].history.n_rules
+    assert counts.max() > 3  # the switch was crossed upwards ...
+    if kw.get("variant", "ets+") == "ets+":
+        assert np.any(np.diff(counts) < 0)  # ... and down (removals; eTS never removes)
+    base_model, base_yhat = runs["rule-major"]
+    base = base_model.export_state()
+    for name in ("lanes", "switching"):
+        model, yhat = runs[name]
+        np.testing.assert_array_equal(yhat, base_yhat, err_msg=name)
+        state = model.export_state()
+        for field in ("consequents", "covariances", "global_covariance", "focal_points",
+                      "radii", "potentials", "support", "shared_covariance"):
+            a, b = getattr(state, field), getattr(base, field)
+            if a is None:
+                assert b is None
+                continue
+            np.testing.assert_array_equal(a, b, err_msg=f"{name}: {field}")
+        h, hb = model.history, base_model.history
+        np.testing.assert_array_equal(h.potential, hb.potential)
+        np.testing.assert_array_equal(h.n_rules, hb.n_rules)
+        assert h.events == hb.events
+        assert [s["step"] for s in h.snapshots] == [s["step"] for s in hb.snapshots]
+        for s, sb in zip(h.snapshots, hb.snapshots, strict=True):
+            np.testing.assert_array_equal(s["consequents"], sb["consequents"])
+            np.testing.assert_array_equal(s["rule_ids"], sb["rule_ids"])
+
+
+@pytest.mark.parametrize("bounds", [(10**6, 10**6), (-1, -1)], ids=["rule-major", "lanes"])
+@pytest.mark.parametrize("rls", ["local", "global"])
+def test_each_learning_kernel_equals_numpy_reference(monkeypatch, bounds, rls: str) -> None:
+    X, Y = _stream(400, seed=2)
+    kw = dict(omega=1000.0, max_rules=10, utility_threshold=0.1, min_support=3,
+              prune_after=30, variant="ets+", rls=rls, forgetting=0.97, adaptive_spread=True)
+    model, Yhat = _kernel_run(monkeypatch, bounds, dict(radius=0.25, **kw), X, Y)
+    ref = ReferenceETS(3, 2, np.full(3, 0.25), **kw)
+    Yref = ref.run(X, Y)
+    assert model.history.n_rules.max() > 6  # both kernels see the larger rule bases
+    np.testing.assert_allclose(Yhat[1:], Yref[1:], rtol=1e-9, atol=1e-9)
+    assert [(e["step"], e["kind"], e["rule_id"]) for e in model.history.events] == ref.events

@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from etsid.gap.detectable import below_detectable
+from etsid.gap.result import clean, validate
 from etsid.gap.run import analyse
 from etsid.gap.verdict import Z_MISMATCH
 
@@ -53,6 +54,7 @@ def test_a_real_flight_against_its_table_copy_is_consistent(name: str, tmp_path:
     assert _worst(data) <= 1.0, data["nominal"]
     assert set(data["detectable"]) >= {"gyro_bias", "time_delay", "thrust_scale"}
     assert "could not have seen" in data["summary"]
+    validate(clean(data))
 
 
 def test_the_coax_octocopter_on_two_packs_is_one_airframe() -> None:

@@ -193,9 +193,12 @@ def test_a_pack_run_down_to_three_quarters_is_a_sag_not_another_airframe() -> No
 
 
 def test_its_look_alike_a_pack_with_a_cell_more_is_another_pack() -> None:
-    """An S500-class quad on a 4S pack against quad250 on 3S: 1.33× the voltage is no sag
-    (a recording's pack sags below a simulation's, not above it), so another pack and
-    another airframe."""
+    """An S500-class quad on a 4S pack against quad250 on 3S: 1.33× the voltage is another
+    pack, and a pack is a condition of the day, not evidence of another airframe (issue 39:
+    one coaxial octocopter flies a 4S and a 3S pack). Its hover command and authority are
+    within one quad250 with a fault, so the honest answer is a mismatch that names nothing
+    with confidence (as for the 3S S500 of benchmarks/gap_honesty.py), or another airframe
+    on structural evidence."""
     quad = load_vehicle("quad250")
     s500 = quad.with_settings({
         "mass": 1.25, "inertia.ixx": 0.011, "inertia.iyy": 0.012, "inertia.izz": 0.021,
@@ -203,9 +206,10 @@ def test_its_look_alike_a_pack_with_a_cell_more_is_another_pack() -> None:
         "rotor.inertia": 2.0e-5, "motor.omega_max": 1500.0, "motor.time_constant": 0.04,
         "battery.cells": 4, "motor.v_ref": 14.8})
     data = _gap(sim_vehicle=quad, real_vehicle=s500)
-    assert data["verdict"] == "different-vehicle", data["summary"]
+    assert data["verdict"] in ("different-vehicle", "mismatch"), data["summary"]
     assert data["vehicle_check"]["ratios"]["pack voltage"] > 1.3
-    assert any("pack voltage" in e for e in data["vehicle_check"]["evidence"])
+    assert not any("pack voltage" in e for e in data["vehicle_check"]["evidence"])
+    assert all(e["confidence"] < 0.5 for e in data["effects"]), data["summary"]
 
 
 def test_a_delay_is_said_as_a_later_response() -> None:
