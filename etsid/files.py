@@ -243,11 +243,11 @@ def loads_toml(text: str, source: str | Path, error: type[EtsidError] = EtsidErr
 def read_toml(path: str | Path, kind: str, error: type[EtsidError] = EtsidError,
               what: str = "TOML", max_depth: int = MAX_DEPTH) -> dict[str, Any]:
     """The TOML document in ``path``, bounded in bytes (``kind``) and depth."""
+    data = read_bytes(path, kind, error)
     try:
-        text = read_bytes(path, kind, error).decode("utf-8")
+        text = data.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise error(f"{path}: not a {what} (binary: not UTF-8 text at byte {err.start})"
-                    ) from err
+        raise error(f"{path}: not a {what} (not UTF-8 text: byte {err.start})") from err
     return loads_toml(text, path, error, what, max_depth)
 
 

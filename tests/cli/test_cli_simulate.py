@@ -34,7 +34,7 @@ def test_cli_set_changes_vehicle_and_scenario(tmp_path: Path) -> None:
     ("item", "code", "words"),
     [
         ("vehicle.thrust_scal=1.1", 1, ["unknown vehicle setting 'thrust_scal'"]),
-        ("vehicle.thrust_scale=-1", 1, ["effects.thrust_scale", "must lie in"]),
+        ("vehicle.thrust_scale=-1", 1, ["effects.thrust_scale", "must lie in [0.05, 20]"]),
         ("scenario.altitud=1", 1, ["unknown setting 'altitud'"]),
         ("altitude=1", 1, ["'vehicle.' or 'scenario.'"]),
         ("vehicle.cg_offset", 2, ["expected KEY=VALUE"]),
