@@ -172,9 +172,13 @@ def _same(expected: str, named: str) -> bool:
 
 # ---------------------------------------------------------------- fit
 def _quantile(values: list[float], alpha: float) -> float:
-    """(1 − α) quantile of a log-normal fitted to positive ``values``, never below their
-    maximum."""
-    v = np.log(np.maximum(np.asarray(values, dtype=float), 1e-9))
+    """(1 − α) quantile of a log-normal fitted to the positive ``values``, never below
+    their maximum (a value ≤ 0, a model that loses to its base, is below any threshold
+    and not part of the tail)."""
+    pos = [float(x) for x in values if x > 0]
+    if not pos:
+        return 0.0
+    v = np.log(np.asarray(pos))
     mu, sd = float(np.mean(v)), float(np.std(v, ddof=1)) if v.size > 1 else 1.0
     return float(max(np.exp(mu + stats.norm.ppf(1.0 - alpha) * sd), np.exp(v.max())))
 
@@ -216,7 +220,8 @@ def fit(args: argparse.Namespace) -> None:
         mismatch_ratio=_quantile(ratios, alpha), gain_per_sample=_quantile(gains, alpha),
         pair_gain_per_sample=_quantile(extras, alpha) if extras else _quantile(gains, alpha),
         false_positive_rate=alpha,
-        source={"generators": args.generators.split(","), "records": args.records,
+        source={"generators": args.generators.split(","),
+                "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
                 "rule": "log-normal (1 - rate) quantile of the no-effect pairs' largest "
                         "channel ratio and best single gain, and of the single-effect "
@@ -239,7 +244,7 @@ def score(args: argparse.Namespace) -> None:
     cal = load_calibration(args.calibration)
     rows = [r for r in load(args.records) if r["generator"] in args.generator.split(",")]
     right = total = fp = n_none = conf_n = conf_ok = oov_bad = 0
-    old_right = both = only_new = only_old = 0
+    old_right = old_total = both = only_new = only_old = 0
     for r in rows:
         d = decide(r, cal)
         exp = r["expected"]
@@ -262,6 +267,7 @@ def score(args: argparse.Namespace) -> None:
         old_ok = None
         if old is not None and not r.get("oov"):
             old_ok = _same(exp, old["answer"])
+            old_total += 1
             old_right += old_ok
             both += ok and old_ok
             only_new += ok and not old_ok
@@ -276,8 +282,9 @@ def score(args: argparse.Namespace) -> None:
           f"named at confidence >= 0.5: {oov_bad}; confidence >= {CONFIDENT}: "
           f"{conf_ok}/{conf_n} right")
     if any(r.get("old") for r in rows):
-        print(f"old method (tiers) named right {old_right}/{total}; both right {both}, only "
-              f"new {only_new}, only old {only_old}")
+        print(f"on the {old_total} of these pairs also run with the old method (tiers): old "
+              f"named right {old_right}/{old_total}; both right {both}, only new {only_new}, "
+              f"only old {only_old}")
 
 
 def main() -> None:

@@ -82,9 +82,10 @@ def phases(duration: float) -> None:
     import etsid.ident.run as run_module
     from etsid.ident import write_run
     from etsid.ident.inputs import load_for_ident
-    from etsid.sim.writers import write_log
+    from etsid.sim.writers.tlog import RATES, write_tlog
 
     spent: dict[str, float] = {}
+    by_name: dict[str, float] = {}
     stack: list[float] = []  # CPU time of the nested timed calls, to keep phases exclusive
 
     def timed(phase: str, fn):  # type: ignore[no-untyped-def]
@@ -97,20 +98,25 @@ def phases(duration: float) -> None:
                 inner = stack.pop()
                 dt = time.process_time() - t0
                 spent[phase] = spent.get(phase, 0.0) + dt - inner
+                by_name[fn.__name__] = by_name.get(fn.__name__, 0.0) + dt - inner
                 if stack:
                     stack[-1] += dt
         return wrapper
 
     for phase, names in PHASES.items():
         for name in names:
-            setattr(run_module, name, timed(phase, getattr(run_module, name)))
+            if hasattr(run_module, name):  # (older code may lack some of them)
+                setattr(run_module, name, timed(phase, getattr(run_module, name)))
+    # every stream at the 250 Hz of the simulation (status and heartbeat at their own rates)
+    rates = {name: (rate if rate < 10.0 else 250.0) for name, rate in RATES.items()}
     with tempfile.TemporaryDirectory() as tmp:
         warm = Path(tmp) / "warm.tlog"
-        write_log(simulate("hover-ige", duration=20.0, seed=99).table, warm)
+        write_tlog(simulate("hover-ige", duration=20.0, seed=99).table, warm, rates=rates)
         write_run(identify(load_for_ident(warm)), Path(tmp) / "warm_run")  # warm-up
         log = Path(tmp) / "flight.tlog"
-        write_log(simulate("hover-ige", duration=duration, seed=5).table, log)
+        write_tlog(simulate("hover-ige", duration=duration, seed=5).table, log, rates=rates)
         spent.clear()
+        by_name.clear()
         total0 = time.process_time()
         t0 = time.process_time()
         table = load_for_ident(log)
@@ -131,6 +137,8 @@ def phases(duration: float) -> None:
         v = spent.get(phase, 0.0)
         print(f"| {phase} | {v:.3f} | {100 * v / total:.0f} % |")
     print(f"| total | {total:.3f} | |")
+    top = sorted(by_name.items(), key=lambda kv: -kv[1])[:6]
+    print("largest calls: " + ", ".join(f"{name} {v:.3f} s" for name, v in top))
 
 
 def quality(scenario: str, seeds: list[int], config: IdentConfig, label: str) -> None:

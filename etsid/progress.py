@@ -86,6 +86,11 @@ class Narrator:
         self._stream: TextIO | None = None
         self._terminal = False
 
+    @property
+    def current(self) -> str | None:
+        """The step being said now (None: none)."""
+        return self._label
+
     def say(self, label: str, restart: bool = True) -> None:
         """``label`` is what is being done now; ``restart=False`` keeps the step's clock
         (a new percentage of the same step)."""

@@ -78,7 +78,8 @@ METRICS = _object(
 
 CONFIG = _object(
     schema=NAME, command=NAME, kind=NAME, etsid_version=NAME, created=NAME,
-    input=_object(path=NAME, sha256={"type": ["string", "null"], "maxLength": 200}),
+    input=_object(path={"type": ["string", "null"], "maxLength": 10_000},  # null: a table in memory
+                  sha256={"type": ["string", "null"], "maxLength": 200}),
     model=_object(outputs=_list_of(NAME, 1000)), parameters=OBJ, ets=OBJ, skipped=OBJ,
     warnings=_list_of(STR, 100_000),
 )

@@ -34,7 +34,7 @@ COMMAND_MODULES: dict[str, str] = {
 that ``etsid inspect`` does not pay for matplotlib, scipy or numba."""
 
 COMMAND_HELP: dict[str, str] = {
-    "batch": "Run inspect, ingest, identify or gap over many logs: a result row per log.",
+    "batch": "Run inspect, ingest, identify, gap or fit over many logs: a result row per log.",
     "control": "Fly SCENARIO with the vertical loop closed by CONTROLLER; write RUN_DIR and "
                "figures.",
     "fit": "Fit an airframe's physical parameters from its LOGS (flights of one airframe, "
@@ -71,7 +71,7 @@ class EtsidGroup(click.Group):
         rows = []
         for name in names:
             if name in COMMAND_HELP:
-                text = click.utils.make_default_short_help(COMMAND_HELP[name], limit)
+                text = click.Command(name, help=COMMAND_HELP[name]).get_short_help_str(limit)
             else:  # a command added at run time
                 text = self.commands[name].get_short_help_str(limit)
             rows.append((name, text))

@@ -152,7 +152,7 @@ _INPUTS = click.argument("logs", nargs=-1, required=True, metavar="INPUTS...")
 
 @click.group()
 def batch() -> None:
-    """Run inspect, ingest, identify or gap over many logs: a result row per log.
+    """Run inspect, ingest, identify, gap or fit over many logs: a result row per log.
 
     INPUTS are log files, directories (searched recursively for every supported format;
     a directory with metadata.yaml is a ROS 2 bag), text files (.txt/.list) listing

@@ -835,3 +835,75 @@ def learn_kernel(
         if nev[0] > ev_cap or max_rules_here < R:
             return t + 1
     return N
+
+
+@njit(cache=True, boundscheck=False)
+def predict_setup(lo, hi, rad, n_rules, n, xo):
+    """The frozen model's inverse input widths 1/s (n,) and firing coefficients (R, na), as
+    ``predict_kernel`` computes them (for :func:`predict_row`)."""
+    d = lo.shape[0]
+    s = np.empty(d)
+    w2 = np.empty(d)
+    isx = np.empty(n)
+    _refresh_scales(lo, hi, s, w2, isx, n, xo)
+    ac = np.empty((n_rules, rad.shape[1]))
+    for i in range(n_rules):
+        _sync_rule(i, rad, s, ac)
+    return isx, ac
+
+
+@njit(cache=True, boundscheck=False)
+def predict_row(x, sv, out, frozen, work) -> bool:
+    """One prediction of the frozen model (at least one rule) for consequent inputs ``x``
+    (n,) and antecedent inputs ``sv`` (na,): the arithmetic of ``predict_kernel`` for one row,
+    in the same order (bit-identical). ``frozen`` packs, flat, the consequent inputs' ``lo``
+    (n), ``1/s`` (n), then per rule its focal point on the antecedents (na), firing
+    coefficients (na) and consequents (n + 1, m) (``ETS`` builds it once per rule base, from
+    :func:`predict_setup`); ``work`` holds 2 R + n + 1 values. Few arguments on purpose: the
+    call is made once per free-run step and numba checks every argument's type. Returns
+    False, without predicting, when an input is not finite."""
+    n = x.shape[0]
+    for j in range(n):
+        if not np.isfinite(x[j]):
+            return False
+    for j in range(sv.shape[0]):
+        if not np.isfinite(sv[j]):
+            return False
+    na = sv.shape[0]
+    m = out.shape[0]
+    n1 = n + 1
+    stride = 2 * na + n1 * m
+    R = (frozen.shape[0] - 2 * n) // stride
+    ex = work[:R]
+    lam = work[R : 2 * R]
+    xe = work[2 * R :]
+    emin = np.inf
+    for i in range(R):
+        b = 2 * n + i * stride
+        e = 0.0
+        for j in range(na):
+            dj = sv[j] - frozen[b + j]
+            e += dj * dj * frozen[b + na + j]
+        ex[i] = e
+        emin = min(emin, e)
+    tot = 0.0
+    for i in range(R):
+        v = np.exp(emin - ex[i])
+        lam[i] = v
+        tot += v
+    itot = 1.0 / tot
+    for i in range(R):
+        lam[i] *= itot
+    xe[0] = 1.0
+    for j in range(n):
+        xe[j + 1] = (x[j] - frozen[j]) * frozen[n + j]
+    for o in range(m):
+        acc = 0.0
+        for i in range(R):
+            b = 2 * n + i * stride + 2 * na
+            yr = 0.0
+            for a in range(n1):
+                yr += xe[a] * frozen[b + a * m + o]
+            acc += lam[i] * yr
+        out[o] = acc
+    return True

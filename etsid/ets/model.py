@@ -11,7 +11,7 @@ import numpy as np
 
 from etsid.ets import layout as L
 from etsid.ets.history import History, HistoryRecorder
-from etsid.ets.kernels import learn_kernel, predict_kernel
+from etsid.ets.kernels import learn_kernel, predict_kernel, predict_row, predict_setup
 from etsid.ets.kernels_lanes import learn_lanes
 from etsid.ets.normalisation import scales
 from etsid.ets.params import CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
 #: most consequent snapshots / events one learning-kernel call buffers before it returns
-_SNAPSHOTS_PER_CALL = 64
+_SNAPSHOTS_PER_CALL = 16
 _EVENTS_PER_CALL = 4096
 #: rule counts where learning switches kernels: the rule-major ``learn_kernel`` runs while
 #: R <= _RULE_MAJOR_MAX, ``learn_lanes`` (vectorised across rules) while R >= _LANES_MIN;
@@ -288,6 +288,7 @@ class ETS:
             "Cs": (float(self.omega) * np.eye(n + 1) if shared.any() else np.zeros((1, 1))),
         }
         self.recorder_ = HistoryRecorder()
+        self._predictor: tuple[np.ndarray, np.ndarray] | None = None
 
     def _kernel_params(self) -> tuple[np.ndarray, np.ndarray]:
         ip = np.zeros(L.N_IP, dtype=np.int64)
@@ -365,6 +366,7 @@ class ETS:
             self._init_state(Xa.shape[1], Ya.shape[1], None if S is None else Sa.shape[1])
             self.y_1d_ = y1d
         st = self.state_
+        self._predictor = None  # the state changes: the frozen one-row predictor is stale
         ip, fp = self._kernel_params()
         N = Xa.shape[0]
         n, m = self.n_inputs_, self.n_outputs_
@@ -432,10 +434,41 @@ class ETS:
         return Yhat[:, 0] if self.y_1d_ else Yhat
 
     def predict_one(self, x: Any, s: Any = None) -> np.ndarray:
-        """Predict one sample ``x`` (n,) (and ``s`` (na,) if scheduled); shape (m,)."""
+        """Predict one sample ``x`` (n,) (and ``s`` (na,) if scheduled); shape (m,).
+
+        Bit-identical to ``predict`` on one row; the frozen model's widths and firing
+        coefficients are kept between calls (until the model learns again), so a free-run
+        simulation that calls this once per step pays little more than the arithmetic."""
+        fast = self._predict_fast(x, s)
+        if fast is not None:
+            return fast
         S = None if s is None else np.atleast_2d(np.asarray(s, dtype=np.float64))
         y = self.predict(np.atleast_2d(np.asarray(x, dtype=np.float64)), S)
         return np.atleast_1d(y[0])
+
+    def _predict_fast(self, x: Any, s: Any) -> np.ndarray | None:
+        """``predict_one`` through :func:`~etsid.ets.kernels.predict_row`; None when the
+        checked path must run (not fitted, no rule, wrong shape, non-finite input)."""
+        if not self._fitted or self.n_rules == 0 or self.scheduled_ != (s is not None):
+            return None
+        xa = np.asarray(x, dtype=np.float64)
+        if xa.shape != (self.n_inputs_,):
+            return None
+        sv = xa if s is None else np.asarray(s, dtype=np.float64)
+        if sv.shape != (self.n_antecedents_,):
+            return None
+        if self._predictor is None:
+            st, R, n, xo = self.state_, self.n_rules, self.n_inputs_, self.x_offset_
+            na = self.n_antecedents_
+            isx, ac = predict_setup(st["lo"], st["hi"], st["rad"], R, n, xo)
+            per_rule = np.concatenate([st["cz"][:R, :na], ac, st["Pi"][:R].reshape(R, -1)],
+                                      axis=1)
+            self._predictor = (np.concatenate([st["lo"][xo : xo + n], isx, per_rule.ravel()]),
+                               np.empty(2 * R + n + 1))
+        frozen, work = self._predictor
+        out = np.empty(self.n_outputs_)
+        ok = predict_row(np.ascontiguousarray(xa), np.ascontiguousarray(sv), out, frozen, work)
+        return out if ok else None
 
     # ------------------------------------------------------------------ inspection
     @property

@@ -28,6 +28,11 @@ STANDARD_LAYOUTS: dict[int, tuple[list[float], list[str]]] = {
 """Rotor angles (deg clockwise from the nose) and spins of PX4's Quad X, Hexa X and
 Octo coax X, in output order (docs/physics.md, PX4 airframe reference)."""
 
+NOT_MULTIROTOR = ("fixed wing", "plane", "vtol", "helicopter", "rover", "submarine", "boat",
+                  "airship")
+"""Vehicle kinds (``attrs["vehicle"]``) whose outputs are not all rotors (a QuadPlane's
+servos move in flight like motors and would be taken for an octocopter)."""
+
 DEFAULT_ARM = 0.25
 """m, declared arm length when the log has no geometry (a mid-size frame), or when its
 geometry is in nominal units (PX4's default CA_ROTOR positions are ±1: arms over 1 m are
@@ -60,6 +65,11 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
     """
     n = len(motors)
     src = table.attrs.get("source", "table")
+    kind = str(table.attrs.get("vehicle", "")).lower()
+    if any(word in kind for word in NOT_MULTIROTOR):
+        raise FitError(f"{src}: the log names a {kind} ({table.attrs.get('firmware', '')}"
+                       "): its outputs drive control surfaces too; etsid fit models "
+                       "multirotors only")
     if n < 4:
         raise FitError(f"{src}: {n} active motor output(s) ({', '.join(motors) or 'none'}); "
                        "a multirotor fit needs at least 4")

@@ -405,7 +405,8 @@ def make_control_report(run_dir: str | Path, fmt: str = "png",
                     f"{esc(run.path.parent / f'control-{scenario}-{twin}')}</code> then "
                     f"<code>etsid report {esc(run.path)}</code> draws the two together.</p>")
     body += ['<h2 id="tracking">Tracking</h2>', f'<p class="hint">{esc(HINT)}</p>',
-             "<p>Reference dashed orange on top; grey: the first seconds, not scored (the "
+             "<p>Reference: the wide pale orange band under the heights; this run solid, "
+             "the run beside it dashed on top; grey: the first seconds, not scored (the "
              "eTS controller starts from zero rules).</p>", divs.get("tracking", "")]
     head = ["metric", me] + ([str(other.metrics.get("controller"))] if other else [])
     body += ['<h2 id="metrics">Metrics</h2>',

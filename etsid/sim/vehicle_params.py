@@ -264,13 +264,32 @@ def hover_geometry_problem(angles_deg: list[float]) -> str:
     """Why rotors at these arm angles cannot hold the CG ("" if they can).
 
     The CG (the origin) must lie strictly inside the polygon of the rotor hubs, or no
-    combination of non-negative thrusts balances roll and pitch: so no two rotors may sit
-    at the same angle and no gap between neighbouring arms may reach 180°.
+    combination of non-negative thrusts balances roll and pitch: so no gap between
+    neighbouring arms may reach 180°. Two rotors may share an arm (a coaxial pair, as on an
+    X8 octocopter); three on one arm, or two a fraction of a degree apart, are a typo.
+
+    >>> hover_geometry_problem([45, 45, 315, 315, 225, 225, 135, 135])
+    ''
+    >>> hover_geometry_problem([45, 45, 45, 315, 225, 135])
+    'has more than two rotors on one arm'
     """
     ring = sorted(a % 360.0 for a in angles_deg)
+    arms: list[list[float]] = []
+    for a in ring:
+        if arms and a - arms[-1][0] < 1.0:
+            arms[-1].append(a)
+        else:
+            arms.append([a])
+    if len(arms) > 1 and ring[-1] - 360.0 > arms[0][0] - 1.0:   # wrap-around at 0°/360°
+        arms[0] += arms.pop()
+    if any(len(arm) > 2 for arm in arms):
+        return "has more than two rotors on one arm"
+    if any(len(arm) == 2 and abs(arm[1] - arm[0]) % 360.0 > 1e-6 for arm in arms):
+        return "has two rotors within 1° of each other (a coaxial pair shares one angle)"
+    ring = [arm[0] for arm in arms]
+    if len(ring) < 3:
+        return "has fewer than three arms: the CG is not inside the rotors"
     gaps = [b - a for a, b in itertools.pairwise(ring)] + [ring[0] + 360.0 - ring[-1]]
-    if min(gaps) < 1.0:
-        return "has two rotors within 1° of each other"
     if max(gaps) >= 180.0:
         return (f"leaves a gap of {max(gaps):.0f}° between neighbouring arms: the CG is not "
                 "inside the rotors, the vehicle cannot hover")

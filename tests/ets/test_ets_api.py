@@ -165,6 +165,8 @@ def test_core_imports_nothing_else_of_etsid() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     mods = eval(out.stdout)
-    # etsid.files: the one opener every file is read through (standard library only)
-    assert all(m in ("etsid", "etsid.errors", "etsid.files") or m.startswith("etsid.ets")
+    # etsid.files: the one opener every file is read through (standard library only);
+    # etsid.cachedir: the package root points numba at the user cache (issue 43)
+    assert all(m in ("etsid", "etsid.errors", "etsid.files", "etsid.cachedir")
+               or m.startswith("etsid.ets")
                for m in mods), mods

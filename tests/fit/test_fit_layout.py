@@ -47,3 +47,10 @@ def test_log_geometry_in_metres_gives_the_arm_and_nominal_units_do_not() -> None
 def test_too_few_motors_is_a_one_line_error_naming_the_file() -> None:
     with pytest.raises(FitError, match=r"x\.ulg: 2 active motor output"):
         rotor_layout(_table(2), ["m1", "m2"])
+
+
+def test_a_fixed_wing_log_is_refused_not_taken_for_an_octocopter() -> None:
+    t = _table(8)
+    t.attrs["vehicle"] = "fixed wing"
+    with pytest.raises(FitError, match="multirotors only"):
+        rotor_layout(t, [f"m{i}" for i in range(1, 9)])

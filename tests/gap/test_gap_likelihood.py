@@ -153,3 +153,26 @@ def test_a_long_flight_is_read_as_evenly_spread_windows():
                                  z[:5000], z[:5000], z[:5000], z[:5000], np.zeros(5000),
                                  np.zeros(5000), air[:5000], set()))
     assert none is None and short.n == 5000
+
+
+def test_likelihood_method_names_a_known_thrust_loss_and_writes_valid_gap_json(tmp_path):
+    from etsid.gap.result import write_gap_json
+    from etsid.gap.run import analyse
+    from etsid.sim import simulate
+
+    kw = {"alt_wander": 0.3, "amplitude": 0.4}
+    sim = simulate("hover-oge", "quad250", duration=35.0, seed=11, **kw).table
+    real = simulate("hover-oge", "quad250", duration=35.0, seed=12,
+                    settings={"vehicle.thrust_scale": 0.85}, **kw).table
+    data = analyse(sim, real, "sim", "real", method="likelihood").data
+    assert data["verdict"] == "mismatch"
+    named = {e["name"]: e for e in data["effects"]}
+    assert "thrust_scale" in named or "mass" in named  # one thrust-to-weight from accelerations
+    if "thrust_scale" in named:
+        assert named["thrust_scale"]["parameters"]["scale"]["value"] == pytest.approx(0.85,
+                                                                                     abs=0.03)
+    crit = data["criterion"]
+    assert crit["method"] == "likelihood"
+    best = max(crit["models"], key=lambda m: m["gain"])
+    assert best["per_sample"] > crit["thresholds"]["gain_per_sample"]
+    write_gap_json(data, tmp_path)  # validates against the schema

@@ -48,3 +48,21 @@ def test_the_better_baseline_is_used_for_an_axis_behind() -> None:
     assert fallbacks(_outputs(0.02, 0.01, 0.005, informative=False)) == {}
     line = behind_lines(_outputs(0.0243, 0.0243, 0.0211), 1, 40.0, 50.0, 39)[0]
     assert line.endswith("p falls back to no-change (metrics.json outputs.p.used)")
+
+
+def test_too_little_data_to_check_keeps_the_simplest() -> None:
+    """A 4 s flight with altitude (the scheduled candidate exists): its learning part is too
+    short for the inner split, so nothing can be checked and one rule (ARX) is kept and said
+    to be unchecked (before issue 41 the scheduled model was kept)."""
+    import numpy as np
+
+    from etsid.ident import IdentConfig, identify
+    from etsid.ident.synthetic import rate_table
+
+    table = rate_table(1000, seed=2, segments=1)
+    table["alt"] = 0.3 + 0.2 * np.sin(np.arange(len(table)) / 200.0)
+    run = identify(table, IdentConfig(segments="all"))
+    note = next(n for n in run.config["model"]["notes"] if n.startswith("structure: "))
+    assert note.startswith("structure: one rule (ARX), the simplest, unchecked")
+    assert run.metrics["rules"]["frozen"] == 1
+    assert run.config["parameters"]["max_rules"] == 1

@@ -95,8 +95,11 @@ def test_rates_figure_has_full_and_zoom_panels_per_output() -> None:
     assert all(len(ax.get_lines()) == 2 for ax in fig.axes)
     zoom = fig.axes[1].get_xlim()
     assert zoom[1] - zoom[0] < 0.2 * (fig.axes[0].get_xlim()[1] - fig.axes[0].get_xlim()[0])
-    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == [
-        "measured", "eTS one-step"]
+    # one legend above the panels (outside the data), measured first: drawn under
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["measured", "eTS one-step"]
+    assert all(ax.get_legend() is None for ax in fig.axes)
+    measured, hat = fig.axes[0].get_lines()
+    assert measured.get_zorder() < hat.get_zorder()
 
 
 def test_structure_figure_marks_events() -> None:
@@ -145,15 +148,26 @@ def test_residual_figure_band_and_histogram() -> None:
     assert "95 % band" in ax_a.get_legend().get_texts()[1].get_text()
 
 
-def test_validation_figure_measured_on_top_and_error_panels() -> None:
+def test_validation_figure_measured_under_and_error_panels() -> None:
+    """Measured thin and under (it used to hide the free runs); each model its own dash;
+    legends outside the plot areas."""
     fig = fig_validation(fake_run())
     assert len(fig.axes) == 6  # per output: the series and their free-run errors
     series, errors = fig.axes[0], fig.axes[1]
     lines = series.get_lines()
-    assert [ln.get_label() for ln in lines][-1] == "measured"
-    assert lines[-1].get_zorder() > max(ln.get_zorder() for ln in lines[:-1])
-    assert lines[-1].get_linewidth() > max(ln.get_linewidth() for ln in lines[:-1])
-    labels = [t.get_text() for t in errors.get_legend().get_texts()]
+    assert lines[0].get_label() == "measured"
+    assert lines[0].get_zorder() < min(ln.get_zorder() for ln in lines[1:])
+    assert lines[0].get_linewidth() < min(ln.get_linewidth() for ln in lines[1:] if
+                                          ln.get_linestyle() == "-")
+    assert len({ln.get_linestyle() for ln in lines[1:]}) == 3
+    assert series.get_legend() is None and fig.legends
+    legend = errors.get_legend()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)  # right of the data, not on it
+    assert legend.get_window_extent(renderer).x0 >= errors.get_window_extent(renderer).x1
+    labels = [t.get_text() for t in legend.get_texts()]
     # fake_run: ARX free run = 0.9 × truth, eTS = 1.05 × truth: ARX's error is twice eTS's
     rmse = {lab.split()[0]: float(lab.split()[-1]) for lab in labels}
     assert rmse["ARX"] > 1.5 * rmse["eTS"]

@@ -72,7 +72,7 @@ def test_report_folder_follows_the_umask_and_says_what_it_does(
     finally:
         os.umask(old)
     assert report.directory.stat().st_mode & 0o777 == 0o755
-    assert said[0] == "report: drawing 1 static figure (png) …"
+    assert said[0] == "report: drawing static figure 1/1, rates.png …"
     assert any("flight overview" in s for s in said)
 
 

@@ -1,0 +1,76 @@
+"""Whole-process time of commands that should start at once: ``etsid --help`` and
+``etsid inspect`` on small logs (imports, numba cache loading and the work).
+
+Run from the repository root::
+
+    python benchmarks/startup.py                       # this code
+    python benchmarks/startup.py --baseline ../old     # and another checkout, alternating
+
+Each command runs ``--repeats`` times in a fresh ``python -m etsid`` process (this code and,
+with ``--baseline DIR``, the code in DIR through ``PYTHONPATH``, alternating); printed are
+the best and median wall time and the best CPU time (user + system of the child). The
+machine's load inflates wall times; the CPU column is the steadier figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+LOGS = ROOT / "sample_logs"
+COMMANDS = [
+    ["--help"],
+    ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.tlog")],
+    ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.bag")],
+    ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.mcap")],
+]
+
+
+def once(root: Path, args: list[str]) -> tuple[float, float]:
+    """Wall and CPU seconds of one ``python -m etsid ARGS`` with ``root`` on PYTHONPATH (and
+    as the working directory, which ``python -m`` puts first on the path)."""
+    env = dict(os.environ, PYTHONPATH=str(root))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "etsid", *args], cwd=root, env=env, check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--baseline", metavar="DIR", help="another checkout, timed alternately")
+    args = ap.parse_args()
+    roots = {"this": ROOT}
+    if args.baseline:
+        roots = {"before": Path(args.baseline).resolve(), "after": ROOT}
+    for root in roots.values():  # warm the numba caches and the OS file cache
+        for cmd in COMMANDS:
+            once(root, cmd)
+    print("| command | code | wall best (s) | wall median (s) | CPU best (s) |")
+    print("|---|---|---|---|---|")
+    for cmd in COMMANDS:
+        runs: dict[str, list[tuple[float, float]]] = {tag: [] for tag in roots}
+        for _ in range(args.repeats):
+            for tag, root in roots.items():
+                runs[tag].append(once(root, cmd))
+        for tag, values in runs.items():
+            walls = [w for w, _ in values]
+            cpu = min(c for _, c in values)
+            print(f"| etsid {' '.join(cmd)} | {tag} | {min(walls):.2f} | "
+                  f"{statistics.median(walls):.2f} | {cpu:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
