@@ -31,7 +31,7 @@ from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.noise import fit_noise
 from etsid.gap.nominal import CUTOFF_HZ, LABELS, UNITS, NominalModel, measured
 from etsid.gap.signals import Flight
-from etsid.gap.summary import NICE, summary_sentence
+from etsid.gap.summary import NICE, effect_params, summary_sentence
 from etsid.gap.verdict import at_bound, worsened
 
 LOOK_ALIKE_NATS = 1.0
@@ -68,11 +68,7 @@ def _entry(cand, theta: np.ndarray, err: np.ndarray, crit: Criterion, chosen: Ev
            res0: dict[str, np.ndarray], res1: dict[str, np.ndarray], hold: np.ndarray
            ) -> dict[str, Any]:
     chans = [c for c in cand.channels if c in res0]
-    params = {p.name: {"value": float(v), "unit": p.unit,
-                       "stderr": float(e) if np.isfinite(e) else None}
-              for p, v, e in zip(cand.params, theta, err, strict=True)}
-    if cand.motor is not None:
-        params["motor"] = {"value": cand.motor + 1, "unit": ""}
+    params = effect_params(cand, theta, err)
     before = {c: float(np.sqrt(np.mean(res0[c][hold] ** 2))) for c in chans}
     after = {c: float(np.sqrt(np.mean(res1[c][hold] ** 2))) for c in chans}
     weight = effect_weight(crit, cand.name)

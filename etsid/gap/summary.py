@@ -47,16 +47,23 @@ def _confidence(name: str, sel: Any) -> float:
     return float(np.clip((own - max(best_alt, 0.0)) / own + 0.5 * min(own, 1.0), 0.0, 1.0))
 
 
+def effect_params(cand: Candidate, theta: np.ndarray, err: np.ndarray) -> dict[str, Any]:
+    """gap.json ``parameters`` of a fitted effect: each value with its unit and standard
+    error (None where not finite), and the motor (numbered from 1) of a per-motor effect."""
+    params: dict[str, Any] = {p.name: {"value": float(v), "unit": p.unit,
+                                       "stderr": float(e) if np.isfinite(e) else None}
+                              for p, v, e in zip(cand.params, theta, err, strict=True)}
+    if cand.motor is not None:
+        params["motor"] = {"value": cand.motor + 1, "unit": ""}
+    return params
+
+
 def effect_entry(cand: Candidate, theta: np.ndarray, err: np.ndarray, single: Any, sel: Any,
                  scorer: Scorer, hold: np.ndarray, res0: dict[str, np.ndarray]
                  ) -> dict[str, Any]:
     """gap.json entry of one selected effect."""
     chans = [c for c in cand.channels if c in res0]
-    params = {p.name: {"value": float(v), "unit": p.unit,
-                       "stderr": float(e) if np.isfinite(e) else None}
-              for p, v, e in zip(cand.params, theta, err, strict=True)}
-    if cand.motor is not None:
-        params["motor"] = {"value": cand.motor + 1, "unit": ""}
+    params = effect_params(cand, theta, err)
     mods = single.fit.mods if single is not None else sel.chosen.fit.mods
     res1 = scorer.residuals(mods)
     before = {c: float(np.sqrt(np.mean(res0[c][hold] ** 2))) for c in chans}
