@@ -213,6 +213,11 @@ def summary_sentence(data: dict[str, Any]) -> str:
                    else "") for c, v in left.items()]
         lead = "Still mismatched on held-out data" + (" after that" if names else "")
         parts.append(f"{lead}: {'; '.join(bits)}.")
+    covered = {c for e in names for c in e.get("channels", [])} | set(left)
+    alone = [LABELS[c] for c in mis["channels"] if c not in covered]
+    if names and alone:  # a mismatched channel no named effect acts on
+        parts.append(f"Unexplained: {', '.join(alone)} — no named effect acts on "
+                     f"{'it' if len(alone) == 1 else 'them'}.")
     main = mis["channels"][0]
     b, a = data["rmse_before"].get(main), data["rmse_after"].get(main)
     loop = data.get("loop_fit")

@@ -1,0 +1,32 @@
+"""The gap summary says which mismatched channel stayed unexplained (issue 43, item 5)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from etsid.gap.nominal import LABELS
+from etsid.gap.summary import summary_sentence
+
+
+def _mismatch(channels: list[str], effect_channels: list[str]) -> dict[str, Any]:
+    """A gap.json body of a mismatch on ``channels`` with one time delay named that acts
+    on ``effect_channels``."""
+    return {
+        "verdict": "mismatch", "sim": {"file": "sim.ulg"}, "real": {"file": "real.ulg"},
+        "mismatch": {"channels": channels, "regime": {"variable": "none"}},
+        "nominal": {"z_all": {c: 9.0 for c in channels}},
+        "effects": [{"name": "time_delay", "channels": effect_channels, "confidence": 0.8,
+                     "parameters": {"delay": {"value": 0.04, "unit": "s"}}}],
+        "rmse_before": {c: 1.0 for c in channels}, "rmse_after": {c: 0.5 for c in channels},
+    }
+
+
+def test_a_mismatched_channel_no_named_effect_acts_on_is_said_unexplained() -> None:
+    text = summary_sentence(_mismatch(["q", "p"], ["p"]))
+    assert "40 ms later" in text
+    unexplained = text.split("Unexplained: ", 1)[1]
+    assert unexplained.split(" — ")[0] == LABELS["q"]
+
+
+def test_no_unexplained_sentence_when_the_named_effect_acts_on_every_channel() -> None:
+    assert "Unexplained" not in summary_sentence(_mismatch(["q", "p"], ["p", "q"]))
