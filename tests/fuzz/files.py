@@ -525,6 +525,20 @@ def _set_first_chunk_size(path: Path, declared: int) -> None:
     path.write_bytes(bytes(data))
 
 
+CASES += [
+    Case("bagdir-mcap-lying-chunk", _bag_dir_lying_chunk(), columns=structure.RATES,
+         rows=2800, note=("skipped 1 damaged stretch", "decompresses to more than"), cheap=True,
+         what="ROS 2 bag directory (MCAP storage, indexed): its first chunk's lz4 data "
+              "replaced by 4 GiB of zeros, the header stating 64 KiB (rosbags' path)"),
+    Case("bagdir-mcap-lying-chunk-unindexed", _bag_dir_lying_chunk(indexed=False),
+         columns=structure.RATES, rows=2800, note=("skipped 1 damaged stretch",),
+         what="the same without chunk index (rosbags decompresses every chunk at open)"),
+    Case("bagdir-mcap-chunk-declares-1tib", _bag_dir_lying_chunk(nbytes=1 << 20,
+                                                                  declared=1 << 40),
+         columns=structure.RATES, rows=2800, note=("skipped 1 damaged stretch", "declares"),
+         what="ROS 2 bag directory (MCAP storage): a chunk (and its index entry) declaring "
+              "1 TiB decompressed, far above the file's size"),
+]
 CASES.append(Case("bagdir-mcap-lz4-bomb", _bag_dir_bomb, columns=structure.RATES, rows=2900,
                   what="ROS 2 bag directory (MCAP storage): a 4 GiB lz4 chunk of zeros "
                        "declared as 1 MiB (the rosbags storage path)"))
