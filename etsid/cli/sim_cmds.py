@@ -171,6 +171,7 @@ def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: i
             ground_effect: bool, settings: dict, mode: str, loop_input: str, thrust: str,
             horizon: float, noise: str = "log") -> None:
     from etsid.ingest import read_log
+    from etsid.sim.flight import refuse_non_finite
     from etsid.sim.replay import replay
 
     scenario_keys = [k for k in settings if not k.startswith("vehicle.")]
@@ -181,6 +182,8 @@ def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: i
     result = replay(table, vehicle, mode=mode, loop_input=loop_input, thrust=thrust,
                     horizon=horizon, ground_effect=ground_effect, seed=seed,
                     settings=settings, noise=noise)
+    refuse_non_finite(result.table, f"{log}: replay twin with vehicle {result.vehicle.name!r}",
+                      "check the log's initial states and commands, the vehicle and settings")
     written = _write(result.table, result.truth, out, fmt)
     t = result.table.index
     click.echo(f"{written}: twin of {log} ({mode} replay, {t[-1] - t[0]:.1f} s), vehicle "

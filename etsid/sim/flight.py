@@ -27,8 +27,10 @@ MAX_SIM_BYTES = 2 * 2**30
 about 0.6 GiB."""
 
 
-def refuse_non_finite(table: pd.DataFrame, what: str) -> None:
+def refuse_non_finite(table: pd.DataFrame, what: str,
+                      hint: str = "check the vehicle's fields and the settings") -> None:
     """Refuse a simulated table holding a NaN or infinity: the physics left its domain.
+    One check for every table the simulator writes (scenarios and ``--replay`` twins).
 
     Raises
     ------
@@ -44,7 +46,7 @@ def refuse_non_finite(table: pd.DataFrame, what: str) -> None:
     share = 100.0 * bad.any(axis=1).mean()
     raise SimError(f"{what}: the simulation left the physics' domain: {table.columns[cols[first]]} "
                    f"is not finite from t = {table.index[rows[first]]:.3f} s ({share:.0f} % of "
-                   "the rows); check the vehicle's fields and the settings")
+                   f"the rows); {hint}")
 
 PROGRESS_STEPS = 50
 """Pieces a flight is flown in when the CLI shows progress (the same flight, bit for bit)."""

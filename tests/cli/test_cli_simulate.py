@@ -92,3 +92,27 @@ def test_parse_value_uses_toml_and_bare_words() -> None:
     assert parse_value('"a b"') == "a b"
     with pytest.raises(ValueError, match="is not a number"):
         parse_value("[1,")
+
+
+def test_cli_replay_refuses_a_non_finite_twin(tmp_path: Path) -> None:
+    """A recorded vz of 1e200 m/s as the twin's initial state: the physics overflows; the
+    twin is refused in one line naming the first channel and time, and nothing is written
+    (the same log with its vz as recorded gives a finite twin)."""
+    log = tmp_path / "flight.parquet"
+    runner = CliRunner()
+    result = runner.invoke(cli, ["simulate", "hover-oge", "--duration", "2", "-o", str(log)])
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "twin.parquet"
+    result = runner.invoke(cli, ["simulate", "--replay", str(log), "-o", str(out)])
+    assert result.exit_code == 0 and out.exists(), result.output
+    out.unlink()
+    table = pd.read_parquet(log)
+    table["vz"] = 1e200
+    table.to_parquet(log)
+    result = runner.invoke(cli, ["simulate", "--replay", str(log), "-o", str(out)])
+    assert result.exit_code == 1, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr
+    assert "replay twin" in lines[0] and "is not finite from t = 0.000 s" in lines[0]
+    assert lines[0].split("left the physics' domain: ")[1].split(" ")[0] in table.columns
+    assert not out.exists()

@@ -444,6 +444,101 @@ def _bag_dir_bomb(work: Path, nbytes: int = 4 << 30) -> Path:
     return bag
 
 
+def _bag_dir_lying_chunk(indexed: bool = True, nbytes: int = 4 << 30,
+                         declared: int | None = None) -> Callable[[Path], Path]:
+    """The sample MCAP-storage ROS 2 bag directory rewritten by mcap's writer (lz4, 64 KiB
+    chunks) with its first chunk's compressed bytes replaced, as it is written, by an lz4
+    frame of ``nbytes`` zeros; that chunk's header keeps the real (small) uncompressed size,
+    or states ``declared``. The chunk stays in the summary's chunk index, so rosbags'
+    storage plugin decompresses it; ``indexed=False`` writes no summary, so rosbags
+    decompresses every chunk already when it opens the bag."""
+    def build(work: Path) -> Path:
+        from unittest import mock
+
+        import lz4.frame
+        from mcap.writer import CompressionType, IndexType, Writer
+
+        bag = work / "lying_bag"
+        shutil.copytree(ROOT / "sample_logs" / "hexa_ige_oge_mcap", bag)
+        storage = bag / "hexa_ige_oge_mcap.mcap"
+        source = work / "source.mcap"
+        storage.rename(source)
+        real = lz4.frame.compress
+        bomb = structure._lz4_zeros(nbytes) if nbytes else b""
+        calls = [0]
+
+        def compress(data: bytes, *args: object, **kwargs: object) -> bytes:
+            calls[0] += 1
+            return bomb if calls[0] == 1 and nbytes else real(data, *args, **kwargs)
+
+        with storage.open("wb") as out, mock.patch.object(lz4.frame, "compress", compress):
+            writer = Writer(out, chunk_size=64 << 10, compression=CompressionType.LZ4,
+                            use_summary_offsets=indexed, use_statistics=indexed,
+                            index_types=IndexType.ALL if indexed else IndexType.NONE)
+            schemas: dict[int, int] = {}
+            channels: dict[int, int] = {}
+            writer.start("ros2", "etsid file fuzzer")
+            for schema, channel, message in structure._mcap_messages(source):
+                if schema.id not in schemas:
+                    schemas[schema.id] = writer.register_schema(schema.name, schema.encoding,
+                                                                schema.data)
+                if channel.id not in channels:
+                    channels[channel.id] = writer.register_channel(
+                        channel.topic, channel.message_encoding, schemas[schema.id],
+                        channel.metadata)
+                writer.add_message(channels[channel.id], message.log_time, message.data,
+                                   message.publish_time)
+            writer.finish()
+        source.unlink()
+        if declared is not None:
+            _set_first_chunk_size(storage, declared)
+        return bag
+
+    return build
+
+
+def _set_first_chunk_size(path: Path, declared: int) -> None:
+    """Overwrite the uncompressed size stated by the first chunk record of ``path`` (in
+    the record and in its chunk index entry, when there is one)."""
+    import struct
+
+    data = bytearray(path.read_bytes())
+    pos = 8
+    while pos < len(data):
+        op, length = struct.unpack_from("<BQ", data, pos)
+        if op == 6:
+            struct.pack_into("<Q", data, pos + 9 + 16, declared)
+            break
+        pos += 9 + length
+    first = pos
+    pos = 8
+    while pos < len(data) - 8:
+        op, length = struct.unpack_from("<BQ", data, pos)
+        if op == 8 and struct.unpack_from("<Q", data, pos + 9 + 16)[0] == first:
+            # chunk index: start, end, chunk offset, length, offsets map, index length,
+            # compression string, compressed size, uncompressed size
+            (n,) = struct.unpack_from("<I", data, pos + 9 + 32)
+            at = pos + 9 + 32 + 4 + n + 8
+            (k,) = struct.unpack_from("<I", data, at)
+            struct.pack_into("<Q", data, at + 4 + k + 8, declared)
+        pos += 9 + length
+    path.write_bytes(bytes(data))
+
+
+CASES += [
+    Case("bagdir-mcap-lying-chunk", _bag_dir_lying_chunk(), columns=structure.RATES,
+         rows=2800, note=("skipped 1 damaged stretch", "decompresses to more than"), cheap=True,
+         what="ROS 2 bag directory (MCAP storage, indexed): its first chunk's lz4 data "
+              "replaced by 4 GiB of zeros, the header stating 64 KiB (rosbags' path)"),
+    Case("bagdir-mcap-lying-chunk-unindexed", _bag_dir_lying_chunk(indexed=False),
+         columns=structure.RATES, rows=2800, note=("skipped 1 damaged stretch",),
+         what="the same without chunk index (rosbags decompresses every chunk at open)"),
+    Case("bagdir-mcap-chunk-declares-1tib", _bag_dir_lying_chunk(nbytes=1 << 20,
+                                                                  declared=1 << 40),
+         columns=structure.RATES, rows=2800, note=("skipped 1 damaged stretch", "declares"),
+         what="ROS 2 bag directory (MCAP storage): a chunk (and its index entry) declaring "
+              "1 TiB decompressed, far above the file's size"),
+]
 CASES.append(Case("bagdir-mcap-lz4-bomb", _bag_dir_bomb, columns=structure.RATES, rows=2900,
                   what="ROS 2 bag directory (MCAP storage): a 4 GiB lz4 chunk of zeros "
                        "declared as 1 MiB (the rosbags storage path)"))

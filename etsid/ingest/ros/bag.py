@@ -39,7 +39,7 @@ from etsid.errors import IngestError
 from etsid.files import check, read_text
 from etsid.ingest.base import RawLog, ReadOptions
 from etsid.ingest.damage import decoder_errors, gap_note
-from etsid.ingest.ros import ros1_scan
+from etsid.ingest.ros import bounded, ros1_scan
 from etsid.ingest.ros.converter import Converter, TopicData
 from etsid.ingest.ros.fast import decode as fast
 from etsid.ingest.ros.fast import mcap as fast_mcap
@@ -130,6 +130,7 @@ def _read_any(paths: list[Path], options: ReadOptions, raw: RawLog, ros1: bool) 
     errors = _errors()
     default = _LazyTypestore(ros1)
     conv = Converter(options)
+    bounded.install()  # rosbags' MCAP chunks decompress within etsid's bound
     for item in paths:  # rosbags opens them itself: regular files only
         if item.is_dir():
             for part in item.iterdir():

@@ -194,6 +194,9 @@ class _State:
         self.first_ns: int | None = None
         self.last_ns: int | None = None
         self.cut: mcap_resync.Cut | None = None
+        self.spare: tuple[dict[int, Any], dict[int, Any]] | None = None
+        """Schemas and channels of the summary section, read when a message's channel is
+        unknown (:meth:`_from_summary`)."""
 
     def _times(self, lo: int, hi: int) -> None:
         """Log times of the next messages kept: close the gaps waiting for them."""
@@ -242,6 +245,9 @@ class _State:
         if len(run.log_ns):
             self._times(int(run.log_ns.min()), int(run.log_ns.max()))
         known = self.known[run.channel]
+        if not known.all():
+            self._from_summary(np.unique(run.channel[~known]).tolist())
+            known = self.known[run.channel]
         if not known.any():
             return
         if self.conv.base_ns is None:
@@ -277,6 +283,20 @@ class _State:
             for data, log_ns in zip(bodies, logs.tolist(), strict=True):
                 _take(self.conv, self.batcher, (topic, state), log_ns, data, self.decoders,
                       self.broken)
+
+    def _from_summary(self, ids: list[int]) -> None:
+        """Open the channels ``ids`` from the summary section's copies (their own Channel
+        record was in a lost chunk); read once, on the first message of an unknown id."""
+        if self.spare is None:
+            self.spare = fast_mcap.summary_channels(self.raw.path)
+        schemas, channels = self.spare
+        for cid in ids:
+            channel = channels.get(cid)
+            if channel is None:
+                continue
+            if channel.schema_id not in self.schemas and channel.schema_id in schemas:
+                self.schemas[channel.schema_id] = schemas[channel.schema_id]
+            self.record(channel)
 
     def finish(self) -> RawLog:
         """Convert what is queued and fill the raw log."""

@@ -266,6 +266,41 @@ RUN_BYTES = 4 << 20
 """Bytes of message records gathered before a run is decoded."""
 
 
+def summary_channels(path: Path) -> tuple[dict[int, Any], dict[int, Any]]:
+    """Schemas and channels repeated in the summary section of ``path`` (by id), read
+    without decompressing anything: what defines the messages whose Schema/Channel records
+    were in a chunk that is lost. Empty when the file has no summary or it is damaged.
+    """
+    from mcap.records import Channel, Schema
+
+    schemas: dict[int, Any] = {}
+    channels: dict[int, Any] = {}
+    size = Path(path).stat().st_size
+    tail = len(MAGIC) + 9 + 20
+    if size < len(MAGIC) + tail:
+        return schemas, channels
+    with open_binary(path, "log", IngestError) as handle:
+        handle.seek(size - tail)
+        footer = handle.read(tail)
+        if footer[-len(MAGIC):] != MAGIC or footer[0] != _OP_FOOTER:
+            return schemas, channels
+        (start,) = struct.unpack_from("<Q", footer, 9)
+        end = size - tail
+        if not len(MAGIC) < start < end or end - start > MAX_RECORD_BYTES:
+            return schemas, channels
+        handle.seek(start)
+        buf = handle.read(end - start)
+    try:
+        for rec in _walk(buf, 0, len(buf), False):
+            if isinstance(rec, Schema):
+                schemas[rec.id] = rec
+            elif isinstance(rec, Channel):
+                channels[rec.id] = rec
+    except (NotFast, struct.error, UnicodeDecodeError, ValueError, IndexError):
+        return {}, {}
+    return schemas, channels
+
+
 def records(path: Path) -> Iterator[Any]:
     """Header/Schema/Channel records and :class:`Messages` runs of a complete MCAP file.
 
