@@ -17,8 +17,6 @@ import threading
 from pathlib import Path
 from typing import Any
 
-import click
-
 from etsid import progress
 
 _state: dict[str, Any] = {"installed": False, "said": False, "depth": 0, "pushed": False}
@@ -49,9 +47,7 @@ def on_compile_start(name: str) -> None:
         first = not _state["said"]
         _state["said"] = _state["pushed"] = True
     label = (f"compiling numba kernels ({name}); first run only, cached in {cache_folder()}")
-    if first and not progress.on_terminal():
-        click.echo(f"{label} …", file=sys.stderr)
-    progress.NARRATOR.push(label)
+    progress.NARRATOR.push(label, at_once=first)
 
 
 def on_compile_end() -> None:

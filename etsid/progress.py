@@ -118,14 +118,22 @@ class Narrator:
             self._label = None
             self._outer.clear()
 
-    def push(self, label: str) -> None:
-        """A step inside the current one (a bar inside "reading …"); :meth:`pop` ends it."""
+    def push(self, label: str, at_once: bool = False) -> None:
+        """A step inside the current one (a bar inside "reading …"); :meth:`pop` ends it.
+
+        ``at_once``: when not on a terminal, say it now rather than after ``delay_s`` (a
+        step known to be long, such as a numba compile); repeats follow every ``every_s``.
+        """
         if not enabled():
             return
         with self._lock:
             if self._label is not None:
                 self._outer.append(self._label)
         self.say(label)
+        if at_once and not self._terminal:
+            with self._lock:
+                self._said_at = time.monotonic()
+                click.echo(f"{label.rstrip(' …')} …", file=self._stream)
 
     def pop(self) -> None:
         """End the innermost step; the step around it, if any, is said again from now."""
