@@ -2,9 +2,11 @@
 
 On a terminal, a bar (:func:`progress`, for work of known size) or a transient status line
 (:func:`say`, :func:`stage`) that the next one replaces. When stderr is not a terminal (a CI
-log, ``| tee``), plain lines, but only for a step still running after :data:`DELAY_S`
-seconds, then every :data:`EVERY_S` seconds: short steps stay silent, long ones are never
-silent for longer than that.
+log, ``| tee``), plain lines: a step is said once it has run :data:`DELAY_S` seconds, or
+once nothing has been said for that long (a run of short steps), then again every
+:data:`EVERY_S` seconds with its elapsed time. Short work stays silent; while any step runs,
+the log is never silent for much longer than two seconds (the watcher's tick, and a C call
+that holds the interpreter lock, can add a little).
 
 Library calls are silent: the ``etsid`` command turns progress on (:func:`enable`) for the
 command it runs; ``--quiet`` turns it off again, and so does ``ETSID_PROGRESS=off`` in the
@@ -28,8 +30,8 @@ import click
 
 DELAY_S = 2.0
 """A step still running after this long (s) says what it is doing when not on a terminal."""
-EVERY_S = 10.0
-"""Then it says so again this often (s)."""
+EVERY_S = 2.0
+"""Then it says so again this often (s): the issue's "no silent stretch over 2 s"."""
 TICK_S = 0.25
 """How often the watcher thread looks at the current step (s)."""
 
@@ -82,6 +84,7 @@ class Narrator:
         self._outer: list[str] = []  # labels of the enclosing steps (:meth:`push`)
         self._start = 0.0
         self._said_at: float | None = None
+        self._last_line = time.monotonic()  # when this narrator last printed a line
         self._thread: threading.Thread | None = None
         self._stream: TextIO | None = None
         self._terminal = False
@@ -132,7 +135,7 @@ class Narrator:
         self.say(label)
         if at_once and not self._terminal:
             with self._lock:
-                self._said_at = time.monotonic()
+                self._said_at = self._last_line = time.monotonic()
                 click.echo(f"{label.rstrip(' …')} …", file=self._stream)
 
     def pop(self) -> None:
@@ -153,13 +156,14 @@ class Narrator:
                 now = time.monotonic()
                 elapsed = now - self._start
                 base = self._label.rstrip(" …")
-                if self._said_at is None and elapsed >= self.delay_s:
+                quiet_s = now - self._last_line
+                if self._said_at is None and max(elapsed, quiet_s) >= self.delay_s:
                     line = f"{base} …"
                 elif self._said_at is not None and now - self._said_at >= self.every_s:
                     line = f"{base} … ({elapsed:.0f} s)"
                 else:
                     continue
-                self._said_at = now
+                self._said_at = self._last_line = now
                 try:
                     click.echo(line, file=self._stream)
                 except (OSError, ValueError):  # stream closed (a test runner's capture)
