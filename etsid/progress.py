@@ -35,7 +35,7 @@ EVERY_S = 2.0
 TICK_S = 0.25
 """How often the watcher thread looks at the current step (s)."""
 
-_state = {"on": False}
+_state = {"on": False, "jit": False}
 
 
 def enable(on: bool = True) -> None:
@@ -99,6 +99,10 @@ class Narrator:
         (a new percentage of the same step)."""
         if not enabled():
             return
+        if not _state.get("jit") and "numba" in sys.modules:
+            from etsid import jitnote  # a numba compile on a cold cache says so
+
+            _state["jit"] = jitnote.install()
         with self._lock:
             self._stream = sys.stderr
             self._terminal = on_terminal()

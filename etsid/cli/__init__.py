@@ -88,9 +88,6 @@ class EtsidGroup(click.Group):
 
         with stage(f"{cmd_name}: loading"):  # numba, pandas, matplotlib: seconds on a cold start
             module = importlib.import_module(module_name)
-        from etsid import jitnote
-
-        jitnote.install()  # a kernel compiled on a cold cache says so
         for command in module.COMMANDS:
             self.add_command(command)
         return self.commands.get(cmd_name)
