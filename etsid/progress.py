@@ -2,9 +2,11 @@
 
 On a terminal, a bar (:func:`progress`, for work of known size) or a transient status line
 (:func:`say`, :func:`stage`) that the next one replaces. When stderr is not a terminal (a CI
-log, ``| tee``), plain lines, but only for a step still running after :data:`DELAY_S`
-seconds, then every :data:`EVERY_S` seconds: short steps stay silent, long ones are never
-silent for longer than that.
+log, ``| tee``), plain lines: a step is said once it has run :data:`DELAY_S` seconds, or
+once nothing has been said for that long (a run of short steps), then again every
+:data:`EVERY_S` seconds with its elapsed time. Short work stays silent; while any step runs,
+the log is never silent for much longer than two seconds (the watcher's tick, and a C call
+that holds the interpreter lock, can add a little).
 
 Library calls are silent: the ``etsid`` command turns progress on (:func:`enable`) for the
 command it runs; ``--quiet`` turns it off again, and so does ``ETSID_PROGRESS=off`` in the
@@ -28,12 +30,12 @@ import click
 
 DELAY_S = 2.0
 """A step still running after this long (s) says what it is doing when not on a terminal."""
-EVERY_S = 10.0
-"""Then it says so again this often (s)."""
+EVERY_S = 2.0
+"""Then it says so again this often (s): the issue's "no silent stretch over 2 s"."""
 TICK_S = 0.25
 """How often the watcher thread looks at the current step (s)."""
 
-_state = {"on": False}
+_state = {"on": False, "jit": False}
 
 
 def enable(on: bool = True) -> None:
@@ -82,6 +84,7 @@ class Narrator:
         self._outer: list[str] = []  # labels of the enclosing steps (:meth:`push`)
         self._start = 0.0
         self._said_at: float | None = None
+        self._last_line = time.monotonic()  # when this narrator last printed a line
         self._thread: threading.Thread | None = None
         self._stream: TextIO | None = None
         self._terminal = False
@@ -96,6 +99,10 @@ class Narrator:
         (a new percentage of the same step)."""
         if not enabled():
             return
+        if not _state.get("jit") and "numba" in sys.modules:
+            from etsid import jitnote  # a numba compile on a cold cache says so
+
+            _state["jit"] = jitnote.install()
         with self._lock:
             self._stream = sys.stderr
             self._terminal = on_terminal()
@@ -118,14 +125,22 @@ class Narrator:
             self._label = None
             self._outer.clear()
 
-    def push(self, label: str) -> None:
-        """A step inside the current one (a bar inside "reading …"); :meth:`pop` ends it."""
+    def push(self, label: str, at_once: bool = False) -> None:
+        """A step inside the current one (a bar inside "reading …"); :meth:`pop` ends it.
+
+        ``at_once``: when not on a terminal, say it now rather than after ``delay_s`` (a
+        step known to be long, such as a numba compile); repeats follow every ``every_s``.
+        """
         if not enabled():
             return
         with self._lock:
             if self._label is not None:
                 self._outer.append(self._label)
         self.say(label)
+        if at_once and not self._terminal:
+            with self._lock:
+                self._said_at = self._last_line = time.monotonic()
+                click.echo(f"{label.rstrip(' …')} …", file=self._stream)
 
     def pop(self) -> None:
         """End the innermost step; the step around it, if any, is said again from now."""
@@ -145,13 +160,14 @@ class Narrator:
                 now = time.monotonic()
                 elapsed = now - self._start
                 base = self._label.rstrip(" …")
-                if self._said_at is None and elapsed >= self.delay_s:
+                quiet_s = now - self._last_line
+                if self._said_at is None and max(elapsed, quiet_s) >= self.delay_s:
                     line = f"{base} …"
                 elif self._said_at is not None and now - self._said_at >= self.every_s:
                     line = f"{base} … ({elapsed:.0f} s)"
                 else:
                     continue
-                self._said_at = now
+                self._said_at = self._last_line = now
                 try:
                     click.echo(line, file=self._stream)
                 except (OSError, ValueError):  # stream closed (a test runner's capture)

@@ -118,3 +118,33 @@ def test_a_step_inside_another_gives_the_outer_one_back() -> None:
         assert narrator.current is None
     finally:
         progress.enable(False)
+
+
+def test_a_cold_numba_compile_is_said_at_once(capsys: pytest.CaptureFixture[str],
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """A real compile (a kernel not in any cache) prints one line before it starts; the
+    step around it is said again afterwards; a call that compiles nothing says nothing."""
+    from numba import njit
+
+    from etsid import jitnote
+
+    monkeypatch.setitem(jitnote._state, "said", False)
+    assert jitnote.install()
+
+    @njit
+    def plus_one(x: float) -> float:
+        return x + 1.0
+
+    progress.enable(True)
+    try:
+        progress.NARRATOR.say("simulating")
+        assert plus_one(1.0) == 2.0
+        assert progress.NARRATOR.current == "simulating"
+        first = capsys.readouterr().err
+        assert plus_one(2.0) == 3.0  # compiled already: no event, no line
+        assert plus_one(2) == 3.0  # a new signature compiles, but the cache note is said once
+    finally:
+        progress.enable(False)
+    assert re.fullmatch(r"compiling numba kernels \(test_progress\.plus_one\); first run only, "
+                        r"cached in .+ …\n", first), first
+    assert capsys.readouterr().err == ""
