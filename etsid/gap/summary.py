@@ -225,9 +225,12 @@ def summary_sentence(data: dict[str, Any]) -> str:
         parts.append(f"Held-out prediction errors under {sim}'s noise model "
                      f"{loop['innovation_ratio_before']:.2f} → "
                      f"{loop['innovation_ratio_after']:.2f} of {sim}'s own.")
-    elif names and b and a is not None:
-        parts.append(f"Held-out RMSE of {LABELS[main]} {b:.3g} → {a:.3g} {UNITS[main]} "
-                     f"({100 * (a - b) / b:+.0f} %).")
+    elif names and b and a is not None:  # every mismatched channel: what became of it
+        moved = [f"{LABELS[c]} {data['rmse_before'][c]:.3g} → {data['rmse_after'][c]:.3g} "
+                 f"{UNITS[c]} ({100 * (data['rmse_after'][c] / data['rmse_before'][c] - 1):+.0f} %)"
+                 for c in mis["channels"]
+                 if data["rmse_before"].get(c) and data["rmse_after"].get(c) is not None]
+        parts.append(f"Held-out RMSE of {', '.join(moved)}.")
     return " ".join(parts) + _blind_spots(data, brief=True) + _twin(data)
 
 

@@ -30,3 +30,11 @@ def test_a_mismatched_channel_no_named_effect_acts_on_is_said_unexplained() -> N
 
 def test_no_unexplained_sentence_when_the_named_effect_acts_on_every_channel() -> None:
     assert "Unexplained" not in summary_sentence(_mismatch(["q", "p"], ["p", "q"]))
+
+
+def test_the_held_out_rmse_of_every_mismatched_channel_is_said() -> None:
+    data = _mismatch(["q", "p"], ["p", "q"])
+    data["rmse_after"] = {"q": 0.95, "p": 0.5}
+    text = summary_sentence(data)
+    assert f"{LABELS['q']} 1 → 0.95 rad/s² (-5 %)" in text
+    assert f"{LABELS['p']} 1 → 0.5 rad/s² (-50 %)" in text
