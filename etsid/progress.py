@@ -19,6 +19,7 @@ False
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -32,6 +33,10 @@ DELAY_S = 2.0
 """A step still running after this long (s) says what it is doing when not on a terminal."""
 EVERY_S = 2.0
 """Then it says so again this often (s): the issue's "no silent stretch over 2 s"."""
+FRESH_S = 5.0
+"""A process younger than this (s) when etsid.progress is imported is a command starting:
+its silence counts from the process's start; an older one (a notebook, a test runner) from
+the import."""
 TICK_S = 0.25
 """How often the watcher thread looks at the current step (s)."""
 
@@ -66,6 +71,28 @@ def on_terminal() -> bool:
         return sys.stderr.isatty()
     except (AttributeError, ValueError):
         return False
+
+
+def _process_start() -> float:
+    """When this process started, on :func:`time.monotonic`'s clock (Linux: from
+    ``/proc/self/stat``, the boot-time clock and the clock tick; elsewhere: now). The
+    interpreter's start-up and the imports before the first step count as silence too."""
+    try:
+        with open("/proc/self/stat", "rb") as handle:
+            fields = handle.read().rsplit(b")", 1)[1].split()
+        started = int(fields[19]) / os.sysconf("SC_CLK_TCK")  # s since boot (field 22)
+        age = time.clock_gettime(time.CLOCK_BOOTTIME) - started
+    except (OSError, ValueError, IndexError, AttributeError):
+        return time.monotonic()
+    if not 0.0 <= age <= FRESH_S:  # imported by a running program, not at a command's start
+        return time.monotonic()
+    return time.monotonic() - age
+
+
+def _early(limit_s: float) -> float:
+    """When the watcher says a line so that none comes later than ``limit_s``: a tick early
+    (it looks only every :data:`TICK_S`), for limits several ticks long."""
+    return limit_s - TICK_S if limit_s >= 4 * TICK_S else limit_s
 
 
 class Narrator:
@@ -161,9 +188,10 @@ class Narrator:
                 elapsed = now - self._start
                 base = self._label.rstrip(" …")
                 quiet_s = now - self._last_line
-                if self._said_at is None and max(elapsed, quiet_s) >= self.delay_s:
+                # a tick early, so that no stretch without a line exceeds delay_s / every_s
+                if self._said_at is None and max(elapsed, quiet_s) >= _early(self.delay_s):
                     line = f"{base} …"
-                elif self._said_at is not None and now - self._said_at >= self.every_s:
+                elif self._said_at is not None and now - self._said_at >= _early(self.every_s):
                     line = f"{base} … ({elapsed:.0f} s)"
                 else:
                     continue
@@ -175,6 +203,7 @@ class Narrator:
 
 
 NARRATOR = Narrator()
+NARRATOR._last_line = _process_start()  # a command's silence counts from its start
 
 
 def say(label: str) -> None:
