@@ -42,7 +42,7 @@ def printable(text: str) -> str:
 
 
 def clean(value: Any) -> Any:
-    """``value`` (a JSON-like document) with every string, keys too, made :func:`printable`.
+    r"""``value`` (a JSON-like document) with every string, keys too, made :func:`printable`.
 
     Iterative, so a deep document cannot exhaust the stack; non-string leaves are kept.
 

@@ -3,7 +3,7 @@ eTS controller that learns from zero rules, compared with a PID baseline.
 
 >>> from etsid.control import SCENARIOS, CONTROLLERS
 >>> sorted(SCENARIOS), CONTROLLERS
-(['hover-ige', 'ige-sine', 'mass-change', 'sine', 'step'], ('ets', 'pid'))
+(['altitude-steps', 'hover-ige', 'ige-sine', 'mass-change', 'sine-altitude'], ('ets', 'pid'))
 """
 
 from __future__ import annotations
