@@ -24,7 +24,7 @@ from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.transforms import Bbox
-from test_report import fake_run
+from test_report import fake_run, run_with_rules
 
 from etsid.cli import cli
 from etsid.report.control import CONTROL_FIGURES, find_comparison, read_control_run
@@ -109,26 +109,9 @@ IDENTIFY_FIGURES: dict[str, Callable[..., Figure]] = {
     "residuals": fig_residuals, "validation": fig_validation}
 
 
-def _run_with_rules() -> object:
-    """fake_run with a real two-rule eTS rule base (for the consequents figure)."""
-    from etsid.ets import ETS
-
-    rng = np.random.default_rng(4)
-    x = np.r_[rng.normal(-2, 0.1, 300), rng.normal(2, 0.1, 300)]
-    u = rng.normal(size=600)
-    y = np.where(x < 0, 3.0, -1.0) * u + 0.01 * rng.normal(size=600)
-    model = ETS(radius=0.3, input_names=["x", "u"], output_names=["y"])
-    model.run(np.c_[x, u], y[:, None])
-    run = fake_run()
-    run.rules = model.to_dict()
-    run.metrics["outputs"] = {"y": run.metrics["outputs"]["p"]}
-    run.config["model"]["outputs"] = ["y"]
-    return run
-
-
 @pytest.mark.parametrize("name", list(IDENTIFY_FIGURES))
 def test_identify_figure_legends_cover_no_data(name: str) -> None:
-    fig = IDENTIFY_FIGURES[name](_run_with_rules() if name == "consequents" else fake_run())
+    fig = IDENTIFY_FIGURES[name](run_with_rules() if name == "consequents" else fake_run())
     assert fig.legends or any(ax.get_legend() for ax in fig.axes), "no legend to check"
     assert covered_points(fig) == []
 

@@ -113,7 +113,9 @@ def test_structure_figure_marks_events() -> None:
     assert labels == ["rules", "birth (4)", "removal (1)"]
 
 
-def test_consequent_figure_shows_every_rule_numbered_as_the_tables() -> None:
+def run_with_rules() -> Run:
+    """:func:`fake_run` with a real two-rule eTS rule base learnt on y = ±gain·u (the gain
+    switching with x), for the consequents figure."""
     from etsid.ets import ETS
 
     rng = np.random.default_rng(4)
@@ -126,10 +128,15 @@ def test_consequent_figure_shows_every_rule_numbered_as_the_tables() -> None:
     run.rules = model.to_dict()
     run.metrics["outputs"] = {"y": run.metrics["outputs"]["p"]}
     run.config["model"]["outputs"] = ["y"]
+    return run
+
+
+def test_consequent_figure_shows_every_rule_numbered_as_the_tables() -> None:
+    run = run_with_rules()
     fig = fig_consequents(run)
     (ax,) = fig.axes
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    assert labels == [f"Rule {i + 1}" for i in range(model.n_rules)] and len(labels) >= 2
+    assert labels == [f"Rule {i + 1}" for i in range(len(run.rules["rules"]))] and len(labels) >= 2
     # the input's coefficient dominates and changes sign between the two regimes
     assert ax.get_xticklabels()[0].get_text() == "u"
     heights = [bars.patches[0].get_height() for bars in ax.containers]
