@@ -7,6 +7,9 @@ whatever step first calls it (identify's structure choice, simulate's first flig
 load): the first compile of the process prints one line at once, naming the cache folder;
 while any compile runs, the current step (:mod:`etsid.progress`) says it is compiling, and
 the step around it is said again afterwards. Nothing is said when progress is off.
+
+The narrator is handed in (:func:`install`), so this module imports nothing of etsid and
+:mod:`etsid.progress` can install it without an import cycle.
 """
 
 from __future__ import annotations
@@ -14,12 +17,22 @@ from __future__ import annotations
 import os
 import sys
 import threading
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
-from etsid import progress
 
-_state: dict[str, Any] = {"installed": False, "said": False, "depth": 0, "pushed": False}
+
+class Narrator(Protocol):
+    """What a compile note needs of :class:`etsid.progress.Narrator`."""
+
+    def push(self, label: str, at_once: bool = False) -> None: ...
+
+    def pop(self) -> None: ...
+
+
+_state: dict[str, Any] = {"installed": False, "said": False, "depth": 0, "pushed": False,
+                          "narrator": None, "enabled": lambda: False}
 _lock = threading.Lock()
 
 
@@ -42,12 +55,12 @@ def on_compile_start(name: str) -> None:
     """An outermost compile of kernel ``name`` began: say it (at once the first time)."""
     with _lock:
         _state["depth"] += 1
-        if _state["depth"] > 1 or not progress.enabled():
+        if _state["depth"] > 1 or not _state["enabled"]():
             return
         first = not _state["said"]
         _state["said"] = _state["pushed"] = True
     label = (f"compiling numba kernels ({name}); first run only, cached in {cache_folder()}")
-    progress.NARRATOR.push(label, at_once=first)
+    _state["narrator"].push(label, at_once=first)
 
 
 def on_compile_end() -> None:
@@ -58,14 +71,16 @@ def on_compile_end() -> None:
         if give_back:
             _state["pushed"] = False
     if give_back:
-        progress.NARRATOR.pop()
+        _state["narrator"].pop()
 
 
-def install() -> bool:
-    """Listen to numba's compile events (once per process; only if numba is imported).
+def install(narrator: Narrator, enabled: Callable[[], bool]) -> bool:
+    """Listen to numba's compile events (once per process; only if numba is imported),
+    telling ``narrator`` while ``enabled()`` is true.
 
     Returns True when the listener is in place.
     """
+    _state["narrator"], _state["enabled"] = narrator, enabled
     if _state["installed"]:
         return True
     if "numba" not in sys.modules:

@@ -129,7 +129,7 @@ class Narrator:
         if not _state.get("jit") and "numba" in sys.modules:
             from etsid import jitnote  # a numba compile on a cold cache says so
 
-            _state["jit"] = jitnote.install()
+            _state["jit"] = jitnote.install(NARRATOR, enabled)
         with self._lock:
             self._stream = sys.stderr
             self._terminal = on_terminal()

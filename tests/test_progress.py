@@ -129,7 +129,7 @@ def test_a_cold_numba_compile_is_said_at_once(capsys: pytest.CaptureFixture[str]
     from etsid import jitnote
 
     monkeypatch.setitem(jitnote._state, "said", False)
-    assert jitnote.install()
+    assert jitnote.install(progress.NARRATOR, progress.enabled)
 
     @njit
     def plus_one(x: float) -> float:

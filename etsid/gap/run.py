@@ -181,8 +181,8 @@ def _insufficient(sim: Flight, real: Flight, reason: str) -> GapResult:
 
 
 def _different(sim: Flight, real: Flight, evidence: list[str],
-               check: dict[str, Any] | None = None) -> GapResult:
-    reason = "; ".join(evidence)
+               check: dict[str, Any] | None = None, twin: str | None = None) -> GapResult:
+    reason = "; ".join(evidence) + (f"; {twin}" if twin else "")
     summary = (f"Different vehicle: {reason}. One airframe with a fault does not explain both "
                "logs, so no missing physics is named; compare a simulation of this airframe "
                "(its rotor count, mass, inertia and propulsion) with the recording.")
@@ -646,7 +646,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     say("gap: checking that one airframe can explain both logs")
     evidence, check = different_airframe(sim, real, nominal)
     if evidence:
-        return _different(sim, real, evidence, check)
+        return _different(sim, real, evidence, check, twin)
 
     ctx = Context(real, nominal,
                   float(np.nanmean(sim.vbat[sim.airborne])) if "vbat" in sim.have else None,
