@@ -120,7 +120,7 @@ def scores_on(model: ETS, reg: Regression, spec: RegressorSpec, start: int, n_ta
     """One-step and free-run predictions of ``model`` over rows ``start …`` of ``reg``."""
     S = reg.S[start:] if spec.antecedent else None
     one = np.asarray(model.predict(reg.X[start:], S)).reshape(len(reg.X) - start, -1)
-    sim = free_run(model.predict_one, reg, spec, start, n_table, envelope(reg.Y))
+    sim = free_run(model, reg, spec, start, n_table, envelope(reg.Y))
     return one, sim
 
 
