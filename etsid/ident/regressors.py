@@ -288,6 +288,9 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     IdentError
         Missing columns, or no usable row.
     """
+    # the same columns without table.attrs: pandas deep-copies the attrs on every column
+    # access, about 1 ms each for a log's provenance, and build reads ~40 columns
+    table = pd.DataFrame(table, copy=False)
     check_columns(table, spec.columns)
     n = len(table)
     seg = segments_of(table)
@@ -296,10 +299,14 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
     first_of_segment = starts[np.searchsorted(starts, idx, side="right") - 1]
     history_ok = idx - spec.max_lag >= first_of_segment
-    X = np.column_stack([lagged(column_values(table, t.name), t.lag) for t in spec.terms])
+    values: dict[str, np.ndarray] = {}
+    for t in (*spec.terms, *spec.antecedent):
+        if t.name not in values:
+            values[t.name] = column_values(table, t.name)
+    X = np.column_stack([lagged(values[t.name], t.lag) for t in spec.terms])
     Y = table[list(spec.outputs)].to_numpy(dtype=float)
-    S = (np.column_stack([lagged(column_values(table, t.name), t.lag)
-                          for t in spec.antecedent]) if spec.antecedent else None)
+    S = (np.column_stack([lagged(values[t.name], t.lag) for t in spec.antecedent])
+         if spec.antecedent else None)
     finite = np.isfinite(X).all(axis=1) & np.isfinite(Y).all(axis=1)
     if S is not None:
         finite &= np.isfinite(S).all(axis=1)
