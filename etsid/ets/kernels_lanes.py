@@ -14,27 +14,25 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from etsid.ets.kernel_steps import (
+    add_event,
+    global_gain,
+    normalise_firing,
+    read_parameters,
+    reward_winner,
+    sample_potential,
+    shared_rls,
+    structure_decision,
+    welford,
+    widen_ranges,
+)
 from etsid.ets.kernels import _add_rule, _refresh_scales, remove_rule
 from etsid.ets.layout import (
     EV_BIRTH,
     EV_REMOVAL,
     EV_REPLACE,
-    FP_FORGET,
-    FP_OMEGA,
-    FP_SPREAD_RHO,
-    FP_UTILITY,
-    IP_ADAPTIVE,
-    IP_CLUSTERING,
-    IP_COVERAGE,
-    IP_GLOBAL,
-    IP_MAX_RULES,
-    IP_MIN_SUPPORT,
-    IP_PRUNE_AFTER,
     IP_SCHEDULED,
-    IP_VARIANT,
-    RADIUS_FLOOR,
     SQRT8,
-    TIE,
 )
 from etsid.ets.normalisation import reparametrise
 
@@ -54,32 +52,23 @@ def _sync_rule(i, cz, rad, s, czT, aT) -> None:
         aT[j, i] = 4.0 / (q * q)
 
 
-@njit(cache=True, boundscheck=False)
-def _fire(X, t, czT, aT, R, ex, lam) -> None:
-    """Normalised firing lambda_i of rules 0..R-1 for input row X[t] (rules in the inner loop).
+@njit(inline="always")
+def _fire(z, czT, aT, R, lanes, ex, lam) -> None:
+    """Normalised firing lambda_i of rules 0..R-1 for the antecedent inputs z[:na] (rules in
+    the inner loop, over ``lanes`` ≥ R of them; the padding lanes are computed and unused).
 
     Same value as the reference's firing: tau_i = exp(-sum_j aT[j, i] (x_j - x*_ij)^2), normalised
     with the smallest exponent subtracted first.
     """
     n = aT.shape[0]
-    for i in range(R):
+    for i in range(lanes):
         ex[i] = 0.0
     for j in range(n):
-        xj = X[t, j]
-        for i in range(R):
+        xj = z[j]
+        for i in range(lanes):
             dj = xj - czT[j, i]
             ex[i] += dj * dj * aT[j, i]
-    emin = np.inf
-    for i in range(R):
-        emin = min(emin, ex[i])
-    tot = 0.0
-    for i in range(R):
-        v = np.exp(emin - ex[i])
-        lam[i] = v
-        tot += v
-    itot = 1.0 / tot
-    for i in range(R):
-        lam[i] *= itot
+    normalise_firing(ex, lam, R)
 
 
 @njit(cache=True, boundscheck=False)
@@ -112,62 +101,26 @@ def _from_soa(R, Pi, Cl, PiT, CT, is_global) -> None:
                     Cl[i, a, b] = CT[a, b, i]
 
 
-@njit(cache=True, boundscheck=False)
-def _rule_outputs(xe, PiT, R, yrT) -> None:
-    """yrT[o, i] = x_e^T Pi_i[:, o] for every live rule (rules in the inner loop)."""
+@njit(inline="always")
+def _rule_outputs(xe, PiT, lanes, yrT) -> None:
+    """yrT[o, i] = x_e^T Pi_i[:, o] for the rules of the first ``lanes`` lanes (rules in
+    the inner loop)."""
     n1 = xe.shape[0]
     m = yrT.shape[0]
     for o in range(m):
-        for i in range(R):
+        for i in range(lanes):
             yrT[o, i] = 0.0
     for a in range(n1):
         xa = xe[a]
         for o in range(m):
-            for i in range(R):
+            for i in range(lanes):
                 yrT[o, i] += xa * PiT[a, o, i]
 
 
 @njit(cache=True, boundscheck=False)
-def learn_lanes(
-    X,
-    S,
-    Y,
-    Yhat,
-    hist,
-    ev,
-    nev,
-    snap_k,
-    snap_ids,
-    snap_pi,
-    snap_lo,
-    snap_s,
-    nsnap,
-    every,
-    min_rules,
-    si,
-    lo,
-    hi,
-    fixed,
-    mean,
-    m2,
-    ids,
-    cz,
-    rad,
-    scat,
-    pot,
-    birth,
-    support,
-    lamsum,
-    tsum,
-    Pi,
-    Cl,
-    Cg,
-    sh,
-    Cs,
-    r0,
-    fp,
-    ip,
-) -> int:
+def learn_lanes(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_lo, snap_s, nsnap,
+                every, min_rules, si, lo, hi, fixed, mean, m2, ids, cz, rad, scat, pot, birth,
+                support, lamsum, tsum, Pi, Cl, Cg, sh, Cs, r0, fp, ip) -> int:
     """:func:`etsid.ets.kernels.learn_kernel` on rule-minor work copies (same arguments,
     same results bit for bit), plus ``min_rules``: the kernel also returns after a sample
     that leaves fewer rules than this (the caller goes on with ``learn_kernel``).
@@ -186,20 +139,10 @@ def learn_lanes(
     scheduled = ip[IP_SCHEDULED] == 1
     xo = na + m if scheduled else 0  # offset of x in z
     dp = na if scheduled else na + m  # dimensions of the potential space
-    variant = ip[IP_VARIANT]
-    is_global = ip[IP_GLOBAL] == 1
-    rmax = ip[IP_MAX_RULES]
-    min_support = ip[IP_MIN_SUPPORT]
-    prune_after = ip[IP_PRUNE_AFTER]
-    adaptive = ip[IP_ADAPTIVE] == 1
-    omega = fp[FP_OMEGA]
-    forget = fp[FP_FORGET]
+    (variant, is_global, rmax, min_support, prune_after, adaptive, omega, forget, umin,
+     rho_s, coverage, evq) = read_parameters(ip, fp)
     omf = 1.0 - forget
     cbound = omega * n1  # wind-up guard: largest trace of a local covariance that forgets
-    umin = fp[FP_UTILITY]
-    rho_s = fp[FP_SPREAD_RHO]
-    coverage = ip[IP_COVERAGE] == 1
-    evq = ip[IP_CLUSTERING] == 1
     ev_cap = ev.shape[0] - rmax - 2
     snap_cap = snap_k.shape[0]
     next_snap = (si[0] // every + 1) * every  # the next k that is a multiple of every
@@ -256,38 +199,14 @@ def learn_lanes(
         # lanes processed by the vectorised rule loops: R rounded up to a multiple of LANES
         RL = (R + LANES - 1) // LANES * LANES
         # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
-        # _fire and _rule_outputs written out: a call costs an atomic reference-count
-        # increment and decrement per array argument, more than the arithmetic here
+        # _fire and _rule_outputs are inlined by numba: a real call would cost an atomic
+        # reference-count increment and decrement per array argument
         if R > 0:
-            for i in range(RL):
-                ex[i] = 0.0
-            for j in range(na):
-                xj = z[j]
-                for i in range(RL):
-                    dj = xj - czT[j, i]
-                    ex[i] += dj * dj * aT[j, i]
-            emin = np.inf
-            for i in range(R):
-                emin = min(emin, ex[i])
-            tot = 0.0
-            for i in range(R):
-                v = np.exp(emin - ex[i])
-                lam[i] = v
-                tot += v
-            itot = 1.0 / tot
-            for i in range(R):
-                lam[i] *= itot
+            _fire(z, czT, aT, R, RL, ex, lam)
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
-            for o in range(m):
-                for i in range(RL):
-                    yrT[o, i] = 0.0
-            for a in range(n1):
-                xa = xe[a]
-                for o in range(m):
-                    for i in range(RL):
-                        yrT[o, i] += xa * PiT[a, o, i]
+            _rule_outputs(xe, PiT, RL, yrT)
             for o in range(m):
                 acc = 0.0
                 for i in range(R):
@@ -298,30 +217,8 @@ def learn_lanes(
             for o in range(m):
                 Yhat[t, o] = np.nan
         # 2. widen running ranges; rewrite consequents if an input range moved
-        changed_x = False
-        changed_a = False
-        changed_y = False
-        for j in range(d):
-            if fixed[j] == 1:
-                continue
-            v = z[j]
-            if k == 0 or v < lo[j] or v > hi[j]:
-                if not changed_x and not changed_y:
-                    for q in range(n):
-                        lo_old[q] = lo[xo + q]
-                        hi_old[q] = hi[xo + q]
-                if k == 0:
-                    lo[j] = v
-                    hi[j] = v
-                elif v < lo[j]:
-                    lo[j] = v
-                else:
-                    hi[j] = v
-                if xo <= j < xo + n:
-                    changed_x = k > 0 or changed_x
-                if j < na:
-                    changed_a = k > 0 or changed_a
-                changed_y = True
+        changed_x, changed_a, changed_y = widen_ranges(z, k, fixed, lo, hi, lo_old, hi_old, n,
+                                                       na, xo)
         if changed_y:
             _refresh_scales(lo, hi, s, w2, isx, n, xo)
         if changed_a:
@@ -339,23 +236,12 @@ def learn_lanes(
         k += 1
         si[0] = k
         ik = 1.0 / k
-        for j in range(d):
-            dj = z[j] - mean[j]
-            mean[j] += dj * ik
-            m2[j] += dj * (z[j] - mean[j])
+        welford(z, mean, m2, ik)
         # 4. potentials of the sample and of every focal point (rules in the inner loop)
         pmax = -np.inf
         pmin = np.inf
         if k >= 2:
-            vterm = 0.0
-            acc = 0.0
-            for j in range(dp):
-                vterm += m2[j] * w2[j]
-                dj = z[j] - mean[j]
-                acc += dj * dj * w2[j]
-            vterm *= ik
-            kk = k / (k - 1.0)
-            P = 1.0 / (1.0 + (acc + vterm) * kk)
+            P, vterm, kk = sample_potential(z, mean, m2, w2, dp, ik, k)
             for i in range(RL):
                 ex[i] = vterm
             for j in range(dp):
@@ -383,90 +269,29 @@ def learn_lanes(
             pnew[:, :] = 0.0
             grow = True
         else:
-            high = pmax * (1.0 + TIE) < P
-            low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
-            if evq or high or low:
-                dmin = np.inf
-                inear = 0
-                dcov = np.inf
-                icov = -1
-                for i in range(R):
-                    d2 = 0.0
-                    dinf = 0.0
-                    for j in range(na):
-                        q = abs(z[j] - cz[i, j]) / (s[j] * rad[i, j])
-                        d2 += q * q
-                        dinf = max(dinf, q)
-                    if d2 < dmin:
-                        dmin = d2
-                        inear = i
-                    if dinf < 0.5 and d2 < dcov:
-                        dcov = d2
-                        icov = i
-                if evq:
-                    # evolving vector quantisation: grow where nothing covers the sample
-                    replace = False
-                    target = inear
-                    grow = icov < 0
-                elif variant == 0:
-                    replace = P / pmax - np.sqrt(dmin) >= 1.0
-                    target = inear
-                    grow = not replace
-                else:
-                    replace = high and icov >= 0
-                    target = icov
-                    grow = icov < 0
-                if grow and rmax <= R:
-                    # at the cap a birth becomes a move of the nearest rule (keeps its consequent)
-                    replace = True
-                    target = inear
-                    grow = False
-                if replace:
-                    for j in range(d):
-                        cz[target, j] = z[j]
-                    pot[target] = P
-                    _sync_rule(target, cz, rad, s, czT, aT)
-                    ev[nev[0], 0] = k
-                    ev[nev[0], 1] = EV_REPLACE
-                    ev[nev[0], 2] = ids[target]
-                    nev[0] += 1
-                    changed = True
-                elif grow:
-                    if changed_a:
-                        _fire(S, t, czT, aT, R, ex, lam)
-                    for a in range(n1):
-                        for o in range(m):
-                            acc = 0.0
-                            for i in range(R):
-                                acc += lam[i] * PiT[a, o, i]
-                            pnew[a, o] = acc
+            replace, target, grow = structure_decision(z, cz, s, rad, R, na, P, pmax, pmin,
+                                                       variant, coverage, evq, rmax)
+            if replace:
+                for j in range(d):
+                    cz[target, j] = z[j]
+                pot[target] = P
+                _sync_rule(target, cz, rad, s, czT, aT)
+                add_event(ev, nev, k, EV_REPLACE, ids[target])
+                changed = True
+            elif grow:
+                if changed_a:
+                    _fire(z, czT, aT, R, R, ex, lam)
+                for a in range(n1):
+                    for o in range(m):
+                        acc = 0.0
+                        for i in range(R):
+                            acc += lam[i] * PiT[a, o, i]
+                        pnew[a, o] = acc
         if grow:
             for j in range(na):
                 scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
-            rid = _add_rule(
-                z,
-                P,
-                k,
-                pnew,
-                si,
-                r0,
-                s,
-                omega,
-                scat0,
-                ids,
-                cz,
-                rad,
-                scat,
-                pot,
-                birth,
-                support,
-                lamsum,
-                tsum,
-                Pi,
-                Cl,
-                Cg,
-                is_global,
-            )
+            rid = _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat, pot, birth,
+                            support, lamsum, tsum, Pi, Cl, Cg, is_global)
             _sync_rule(R, cz, rad, s, czT, aT)
             for a in range(n1):
                 for o in range(m):
@@ -474,17 +299,14 @@ def learn_lanes(
                 if not is_global:
                     for b in range(n1):
                         CT[a, b, R] = Cl[R, a, b]
-            ev[nev[0], 0] = k
-            ev[nev[0], 1] = EV_BIRTH
-            ev[nev[0], 2] = rid
-            nev[0] += 1
+            add_event(ev, nev, k, EV_BIRTH, rid)
             changed = True
             born = True
         R = si[1]
         RL = (R + LANES - 1) // LANES * LANES
         # 6. firing with the updated rule base; support, age, spreads, utility
         if changed:
-            _fire(S, t, czT, aT, R, ex, lam)
+            _fire(z, czT, aT, R, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
@@ -495,24 +317,9 @@ def learn_lanes(
                     acc += lam[i] * yrT[o, i]
                 yh[o] = acc
         if not born:
-            w = 0
-            for i in range(1, R):
-                if lam[i] > lam[w]:
-                    w = i
-            support[w] += 1
-            tsum[w] += k
-            if adaptive:
-                for j in range(na):
-                    dx = z[j] - cz[w, j]
-                    scat[w, j] += (dx * dx - scat[w, j]) / support[w]
-                    rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
-                    rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
-                    q = s[j] * rad[w, j]
-                    aT[j, w] = 4.0 / (q * q)  # as _sync_rule
-            if evq:
-                # the winner's focal point is the mean of the samples it has won
-                for j in range(d):
-                    cz[w, j] += (z[j] - cz[w, j]) / support[w]
+            w = reward_winner(z, lam, R, k, support, tsum, scat, rad, cz, s, r0, rho_s, na,
+                              adaptive, evq)
+            if adaptive or evq:
                 _sync_rule(w, cz, rad, s, czT, aT)
         for i in range(R, RL):
             lam[i] = 0.0  # padding lanes: no update
@@ -520,44 +327,7 @@ def learn_lanes(
             lamsum[i] += lam[i]
         # 7. consequents: fuzzily weighted RLS
         if is_global:
-            p = R * n1
-            for i in range(R):
-                for a in range(n1):
-                    phi[i * n1 + a] = lam[i] * xe[a]
-            for o in range(m):
-                err[o] = z[na + o] - yh[o]
-            # g = Cg phi as a sum of columns; Cg is exactly symmetric, so column b equals
-            # row b and every g[a] is summed in the same order as the row dot product
-            for a in range(p):
-                g[a] = 0.0
-            for b in range(p):
-                pb = phi[b]
-                for a in range(p):
-                    g[a] += Cg[b, a] * pb
-            # wind-up guard (trace-bounded forgetting): forget only while trace(C) <= omega p
-            fg = forget
-            if forget != 1.0:
-                tr = 0.0
-                for a in range(p):
-                    tr += Cg[a, a]
-                if tr > omega * p:
-                    fg = 1.0
-            den = fg
-            for a in range(p):
-                den += phi[a] * g[a]
-            iden = 1.0 / den
-            # C_ab - (g_a g_b) / den is exactly symmetric: no mirroring needed
-            if fg == 1.0:
-                for a in range(p):
-                    ga = g[a]
-                    for b in range(p):
-                        Cg[a, b] -= (ga * g[b]) * iden
-            else:
-                ifg = 1.0 / fg
-                for a in range(p):
-                    ga = g[a]
-                    for b in range(p):
-                        Cg[a, b] = (Cg[a, b] - (ga * g[b]) * iden) * ifg
+            iden = global_gain(R, n1, lam, xe, z, na, yh, err, g, phi, Cg, forget, omega)
             for a in range(n1):
                 for i in range(R):
                     gT[a, i] = g[i * n1 + a] * iden
@@ -569,34 +339,7 @@ def learn_lanes(
         else:
             if n_shared > 0:
                 # shared outputs: plain RLS on the common consequent (rule 0's column)
-                for a in range(n1):
-                    acc = 0.0
-                    for b in range(n1):
-                        acc += Cs[a, b] * xe[b]
-                    gs[a] = acc
-                fs = forget
-                if forget != 1.0:
-                    tr = 0.0
-                    for a in range(n1):
-                        tr += Cs[a, a]
-                    if tr > cbound:
-                        fs = 1.0
-                den = fs
-                for a in range(n1):
-                    den += xe[a] * gs[a]
-                iden = 1.0 / den
-                for o in range(m):
-                    if sh[o] == 1:
-                        eo = z[na + o]
-                        for a in range(n1):
-                            eo -= xe[a] * PiT[a, o, 0]
-                        for a in range(n1):
-                            ths[a, o] = PiT[a, o, 0] + gs[a] * iden * eo
-                ifs = 1.0 / fs
-                for a in range(n1):
-                    ga = gs[a]
-                    for b in range(n1):
-                        Cs[a, b] = (Cs[a, b] - (ga * gs[b]) * iden) * ifs
+                shared_rls(xe, z, na, sh, PiT[:, :, 0], Cs, gs, ths, forget, cbound)
             # every rule at once, rules in the inner (contiguous) loop; a rule with
             # lambda = 0 gets f_i = 1 and gain 0, i.e. exactly no change
             for i in range(RL):
@@ -662,29 +405,11 @@ def learn_lanes(
                 if life >= prune_after:
                     u = lamsum[i] / (life + 1.0)
                     if u < umin or support[i] < min_support:
-                        ev[nev[0], 0] = k
-                        ev[nev[0], 1] = EV_REMOVAL
-                        ev[nev[0], 2] = ids[i]
-                        nev[0] += 1
+                        add_event(ev, nev, k, EV_REMOVAL, ids[i])
                         if not removed:
                             _from_soa(R, Pi, Cl, PiT, CT, is_global)
-                        remove_rule(
-                            i,
-                            R,
-                            ids,
-                            cz,
-                            rad,
-                            scat,
-                            pot,
-                            birth,
-                            support,
-                            lamsum,
-                            tsum,
-                            Pi,
-                            Cl,
-                            Cg,
-                            is_global,
-                        )
+                        remove_rule(i, R, ids, cz, rad, scat, pot, birth, support, lamsum, tsum,
+                                    Pi, Cl, Cg, is_global)
                         R -= 1
                         si[1] = R
                         removed = True

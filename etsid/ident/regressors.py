@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.bare import bare
 from etsid.table import SEGMENT
 
 _TERM = re.compile(
@@ -288,9 +289,7 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     IdentError
         Missing columns, or no usable row.
     """
-    # the same columns without table.attrs: pandas deep-copies the attrs on every column
-    # access, about 1 ms each for a log's provenance, and build reads ~40 columns
-    table = pd.DataFrame(table, copy=False)
+    table = bare(table)  # (etsid.ident.bare)
     check_columns(table, spec.columns)
     n = len(table)
     seg = segments_of(table)
