@@ -10,24 +10,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from etsid.ets.kernel_steps import (
-    add_event,
-    global_gain,
-    normalise_firing,
-    read_parameters,
-    reward_winner,
-    sample_potential,
-    shared_rls,
-    structure_decision,
-    welford,
-    widen_ranges,
-)
+from etsid.ets.kernel_steps import add_event, global_gain, read_parameters, shared_rls
 from etsid.ets.layout import (
     EV_BIRTH,
     EV_REMOVAL,
     EV_REPLACE,
     IP_SCHEDULED,
+    RADIUS_FLOOR,
     SQRT8,
+    TIE,
 )
 from etsid.ets.normalisation import reparametrise
 
@@ -130,7 +121,7 @@ def _sync_rule(i, rad, s, ac) -> None:
         ac[i, j] = 4.0 / (q * q)
 
 
-@njit(inline="always")
+@njit(cache=True, boundscheck=False)
 def _fire(z, cz, ac, R, ex, lam) -> None:
     """Normalised firing lambda_i of rules 0..R-1 for the antecedent inputs z[:na].
 
@@ -144,10 +135,20 @@ def _fire(z, cz, ac, R, ex, lam) -> None:
             dj = z[j] - cz[i, j]
             e += dj * dj * ac[i, j]
         ex[i] = e
-    normalise_firing(ex, lam, R)
+    emin = np.inf
+    for i in range(R):
+        emin = min(emin, ex[i])
+    tot = 0.0
+    for i in range(R):
+        v = np.exp(emin - ex[i])
+        lam[i] = v
+        tot += v
+    itot = 1.0 / tot
+    for i in range(R):
+        lam[i] *= itot
 
 
-@njit(inline="always")
+@njit(cache=True, boundscheck=False)
 def _rule_outputs(xe, Pi, R, yr) -> None:
     """yr[i, o] = x_e^T Pi_i[:, o] for every live rule."""
     n1 = xe.shape[0]
@@ -311,14 +312,36 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             for j in range(n):
                 z[xo + j] = X[t, j]
         # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
-        # _fire and _rule_outputs are inlined by numba: a real call would cost an atomic
-        # reference-count increment and decrement per array argument
+        # _fire and _rule_outputs written out: a call costs an atomic reference-count
+        # increment and decrement per array argument, more than the arithmetic here
         if R > 0:
-            _fire(z, cz, ac, R, ex, lam)
+            for i in range(R):
+                e = 0.0
+                for j in range(na):
+                    dj = z[j] - cz[i, j]
+                    e += dj * dj * ac[i, j]
+                ex[i] = e
+            emin = np.inf
+            for i in range(R):
+                emin = min(emin, ex[i])
+            tot = 0.0
+            for i in range(R):
+                # exp(0) = 1 exactly: the nearest rule needs no call
+                v = 1.0 if ex[i] == emin else np.exp(emin - ex[i])
+                lam[i] = v
+                tot += v
+            itot = 1.0 / tot
+            for i in range(R):
+                lam[i] *= itot
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
-            _rule_outputs(xe, Pi, R, yr)
+            for i in range(R):
+                for o in range(m):
+                    acc = 0.0
+                    for a in range(n1):
+                        acc += xe[a] * Pi[i, a, o]
+                    yr[i, o] = acc
             for o in range(m):
                 acc = 0.0
                 for i in range(R):
@@ -329,8 +352,30 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             for o in range(m):
                 Yhat[t, o] = np.nan
         # 2. widen running ranges; rewrite consequents if an input range moved
-        changed_x, changed_a, changed_y = widen_ranges(z, k, fixed, lo, hi, lo_old, hi_old, n,
-                                                       na, xo)
+        changed_x = False
+        changed_a = False
+        changed_y = False
+        for j in range(d):
+            if fixed[j] == 1:
+                continue
+            v = z[j]
+            if k == 0 or v < lo[j] or v > hi[j]:
+                if not changed_x and not changed_y:
+                    for q in range(n):
+                        lo_old[q] = lo[xo + q]
+                        hi_old[q] = hi[xo + q]
+                if k == 0:
+                    lo[j] = v
+                    hi[j] = v
+                elif v < lo[j]:
+                    lo[j] = v
+                else:
+                    hi[j] = v
+                if xo <= j < xo + n:
+                    changed_x = k > 0 or changed_x
+                if j < na:
+                    changed_a = k > 0 or changed_a
+                changed_y = True
         if changed_y:
             _refresh_scales(lo, hi, s, w2, isx, n, xo)
         if changed_a:
@@ -346,12 +391,23 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         k += 1
         si[0] = k
         ik = 1.0 / k
-        welford(z, mean, m2, ik)
+        for j in range(d):
+            dj = z[j] - mean[j]
+            mean[j] += dj * ik
+            m2[j] += dj * (z[j] - mean[j])
         # 4. potentials of the sample and of every focal point
         pmax = -np.inf
         pmin = np.inf
         if k >= 2:
-            P, vterm, kk = sample_potential(z, mean, m2, w2, dp, ik, k)
+            vterm = 0.0
+            acc = 0.0
+            for j in range(dp):
+                vterm += m2[j] * w2[j]
+                dj = z[j] - mean[j]
+                acc += dj * dj * w2[j]
+            vterm *= ik
+            kk = k / (k - 1.0)
+            P = 1.0 / (1.0 + (acc + vterm) * kk)
             for i in range(R):
                 e = vterm
                 for j in range(dp):
@@ -375,24 +431,60 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             pnew[:, :] = 0.0
             grow = True
         else:
-            replace, target, grow = structure_decision(z, cz, s, rad, R, na, P, pmax, pmin,
-                                                       variant, coverage, evq, rmax)
-            if replace:
-                for j in range(d):
-                    cz[target, j] = z[j]
-                pot[target] = P
-                _sync_rule(target, rad, s, ac)
-                add_event(ev, nev, k, EV_REPLACE, ids[target])
-                changed = True
-            elif grow:
-                if changed_a:
-                    _fire(z, cz, ac, R, ex, lam)
-                for a in range(n1):
-                    for o in range(m):
-                        acc = 0.0
-                        for i in range(R):
-                            acc += lam[i] * Pi[i, a, o]
-                        pnew[a, o] = acc
+            high = pmax * (1.0 + TIE) < P
+            low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
+            if evq or high or low:
+                dmin = np.inf
+                inear = 0
+                dcov = np.inf
+                icov = -1
+                for i in range(R):
+                    d2 = 0.0
+                    dinf = 0.0
+                    for j in range(na):
+                        q = abs(z[j] - cz[i, j]) / (s[j] * rad[i, j])
+                        d2 += q * q
+                        dinf = max(dinf, q)
+                    if d2 < dmin:
+                        dmin = d2
+                        inear = i
+                    if dinf < 0.5 and d2 < dcov:
+                        dcov = d2
+                        icov = i
+                if evq:
+                    # evolving vector quantisation: grow where nothing covers the sample
+                    replace = False
+                    target = inear
+                    grow = icov < 0
+                elif variant == 0:
+                    replace = P / pmax - np.sqrt(dmin) >= 1.0
+                    target = inear
+                    grow = not replace
+                else:
+                    replace = high and icov >= 0
+                    target = icov
+                    grow = icov < 0
+                if grow and rmax <= R:
+                    # at the cap a birth becomes a move of the nearest rule (keeps its consequent)
+                    replace = True
+                    target = inear
+                    grow = False
+                if replace:
+                    for j in range(d):
+                        cz[target, j] = z[j]
+                    pot[target] = P
+                    _sync_rule(target, rad, s, ac)
+                    add_event(ev, nev, k, EV_REPLACE, ids[target])
+                    changed = True
+                elif grow:
+                    if changed_a:
+                        _fire(z, cz, ac, R, ex, lam)
+                    for a in range(n1):
+                        for o in range(m):
+                            acc = 0.0
+                            for i in range(R):
+                                acc += lam[i] * Pi[i, a, o]
+                            pnew[a, o] = acc
         if grow:
             for j in range(na):
                 scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
@@ -416,10 +508,24 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                     acc += lam[i] * yr[i, o]
                 yh[o] = acc
         if not born:
-            w = reward_winner(z, lam, R, k, support, tsum, scat, rad, cz, s, r0, rho_s, na,
-                              adaptive, evq)
+            w = 0
+            for i in range(1, R):
+                if lam[i] > lam[w]:
+                    w = i
+            support[w] += 1
+            tsum[w] += k
             if adaptive:
-                _sync_rule(w, rad, s, ac)
+                for j in range(na):
+                    dx = z[j] - cz[w, j]
+                    scat[w, j] += (dx * dx - scat[w, j]) / support[w]
+                    rj = rho_s * rad[w, j] + (1.0 - rho_s) * SQRT8 * np.sqrt(scat[w, j]) / s[j]
+                    rad[w, j] = max(rj, RADIUS_FLOOR * r0[j])
+                    q = s[j] * rad[w, j]
+                    ac[w, j] = 4.0 / (q * q)  # as _sync_rule
+            if evq:
+                # the winner's focal point is the mean of the samples it has won
+                for j in range(d):
+                    cz[w, j] += (z[j] - cz[w, j]) / support[w]
         for i in range(R):
             lamsum[i] += lam[i]
         # 7. consequents: fuzzily weighted RLS
