@@ -11,11 +11,10 @@ Only steps off the hot path of a small rule base are here: reading the parameter
 per call), appending an event (a birth, move or removal), the global RLS and the shared
 outputs' RLS (each much more arithmetic than a call costs). The steps every sample runs
 (firing, range widening, Welford, potentials, the structure test, the winner's update)
-stay written out in each kernel: shared the same way they made the 2-rule kernel
-slower in one A/B run (0.29 → 0.56 µs/sample; the inlined copies of an array argument
-are reference-counted, an atomic increment and decrement each, per sample), and the
-difference was within the noise of a loaded machine once they were written out again
-(docs/performance.md, "Shared kernel steps").
+stay written out in each kernel. Shared the same way, they made the 2-rule kernel about
+1.6× slower (0.29 → 0.47 µs/sample in an alternating A/B). The likely cause: the inlined
+copies of an array argument are reference-counted per sample, an atomic increment and
+decrement each (docs/performance.md, "Shared kernel steps").
 """
 
 from __future__ import annotations
