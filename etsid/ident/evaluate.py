@@ -10,9 +10,10 @@ import pandas as pd
 
 from etsid.ets import ETS
 from etsid.ident.arx import ARX, rls_online
+from etsid.ident.fallback import Fallback
 from etsid.ident.metrics import scores
 from etsid.ident.regressors import Regression, RegressorSpec
-from etsid.ident.simulate import envelope, free_run, linear_stability
+from etsid.ident.simulate import envelope, free_run, linear_stability, mixed_predict_one
 from etsid.table import COLUMNS, RATE_COLUMNS
 
 
@@ -61,11 +62,12 @@ def persistence(reg: Regression, spec: RegressorSpec, table: pd.DataFrame | None
 
 def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table: int,
                        yhat: np.ndarray, frozen: ETS | None,
-                       table: pd.DataFrame | None = None
+                       table: pd.DataFrame | None = None, fallback: Fallback | None = None
                        ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """All prediction columns: online, frozen one-step and free-run, ARX online/val/sim,
     persistence; and the times at which each free run diverged
-    (:mod:`etsid.ident.simulate`), keyed ``ets`` and ``arx``."""
+    (:mod:`etsid.ident.simulate`), keyed ``ets`` and ``arx``. With ``fallback`` the frozen
+    one-step and free-run columns are the mixed model's (:mod:`etsid.ident.fallback`)."""
     n, m = reg.Y.shape
     cols = {k: np.full((n, m), np.nan) for k in ("y_val", "y_sim", "y_arx_val", "y_arx_sim")}
     cols["y_hat"] = yhat
@@ -75,20 +77,16 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
     bounds = envelope(reg.Y)
     if frozen is not None and split < n:
         S = None if reg.S is None else reg.S[split:]
-        cols["y_val"][split:] = np.asarray(frozen.predict(reg.X[split:], S)).reshape(n - split,
-                                                                                     m)
+        one = np.asarray(frozen.predict(reg.X[split:], S)).reshape(n - split, m)
+        cols["y_val"][split:] = (one if fallback is None
+                                 else fallback.apply(reg.X[split:], one))
         cols["y_sim"][split:] = free_run(frozen, reg, spec, split, n_table, bounds,
-                                         diverged["ets"])
+                                         diverged["ets"], fallback)
     rate = _rate_hz(reg)
     x0 = np.nanmean(reg.X[:max(split, 1)], axis=0) if n else np.zeros(reg.X.shape[1])
     stability: dict[str, Any] = {}
     if frozen is not None and split < n:
-        if reg.S is None:
-            stability["ets"] = linear_stability(frozen.predict_one, spec, x0, rate)
-        else:  # scheduled: linearised at the learning part's mean scheduling vector too
-            s0 = np.nanmean(reg.S[:max(split, 1)], axis=0)
-            stability["ets"] = linear_stability(lambda x: frozen.predict_one(x, s0), spec, x0,
-                                                rate)
+        stability["ets"] = _stability(frozen, fallback, reg, spec, split)
     if split >= reg.X.shape[1] + 1 and split < n:
         arx = ARX.fit(reg.X[:split], reg.Y[:split])
         cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
@@ -97,6 +95,39 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
         stability["arx"] = linear_stability(arx.predict_one, spec, x0, rate)
     diverged["stability"] = stability
     return cols, diverged
+
+
+def _stability(frozen: ETS, fallback: Fallback | None, reg: Regression, spec: RegressorSpec,
+               split: int) -> dict[str, Any]:
+    """:func:`~etsid.ident.simulate.linear_stability` of the frozen (mixed) model at the
+    learning part's mean regressor (and scheduling) vector."""
+    x0 = np.nanmean(reg.X[:max(split, 1)], axis=0) if len(reg.X) else np.zeros(reg.X.shape[1])
+    mixed = mixed_predict_one(frozen, fallback)
+    if reg.S is None:
+        return linear_stability(mixed, spec, x0, _rate_hz(reg))
+    s0 = np.nanmean(reg.S[:max(split, 1)], axis=0)  # scheduled: at the mean scheduling too
+    return linear_stability(lambda x: mixed(x, s0), spec, x0, _rate_hz(reg))
+
+
+def applied_validation(reg: Regression, spec: RegressorSpec, split: int, n_table: int,
+                       cols: dict[str, np.ndarray], frozen: ETS, fallback: Fallback,
+                       sigma: dict[str, float], sigma_native: dict[str, float] | None,
+                       motion_min: float | None) -> dict[str, Any]:
+    """Per output, the validation block (as :func:`output_metrics`) of the model rules.json
+    holds with its fall-back: eTS where not replaced, one-step and a free run that feeds
+    back the mixed prediction — what ``etsid predict`` reproduces from ``split`` on."""
+    n, m = reg.Y.shape
+    mixed = dict(cols)
+    mixed["y_val"] = cols["y_val"].copy()
+    mixed["y_val"][split:] = fallback.apply(reg.X[split:], cols["y_val"][split:])
+    div: list[float] = []
+    mixed["y_sim"] = np.full((n, m), np.nan)
+    mixed["y_sim"][split:] = free_run(frozen, reg, spec, split, n_table, envelope(reg.Y), div,
+                                      fallback)
+    info = {"ets": div, "arx": [],
+            "stability": {"ets": _stability(frozen, fallback, reg, spec, split)}}
+    blocks = output_metrics(reg, spec, split, mixed, sigma, sigma_native, info, motion_min)
+    return {y: blocks[y]["validation"] for y in spec.outputs}
 
 
 def _rate_hz(reg: Regression) -> float:

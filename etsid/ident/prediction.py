@@ -21,6 +21,7 @@ from etsid.ident.evaluate import (
     rate_info,
     validation_info,
 )
+from etsid.ident.fallback import read_fallback
 from etsid.ident.flight import EXCITE_STD, apply_selection, select_flight
 from etsid.ident.learn import empty_history, history_frames, learn_online
 from etsid.ident.motors import MOTOR_COMMANDS, add_motor_commands
@@ -70,6 +71,7 @@ def load_rules(path: str | Path) -> tuple[ETS, RegressorSpec, dict[str, Any]]:
         model = ETS.from_dict(data)
     except ModelError as err:
         raise IdentError(f"{path}: {err}" if str(path) not in str(err) else str(err)) from err
+    read_fallback(data, spec, str(path))  # the schema checked its shape; this, its sizes
     return model, spec, data
 
 
@@ -103,6 +105,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     """
     path = Path(rules)
     model, spec, data = load_rules(path)
+    fallback = read_fallback(data, spec, str(path))
     sigma_native = noise_std(table, spec.outputs)
     rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
     table = add_motor_commands(table)
@@ -123,7 +126,10 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         yhat, _ = learn_online(model, reg, -1, show_progress, "predict: samples")
     else:
         yhat = np.asarray(frozen.predict(reg.X, reg.S)).reshape(n, -1)
-    cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table)
+    if fallback is not None:  # the fall-back stays as identify fitted it, also with learn
+        yhat = fallback.apply(reg.X, yhat)
+    cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table,
+                                        fallback)
     cols["y_val"][:split] = np.nan
     if not learn:
         cols["y_val"][split:] = yhat[split:]
@@ -141,7 +147,12 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "sample_rate": rate_info(table),
         "flight": selection.to_dict(),
     }
-    notes = motion_warnings(metrics["outputs"], EXCITE_STD)
+    used = (fallback.used(spec.outputs) if fallback is not None
+            else dict.fromkeys(spec.outputs, "eTS"))
+    for y in spec.outputs:
+        metrics["outputs"][y]["used"] = used[y]
+    notes = (fallback.lines() if fallback is not None else []) + motion_warnings(
+        metrics["outputs"], EXCITE_STD)
     radius = None  # the table's own rotor radius (--vehicle, the simulator) comes first
     if rotor_radius(table.attrs) is None and (radius := data["regressors"].get(
             "rotor_radius_m")) is not None:
@@ -164,6 +175,7 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "warnings": list(table.attrs.get("warnings") or []),
     }
     learnt = rules_json(model.to_dict(), spec, data["regressors"].get("decimation"),
-                        radius or rotor_radius(table.attrs)) if learn else None
+                        radius or rotor_radius(table.attrs), data.get("fallback")
+                        ) if learn else None
     return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
                history, consequents, data, learnt)

@@ -42,6 +42,7 @@ from etsid.ident.checks import (
 )
 from etsid.ident.config import IdentConfig
 from etsid.ident.evaluate import (
+    applied_validation,
     noise_std,
     output_metrics,
     prediction_columns,
@@ -49,6 +50,7 @@ from etsid.ident.evaluate import (
     rate_info,
     validation_info,
 )
+from etsid.ident.fallback import REASONS, fallback_block, read_fallback
 from etsid.ident.flight import (
     EXCITE_STD,
     FlightSelection,
@@ -235,7 +237,7 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
                                   EXCITE_STD),
         "sample_rate": rate_info(table),
     }
-    blocked, still_used = None, {}
+    blocked, still_used, fallback = None, {}, None
     if rate_model and frozen is not None and split < n:
         tail = tail_informs(reg, spec, split, EXCITE_STD)
         blocked = blocked_validation(reg, spec, config, excited, config.validate, len(table),
@@ -256,6 +258,17 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
         used = {**fallbacks(metrics["outputs"]), **still_used}
         for y in spec.outputs:
             metrics["outputs"][y]["used"] = used.get(y, "eTS")
+        fallback, unsaved = fallback_block(
+            used, {y: REASONS["blocks" if y in still_used else "tail"] for y in used},
+            reg, spec, split)
+        chosen.notes.extend(unsaved)
+        applied = read_fallback({"fallback": fallback}, spec, "identify")
+        if applied is not None:
+            blocks = applied_validation(reg, spec, split, len(table), cols, frozen, applied,
+                                        sigma, sigma_native, EXCITE_STD)
+            for y in spec.outputs:
+                metrics["outputs"][y]["applied"] = {"model": applied.used(spec.outputs)[y],
+                                                    "validation": blocks[y]}
     metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
                                            split)
     run_config = {
@@ -271,5 +284,5 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
     radius = rotor_radius(table.attrs)
     done()
     return Run(predictions_frame(reg, spec, table, split, cols), jsonable(metrics), run_config,
-               history, consequents, rules_json(frozen_dict, spec, rate, radius),
+               history, consequents, rules_json(frozen_dict, spec, rate, radius, fallback),
                rules_json(model.to_dict(), spec, rate, radius))

@@ -128,11 +128,15 @@ def _input_info(table: pd.DataFrame, source: str | Path | None) -> dict[str, Any
 
 def rules_json(data: dict[str, Any] | None, spec: RegressorSpec,
                rate: dict[str, Any] | None = None,
-               rotor_radius_m: float | None = None) -> dict[str, Any]:
+               rotor_radius_m: float | None = None,
+               fallback: dict[str, Any] | None = None) -> dict[str, Any]:
     """rules.json: the rule base ``data`` (``ETS.to_dict``) with the regressor spec and
-    the identification rate that :func:`etsid.ident.predict` needs to apply it, and the
-    rotor radius (m) of the vehicle it was learnt on when known (its regime bands in z/R)."""
+    the identification rate that :func:`etsid.ident.predict` needs to apply it, the
+    rotor radius (m) of the vehicle it was learnt on when known (its regime bands in z/R),
+    and the per-output fall-back identify chose (:mod:`etsid.ident.fallback`), if any."""
     out = dict(data or {})
+    if fallback:
+        out["fallback"] = fallback
     out["regressors"] = spec.to_dict()
     if rotor_radius_m:
         out["regressors"]["rotor_radius_m"] = float(rotor_radius_m)

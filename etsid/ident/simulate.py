@@ -41,6 +41,7 @@ import numpy as np
 
 from etsid.ets import ETS
 from etsid.ident.arx import ARX
+from etsid.ident.fallback import Fallback
 from etsid.ident.regressors import Regression, RegressorSpec, attitude_map, feedback_map
 from etsid.ident.simulate_kernel import free_run_kernel, pack_linear
 
@@ -123,7 +124,8 @@ def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:
 
 def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
              spec: RegressorSpec, start: int, n_table: int, bounds: np.ndarray | None = None,
-             diverged: list[float] | None = None) -> np.ndarray:
+             diverged: list[float] | None = None, fallback: Fallback | None = None
+             ) -> np.ndarray:
     """Simulate rows ``start …`` of ``reg`` with the model fed its own past outputs.
 
     The numba kernel :func:`etsid.ident.simulate_kernel.free_run_kernel` does the work; the
@@ -137,6 +139,9 @@ def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
         (or a callable taken as ``predict_one``) is run by :func:`free_run_reference`.
     reg, spec, start, n_table, bounds, diverged
         As :func:`free_run_reference`.
+    fallback
+        Outputs of an eTS model replaced by their linear fall-back (ARX or no-change,
+        :mod:`etsid.ident.fallback`); each step feeds back the mixed prediction.
 
     Returns
     -------
@@ -145,6 +150,8 @@ def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
     """
     m = len(spec.outputs)
     N = len(reg.X)
+    if fallback is not None and fallback.mask.any() and not isinstance(model, ETS):
+        raise ValueError("a fall-back replaces outputs of an eTS model only")
     if isinstance(model, ARX):
         frozen, work = pack_linear(model.theta)
         scheduled = True  # on no antecedent input at all (S of width 0)
@@ -152,8 +159,8 @@ def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
         one = getattr(model, "predict_one", model)
         return free_run_reference(one, reg, spec, start, n_table, bounds, diverged)
     elif model.n_rules == 0:  # nothing to simulate with: the plain loop's NaN behaviour
-        return free_run_reference(model.predict_one, reg, spec, start, n_table, bounds,
-                                  diverged)
+        return free_run_reference(mixed_predict_one(model, fallback), reg, spec, start,
+                                  n_table, bounds, diverged)
     else:
         frozen, work = model.frozen_predictor()
         scheduled = bool(model.scheduled_)
@@ -180,13 +187,32 @@ def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
     div_rows = np.empty(max(N - start, 0), dtype=np.int64)
     check = bounds is not None
     lims = np.asarray(bounds, dtype=np.float64) if check else np.zeros((2, m))
+    fb_mask = (np.ascontiguousarray(fallback.mask, dtype=np.bool_) if fallback is not None
+               else np.zeros(m, dtype=np.bool_))
+    fb_theta = (np.ascontiguousarray(fallback.theta, dtype=np.float64)
+                if fallback is not None else np.zeros((reg.X.shape[1] + 1, m)))
     n_div = free_run_kernel(np.ascontiguousarray(reg.X, dtype=np.float64), S, scheduled,
                             np.ascontiguousarray(reg.rows, dtype=np.int64), seg, links, angles,
-                            rate_idx, kin, bias, lims, check, frozen, work, int(start), sim,
-                            att, out, div_rows)
+                            rate_idx, kin, bias, lims, check, frozen, work, fb_mask, fb_theta,
+                            int(start), sim, att, out, div_rows)
     if diverged is not None:
         diverged.extend(float(reg.t[i]) for i in div_rows[:n_div])
     return out
+
+
+def mixed_predict_one(model: ETS, fallback: Fallback | None
+                      ) -> Callable[..., np.ndarray]:
+    """``predict_one(x[, s])`` of ``model`` with the outputs of ``fallback`` replaced by
+    their linear fall-back (the plain-loop form of the kernel's mixed model)."""
+    if fallback is None or not fallback.mask.any():
+        return model.predict_one
+
+    def one(x: np.ndarray, s: np.ndarray | None = None) -> np.ndarray:
+        y = np.asarray(model.predict_one(x) if s is None else model.predict_one(x, s),
+                       dtype=float).reshape(-1)
+        return fallback.apply(np.asarray(x, dtype=float)[None, :], y[None, :])[0]
+
+    return one
 
 
 def free_run_reference(predict_one: Callable[..., np.ndarray], reg: Regression,

@@ -2,7 +2,10 @@
 
 The model is a frozen rule base packed for :func:`etsid.ets.kernels.predict_row`; a linear
 ARX model is packed as one rule with no antecedent (:func:`pack_linear`), whose firing is
-exactly 1. The kernel does, row by row and in the same order, what the plain loop
+exactly 1. A per-output fall-back (:mod:`etsid.ident.fallback`: ARX or no-change, both
+linear in the regressors) replaces the chosen outputs of the rule base's prediction by
+``θ₀ + xᵀ θ₁…`` of the same fed-back regressors (``fb_mask``, ``fb_theta``). The kernel
+does, row by row and in the same order, what the plain loop
 :func:`etsid.ident.simulate.free_run_reference` does (the equivalence tests compare the
 two): feed back the simulated lagged outputs and integrated attitude angles, predict, stop
 a segment at a divergence, integrate roll and pitch from the simulated rates.
@@ -28,7 +31,8 @@ def pack_linear(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @njit(cache=True, boundscheck=False)
 def free_run_kernel(X, S, scheduled, rows, seg, links, angles, rate_idx, kin, bias, bounds,
-                    check, frozen, work, start, sim, att, out, div_rows) -> int:
+                    check, frozen, work, fb_mask, fb_theta, start, sim, att, out,
+                    div_rows) -> int:
     """Simulate rows ``start …`` of ``X`` (N, n) with the model fed its own past outputs.
 
     Parameters
@@ -51,6 +55,9 @@ def free_run_kernel(X, S, scheduled, rows, seg, links, angles, rate_idx, kin, bi
         (2, m) envelope; with ``check`` a row outside it (or not finite) stops its segment.
     frozen, work
         The packed model and its work array (:func:`~etsid.ets.kernels.predict_row`).
+    fb_mask, fb_theta
+        (m,) bool: outputs replaced by the linear fall-back; (n + 1, m): its coefficients,
+        intercept first (:class:`etsid.ident.fallback.Fallback`). All False: none.
     start
         First row to simulate.
     sim, att
@@ -99,6 +106,12 @@ def free_run_kernel(X, S, scheduled, rows, seg, links, angles, rate_idx, kin, bi
         if not ok:
             for o in range(m):
                 y[o] = np.nan
+        for o in range(m):
+            if fb_mask[o]:
+                acc = fb_theta[0, o]
+                for j in range(n):
+                    acc += x[j] * fb_theta[j + 1, o]
+                y[o] = acc
         if check:
             bad = False
             for o in range(m):
