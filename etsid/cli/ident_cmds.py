@@ -259,11 +259,14 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
 @click.option("--vehicle", metavar="NAME|FILE",
               help="The vehicle flown: its rotor radius puts the scores per regime in z/R "
                    "(as for identify).")
+@click.option("--no-fallback", is_flag=True,
+              help="eTS on every output: do not apply the ARX / no-change fall-back that "
+                   "identify saved for an axis where eTS was behind on its validation.")
 @click.option("--json", "as_json", is_flag=True, help="Print metrics.json instead of a table.")
 @log_options
 def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: float | None,
-                rate_hz: float | None, segments: str, vehicle: str | None, as_json: bool,
-                maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
+                rate_hz: float | None, segments: str, vehicle: str | None, no_fallback: bool,
+                as_json: bool, maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
                 quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
     if sim_from is not None and not np.isfinite(sim_from):
@@ -278,7 +281,8 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
                                  param_hint="--sim-from")
     try:
         run = predict(table, rules_path, learn=learn, sim_from=sim_from, source=log,
-                      show_progress=wanted(quiet), segments=segments)
+                      show_progress=wanted(quiet), segments=segments,
+                      fallback=not no_fallback)
     except IdentError as err:
         raise _naming(err, log, rules_path) from err
     echo_table_notes(table)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from etsid.errors import IdentError
 from etsid.ident.arx import ARX
@@ -61,11 +62,14 @@ class Fallback:
     reasons: dict[str, str] = field(default_factory=dict)
 
     def apply(self, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """``Y`` (N, m) with the replaced outputs predicted from ``X`` (N, n) instead."""
-        out = np.array(Y, dtype=float, copy=True).reshape(len(X), -1)
-        cols = np.flatnonzero(self.mask)
-        if cols.size:
-            out[:, cols] = (self.theta[0] + np.asarray(X, dtype=float) @ self.theta[1:])[:, cols]
+        """``Y`` (N, m) with the replaced outputs predicted from ``X`` (N, n) instead; each
+        row summed in the free-run kernel's order, so that a row's value does not depend on
+        which rows are predicted with it."""
+        out = np.array(Y, dtype=np.float64, copy=True).reshape(len(X), -1)
+        if self.mask.any():
+            _linear_rows(np.ascontiguousarray(X, dtype=np.float64),
+                         np.ascontiguousarray(self.theta, dtype=np.float64),
+                         np.ascontiguousarray(self.mask, dtype=np.bool_), out)
         return out
 
     def used(self, outputs: tuple[str, ...] | list[str]) -> dict[str, str]:
@@ -76,6 +80,20 @@ class Fallback:
         """One line per replaced output, e.g. ``q: ARX, as identify chose (…)``."""
         return [f"{y}: {m}, as identify chose ({self.reasons.get(y) or 'eTS was behind'})"
                 for y, m in self.models.items()]
+
+
+@njit(cache=True, boundscheck=False)
+def _linear_rows(X, theta, mask, out) -> None:  # pragma: no cover  (numba)
+    """``out[i, o] = θ₀ₒ + Σⱼ X[i, j] θⱼ₊₁,ₒ`` for the outputs ``o`` in ``mask``, summed in
+    the order of :func:`etsid.ident.simulate_kernel.free_run_kernel`."""
+    n = X.shape[1]
+    for i in range(X.shape[0]):
+        for o in range(out.shape[1]):
+            if mask[o]:
+                acc = theta[0, o]
+                for j in range(n):
+                    acc += X[i, j] * theta[j + 1, o]
+                out[i, o] = acc
 
 
 def _hold_column(spec: RegressorSpec, y: str) -> int | None:

@@ -81,7 +81,8 @@ MAX_SAMPLE_RATE_HZ = 10_000.0
 
 def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
             sim_from: float | None = None, source: str | Path | None = None,
-            show_progress: bool = False, segments: str = "auto") -> Run:
+            show_progress: bool = False, segments: str = "auto",
+            fallback: bool = True) -> Run:
     """Apply a saved rule base to ``table``: one-step and free-run, optionally learning on.
 
     Parameters
@@ -102,10 +103,14 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
     segments
         ``auto`` (airborne rows, the same rule as identify), ``all`` or ``T0:T1[,…]`` (s):
         the rows predicted and scored (:func:`etsid.ident.flight.select_flight`).
+    fallback
+        Apply the rule base's per-output fall-back (:mod:`etsid.ident.fallback`: ARX or
+        no-change where identify found eTS behind on its validation; fixed, also with
+        ``learn``). False: eTS on every output, as the rules alone predict.
     """
     path = Path(rules)
     model, spec, data = load_rules(path)
-    fallback = read_fallback(data, spec, str(path))
+    applied = read_fallback(data, spec, str(path)) if fallback else None
     sigma_native = noise_std(table, spec.outputs)
     rate_hz = (data.get("regressors") or {}).get("sample_rate_hz")
     table = add_motor_commands(table)
@@ -126,10 +131,10 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         yhat, _ = learn_online(model, reg, -1, show_progress, "predict: samples")
     else:
         yhat = np.asarray(frozen.predict(reg.X, reg.S)).reshape(n, -1)
-    if fallback is not None:  # the fall-back stays as identify fitted it, also with learn
-        yhat = fallback.apply(reg.X, yhat)
+    if applied is not None:  # the fall-back stays as identify fitted it, also with learn
+        yhat = applied.apply(reg.X, yhat)
     cols, diverged = prediction_columns(reg, spec, split, len(table), yhat, frozen, table,
-                                        fallback)
+                                        applied)
     cols["y_val"][:split] = np.nan
     if not learn:
         cols["y_val"][split:] = yhat[split:]
@@ -147,12 +152,15 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "sample_rate": rate_info(table),
         "flight": selection.to_dict(),
     }
-    used = (fallback.used(spec.outputs) if fallback is not None
+    used = (applied.used(spec.outputs) if applied is not None
             else dict.fromkeys(spec.outputs, "eTS"))
     for y in spec.outputs:
         metrics["outputs"][y]["used"] = used[y]
-    notes = (fallback.lines() if fallback is not None else []) + motion_warnings(
+    notes = (applied.lines() if applied is not None else []) + motion_warnings(
         metrics["outputs"], EXCITE_STD)
+    if not fallback and data.get("fallback"):
+        notes.insert(0, "eTS on every output (--no-fallback): the rule base's fall-back on "
+                        f"{', '.join(data['fallback'])} is not applied")
     radius = None  # the table's own rotor radius (--vehicle, the simulator) comes first
     if rotor_radius(table.attrs) is None and (radius := data["regressors"].get(
             "rotor_radius_m")) is not None:
@@ -167,7 +175,8 @@ def predict(table: pd.DataFrame, rules: str | Path, learn: bool = False,
         "model": {**spec.to_dict(), "inputs": {"columns": [
             c for c in spec.columns if c not in spec.outputs]},
                   "notes": notes},
-        "parameters": {"learn": learn, "sim_from": sim_from, "segments": segments},
+        "parameters": {"learn": learn, "sim_from": sim_from, "segments": segments,
+                       "fallback": fallback},
         "ets": {**{k: data["params"].get(k) for k in ("radius", "omega", "variant")},
                 "fixed_ranges": data["params"].get("x_range") is not None}
         if isinstance(data.get("params"), dict) else {},

@@ -107,3 +107,65 @@ def test_linear_packing_predicts_as_the_linear_model() -> None:
         out = np.empty(3)
         assert predict_row(x, np.zeros(0), out, frozen, work)
         np.testing.assert_allclose(out, theta[0] + x @ theta[1:], rtol=1e-14, atol=1e-14)
+
+
+def _fallback(spec: RegressorSpec, arx: ARX, replace: dict[str, str]):  # type: ignore[no-untyped-def]
+    from etsid.ident.fallback import Fallback
+
+    m, names = len(spec.outputs), spec.input_names
+    mask, theta = np.zeros(m, dtype=bool), np.zeros((len(names) + 1, m))
+    for y, model in replace.items():
+        o = spec.outputs.index(y)
+        mask[o] = True
+        if model == "ARX":
+            theta[:, o] = arx.theta[:, o]
+        else:
+            theta[names.index(f"{y}[k-1]") + 1, o] = 1.0
+    return Fallback(mask, theta, dict(replace))
+
+
+@pytest.mark.parametrize("antecedent", [None, "inv_alt[k-1]"])
+def test_kernel_equals_the_plain_loop_for_a_mixed_model(antecedent: str | None) -> None:
+    """eTS on p and r, its fall-back on q (ARX, then no-change): the kernel's mixed model
+    equals the plain loop fed with the mixed ``predict_one``, divergences included."""
+    from etsid.ident.simulate import mixed_predict_one
+
+    spec = RegressorSpec.parse(SPEC, OUTPUTS, antecedent)
+    reg = build(_flight(), spec)
+    model = _ets(reg, spec, 250, antecedent is not None)
+    arx = ARX.fit(reg.X[:250], reg.Y[:250])
+    for replace in ({"q": "ARX"}, {"q": "no-change"}):
+        fb = _fallback(spec, arx, replace)
+        one = mixed_predict_one(model, fb)
+        for bounds in (None, envelope(reg.Y)):
+            fd: list[float] = []
+            sd: list[float] = []
+            fast = free_run(model, reg, spec, 250, len(reg.kinematics), bounds, fd, fb)
+            slow = free_run_reference(one, reg, spec, 250, len(reg.kinematics), bounds, sd)
+            assert np.isfinite(slow).sum() > 300
+            np.testing.assert_array_equal(np.isnan(fast), np.isnan(slow))
+            np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+            assert fd == sd
+        pure = free_run(model, reg, spec, 250, len(reg.kinematics), None)
+        assert not np.allclose(fast[:, 1], pure[:, 1])  # q is not eTS's any more
+
+
+def test_every_output_on_its_fall_back_is_the_arx_free_run() -> None:
+    """Known answer: an eTS model with every output replaced by ARX simulates exactly as
+    ARX alone, and no-change on every output holds the first value of each segment."""
+    spec = RegressorSpec.parse(SPEC, OUTPUTS)
+    reg = build(_flight(), spec)
+    model = _ets(reg, spec, 250, False)
+    arx = ARX.fit(reg.X[:250], reg.Y[:250])
+    n_table = len(reg.kinematics)
+    mixed = free_run(model, reg, spec, 250, n_table, None, None,
+                     _fallback(spec, arx, dict.fromkeys(OUTPUTS, "ARX")))
+    np.testing.assert_allclose(mixed, free_run(arx, reg, spec, 250, n_table), rtol=0,
+                               atol=1e-12)
+    held = free_run(model, reg, spec, 250, n_table, None, None,
+                    _fallback(spec, arx, dict.fromkeys(OUTPUTS, "no-change")))
+    names = spec.input_names
+    for seg in np.unique(reg.segment[250:]):
+        rows = np.flatnonzero(reg.segment[250:] == seg)
+        first = [reg.X[250 + rows[0], names.index(f"{y}[k-1]")] for y in OUTPUTS]
+        np.testing.assert_array_equal(held[rows], np.tile(first, (len(rows), 1)))
