@@ -21,6 +21,7 @@ from etsid.files import read_json
 from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
 from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
 from etsid.ident.defaults import ATTITUDE_MODES
+from etsid.ident.fallback import read_fallback
 from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
 from etsid.ident.ranges import NORMALISE_MODES
 from etsid.ident.resample import DEFAULT_RATE_HZ
@@ -301,17 +302,21 @@ def rules_cmd(path: Path, full: bool, as_json: bool) -> None:
     dominate its consequent with their share; --full prints every term.
     """
     data = _control_rules(path)  # a control run's rule base has no regressor spec
+    spec = None
     if data is None:
-        _, _, data = load_rules(path)
+        _, spec, data = load_rules(path)
     if as_json:
         click.echo(json.dumps(data, indent=1))
         return
     if full:
         click.echo(rules_text(data))
-        return
-    from etsid.report.rulebook import readable
+    else:
+        from etsid.report.rulebook import readable
 
-    click.echo(readable(data, trusted=True))  # checked when loaded
+        click.echo(readable(data, trusted=True))  # checked when loaded
+    fallback = read_fallback(data, spec, str(path)) if spec is not None else None
+    for line in fallback.lines() if fallback is not None else []:
+        click.echo(f"fall-back {line}; etsid predict applies it, not the rules")
 
 
 def _control_rules(path: Path) -> dict | None:

@@ -182,3 +182,14 @@ def test_cli_says_it_in_one_line(synthetic, tmp_path: Path) -> None:  # type: ig
     assert res.exit_code == 0, res.output
     metrics = json.loads((tmp_path / "Q" / "metrics.json").read_text())
     assert metrics["outputs"]["r"]["used"] == "eTS"
+
+
+def test_rules_command_names_the_fall_back(synthetic) -> None:  # type: ignore[no-untyped-def]
+    from etsid.cli import cli
+
+    _, out, _ = synthetic
+    res = CliRunner().invoke(cli, ["rules", str(out)])
+    assert res.exit_code == 0, res.output
+    assert res.output.splitlines()[-1] == (
+        "fall-back r: ARX, as identify chose (eTS was behind on its validation); "
+        "etsid predict applies it, not the rules")
