@@ -105,8 +105,10 @@ def test_predict_cli_reproduces_validation(run_dir: Path, saved_table: Path,
     ident = read_run(run_dir)
     t0 = ident.metrics["validation"]["t_start"]
     out = tmp_path / "P"
+    # eTS on every output: identify's y_val / y_sim columns are the eTS model's (the
+    # fall-back identify may save is tested in tests/ident/test_ident_fallback.py)
     result = invoke("predict", saved_table, "--rules", run_dir / "rules.json", "--out", out,
-                    "--sim-from", repr(t0), "--quiet")
+                    "--sim-from", repr(t0), "--quiet", "--no-fallback")
     assert result.exit_code == 0, result.output
     pred = read_run(out).predictions
     val = ident.predictions["part"] == "validation"
