@@ -57,6 +57,7 @@ class AxisFit:
 
     coef: np.ndarray
     se: np.ndarray
+    alt: list[np.ndarray]   # coefficients refitted at the thrust curve's interval ends
 
 
 @dataclass
@@ -233,8 +234,13 @@ def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
 
 
 def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
-                 tau_default: float, fine: bool = True) -> RotationFit:
+                 tau_default: float, fine: bool = True,
+                 ends: tuple[tuple[float, float], ...] = ()) -> RotationFit:
     """Fit τ, d and each axis's coefficients (module docstring).
+
+    ``ends``: (K, ι) pairs at the ends of the thrust curve's 95 % interval; the
+    coefficients are refitted with each (:attr:`AxisFit.alt`), since the regressors carry
+    the thrust curve and its error moves every coefficient with it.
 
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
     resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
@@ -277,11 +283,13 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)
     half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
-    for name, m, mh in zip(("roll", "pitch", "yaw"), full, half, strict=True):
+    alts = [_jive_moments(preps, geom, ka, ia, tau, delay) for ka, ia in ends]
+    for i, (name, m, mh) in enumerate(zip(("roll", "pitch", "yaw"), full, half, strict=True)):
         coef, se = m.jackknife()
         # model error: the same equation fitted on half the bandwidth must give the same
         # coefficients if the model holds; what unmodelled dynamics move is added
         shift = np.abs(coef - mh.solve()[0])
-        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift))
+        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift),
+                             alt=[a[i].solve()[0] for a in alts])
     return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
                        tau_at_edge=edge, instrumented=all(p.instrumented for p in preps))
