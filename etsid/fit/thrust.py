@@ -25,7 +25,7 @@ CHI2_95 = 3.841
 IDLE_GRID = np.round(np.arange(0.0, 0.6001, 0.005), 4)
 """Idle ratios tried, Ω_idle/Ω_top."""
 
-IDLE_MODEL_SE = 0.0
+IDLE_MODEL_SE = 0.0093
 """Standard error of the idle ratio that the thrust law's own misfit adds (absolute, in
 units of Ω_top), measured on the development seeds of ``benchmarks/fit.py`` (docs/fit.md):
 ι only bends the thrust curve over the narrow command range of a flight, so a small misfit
