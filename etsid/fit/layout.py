@@ -79,6 +79,13 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
         y = np.asarray(layout["y"], dtype=float)
         spin = np.sign(np.asarray(layout["spin"], dtype=float))
         arm = float(np.median(np.hypot(x, y))) if x.size else 0.0
+        if x.size == n and np.all(np.isfinite(np.r_[x, y])) and layout.get("arm_known") is \
+                False:   # angles and spins from the autopilot's frame parameters
+            angles = [math.degrees(math.atan2(b, a)) % 360.0 for a, b in zip(x, y, strict=True)]
+            return {"angles_deg": angles, "spin": ["ccw" if s > 0 else "cw" for s in spin],
+                    "arm": DEFAULT_ARM, "arm_known": False, "n": n,
+                    "source": f"{layout.get('source', 'the log’s frame parameters')} (arm "
+                              f"declared {DEFAULT_ARM} m)"}
         if x.size == n and np.all(np.isfinite(np.r_[x, y])) and 0.03 <= arm <= 1.0:
             angles = [math.degrees(math.atan2(b, a)) % 360.0 for a, b in zip(x, y, strict=True)]
             return {"angles_deg": angles, "spin": ["ccw" if s > 0 else "cw" for s in spin],

@@ -59,6 +59,7 @@ import numpy as np
 from etsid.errors import IngestError
 from etsid.files import check
 from etsid.ingest import dataflash_index
+from etsid.ingest.ardupilot_frames import frame_layout
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.dataflash_legacy import (
@@ -396,6 +397,7 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(msgs)
     raw.extra.update(_facts(reader, data, path))
+    _frame(raw, reader, data, path)
     _catalogue(raw, reader, data, msgs)
     _damage(raw, reader, data, noise, [d.t for d in msgs.values()])
     return raw
@@ -424,6 +426,27 @@ def _facts(reader: object, data: np.ndarray, path: Path) -> dict[str, str]:
             facts["hardware"] = board.group(1)
             break
     return dict(sorted(facts.items()))
+
+
+def _frame(raw: RawLog, reader: object, data: np.ndarray, path: Path) -> None:
+    """The motor layout of the log's ``FRAME_CLASS`` / ``FRAME_TYPE`` parameters (last
+    value of each), for the motor outputs' topic (:mod:`etsid.ingest.ardupilot_frames`);
+    ``frame`` in ``extra`` names the parameters whatever the table knows of them."""
+    parm = _decode(reader, data, "PARM", RawLog(path=path, format="bin"))
+    if parm is None or not (parm.has("Name") and parm.has("Value")):
+        return
+    params: dict[str, float] = {}
+    for name, value in zip(parm.rec["Name"], parm.rec["Value"], strict=True):
+        key = decode_text(name)
+        if key in ("FRAME_CLASS", "FRAME_TYPE", "FRAME"):
+            params[key] = float(value)
+    if not params:
+        return
+    raw.extra["frame"] = ", ".join(f"{k} {v:g}" for k, v in sorted(params.items()))
+    layout = frame_layout(params)
+    topic = next((s.topic for s in raw.signals if s.column == "m1"), None)
+    if layout is not None and topic is not None:
+        raw.extra["motor_layout"] = {**layout, "topic": topic}
 
 
 def _catalogue(raw: RawLog, reader: object, data: np.ndarray,
