@@ -1,8 +1,10 @@
 """Rotor geometry of a log: which outputs drive motors, where they sit, how they spin.
 
 Order of trust: the log's own mixer geometry (``attrs["motor_layout"]``: the simulator's
-vehicle, PX4 ≥ 1.13 ``CA_ROTOR*``), else the autopilot's standard layout for the number of
-active outputs (PX4 Quad X / Hexa X / Octo coax X order), stated as a declared default.
+vehicle, PX4 ≥ 1.13 ``CA_ROTOR*``), else ArduPilot's ``FRAME_CLASS`` / ``FRAME_TYPE``
+(angles and spins, :mod:`etsid.ingest.ardupilot_frames`), else the autopilot's standard
+layout for the number of active outputs (PX4 Quad X / Hexa X / Octo coax X order), stated
+as a declared default.
 An output is *active* when it moves in flight: a servo rail parked at one value, or an
 unused channel, is left out and counted.
 """
@@ -16,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import FitError
+from etsid.ingest.ardupilot_frames import frame_layout
 
 MOTORS = tuple(f"m{i}" for i in range(1, 9))
 
@@ -79,13 +82,6 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
         y = np.asarray(layout["y"], dtype=float)
         spin = np.sign(np.asarray(layout["spin"], dtype=float))
         arm = float(np.median(np.hypot(x, y))) if x.size else 0.0
-        if x.size == n and np.all(np.isfinite(np.r_[x, y])) and layout.get("arm_known") is \
-                False:   # angles and spins from the autopilot's frame parameters
-            angles = [math.degrees(math.atan2(b, a)) % 360.0 for a, b in zip(x, y, strict=True)]
-            return {"angles_deg": angles, "spin": ["ccw" if s > 0 else "cw" for s in spin],
-                    "arm": DEFAULT_ARM, "arm_known": False, "n": n,
-                    "source": f"{layout.get('source', 'the log’s frame parameters')} (arm "
-                              f"declared {DEFAULT_ARM} m)"}
         if x.size == n and np.all(np.isfinite(np.r_[x, y])) and 0.03 <= arm <= 1.0:
             angles = [math.degrees(math.atan2(b, a)) % 360.0 for a, b in zip(x, y, strict=True)]
             return {"angles_deg": angles, "spin": ["ccw" if s > 0 else "cw" for s in spin],
@@ -97,6 +93,14 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
                     "arm": DEFAULT_ARM, "arm_known": False, "n": n,
                     "source": "the log's mixer angles and spins (its arm lengths "
                               f"{arm:.2f} m are nominal: arm declared {DEFAULT_ARM} m)"}
+    log = table.attrs.get("log") if isinstance(table.attrs.get("log"), dict) else {}
+    frame = frame_layout({"FRAME_CLASS": log.get("frame_class"),
+                          "FRAME_TYPE": log.get("frame_type")})
+    if frame is not None and len(frame["spin"]) == n:
+        return {"angles_deg": frame["angles_deg"],
+                "spin": ["ccw" if s > 0 else "cw" for s in frame["spin"]],
+                "arm": DEFAULT_ARM, "arm_known": False, "n": n,
+                "source": f"{frame['source']}, arm declared {DEFAULT_ARM} m"}
     if n not in STANDARD_LAYOUTS:
         raise FitError(f"{src}: {n} active motor outputs and no rotor geometry in the log; "
                        "only 4, 6 or 8 have a standard layout")

@@ -7,6 +7,9 @@ the types plus, X and H); the others (V, V-tail, Y6, dodeca, ...) are not read a
 falls back to the standard layout for the motor count, as it says. A log has no arm length:
 the layout is angles and spins on a unit circle, marked ``arm_known = False``.
 
+The DataFlash reader puts the parameters in the table's ``attrs["log"]`` (``frame_class``,
+``frame_type``); :func:`etsid.fit.layout.rotor_layout` reads them.
+
 >>> layout = frame_layout({"FRAME_CLASS": 2.0, "FRAME_TYPE": 1.0})
 >>> [round(a) for a in layout["angles_deg"]], layout["spin"][:2]
 ([90, 270, 330, 150, 30, 210], [-1.0, 1.0])

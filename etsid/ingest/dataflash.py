@@ -59,7 +59,6 @@ import numpy as np
 from etsid.errors import IngestError
 from etsid.files import check
 from etsid.ingest import dataflash_index
-from etsid.ingest.ardupilot_frames import frame_layout
 from etsid.ingest.base import Channel, Issue, RawLog, ReadOptions, Signal
 from etsid.ingest.damage import stream_gap_note
 from etsid.ingest.dataflash_legacy import (
@@ -429,24 +428,17 @@ def _facts(reader: object, data: np.ndarray, path: Path) -> dict[str, str]:
 
 
 def _frame(raw: RawLog, reader: object, data: np.ndarray, path: Path) -> None:
-    """The motor layout of the log's ``FRAME_CLASS`` / ``FRAME_TYPE`` parameters (last
-    value of each), for the motor outputs' topic (:mod:`etsid.ingest.ardupilot_frames`);
-    ``frame`` in ``extra`` names the parameters whatever the table knows of them."""
+    """ArduPilot's frame parameters (last value of each) into ``extra`` (and so the table's
+    ``attrs["log"]``): ``frame_class``, ``frame_type`` (ArduCopter ≥ 3.5), ``frame`` (3.x).
+    What they mean is :mod:`etsid.ingest.ardupilot_frames`'s; the table's
+    ``motor_layout`` stays for mixers with positions."""
     parm = _decode(reader, data, "PARM", RawLog(path=path, format="bin"))
     if parm is None or not (parm.has("Name") and parm.has("Value")):
         return
-    params: dict[str, float] = {}
     for name, value in zip(parm.rec["Name"], parm.rec["Value"], strict=True):
         key = decode_text(name)
-        if key in ("FRAME_CLASS", "FRAME_TYPE", "FRAME"):
-            params[key] = float(value)
-    if not params:
-        return
-    raw.extra["frame"] = ", ".join(f"{k} {v:g}" for k, v in sorted(params.items()))
-    layout = frame_layout(params)
-    topic = next((s.topic for s in raw.signals if s.column == "m1"), None)
-    if layout is not None and topic is not None:
-        raw.extra["motor_layout"] = {**layout, "topic": topic}
+        if key in ("FRAME_CLASS", "FRAME_TYPE", "FRAME") and np.isfinite(value):
+            raw.extra[key.lower()] = float(value)
 
 
 def _catalogue(raw: RawLog, reader: object, data: np.ndarray,
