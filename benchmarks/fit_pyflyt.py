@@ -12,8 +12,10 @@ set's own tables carry no pilot command). The truths come from PyFlyt's paramete
 flight used them: mass and inertia of the URDF (× the seed's spread), hub positions, thrust
 and torque coefficients, top speed at the median pack voltage, and the motor ramp's time
 constant as PyFlyt steps it (Euler at the physics rate: τ_eff = −dt / ln(1 − dt/τ)).
-Scored like ``benchmarks/fit.py``: a parameter called identified scores when the truth lies
-in its 95 % interval and within its accuracy class.
+``time_delay``: truth 0 (no transport delay; how PyFlyt
+stamps the state against the command was not worked out). Scored like
+``benchmarks/fit.py``: a parameter called identified scores when the truth lies in its 95 %
+interval and within its accuracy class.
 """
 
 from __future__ import annotations
@@ -99,7 +101,8 @@ def truth_of(t: dict[str, Any], v0: float) -> dict[str, float]:
            "yaw": mass * kappa / inertia[2]}
     dfdm = 2.0 * k * x_h
     return {"hover_command": x_h, "thrust_to_weight": k * n / g, "idle_ratio": 0.0,
-            "motor_time_constant": -dt / math.log(1.0 - dt / t["tau"]), "time_delay": 0.0,
+            "motor_time_constant": -dt / math.log(1.0 - dt / t["tau"]),
+            "time_delay": 0.0,
             **{f"{a}_effectiveness": e for a, e in eff.items()},
             **{f"{a}_accel_per_command": e * dfdm for a, e in eff.items()},
             "inertia_ratio_yx": inertia[1] / inertia[0]}

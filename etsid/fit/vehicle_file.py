@@ -55,7 +55,8 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
                          time_constant=float(values.get("motor_time_constant",
                                                         base["motor_time_constant"])))
     fx.pop("motor_lag", None)
-    fx["time_delay"] = float(values.get("time_delay", 0.0))
+    # s; a negative delay is an offset of the log's stamps, not a transport delay
+    fx["time_delay"] = max(0.0, float(values.get("time_delay", 0.0)))
     ixx = mass * arm / values.get("roll_effectiveness", mass * arm / template.inertia[0, 0])
     iyy = mass * arm / values.get("pitch_effectiveness", mass * arm / template.inertia[1, 1])
     izz = mass * base["kappa_q"] / values.get("yaw_effectiveness", base["yaw_effectiveness"])
