@@ -19,6 +19,8 @@ import pandas as pd
 
 from etsid.errors import FitError
 from etsid.ingest.ardupilot_frames import frame_layout
+from etsid.ingest.px4_airframes import NOT_MULTIROTOR as PX4_NOT_MULTIROTOR
+from etsid.ingest.px4_airframes import airframe_family
 
 MOTORS = tuple(f"m{i}" for i in range(1, 9))
 
@@ -30,6 +32,9 @@ STANDARD_LAYOUTS: dict[int, tuple[list[float], list[str]]] = {
 }
 """Rotor angles (deg clockwise from the nose) and spins of PX4's Quad X, Hexa X and
 Octo coax X, in output order (docs/physics.md, PX4 airframe reference)."""
+
+STANDARD_FAMILY = {4: "quad X", 6: "hexa X", 8: "octo coax"}
+"""The PX4 airframe family (:mod:`etsid.ingest.px4_airframes`) of each standard layout."""
 
 NOT_MULTIROTOR = ("fixed wing", "plane", "vtol", "helicopter", "rover", "submarine", "boat",
                   "airship")
@@ -101,13 +106,23 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
                 "spin": ["ccw" if s > 0 else "cw" for s in frame["spin"]],
                 "arm": DEFAULT_ARM, "arm_known": False, "n": n,
                 "source": f"{frame['source']}, arm declared {DEFAULT_ARM} m"}
+    family = airframe_family(log.get("sys_autostart"))
+    if family is not None and family[0] in PX4_NOT_MULTIROTOR:
+        raise FitError(f"{src}: SYS_AUTOSTART {log['sys_autostart']} is a PX4 {family[0]} "
+                       "airframe: its outputs are not all rotors; etsid fit models "
+                       "multirotors only")
     if n not in STANDARD_LAYOUTS:
         raise FitError(f"{src}: {n} active motor outputs and no rotor geometry in the log; "
                        "only 4, 6 or 8 have a standard layout")
     angles, spin = STANDARD_LAYOUTS[n]
+    source = f"PX4 standard layout for {n} rotors (declared: the log has no geometry)"
+    if family is not None:
+        confirmed = family[1] and family[0] == STANDARD_FAMILY[n]
+        source = (f"PX4 standard layout for {n} rotors, the log's SYS_AUTOSTART "
+                  f"{log['sys_autostart']} ({family[0]} family) "
+                  + ("confirms it" if confirmed else "is not laid out: declared"))
     return {"angles_deg": list(angles), "spin": list(spin), "arm": DEFAULT_ARM,
-            "arm_known": False, "n": n,
-            "source": f"PX4 standard layout for {n} rotors (declared: the log has no geometry)"}
+            "arm_known": False, "n": n, "source": source}
 
 
 def geometry_rows(layout: dict[str, Any]) -> np.ndarray:

@@ -97,3 +97,25 @@ def test_a_real_dataflash_log_gives_its_frame_parameters_to_the_fit() -> None:
     lay = rotor_layout(table, motors)
     assert "FRAME_CLASS 2 / FRAME_TYPE 1" in lay["source"]
     assert lay["n"] == 6 and not lay["arm_known"]
+
+
+def test_px4_airframe_number_confirms_a_standard_layout_or_says_it_is_not_laid_out() -> None:
+    t = _table(4)
+    t.attrs["log"] = {"sys_autostart": 4001}
+    assert "SYS_AUTOSTART 4001 (quad X family) confirms it" in rotor_layout(
+        t, ["m1", "m2", "m3", "m4"])["source"]
+    t.attrs["log"] = {"sys_autostart": 5001}
+    assert "(quad + family) is not laid out: declared" in rotor_layout(
+        t, ["m1", "m2", "m3", "m4"])["source"]
+    t.attrs["log"] = {"sys_autostart": 13014}
+    with pytest.raises(FitError, match="SYS_AUTOSTART 13014 is a PX4 VTOL airframe"):
+        rotor_layout(t, ["m1", "m2", "m3", "m4"])
+
+
+@pytest.mark.skipif(not (SHARED / "px4_coaxocto_manual_real.ulg").exists(),
+                    reason="shared real logs not present")
+def test_a_real_ulog_gives_its_airframe_number_to_the_fit() -> None:
+    table = read_log(SHARED / "px4_coaxocto_manual_real.ulg")
+    motors, _ = active_motors(table)
+    assert "SYS_AUTOSTART 12001 (octo coax family) confirms it" in rotor_layout(
+        table, motors)["source"]
