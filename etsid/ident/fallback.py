@@ -167,3 +167,19 @@ def read_fallback(data: dict[str, Any], spec: RegressorSpec, source: str
         models[y] = entry["model"]
         reasons[y] = str(entry.get("reason") or "")
     return Fallback(mask, theta, models, reasons)
+
+
+def applied_line(outputs: dict[str, Any], models: dict[str, str]) -> str:
+    """One line: the fall-back saved in rules.json and the free-run fit % of the mixed model
+    it makes (``outputs.Y.applied``) beside eTS alone (``outputs.Y.validation``)."""
+    def fit(block: dict[str, Any] | None) -> str:
+        value = ((block or {}).get("free_run") or {}).get("fit")
+        return f"{value:.1f}" if value is not None else "–"
+
+    names = list(outputs)
+    saved = ", ".join(f"{y} {m}" for y, m in models.items())
+    mixed = " / ".join(fit(outputs[y]["applied"]["validation"]) for y in names)
+    alone = " / ".join(fit(outputs[y]["validation"]) for y in names)
+    return (f"rules.json saves the fall-back ({saved}; etsid predict applies it, "
+            f"--no-fallback not): validation free-run fit % {' / '.join(names)} "
+            f"{mixed} with it, {alone} eTS alone")

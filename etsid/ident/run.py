@@ -50,7 +50,7 @@ from etsid.ident.evaluate import (
     rate_info,
     validation_info,
 )
-from etsid.ident.fallback import REASONS, fallback_block, read_fallback
+from etsid.ident.fallback import REASONS, applied_line, fallback_block, read_fallback
 from etsid.ident.flight import (
     EXCITE_STD,
     FlightSelection,
@@ -269,6 +269,7 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
             for y in spec.outputs:
                 metrics["outputs"][y]["applied"] = {"model": applied.used(spec.outputs)[y],
                                                     "validation": blocks[y]}
+            chosen.notes.append(applied_line(metrics["outputs"], applied.models))
     metrics["regimes"] = regime_summary_of(frozen_dict, table, reg, list(spec.outputs), cols,
                                            split)
     run_config = {

@@ -65,6 +65,19 @@ def test_identify_saves_the_arx_fitted_on_the_learning_part(synthetic) -> None: 
     assert len(block["theta"]) == len(spec.terms) + 1
 
 
+def test_identify_says_what_the_fall_back_costs_in_free_run(synthetic) -> None:  # type: ignore[no-untyped-def]
+    _, out, metrics = synthetic
+    notes = json.loads((out / "config.json").read_text())["model"]["notes"]
+    line = next(n for n in notes if n.startswith("rules.json saves the fall-back"))
+    fit = {y: (metrics["outputs"][y]["applied"]["validation"]["free_run"]["fit"],
+               metrics["outputs"][y]["validation"]["free_run"]["fit"]) for y in "pqr"}
+    assert line == ("rules.json saves the fall-back (r ARX; etsid predict applies it, "
+                    "--no-fallback not): validation free-run fit % p / q / r "
+                    + " / ".join(f"{fit[y][0]:.1f}" for y in "pqr") + " with it, "
+                    + " / ".join(f"{fit[y][1]:.1f}" for y in "pqr") + " eTS alone")
+    assert fit["p"][0] != fit["p"][1]  # the mixed free run moves the eTS axes too
+
+
 def test_predict_applies_it_and_reproduces_identify(synthetic) -> None:  # type: ignore[no-untyped-def]
     table, out, metrics = synthetic
     run = predict(table, out / "rules.json", sim_from=metrics["validation"]["t_start"],
