@@ -67,7 +67,8 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
     """All prediction columns: online, frozen one-step and free-run, ARX online/val/sim,
     persistence; and the times at which each free run diverged
     (:mod:`etsid.ident.simulate`), keyed ``ets`` and ``arx``. With ``fallback`` the frozen
-    one-step and free-run columns are the mixed model's (:mod:`etsid.ident.fallback`)."""
+    one-step and free-run columns are the mixed model's (:mod:`etsid.ident.fallback`; the
+    free run without its no-change outputs)."""
     n, m = reg.Y.shape
     cols = {k: np.full((n, m), np.nan) for k in ("y_val", "y_sim", "y_arx_val", "y_arx_sim")}
     cols["y_hat"] = yhat
@@ -81,12 +82,14 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
         cols["y_val"][split:] = (one if fallback is None
                                  else fallback.apply(reg.X[split:], one))
         cols["y_sim"][split:] = free_run(frozen, reg, spec, split, n_table, bounds,
-                                         diverged["ets"], fallback)
+                                         diverged["ets"],
+                                         fallback.for_free_run() if fallback else None)
     rate = _rate_hz(reg)
     x0 = np.nanmean(reg.X[:max(split, 1)], axis=0) if n else np.zeros(reg.X.shape[1])
     stability: dict[str, Any] = {}
     if frozen is not None and split < n:
-        stability["ets"] = _stability(frozen, fallback, reg, spec, split)
+        stability["ets"] = _stability(frozen, fallback.for_free_run() if fallback else None,
+                                      reg, spec, split)
     if split >= reg.X.shape[1] + 1 and split < n:
         arx = ARX.fit(reg.X[:split], reg.Y[:split])
         cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
@@ -122,10 +125,11 @@ def applied_validation(reg: Regression, spec: RegressorSpec, split: int, n_table
     mixed["y_val"][split:] = fallback.apply(reg.X[split:], cols["y_val"][split:])
     div: list[float] = []
     mixed["y_sim"] = np.full((n, m), np.nan)
+    simulated = fallback.for_free_run()
     mixed["y_sim"][split:] = free_run(frozen, reg, spec, split, n_table, envelope(reg.Y), div,
-                                      fallback)
+                                      simulated)
     info = {"ets": div, "arx": [],
-            "stability": {"ets": _stability(frozen, fallback, reg, spec, split)}}
+            "stability": {"ets": _stability(frozen, simulated, reg, spec, split)}}
     blocks = output_metrics(reg, spec, split, mixed, sigma, sigma_native, info, motion_min)
     return {y: blocks[y]["validation"] for y in spec.outputs}
 

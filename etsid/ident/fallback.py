@@ -16,7 +16,10 @@ own ``y[k-1]`` term, so it needs that term. Both are linear in the regressors, s
 model is the frozen eTS plus a (n + 1, m) coefficient matrix and a mask of the outputs it
 replaces (:class:`Fallback`) — what the free-run kernel takes
 (:func:`etsid.ident.simulate.free_run`), with no per-sample Python call. In a free run the
-fall-back output is fed back to the eTS outputs and the eTS outputs to it.
+fall-back output is fed back to the eTS outputs and the eTS outputs to it; a no-change
+fall-back is one-step only (:meth:`Fallback.for_free_run`): fed back, it would hold the
+output at its first value, which is no simulation (on the real ArduCopter 4.0.3 hexa that
+took r's free-run fit from −16 % to −60 %), so the free run keeps eTS on that output.
 
 A rule base without the block is applied as eTS on every output, as before.
 """
@@ -54,12 +57,15 @@ class Fallback:
         Their linear model ``y = θ₀ + xᵀ θ₁…`` (zero columns elsewhere).
     models, reasons : dict
         Per replaced output: ``ARX`` or ``no-change``, and why identify chose it.
+    outputs : tuple of str
+        The model's outputs in column order.
     """
 
     mask: np.ndarray
     theta: np.ndarray
     models: dict[str, str] = field(default_factory=dict)
     reasons: dict[str, str] = field(default_factory=dict)
+    outputs: tuple[str, ...] = ()
 
     def apply(self, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
         """``Y`` (N, m) with the replaced outputs predicted from ``X`` (N, n) instead; each
@@ -72,6 +78,20 @@ class Fallback:
                          np.ascontiguousarray(self.mask, dtype=np.bool_), out)
         return out
 
+    def for_free_run(self) -> Fallback | None:
+        """The fall-back a free run applies: the ARX outputs only (no-change, fed back,
+        holds a value; the module's text). None when nothing is left."""
+        keep = {y: m for y, m in self.models.items() if m == "ARX"}
+        if keep == self.models:
+            return self
+        if not keep:
+            return None
+        drop = [o for o, y in enumerate(self.outputs) if y in self.models and y not in keep]
+        mask, theta = self.mask.copy(), self.theta.copy()
+        mask[drop], theta[:, drop] = False, 0.0
+        return Fallback(mask, theta, keep, {y: self.reasons[y] for y in keep if y in
+                                            self.reasons}, self.outputs)
+
     def used(self, outputs: tuple[str, ...] | list[str]) -> dict[str, str]:
         """The model applied to each output (``eTS`` where not replaced)."""
         return {y: self.models.get(y, "eTS") for y in outputs}
@@ -79,6 +99,7 @@ class Fallback:
     def lines(self) -> list[str]:
         """One line per replaced output, e.g. ``q: ARX, as identify chose (…)``."""
         return [f"{y}: {m}, as identify chose ({self.reasons.get(y) or 'eTS was behind'})"
+                + ("; one-step only, the free run keeps eTS" if m == "no-change" else "")
                 for y, m in self.models.items()]
 
 
@@ -166,7 +187,7 @@ def read_fallback(data: dict[str, Any], spec: RegressorSpec, source: str
         mask[o] = True
         models[y] = entry["model"]
         reasons[y] = str(entry.get("reason") or "")
-    return Fallback(mask, theta, models, reasons)
+    return Fallback(mask, theta, models, reasons, tuple(spec.outputs))
 
 
 def applied_line(outputs: dict[str, Any], models: dict[str, str]) -> str:
