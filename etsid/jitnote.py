@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import Any, Protocol
 
 
-
 class Narrator(Protocol):
     """What a compile note needs of :class:`etsid.progress.Narrator`."""
 
