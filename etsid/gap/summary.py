@@ -231,7 +231,27 @@ def summary_sentence(data: dict[str, Any]) -> str:
                  for c in mis["channels"]
                  if data["rmse_before"].get(c) and data["rmse_after"].get(c) is not None]
         parts.append(f"Held-out RMSE of {', '.join(moved)}.")
+        parts.extend(_barely_moved(data, mis["channels"], set(left)))
     return " ".join(parts) + _blind_spots(data, brief=True) + _twin(data)
+
+
+def _barely_moved(data: dict[str, Any], channels: list[str], listed: set[str]) -> list[str]:
+    """A sentence for the mismatched channels the named effects leave mostly as they were:
+    less than half of the held-out RMSE's excess over the channel's floor removed (the
+    ones :func:`leftover` lists are said already)."""
+    bits = []
+    for c in channels:
+        before, after = data["rmse_before"].get(c), data["rmse_after"].get(c)
+        floor = (data.get("noise") or {}).get(c)
+        if c in listed or not before or after is None or not floor or before <= floor:
+            continue
+        removed = (before - after) / (before - floor)
+        if removed < 0.5:
+            bits.append(f"{LABELS[c]} (the named effects remove {100 * max(removed, 0.0):.0f} "
+                        f"% of its excess over its {floor:.3g} {UNITS[c]} floor)")
+    if not bits:
+        return []
+    return [f"Mostly unexplained: {'; '.join(bits)}."]
 
 
 SOURCE_WORDS = {"sim": "SIM's own model error", "real noise": "REAL's sensor noise",

@@ -361,6 +361,34 @@ def _regime_scatter(series: pd.DataFrame, data: dict[str, Any], ch: str,
     return fig
 
 
+def _series(out: Path, data: dict[str, Any]) -> pd.DataFrame | None:
+    """The gap directory's per-sample series, or None when it has none of the main channel."""
+    series_path = out / SERIES_FILE
+    ch = _main_channel(data)
+    if not series_path.is_file() or ch is None:
+        return None
+    try:
+        series = read_parquet_frame(series_path, "table", ReportError)
+    except (OSError, ValueError) as err:
+        raise ReportError(f"{series_path}: cannot read ({err})") from err
+    return series if ch in series else None
+
+
+def _figures(series: pd.DataFrame, data: dict[str, Any]) -> dict[str, Figure]:
+    ch = _main_channel(data)
+    assert ch is not None
+    return {"gap_residual": _residual_figure(series, data, ch),
+            "gap_timeseries": _time_figure(series, data, ch)}
+
+
+def gap_figures(out_dir: str | Path) -> dict[str, Figure]:
+    """The static figures of a gap directory by name (none when it has no series)."""
+    out = Path(out_dir)
+    data = read_gap_json(out / "gap.json")
+    series = _series(out, data)
+    return {} if series is None else _figures(series, data)
+
+
 def make_gap_report(out_dir: str | Path, fmt: str = "png",
                     say: Callable[[str], None] | None = None) -> Report:
     """Write report.md, index.html and figures into a gap run directory.
@@ -374,23 +402,15 @@ def make_gap_report(out_dir: str | Path, fmt: str = "png",
     out = Path(out_dir)
     data = read_gap_json(out / "gap.json")
     report = Report(out)
-    series_path = out / SERIES_FILE
-    ch = _main_channel(data)
     interactive: tuple[str, dict[str, str]] = ("", {})
-    if series_path.is_file() and ch is not None:
-        try:
-            series = read_parquet_frame(series_path, "table", ReportError)
-        except (OSError, ValueError) as err:
-            raise ReportError(f"{series_path}: cannot read ({err})") from err
-        if ch in series:
-            say(f"gap report: drawing the figures into {out}/ …")
-            for name, builder in (("gap_residual", _residual_figure),
-                                  ("gap_timeseries", _time_figure)):
-                fig = builder(series, data, ch)
-                report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
-                if fmt == "pdf":
-                    save_figure(fig, out / f"{name}.png")
-            interactive = _interactive(series, data)
+    series = _series(out, data)
+    if series is not None:
+        say(f"gap report: drawing the figures into {out}/ …")
+        for name, fig in _figures(series, data).items():
+            report.figures[name] = save_figure(fig, out / f"{name}.{fmt}")
+            if fmt == "pdf":
+                save_figure(fig, out / f"{name}.png")
+        interactive = _interactive(series, data)
     md = _markdown(data, report.figures)
     report.markdown = out / "report.md"
     report.markdown.write_text(markdown_safe(md), encoding="utf-8")

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -12,6 +12,13 @@ from etsid import __version__
 from etsid.cli import cli
 from etsid.errors import IngestError
 from etsid.ingest.detect import detect_format
+
+_NOISE = np.random.default_rng(20).bytes(5 * 64)  # fixed: the same test ids in every process
+
+
+def _noise(i: int, n: int = 64) -> bytes:
+    """Random bytes, the same in every run (pytest-xdist workers collect the same ids)."""
+    return _NOISE[64 * i: 64 * i + n]
 
 
 def run(*args: str) -> tuple[int, str]:
@@ -23,14 +30,16 @@ def run(*args: str) -> tuple[int, str]:
     ("name", "content", "message"),
     [
         ("empty.tlog", b"", "empty file"),
-        ("random.bag", os.urandom(64), "not a ROS 1 bag"),
-        ("random.ulg", os.urandom(64), "not a PX4 ULog file"),
-        ("random.mcap", os.urandom(64), "not an MCAP file"),
-        ("random.db3", os.urandom(64), "not a ROS 2 bag database"),
-        ("random.bin", b"\x00\x01" + os.urandom(62), "not an ArduPilot DataFlash log"),
+        ("random.bag", _noise(0), "not a ROS 1 bag"),
+        ("random.ulg", _noise(1), "not a PX4 ULog file"),
+        ("random.mcap", _noise(2), "not an MCAP file"),
+        ("random.db3", _noise(3), "not a ROS 2 bag database"),
+        ("random.bin", b"\x00\x01" + _noise(4, 62), "not an ArduPilot DataFlash log"),
         ("random.tlog", b"\x00" * 8 + b"\x42" * 40, "not a MAVLink telemetry log"),
         ("notes.txt", b"hello", "unknown log format"),
     ],
+    ids=["empty.tlog", "random.bag", "random.ulg", "random.mcap", "random.db3", "random.bin",
+         "random.tlog", "notes.txt"],
 )
 def test_bad_files_one_line_errors(tmp_path: Path, name: str, content: bytes,
                                    message: str) -> None:
