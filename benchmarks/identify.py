@@ -225,7 +225,7 @@ def lag_study(seeds: list[int]) -> None:
                 reg = build(d, spec)
                 split = round(0.7 * len(reg.X))
                 model = ARX.fit(reg.X[:split], reg.Y[:split])
-                sim = free_run(model.predict_one, reg, spec, split, len(d))
+                sim = free_run(model, reg, spec, split, len(d))
                 one = model.predict(reg.X[split:])
                 y = reg.Y[split:]
                 sigma = d.attrs["noise"]["gyro_std"]

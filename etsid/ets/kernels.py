@@ -10,23 +10,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from etsid.ets.kernel_steps import add_event, global_gain, read_parameters, shared_rls
 from etsid.ets.layout import (
     EV_BIRTH,
     EV_REMOVAL,
     EV_REPLACE,
-    FP_FORGET,
-    FP_OMEGA,
-    FP_SPREAD_RHO,
-    FP_UTILITY,
-    IP_ADAPTIVE,
-    IP_CLUSTERING,
-    IP_COVERAGE,
-    IP_GLOBAL,
-    IP_MAX_RULES,
-    IP_MIN_SUPPORT,
-    IP_PRUNE_AFTER,
     IP_SCHEDULED,
-    IP_VARIANT,
     RADIUS_FLOOR,
     SQRT8,
     TIE,
@@ -35,30 +24,8 @@ from etsid.ets.normalisation import reparametrise
 
 
 @njit(cache=True)
-def _add_rule(
-    z,
-    P,
-    k,
-    pnew,
-    si,
-    r0,
-    s,
-    omega,
-    scat0,
-    ids,
-    cz,
-    rad,
-    scat,
-    pot,
-    birth,
-    support,
-    lamsum,
-    tsum,
-    Pi,
-    Cl,
-    Cg,
-    is_global,
-) -> int:
+def _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat, pot, birth, support,
+              lamsum, tsum, Pi, Cl, Cg, is_global) -> int:
     """Append a rule centred on z (raw units); returns its id."""
     R = si[1]
     n = r0.shape[0]
@@ -242,46 +209,9 @@ def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo) -> None:
 
 
 @njit(cache=True, boundscheck=False)
-def learn_kernel(
-    X,
-    S,
-    Y,
-    Yhat,
-    hist,
-    ev,
-    nev,
-    snap_k,
-    snap_ids,
-    snap_pi,
-    snap_lo,
-    snap_s,
-    nsnap,
-    every,
-    max_rules_here,
-    si,
-    lo,
-    hi,
-    fixed,
-    mean,
-    m2,
-    ids,
-    cz,
-    rad,
-    scat,
-    pot,
-    birth,
-    support,
-    lamsum,
-    tsum,
-    Pi,
-    Cl,
-    Cg,
-    sh,
-    Cs,
-    r0,
-    fp,
-    ip,
-) -> int:
+def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_lo, snap_s, nsnap,
+                 every, max_rules_here, si, lo, hi, fixed, mean, m2, ids, cz, rad, scat, pot,
+                 birth, support, lamsum, tsum, Pi, Cl, Cg, sh, Cs, r0, fp, ip) -> int:
     """Online predict-then-learn over the rows of X (N, n), Y (N, m); mutates the state.
     Returns the number of rows learned: all N, or fewer when the event or snapshot buffers
     filled up (the caller empties them and calls again with the remaining rows) or a sample
@@ -334,20 +264,10 @@ def learn_kernel(
     scheduled = ip[IP_SCHEDULED] == 1
     xo = na + m if scheduled else 0  # offset of x in z
     dp = na if scheduled else na + m  # dimensions of the potential space
-    variant = ip[IP_VARIANT]
-    is_global = ip[IP_GLOBAL] == 1
-    rmax = ip[IP_MAX_RULES]
-    min_support = ip[IP_MIN_SUPPORT]
-    prune_after = ip[IP_PRUNE_AFTER]
-    adaptive = ip[IP_ADAPTIVE] == 1
-    omega = fp[FP_OMEGA]
-    forget = fp[FP_FORGET]
+    (variant, is_global, rmax, min_support, prune_after, adaptive, omega, forget, umin,
+     rho_s, coverage, evq) = read_parameters(ip, fp)
     omf = 1.0 - forget
     cbound = omega * n1  # wind-up guard: largest trace of a local covariance that forgets
-    umin = fp[FP_UTILITY]
-    rho_s = fp[FP_SPREAD_RHO]
-    coverage = ip[IP_COVERAGE] == 1
-    evq = ip[IP_CLUSTERING] == 1
     ev_cap = ev.shape[0] - rmax - 2
     snap_cap = snap_k.shape[0]
     next_snap = (si[0] // every + 1) * every  # the next k that is a multiple of every
@@ -554,10 +474,7 @@ def learn_kernel(
                         cz[target, j] = z[j]
                     pot[target] = P
                     _sync_rule(target, rad, s, ac)
-                    ev[nev[0], 0] = k
-                    ev[nev[0], 1] = EV_REPLACE
-                    ev[nev[0], 2] = ids[target]
-                    nev[0] += 1
+                    add_event(ev, nev, k, EV_REPLACE, ids[target])
                     changed = True
                 elif grow:
                     if changed_a:
@@ -571,35 +488,10 @@ def learn_kernel(
         if grow:
             for j in range(na):
                 scat0[j] = (r0[j] * s[j] / SQRT8) ** 2
-            rid = _add_rule(
-                z,
-                P,
-                k,
-                pnew,
-                si,
-                r0,
-                s,
-                omega,
-                scat0,
-                ids,
-                cz,
-                rad,
-                scat,
-                pot,
-                birth,
-                support,
-                lamsum,
-                tsum,
-                Pi,
-                Cl,
-                Cg,
-                is_global,
-            )
+            rid = _add_rule(z, P, k, pnew, si, r0, s, omega, scat0, ids, cz, rad, scat, pot, birth,
+                            support, lamsum, tsum, Pi, Cl, Cg, is_global)
             _sync_rule(R, rad, s, ac)
-            ev[nev[0], 0] = k
-            ev[nev[0], 1] = EV_BIRTH
-            ev[nev[0], 2] = rid
-            nev[0] += 1
+            add_event(ev, nev, k, EV_BIRTH, rid)
             changed = True
             born = True
         R = si[1]
@@ -638,44 +530,7 @@ def learn_kernel(
             lamsum[i] += lam[i]
         # 7. consequents: fuzzily weighted RLS
         if is_global:
-            p = R * n1
-            for i in range(R):
-                for a in range(n1):
-                    phi[i * n1 + a] = lam[i] * xe[a]
-            for o in range(m):
-                err[o] = z[na + o] - yh[o]
-            # g = Cg phi as a sum of columns; Cg is exactly symmetric, so column b equals
-            # row b and every g[a] is summed in the same order as the row dot product
-            for a in range(p):
-                g[a] = 0.0
-            for b in range(p):
-                pb = phi[b]
-                for a in range(p):
-                    g[a] += Cg[b, a] * pb
-            # wind-up guard (trace-bounded forgetting): forget only while trace(C) <= omega p
-            fg = forget
-            if forget != 1.0:
-                tr = 0.0
-                for a in range(p):
-                    tr += Cg[a, a]
-                if tr > omega * p:
-                    fg = 1.0
-            den = fg
-            for a in range(p):
-                den += phi[a] * g[a]
-            iden = 1.0 / den
-            # C_ab - (g_a g_b) / den is exactly symmetric: no mirroring needed
-            if fg == 1.0:
-                for a in range(p):
-                    ga = g[a]
-                    for b in range(p):
-                        Cg[a, b] -= (ga * g[b]) * iden
-            else:
-                ifg = 1.0 / fg
-                for a in range(p):
-                    ga = g[a]
-                    for b in range(p):
-                        Cg[a, b] = (Cg[a, b] - (ga * g[b]) * iden) * ifg
+            iden = global_gain(R, n1, lam, xe, z, na, yh, err, g, phi, Cg, forget, omega)
             for i in range(R):
                 for a in range(n1):
                     ga = g[i * n1 + a] * iden
@@ -684,34 +539,7 @@ def learn_kernel(
         else:
             if n_shared > 0:
                 # shared outputs: plain RLS on the common consequent (rule 0's column)
-                for a in range(n1):
-                    acc = 0.0
-                    for b in range(n1):
-                        acc += Cs[a, b] * xe[b]
-                    gs[a] = acc
-                fs = forget
-                if forget != 1.0:
-                    tr = 0.0
-                    for a in range(n1):
-                        tr += Cs[a, a]
-                    if tr > cbound:
-                        fs = 1.0
-                den = fs
-                for a in range(n1):
-                    den += xe[a] * gs[a]
-                iden = 1.0 / den
-                for o in range(m):
-                    if sh[o] == 1:
-                        eo = z[na + o]
-                        for a in range(n1):
-                            eo -= xe[a] * Pi[0, a, o]
-                        for a in range(n1):
-                            ths[a, o] = Pi[0, a, o] + gs[a] * iden * eo
-                ifs = 1.0 / fs
-                for a in range(n1):
-                    ga = gs[a]
-                    for b in range(n1):
-                        Cs[a, b] = (Cs[a, b] - (ga * gs[b]) * iden) * ifs
+                shared_rls(xe, z, na, sh, Pi[0], Cs, gs, ths, forget, cbound)
             # one rule after the other, on its own covariance and consequent in place; a
             # rule with lambda = 0 would get f_i = 1 and gain 0, i.e. exactly no change
             for i in range(R):
@@ -775,27 +603,9 @@ def learn_kernel(
                                             lamsum[i] < umin * (life + 1.0) * (1.0 + 1e-12)):
                     u = lamsum[i] / (life + 1.0)
                     if u < umin or support[i] < min_support:
-                        ev[nev[0], 0] = k
-                        ev[nev[0], 1] = EV_REMOVAL
-                        ev[nev[0], 2] = ids[i]
-                        nev[0] += 1
-                        remove_rule(
-                            i,
-                            R,
-                            ids,
-                            cz,
-                            rad,
-                            scat,
-                            pot,
-                            birth,
-                            support,
-                            lamsum,
-                            tsum,
-                            Pi,
-                            Cl,
-                            Cg,
-                            is_global,
-                        )
+                        add_event(ev, nev, k, EV_REMOVAL, ids[i])
+                        remove_rule(i, R, ids, cz, rad, scat, pot, birth, support, lamsum, tsum,
+                                    Pi, Cl, Cg, is_global)
                         R -= 1
                         si[1] = R
                         removed = True

@@ -457,6 +457,26 @@ class ETS:
         sv = xa if s is None else np.asarray(s, dtype=np.float64)
         if sv.shape != (self.n_antecedents_,):
             return None
+        frozen, work = self.frozen_predictor()
+        out = np.empty(self.n_outputs_)
+        ok = predict_row(np.ascontiguousarray(xa), np.ascontiguousarray(sv), out, frozen, work)
+        return out if ok else None
+
+    def frozen_predictor(self) -> tuple[np.ndarray, np.ndarray]:
+        """The frozen rule base packed for :func:`~etsid.ets.kernels.predict_row` and its
+        work array (kept until the model learns again); the model must have a rule.
+
+        Returns
+        -------
+        frozen : ndarray
+            Flat: the consequent inputs' ``lo`` (n) and ``1/s`` (n), then per rule its focal
+            point on the antecedents (na), firing coefficients (na) and consequents
+            (n + 1, m).
+        work : ndarray, shape (2 R + n + 1,)
+            Scratch space of ``predict_row``.
+        """
+        if not self._fitted or self.n_rules == 0:
+            raise ValueError("the model has no rule to predict with")
         if self._predictor is None:
             st, R, n, xo = self.state_, self.n_rules, self.n_inputs_, self.x_offset_
             na = self.n_antecedents_
@@ -465,10 +485,7 @@ class ETS:
                                       axis=1)
             self._predictor = (np.concatenate([st["lo"][xo : xo + n], isx, per_rule.ravel()]),
                                np.empty(2 * R + n + 1))
-        frozen, work = self._predictor
-        out = np.empty(self.n_outputs_)
-        ok = predict_row(np.ascontiguousarray(xa), np.ascontiguousarray(sv), out, frozen, work)
-        return out if ok else None
+        return self._predictor
 
     # ------------------------------------------------------------------ inspection
     @property

@@ -1,8 +1,10 @@
 """Rotor geometry of a log: which outputs drive motors, where they sit, how they spin.
 
 Order of trust: the log's own mixer geometry (``attrs["motor_layout"]``: the simulator's
-vehicle, PX4 ≥ 1.13 ``CA_ROTOR*``), else the autopilot's standard layout for the number of
-active outputs (PX4 Quad X / Hexa X / Octo coax X order), stated as a declared default.
+vehicle, PX4 ≥ 1.13 ``CA_ROTOR*``), else ArduPilot's ``FRAME_CLASS`` / ``FRAME_TYPE``
+(angles and spins, :mod:`etsid.ingest.ardupilot_frames`), else the autopilot's standard
+layout for the number of active outputs (PX4 Quad X / Hexa X / Octo coax X order), stated
+as a declared default.
 An output is *active* when it moves in flight: a servo rail parked at one value, or an
 unused channel, is left out and counted.
 """
@@ -16,6 +18,9 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import FitError
+from etsid.ingest.ardupilot_frames import frame_layout
+from etsid.ingest.px4_airframes import NOT_MULTIROTOR as PX4_NOT_MULTIROTOR
+from etsid.ingest.px4_airframes import airframe_family
 
 MOTORS = tuple(f"m{i}" for i in range(1, 9))
 
@@ -27,6 +32,9 @@ STANDARD_LAYOUTS: dict[int, tuple[list[float], list[str]]] = {
 }
 """Rotor angles (deg clockwise from the nose) and spins of PX4's Quad X, Hexa X and
 Octo coax X, in output order (docs/physics.md, PX4 airframe reference)."""
+
+STANDARD_FAMILY = {4: "quad X", 6: "hexa X", 8: "octo coax"}
+"""The PX4 airframe family (:mod:`etsid.ingest.px4_airframes`) of each standard layout."""
 
 NOT_MULTIROTOR = ("fixed wing", "plane", "vtol", "helicopter", "rover", "submarine", "boat",
                   "airship")
@@ -90,13 +98,31 @@ def rotor_layout(table: pd.DataFrame, motors: list[str]) -> dict[str, Any]:
                     "arm": DEFAULT_ARM, "arm_known": False, "n": n,
                     "source": "the log's mixer angles and spins (its arm lengths "
                               f"{arm:.2f} m are nominal: arm declared {DEFAULT_ARM} m)"}
+    log = table.attrs.get("log") if isinstance(table.attrs.get("log"), dict) else {}
+    frame = frame_layout({"FRAME_CLASS": log.get("frame_class"),
+                          "FRAME_TYPE": log.get("frame_type")})
+    if frame is not None and len(frame["spin"]) == n:
+        return {"angles_deg": frame["angles_deg"],
+                "spin": ["ccw" if s > 0 else "cw" for s in frame["spin"]],
+                "arm": DEFAULT_ARM, "arm_known": False, "n": n,
+                "source": f"{frame['source']}, arm declared {DEFAULT_ARM} m"}
+    family = airframe_family(log.get("sys_autostart"))
+    if family is not None and family[0] in PX4_NOT_MULTIROTOR:
+        raise FitError(f"{src}: SYS_AUTOSTART {log['sys_autostart']} is a PX4 {family[0]} "
+                       "airframe: its outputs are not all rotors; etsid fit models "
+                       "multirotors only")
     if n not in STANDARD_LAYOUTS:
         raise FitError(f"{src}: {n} active motor outputs and no rotor geometry in the log; "
                        "only 4, 6 or 8 have a standard layout")
     angles, spin = STANDARD_LAYOUTS[n]
+    source = f"PX4 standard layout for {n} rotors (declared: the log has no geometry)"
+    if family is not None:
+        confirmed = family[1] and family[0] == STANDARD_FAMILY[n]
+        source = (f"PX4 standard layout for {n} rotors, the log's SYS_AUTOSTART "
+                  f"{log['sys_autostart']} ({family[0]} family) "
+                  + ("confirms it" if confirmed else "is not laid out: declared"))
     return {"angles_deg": list(angles), "spin": list(spin), "arm": DEFAULT_ARM,
-            "arm_known": False, "n": n,
-            "source": f"PX4 standard layout for {n} rotors (declared: the log has no geometry)"}
+            "arm_known": False, "n": n, "source": source}
 
 
 def geometry_rows(layout: dict[str, Any]) -> np.ndarray:

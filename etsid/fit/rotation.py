@@ -43,8 +43,14 @@ from etsid.fit.signals import Flight, motor_state
 TAU_GRID = np.round(np.geomspace(0.005, 0.25, 29), 5)
 """s, motor time constants tried (log-spaced, 15 % apart)."""
 DELAY_STEP = 0.002
-"""s, delay grid step (0 … :data:`DELAY_MAX`)."""
+"""s, delay grid step (:data:`DELAY_MIN` … :data:`DELAY_MAX`)."""
 DELAY_MAX = 0.04
+DELAY_MIN = -0.02
+"""s: the delay is measured between two logged streams, whose stamps may be offset either
+way: a log that stamps the state after the step its command already drove (PyFlyt's and the
+``multirotor`` package's sets of ``benchmarks/thirdparty``) has the rotors lead the command
+by a period; held at 0, the fitted τ took it up (−30 % on both). The vehicle file takes
+max(0, d)."""
 MIN_ROWS = 50
 """Rows near hover a flight needs to enter the moment equations."""
 MIN_MOTOR_HZ = 40.0
@@ -57,6 +63,7 @@ class AxisFit:
 
     coef: np.ndarray
     se: np.ndarray
+    alt: list[np.ndarray]   # coefficients refitted at the thrust curve's interval ends
 
 
 @dataclass
@@ -233,8 +240,13 @@ def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
 
 
 def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
-                 tau_default: float, fine: bool = True) -> RotationFit:
+                 tau_default: float, fine: bool = True,
+                 ends: tuple[tuple[float, float], ...] = ()) -> RotationFit:
     """Fit τ, d and each axis's coefficients (module docstring).
+
+    ``ends``: (K, ι) pairs at the ends of the thrust curve's 95 % interval; the
+    coefficients are refitted with each (:attr:`AxisFit.alt`), since the regressors carry
+    the thrust curve and its error moves every coefficient with it.
 
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
     resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
@@ -245,7 +257,7 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
                        "log has fewer (too slow a log, or no slow flight)")
     preps = _prepare(flights)
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
-    delays = np.round(np.arange(0.0, DELAY_MAX + 1e-9, max(DELAY_STEP, 0.0)), 4)
+    delays = np.round(np.arange(DELAY_MIN, DELAY_MAX + 1e-9, DELAY_STEP), 4)
     if slow:
         tau, delay, tau_se, d_se, edge = tau_default, 0.0, float("inf"), float("inf"), False
     else:
@@ -277,11 +289,13 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)
     half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
-    for name, m, mh in zip(("roll", "pitch", "yaw"), full, half, strict=True):
+    alts = [_jive_moments(preps, geom, ka, ia, tau, delay) for ka, ia in ends]
+    for i, (name, m, mh) in enumerate(zip(("roll", "pitch", "yaw"), full, half, strict=True)):
         coef, se = m.jackknife()
         # model error: the same equation fitted on half the bandwidth must give the same
         # coefficients if the model holds; what unmodelled dynamics move is added
         shift = np.abs(coef - mh.solve()[0])
-        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift))
+        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift),
+                             alt=[a[i].solve()[0] for a in alts])
     return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
                        tau_at_edge=edge, instrumented=all(p.instrumented for p in preps))

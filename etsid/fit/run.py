@@ -84,6 +84,14 @@ def _param(name: str, value: float, se: float, unit: str, meaning: str,
                  verdict=verdict or judge(name, value, se), meaning=meaning, note=note)
 
 
+def _with_curve(value: float, se: float, alt: list[float]) -> float:
+    """Standard error of a moment coefficient with the thrust curve's uncertainty added:
+    the coefficient refitted at the ends of the curve's 95 % interval moves by ±1.96 se."""
+    if not alt:
+        return se
+    return float(np.hypot(se, max(abs(a - value) for a in alt) / 1.96))
+
+
 QUICK_RATE_HZ = 100.0
 """Hz: the grid of a quick fit (the regressions are low-passed at ≤ 15 Hz anyway)."""
 
@@ -131,7 +139,8 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
         thrust = fit_thrust(flights, tau, delay)
         if thrust is not None:
             k, idle = thrust.k, thrust.idle
-        rot = fit_rotation(flights, geom, k, idle, base["motor_time_constant"], fine=not quick)
+        rot = fit_rotation(flights, geom, k, idle, base["motor_time_constant"], fine=not quick,
+                           ends=thrust.ends if thrust is not None else ())
         tau, delay = rot.tau, rot.delay
     assert rot is not None
     params: dict[str, Param] = {}
@@ -172,23 +181,31 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
     if not rot.instrumented:
         notes.append("no pilot commands to instrument the rotation fit: its coefficients "
                      "are biased towards zero by the motor outputs' sampling noise")
+    ends = thrust.ends if thrust is not None else ()
     for axis in ("roll", "pitch", "yaw"):
         fit = rot.axes[axis]
         meaning = ("mass × arm / Ixx" if axis == "roll" else "mass × arm / Iyy"
                    if axis == "pitch" else "mass × rotor torque-per-thrust / Izz")
-        add(f"{axis}_effectiveness", _param(f"{axis}_effectiveness", fit.coef[0], fit.se[0],
-                                            "1/m", meaning))
+        add(f"{axis}_effectiveness", _param(
+            f"{axis}_effectiveness", fit.coef[0], _with_curve(fit.coef[0], fit.se[0],
+                                                              [a[0] for a in fit.alt]),
+            "1/m", meaning))
     # what a hover flight determines without the thrust curve: angular acceleration per
     # unit of motor-output difference, c × ∂f/∂m at hover (K's error cancels in it)
     m_h = params["hover_command"].value if "hover_command" in params else \
         (math.sqrt(g / (k * n)) - idle) / (1.0 - idle)
-    dfdm = 2.0 * k * (idle + (1.0 - idle) * m_h) * (1.0 - idle)
+    def dfdm_at(k_: float, idle_: float) -> float:
+        return 2.0 * k_ * (idle_ + (1.0 - idle_) * m_h) * (1.0 - idle_)
+
+    dfdm = dfdm_at(k, idle)
     loose_curve = params.get("thrust_to_weight") is None or \
         params["thrust_to_weight"].verdict != "identified"
     for axis in ("roll", "pitch", "yaw"):
         fit = rot.axes[axis]
         key = f"{axis}_accel_per_command"
-        add(key, _param(key, fit.coef[0] * dfdm, fit.se[0] * dfdm, "rad/s²",
+        alt = [a[0] * dfdm_at(ka, ia) for a, (ka, ia) in zip(fit.alt, ends, strict=True)]
+        add(key, _param(key, fit.coef[0] * dfdm, _with_curve(fit.coef[0] * dfdm,
+                                                             fit.se[0] * dfdm, alt), "rad/s²",
                         f"{axis} angular acceleration per unit of Σ (moment row × motor "
                         "output) at hover"))
         if loose_curve and params[f"{axis}_effectiveness"].verdict == "identified":

@@ -165,7 +165,12 @@ def motor_state(flight: Flight, idle: float, tau: float, delay: float) -> np.nda
     """Rotor speed over the top speed at V0, x = Ω/Ω_top(V0), per motor (n, N).
 
     The simulator's motor law (docs/physics.md): steady state x_ss = ι(1 − m) + (V/V0) m
-    after a transport delay, then a first-order lag τ (exact zero-order-hold discretisation).
+    after a delay (negative: the log stamps the command late against the rotors), then a
+    first-order lag τ. The logged outputs are point samples of a command that moves between
+    them, so the lag is discretised exactly for a command interpolated linearly between
+    samples (first-order hold); holding each sample over the period (zero-order hold) adds
+    half a period of delay (with the delay held at 0, the fitted τ absorbed it: −10 % on a
+    250 Hz log of etsid's simulator).
     """
     from scipy.signal import lfilter
 
@@ -176,10 +181,17 @@ def motor_state(flight: Flight, idle: float, tau: float, delay: float) -> np.nda
         frac = shift - k
         pad = np.vstack([np.repeat(m[:1], k + 1, axis=0), m])
         m = (1 - frac) * pad[1:len(m) + 1] + frac * pad[:len(m)]
+    elif shift < 0:   # the command stamped late against the rotors: advance it
+        k = int(np.floor(-shift))
+        frac = -shift - k
+        pad = np.vstack([m, np.repeat(m[-1:], k + 1, axis=0)])
+        m = (1 - frac) * pad[k:k + len(m)] + frac * pad[k + 1:k + 1 + len(m)]
     xss = idle * (1.0 - m) + flight.vratio[:, None] * m
     if tau <= 0:
         return xss
     a = float(np.exp(-flight.dt / tau))
-    zi = xss[:1] * a
-    out, _ = lfilter([0.0, 1.0 - a], [1.0, -a], xss, axis=0, zi=zi)
+    # x[k+1] = a x[k] + b0 u[k] + b1 u[k+1] (first-order hold; b0 + b1 = 1 − a)
+    c = (1.0 - a) * tau / flight.dt
+    b1, b0 = 1.0 - c, c - a
+    out, _ = lfilter([b1, b0], [1.0, -a], xss, axis=0, zi=xss[:1] * (1.0 - b1))
     return out

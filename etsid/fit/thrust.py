@@ -25,6 +25,12 @@ CHI2_95 = 3.841
 IDLE_GRID = np.round(np.arange(0.0, 0.6001, 0.005), 4)
 """Idle ratios tried, Ω_idle/Ω_top."""
 
+IDLE_MODEL_SE = 0.0093
+"""Standard error of the idle ratio that the thrust law's own misfit adds (absolute, in
+units of Ω_top), measured on the development seeds of ``benchmarks/fit.py`` (docs/fit.md):
+ι only bends the thrust curve over the narrow command range of a flight, so a small misfit
+of the law moves it further than the profile likelihood's sampling interval says."""
+
 
 @dataclass
 class ThrustFit:
@@ -35,6 +41,7 @@ class ThrustFit:
     idle: float                  # ι = Ω_idle/Ω_top(V0)
     idle_interval: tuple[float, float]
     k_range: tuple[float, float]  # 95 % range of K over the ι interval (with K's own se)
+    ends: tuple[tuple[float, float], ...]  # (K, ι) at the ends of ι's interval
     c_w: float                   # 1/s, −a_z per m/s of body-z velocity
     fit: LinearFit
     n_rotors: int
@@ -87,14 +94,21 @@ def fit_thrust(flights: list[Flight], tau: float, delay: float) -> ThrustFit | N
     n_eff = effective_n(lin.resid)
     accept = n_eff * np.log(ssr_a / ssr_a[best]) <= CHI2_95
     idx = np.flatnonzero(accept)
-    lo = float(IDLE_GRID[idx.min()])
-    hi = float(IDLE_GRID[idx.max()])
+    # the sampling interval, widened by the law's measured misfit (half-widths in quadrature)
+    half = [idle - float(IDLE_GRID[idx.min()]), float(IDLE_GRID[idx.max()]) - idle]
+    lo, hi = (idle - float(np.hypot(half[0], 1.96 * IDLE_MODEL_SE)),
+              idle + float(np.hypot(half[1], 1.96 * IDLE_MODEL_SE)))
+    inside = np.flatnonzero(np.abs(IDLE_GRID - 0.5 * (lo + hi)) <= 0.5 * (hi - lo) + 1e-9)
+    idx = inside if inside.size else idx
+    lo = max(lo, 0.0)
     ks = np.array([fits[i][1][0] for i in idx])
     k_se = float(lin.se[0])
     n_rot = flights[0].motors.shape[1]
     return ThrustFit(k=float(lin.coef[0]), k_se=k_se, idle=idle,
                      idle_interval=(lo, hi),
                      k_range=(float(ks.min() - 1.96 * k_se), float(ks.max() + 1.96 * k_se)),
+                     ends=tuple((float(np.interp(e, IDLE_GRID, [f[1][0] for f in fits])), e)
+                                for e in (lo, hi)),
                      c_w=float(lin.coef[1]), fit=lin, n_rotors=n_rot)
 
 

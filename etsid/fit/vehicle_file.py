@@ -55,10 +55,18 @@ def build_vehicle(template: Vehicle, values: dict[str, float], layout: dict[str,
                          time_constant=float(values.get("motor_time_constant",
                                                         base["motor_time_constant"])))
     fx.pop("motor_lag", None)
-    fx["time_delay"] = float(values.get("time_delay", 0.0))
+    # s; a negative delay is an offset of the log's stamps, not a transport delay
+    fx["time_delay"] = max(0.0, float(values.get("time_delay", 0.0)))
     ixx = mass * arm / values.get("roll_effectiveness", mass * arm / template.inertia[0, 0])
     iyy = mass * arm / values.get("pitch_effectiveness", mass * arm / template.inertia[1, 1])
     izz = mass * base["kappa_q"] / values.get("yaw_effectiveness", base["yaw_effectiveness"])
+    if not abs(ixx - iyy) < izz < ixx + iyy:
+        # a rigid body's principal moments obey the triangle inequality; a yaw estimate that
+        # breaks it (the weak axis) gives way to the template's Izz scaled with Ixx + Iyy
+        t = template.inertia
+        izz = float(t[2, 2] / (t[0, 0] + t[1, 1]) * (ixx + iyy))
+        notes.append("fitted Izz (from the yaw effectiveness) breaks the rigid-body triangle "
+                     "inequality: the template's Izz / (Ixx + Iyy) kept")
     data["inertia"] = {"ixx": float(ixx), "iyy": float(iyy), "izz": float(izz), "ixy": 0.0,
                        "ixz": 0.0, "iyz": 0.0}
     fx.pop("inertia_scale", None)

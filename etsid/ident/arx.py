@@ -83,22 +83,49 @@ class ARX:
         return self.theta[0] + np.asarray(x, dtype=float) @ self.theta[1:]
 
 
-@njit(cache=True)
+@njit(cache=True, boundscheck=False)
 def _rls_kernel(X: np.ndarray, Y: np.ndarray, omega: float) -> np.ndarray:  # pragma: no cover
+    """Predict-then-learn RLS over the rows of ``X``, without allocating per sample: the
+    updates of :func:`rls_reference` element by element (the symmetrisation keeps P[a, b]
+    and P[b, a] equal, so it is done once per pair)."""
     n, m = X.shape[1] + 1, Y.shape[1]
     P = np.eye(n) * omega
     theta = np.zeros((n, m))
     out = np.empty(Y.shape)
     xe = np.empty(n)
+    px = np.empty(n)
+    gain = np.empty(n)
+    err = np.empty(m)
     for k in range(X.shape[0]):
         xe[0] = 1.0
-        xe[1:] = X[k]
-        out[k] = xe @ theta
-        Px = P @ xe
-        gain = Px / (1.0 + xe @ Px)
-        theta += np.outer(gain, Y[k] - out[k])
-        P -= np.outer(gain, Px)
-        P = 0.5 * (P + P.T)
+        for a in range(1, n):
+            xe[a] = X[k, a - 1]
+        for o in range(m):
+            acc = 0.0
+            for a in range(n):
+                acc += xe[a] * theta[a, o]
+            out[k, o] = acc
+            err[o] = Y[k, o] - acc
+        den = 0.0
+        for a in range(n):
+            acc = 0.0
+            for b in range(n):
+                acc += P[a, b] * xe[b]
+            px[a] = acc
+            den += xe[a] * acc
+        den += 1.0
+        for a in range(n):
+            gain[a] = px[a] / den
+            for o in range(m):
+                theta[a, o] += gain[a] * err[o]
+        for a in range(n):
+            for b in range(n):
+                P[a, b] -= gain[a] * px[b]
+        for a in range(n):
+            for b in range(a + 1, n):
+                v = 0.5 * (P[a, b] + P[b, a])
+                P[a, b] = v
+                P[b, a] = v
     return out
 
 

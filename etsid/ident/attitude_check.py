@@ -78,8 +78,7 @@ def _inner_fits(reg: Regression, spec: RegressorSpec, inner: int, end: int, n_ta
                      None if reg.segment is None else reg.segment[:end], None,
                      reg.kinematics)
     arx = ARX.fit(sub.X[:inner], sub.Y[:inner])
-    sim = free_run(lambda x, s=None: arx.predict_one(x), sub, spec, inner, n_table,
-                   envelope(sub.Y))
+    sim = free_run(arx, sub, spec, inner, n_table, envelope(sub.Y))
     out = list(spec.outputs)
     return {y: fit_percent(sub.Y[inner:, out.index(y)], sim[:, out.index(y)])
             for y in CHECKED_OUTPUTS}

@@ -108,11 +108,10 @@ def blocked_validation(reg: Regression, spec: RegressorSpec, config: IdentConfig
         model = train(sub, spec, config, a)
         S = sub.S[a:b] if spec.antecedent and sub.S is not None else None
         one = np.asarray(model.predict(sub.X[a:b], S)).reshape(b - a, m)
-        sim = free_run(model.predict_one, sub, spec, a, n_table, limits)
+        sim = free_run(model, sub, spec, a, n_table, limits)
         arx = ARX.fit(reg.X[:a], reg.Y[:a])
         arx_one = arx.predict(reg.X[a:b])
-        arx_sim = free_run(lambda x, s=None, f=arx: f.predict_one(x), sub, spec, a, n_table,
-                           limits)
+        arx_sim = free_run(arx, sub, spec, a, n_table, limits)
         y = reg.Y[a:b]
         for o in range(m):
             err["ets"][o].append(y[:, o] - one[:, o])

@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.bare import bare
 from etsid.ident.inputs import AXES, MODES, excited, kind_of
 from etsid.ident.motors import MOTOR_COMMANDS, motor_columns
 from etsid.ident.regressors import RegressorSpec
@@ -103,7 +104,7 @@ class DefaultModel:
 
 
 def _has(table: pd.DataFrame, name: str) -> bool:
-    return name in table.columns and bool(table[name].notna().any())
+    return name in table.columns and bool(bare(table)[name].notna().any())
 
 
 def _u_kind(table: pd.DataFrame) -> str:

@@ -77,8 +77,8 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
         S = None if reg.S is None else reg.S[split:]
         cols["y_val"][split:] = np.asarray(frozen.predict(reg.X[split:], S)).reshape(n - split,
                                                                                      m)
-        cols["y_sim"][split:] = free_run(frozen.predict_one, reg, spec, split, n_table,
-                                         bounds, diverged["ets"])
+        cols["y_sim"][split:] = free_run(frozen, reg, spec, split, n_table, bounds,
+                                         diverged["ets"])
     rate = _rate_hz(reg)
     x0 = np.nanmean(reg.X[:max(split, 1)], axis=0) if n else np.zeros(reg.X.shape[1])
     stability: dict[str, Any] = {}
@@ -92,8 +92,8 @@ def prediction_columns(reg: Regression, spec: RegressorSpec, split: int, n_table
     if split >= reg.X.shape[1] + 1 and split < n:
         arx = ARX.fit(reg.X[:split], reg.Y[:split])
         cols["y_arx_val"][split:] = arx.predict(reg.X[split:])
-        cols["y_arx_sim"][split:] = free_run(lambda x, s=None: arx.predict_one(x), reg, spec,
-                                             split, n_table, bounds, diverged["arx"])
+        cols["y_arx_sim"][split:] = free_run(arx, reg, spec, split, n_table,
+                                             bounds, diverged["arx"])
         stability["arx"] = linear_stability(arx.predict_one, spec, x0, rate)
     diverged["stability"] = stability
     return cols, diverged

@@ -51,6 +51,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.bare import bare
 from etsid.table import SEGMENT
 
 LANDED = "landed"
@@ -217,9 +218,10 @@ def _detector_airborne(table: pd.DataFrame, landed: np.ndarray, t: np.ndarray
 
 
 def _column(table: pd.DataFrame, name: str) -> np.ndarray | None:
-    if name in table.columns and table[name].notna().any():
-        return table[name].to_numpy(dtype=float)
-    return None
+    if name not in table.columns:
+        return None
+    column = bare(table)[name]
+    return column.to_numpy(dtype=float) if column.notna().any() else None
 
 
 def is_armed_state(table: pd.DataFrame) -> bool:

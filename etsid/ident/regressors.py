@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.bare import bare
 from etsid.table import SEGMENT
 
 _TERM = re.compile(
@@ -288,6 +289,7 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     IdentError
         Missing columns, or no usable row.
     """
+    table = bare(table)  # (etsid.ident.bare)
     check_columns(table, spec.columns)
     n = len(table)
     seg = segments_of(table)
@@ -296,10 +298,14 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
     first_of_segment = starts[np.searchsorted(starts, idx, side="right") - 1]
     history_ok = idx - spec.max_lag >= first_of_segment
-    X = np.column_stack([lagged(column_values(table, t.name), t.lag) for t in spec.terms])
+    values: dict[str, np.ndarray] = {}
+    for t in (*spec.terms, *spec.antecedent):
+        if t.name not in values:
+            values[t.name] = column_values(table, t.name)
+    X = np.column_stack([lagged(values[t.name], t.lag) for t in spec.terms])
     Y = table[list(spec.outputs)].to_numpy(dtype=float)
-    S = (np.column_stack([lagged(column_values(table, t.name), t.lag)
-                          for t in spec.antecedent]) if spec.antecedent else None)
+    S = (np.column_stack([lagged(values[t.name], t.lag) for t in spec.antecedent])
+         if spec.antecedent else None)
     finite = np.isfinite(X).all(axis=1) & np.isfinite(Y).all(axis=1)
     if S is not None:
         finite &= np.isfinite(S).all(axis=1)

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.bare import bare
 from etsid.table import COLUMNS, SEGMENT
 
 DEFAULT_RATE_HZ = 50.0
@@ -145,8 +146,9 @@ def decimate(table: pd.DataFrame, rate_hz: float | None) -> pd.DataFrame:
     rows = starts[:, None] + np.arange(k)[None, :]
     t = np.asarray(table.index, dtype=float)[rows].mean(axis=1)
     data: dict[str, np.ndarray] = {}
+    cols = bare(table)
     for column in table.columns:
-        values = table[column].to_numpy()
+        values = cols[column].to_numpy()
         if column == SEGMENT:
             data[column] = values[starts]
             continue

@@ -25,6 +25,7 @@ import pandas as pd
 from etsid.errors import IdentError
 from etsid.ets import ETS
 from etsid.ident.attitude_check import check_attitude_states
+from etsid.ident.blas import one_blas_thread
 from etsid.ident.blocks import (
     blocked_line,
     blocked_validation,
@@ -145,6 +146,13 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
     IdentError
         Missing columns, bad regressor spec, too few usable rows, or bad eTS parameters.
     """
+    with one_blas_thread():
+        return _identify(table, config, source, show_progress)
+
+
+def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Path | None,
+              show_progress: bool) -> Run:
+    """:func:`identify` with BLAS on one thread (:mod:`etsid.ident.blas`)."""
     config = config or IdentConfig()
     rate_hz = config.rate_for(not config.outputs)
     table = add_motor_commands(table)

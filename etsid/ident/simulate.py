@@ -39,7 +39,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from etsid.ets import ETS
+from etsid.ident.arx import ARX
 from etsid.ident.regressors import Regression, RegressorSpec, attitude_map, feedback_map
+from etsid.ident.simulate_kernel import free_run_kernel, pack_linear
 
 DIVERGE_FACTOR = 2.0
 """A free-run value more than this many measured ranges outside the measured envelope of
@@ -118,11 +121,80 @@ def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:
     return np.vstack([lo - factor * width, hi + factor * width])
 
 
-def free_run(predict_one: Callable[[np.ndarray], np.ndarray], reg: Regression,
-             spec: RegressorSpec, start: int, n_table: int,
-             bounds: np.ndarray | None = None,
+def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
+             spec: RegressorSpec, start: int, n_table: int, bounds: np.ndarray | None = None,
              diverged: list[float] | None = None) -> np.ndarray:
     """Simulate rows ``start …`` of ``reg`` with the model fed its own past outputs.
+
+    The numba kernel :func:`etsid.ident.simulate_kernel.free_run_kernel` does the work; the
+    result equals :func:`free_run_reference` (the plain loop) to rounding.
+
+    Parameters
+    ----------
+    model
+        A frozen eTS model (scheduled on ``reg.S`` when it was learnt with antecedent
+        inputs) or an ARX model (``reg.S`` ignored); any other model's ``predict_one``
+        (or a callable taken as ``predict_one``) is run by :func:`free_run_reference`.
+    reg, spec, start, n_table, bounds, diverged
+        As :func:`free_run_reference`.
+
+    Returns
+    -------
+    ndarray, shape (len(reg.X) - start, m)
+        As :func:`free_run_reference`.
+    """
+    m = len(spec.outputs)
+    N = len(reg.X)
+    if isinstance(model, ARX):
+        frozen, work = pack_linear(model.theta)
+        scheduled = True  # on no antecedent input at all (S of width 0)
+    elif not isinstance(model, ETS):  # another model (its predict_one) or the callable itself
+        one = getattr(model, "predict_one", model)
+        return free_run_reference(one, reg, spec, start, n_table, bounds, diverged)
+    elif model.n_rules == 0:  # nothing to simulate with: the plain loop's NaN behaviour
+        return free_run_reference(model.predict_one, reg, spec, start, n_table, bounds,
+                                  diverged)
+    else:
+        frozen, work = model.frozen_predictor()
+        scheduled = bool(model.scheduled_)
+    links = np.array(feedback_map(spec), dtype=np.int64).reshape(-1, 3)
+    angles = np.array(attitude_map(spec) if reg.kinematics is not None else [],
+                      dtype=np.int64).reshape(-1, 3)
+    rate_idx = np.array([list(spec.outputs).index(c) for c in ("p", "q", "r")]
+                        if len(angles) else [0, 0, 0], dtype=np.int64)
+    kin = (np.ascontiguousarray(reg.kinematics, dtype=np.float64) if len(angles)
+           else np.zeros((1, 6)))
+    bias = (kinematic_bias(reg.kinematics, int(reg.rows[start])) if len(angles) and start < N
+            else np.zeros(2))
+    seg = (np.ascontiguousarray(reg.segment, dtype=np.int64) if reg.segment is not None
+           else np.zeros(N, dtype=np.int64))
+    if isinstance(model, ARX) or not scheduled:
+        S = np.zeros((N, 0))
+    elif reg.S is None:
+        raise ValueError("a scheduled model needs the regression's scheduling inputs S")
+    else:
+        S = np.ascontiguousarray(reg.S, dtype=np.float64)
+    sim = np.full((n_table, m), np.nan)
+    att = np.full((n_table, 2), np.nan)
+    out = np.full((max(N - start, 0), m), np.nan)
+    div_rows = np.empty(max(N - start, 0), dtype=np.int64)
+    check = bounds is not None
+    lims = np.asarray(bounds, dtype=np.float64) if check else np.zeros((2, m))
+    n_div = free_run_kernel(np.ascontiguousarray(reg.X, dtype=np.float64), S, scheduled,
+                            np.ascontiguousarray(reg.rows, dtype=np.int64), seg, links, angles,
+                            rate_idx, kin, bias, lims, check, frozen, work, int(start), sim,
+                            att, out, div_rows)
+    if diverged is not None:
+        diverged.extend(float(reg.t[i]) for i in div_rows[:n_div])
+    return out
+
+
+def free_run_reference(predict_one: Callable[..., np.ndarray], reg: Regression,
+                       spec: RegressorSpec, start: int, n_table: int,
+                       bounds: np.ndarray | None = None,
+                       diverged: list[float] | None = None) -> np.ndarray:
+    """Plain-loop free run (kept as the reference of :func:`free_run`): simulate rows
+    ``start …`` of ``reg`` with the model fed its own past outputs.
 
     Parameters
     ----------

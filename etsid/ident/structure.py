@@ -120,7 +120,7 @@ def scores_on(model: ETS, reg: Regression, spec: RegressorSpec, start: int, n_ta
     """One-step and free-run predictions of ``model`` over rows ``start …`` of ``reg``."""
     S = reg.S[start:] if spec.antecedent else None
     one = np.asarray(model.predict(reg.X[start:], S)).reshape(len(reg.X) - start, -1)
-    sim = free_run(model.predict_one, reg, spec, start, n_table, envelope(reg.Y))
+    sim = free_run(model, reg, spec, start, n_table, envelope(reg.Y))
     return one, sim
 
 
@@ -194,13 +194,17 @@ def validation_table(table: Any, reg: Regression, spec: RegressorSpec, config: I
     ``split`` the chosen model's regression and first validation row; each other candidate
     learns on its own rows before the same validation start time."""
     out: dict[str, dict[str, dict[str, float | None]]] = {}
+    built = [(candidate(chosen, spec, config)[0], reg)]  # arx and unscheduled share a spec
     for name in (n for n in ORDER if n != "scheduled" or spec.antecedent):
         label = "eTS one rule" if name == "arx" else f"eTS {name}"
         if name == chosen:
             out[label] = _block(reg, split, cols["y_val"][split:], cols["y_sim"][split:], spec)
             continue
         c_spec, c_config = candidate(name, spec, config)
-        c_reg = build(table, c_spec)
+        c_reg = next((r for s, r in built if s == c_spec), None)
+        if c_reg is None:
+            c_reg = build(table, c_spec)
+            built.append((c_spec, c_reg))
         c_split = int(np.searchsorted(c_reg.t, reg.t[split], side="left"))
         if not 0 < c_split < len(c_reg.t):
             continue

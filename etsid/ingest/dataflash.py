@@ -396,6 +396,7 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
     raw.signals = [s for s in raw.signals if np.count_nonzero(np.isfinite(s.values)) >= 2]
     raw.start_time = _start_time(msgs)
     raw.extra.update(_facts(reader, data, path))
+    _frame(raw, reader, data, path)
     _catalogue(raw, reader, data, msgs)
     _damage(raw, reader, data, noise, [d.t for d in msgs.values()])
     return raw
@@ -424,6 +425,20 @@ def _facts(reader: object, data: np.ndarray, path: Path) -> dict[str, str]:
             facts["hardware"] = board.group(1)
             break
     return dict(sorted(facts.items()))
+
+
+def _frame(raw: RawLog, reader: object, data: np.ndarray, path: Path) -> None:
+    """ArduPilot's frame parameters (last value of each) into ``extra`` (and so the table's
+    ``attrs["log"]``): ``frame_class``, ``frame_type`` (ArduCopter ≥ 3.5), ``frame`` (3.x).
+    What they mean is :mod:`etsid.ingest.ardupilot_frames`'s; the table's
+    ``motor_layout`` stays for mixers with positions."""
+    parm = _decode(reader, data, "PARM", RawLog(path=path, format="bin"))
+    if parm is None or not (parm.has("Name") and parm.has("Value")):
+        return
+    for name, value in zip(parm.rec["Name"], parm.rec["Value"], strict=True):
+        key = decode_text(name)
+        if key in ("FRAME_CLASS", "FRAME_TYPE", "FRAME") and np.isfinite(value):
+            raw.extra[key.lower()] = float(value)
 
 
 def _catalogue(raw: RawLog, reader: object, data: np.ndarray,

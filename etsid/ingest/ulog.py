@@ -348,6 +348,9 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     layout = motor_layout(getattr(ulog, "initial_parameters", {}) or {})
     if layout is not None:
         raw.extra["motor_layout"] = layout
+    autostart = (getattr(ulog, "initial_parameters", {}) or {}).get("SYS_AUTOSTART")
+    if isinstance(autostart, int | float) and autostart > 0:
+        raw.extra["sys_autostart"] = int(autostart)   # the airframe (etsid.ingest.px4_airframes)
     columns: dict[str, list[str]] = {}
     for sig in raw.signals:
         cols = columns.setdefault(sig.topic, [])

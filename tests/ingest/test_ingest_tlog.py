@@ -24,6 +24,7 @@ from etsid.ingest.mavlink.scan import (
     gather_payloads_reference,
     scan_frames,
     scan_frames_reference,
+    use_kernels,
 )
 from etsid.sim.writers.tlog import write_tlog
 
@@ -106,10 +107,13 @@ def test_rates_are_unequal_and_as_configured(tlog: Path) -> None:
 
 
 def test_scan_kernel_matches_reference(tlog: Path) -> None:
+    import etsid.ingest.mavlink.scan_kernels  # noqa: F401  (loads numba: the kernels run)
+
     data = bytearray(tlog.read_bytes()[:20000])
     data[5000] ^= 0xFF  # break one frame's CRC
     data[9000:9000] = b"\x00\xfe\x12junk"  # garbage between records
     buf = np.frombuffer(bytes(data), np.uint8)
+    assert use_kernels(buf.size)
     fast = scan_frames(buf, crc_extra_table(), final=True)
     slow = scan_frames_reference(bytes(data), crc_extra_table(), final=True)
     for name in ("offset", "length", "msgid", "sysid", "compid", "stamp_us", "status"):
@@ -189,6 +193,28 @@ def test_uint32_wraps_unwrapped() -> None:
     assert clock.ms_wraps == 1 and clock.reboots == 0 and clock.us_wraps > 0
     np.testing.assert_allclose(clock.t[0::2] - clock.t[0], t, atol=1e-9)
     np.testing.assert_allclose(clock.t[1::2] - clock.t[0], t, atol=1e-6)
+
+
+def test_clock_walk_in_python_equals_the_compiled_walk() -> None:
+    from etsid.ingest.mavlink.clock import MS_WRAP_S, REBOOT_LAG_S, STEP_S, US_WRAP_S, _walk
+    from etsid.ingest.mavlink.clock_kernel import walk
+
+    # a boot clock that wraps, a uint32 µs clock, frames without a clock, late packets
+    # and a reboot 60 s in
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 120.0, 0.05)
+    boot = np.where(t < 60.0, (MS_WRAP_S - 30.0 + t) % MS_WRAP_S, t - 60.0 + 0.5)
+    gcs = START + t + 0.01 + rng.exponential(0.02, t.size)
+    late = rng.random(t.size) < 0.05
+    boot[late] -= 0.3  # packets that arrive late keep their own (earlier) clock
+    kind = rng.choice([BOOT, WRAP32_US, NONE], size=t.size, p=[0.6, 0.3, 0.1])
+    value = np.where(kind == WRAP32_US, (boot * 1e6 % 2**32) * 1e-6, boot)
+    args = (gcs, value, kind.astype(np.int64), STEP_S, REBOOT_LAG_S, MS_WRAP_S, US_WRAP_S)
+    plain, compiled = _walk(*args), walk(*args)
+    np.testing.assert_array_equal(plain[0], compiled[0])
+    np.testing.assert_array_equal(plain[1], compiled[1])
+    assert plain[2:] == compiled[2:]
+    assert plain[1].max() == 1 and plain[2] == 1  # the reboot and the ms wrap were seen
 
 
 def test_frames_without_clock_take_the_latest_autopilot_time() -> None:

@@ -4,9 +4,11 @@
 module                  job
 ======================  ===============================================================
 :mod:`.tlog`            the reader (format ``tlog``)
-:mod:`.scan`            frame scanner (numba) and payload gathering, with numpy references
+:mod:`.scan`            frame scanner and payload gathering, with plain references
+:mod:`.scan_kernels`    their numba kernels (loaded only when used)
 :mod:`.dtypes`          MAVLink message → numpy structured dtype, CRC extras
 :mod:`.clock`           autopilot clock: boot-time wraps, reboots, link timestamps
+:mod:`.clock_kernel`    the clock walk compiled by numba (loaded only when used)
 :mod:`.signals`         message → FlightTable signals: fields, units, priorities
 ======================  ===============================================================
 

@@ -21,9 +21,9 @@ the link only ever adds delay, so the smallest difference is the best estimate.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 NONE, BOOT, WRAP32_US = 0, 1, 2
@@ -53,8 +53,14 @@ class Clock:
     """False when no frame had an autopilot clock (``t`` is then ground-station time)."""
 
 
-@numba.njit(cache=True)
-def _walk(gcs, value, kind, step, lag, ms_wrap, us_wrap):  # pragma: no cover - compiled
+SMALL_FRAMES = 100_000
+"""Most frames walked in plain Python while numba is not loaded (≈ 1 µs each; see
+:mod:`.scan` for why a small log avoids numba's import)."""
+
+
+def _walk(gcs, value, kind, step, lag, ms_wrap, us_wrap):  # type: ignore[no-untyped-def]
+    """The clock walk of :func:`autopilot_clock`, in plain Python; compiled by numba
+    unchanged (:mod:`.clock_kernel`) for larger logs."""
     n = value.size
     cont = np.full(n, np.nan)
     seg = np.zeros(n, np.int64)
@@ -128,9 +134,12 @@ def autopilot_clock(gcs_s: np.ndarray, value_s: np.ndarray, kind: np.ndarray) ->
     clocked = kind != NONE
     if not clocked.any():
         return Clock(gcs_s - gcs_s[0], float(gcs_s[0]), 0, 0, 0, 0, False)
-    cont, seg, ms_wraps, us_wraps = _walk(gcs_s, np.asarray(value_s, dtype=float),
-                                          np.asarray(kind, dtype=np.int64), STEP_S,
-                                          REBOOT_LAG_S, MS_WRAP_S, US_WRAP_S)
+    walk = _walk
+    if "numba" in sys.modules or n > SMALL_FRAMES:
+        from etsid.ingest.mavlink.clock_kernel import walk
+    cont, seg, ms_wraps, us_wraps = walk(gcs_s, np.asarray(value_s, dtype=float),
+                                         np.asarray(kind, dtype=np.int64), STEP_S,
+                                         REBOOT_LAG_S, MS_WRAP_S, US_WRAP_S)
     first = int(np.argmax(clocked))
     cont[:first] = cont[first]  # frames before the first clock take its value
     nseg = int(seg.max()) + 1

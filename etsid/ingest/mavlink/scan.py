@@ -13,19 +13,36 @@ byte at a time until a valid record starts again, counting what it skipped.
 
 A frame whose message id the dialect does not know cannot be CRC-checked: it is
 accepted (and reported as unknown) only when the next record starts right after it.
+
+The numba kernels live in :mod:`.scan_kernels`, imported only when needed: a buffer of at
+most :data:`SMALL_BYTES` read while numba is not loaded yet is scanned by the plain
+reference (same result), so that ``etsid inspect`` of a small tlog does not pay numba's
+import (≈ 0.5 s of CPU with the scipy it loads) to save a fraction of that.
 """
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 MAGIC_V1 = 0xFE
 MAGIC_V2 = 0xFD
 STAMP = 8
 """Bytes of the ground-station timestamp in front of each frame."""
+
+SMALL_BYTES = 2 << 20
+"""Largest buffer scanned by the plain reference while numba is not loaded: the reference
+takes ≈ 0.3 s of CPU per MiB, importing numba and its scipy ≈ 0.5–0.6 s (measured on
+``sample_logs/hexa_ige_oge.tlog``, 1.5 MB: ``etsid inspect`` 0.69–0.77 s of CPU this way,
+1.00–1.09 s through numba; docs/performance.md)."""
+
+
+def use_kernels(size: int) -> bool:
+    """Whether to run the numba kernels on ``size`` bytes (else the plain references)."""
+    return "numba" in sys.modules or size > SMALL_BYTES
+
 
 # status codes per frame
 OK = 0
@@ -48,96 +65,6 @@ class ScanResult:
     bad_crc: int  # frames rejected by their CRC
 
 
-@numba.njit(cache=True, nogil=True)
-def _crc(buf: np.ndarray, start: int, stop: int, extra: int) -> int:
-    crc = 0xFFFF
-    for i in range(start, stop):
-        tmp = (buf[i] ^ (crc & 0xFF)) & 0xFF
-        tmp = (tmp ^ (tmp << 4)) & 0xFF
-        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
-    tmp = (extra ^ (crc & 0xFF)) & 0xFF
-    tmp = (tmp ^ (tmp << 4)) & 0xFF
-    crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
-    return crc
-
-
-@numba.njit(cache=True, nogil=True)
-def _frame_size(buf: np.ndarray, m: int) -> int:
-    """Bytes of the frame whose magic is at ``m`` (needs buf[m..m+2] in range)."""
-    if buf[m] == MAGIC_V1:
-        return 8 + buf[m + 1]
-    size = 12 + buf[m + 1]
-    if buf[m + 2] & 1:
-        size += 13
-    return size
-
-
-@numba.njit(cache=True, nogil=True)
-def _scan_kernel(buf, n, final, crc_extra, offset, length, msgid, sysid, compid, stamp,
-                 status):  # pragma: no cover - compiled
-    count = 0
-    skipped = 0
-    bad_crc = 0
-    p = 0
-    nextra = crc_extra.size
-    while p < n:
-        m = p + STAMP
-        if m + 3 > n:
-            break  # partial record
-        magic = buf[m]
-        if magic != MAGIC_V1 and magic != MAGIC_V2:
-            p += 1
-            skipped += 1
-            continue
-        size = _frame_size(buf, m)
-        if m + size > n:
-            break  # partial record
-        plen = buf[m + 1]
-        if magic == MAGIC_V1:
-            sid = buf[m + 3]
-            cid = buf[m + 4]
-            mid = np.int64(buf[m + 5])
-            pay = m + 6
-        else:
-            sid = buf[m + 5]
-            cid = buf[m + 6]
-            mid = np.int64(buf[m + 7]) | (np.int64(buf[m + 8]) << 8) | (np.int64(buf[m + 9]) << 16)
-            pay = m + 10
-        end = pay + plen
-        extra = crc_extra[mid] if mid < nextra else -1
-        if extra >= 0:
-            wire = np.int64(buf[end]) | (np.int64(buf[end + 1]) << 8)
-            if _crc(buf, m + 1, end, extra) != wire:
-                bad_crc += 1
-                p += 1
-                skipped += 1
-                continue
-            st = OK
-        else:
-            # unknown id: trust the length only if the next record starts right after
-            nxt = m + size + STAMP
-            if nxt < n and buf[nxt] != MAGIC_V1 and buf[nxt] != MAGIC_V2:
-                p += 1
-                skipped += 1
-                continue
-            if nxt >= n and not final:
-                break  # decide with the next chunk
-            st = UNKNOWN
-        ts = np.int64(0)
-        for k in range(STAMP):
-            ts = (ts << 8) | np.int64(buf[p + k])
-        offset[count] = pay
-        length[count] = plen
-        msgid[count] = mid
-        sysid[count] = sid
-        compid[count] = cid
-        stamp[count] = ts
-        status[count] = st
-        count += 1
-        p = m + size
-    return count, p, skipped, bad_crc
-
-
 def _alloc(n: int) -> tuple[np.ndarray, ...]:
     cap = n // (STAMP + 8) + 1
     return (np.empty(cap, np.int64), np.empty(cap, np.int32), np.empty(cap, np.int32),
@@ -158,6 +85,10 @@ def scan_frames(buf: np.ndarray, crc_extra: np.ndarray, final: bool) -> ScanResu
         True for the last chunk of the file: a trailing partial record is then not
         waited for (the caller counts it as truncated bytes: ``len(buf) - consumed``).
     """
+    if not use_kernels(buf.size):
+        return scan_frames_reference(buf.tobytes(), crc_extra, final)
+    from etsid.ingest.mavlink.scan_kernels import _scan_kernel
+
     arrays = _alloc(buf.size)
     count, consumed, skipped, bad = _scan_kernel(buf, buf.size, final, crc_extra, *arrays)
     off, ln, mid, sid, cid, ts, st = (a[:count] for a in arrays)
@@ -219,20 +150,13 @@ def scan_frames_reference(data: bytes, crc_extra: np.ndarray, final: bool = True
     return ScanResult(*arrays, consumed=p, skipped=skipped, bad_crc=bad)
 
 
-@numba.njit(cache=True, nogil=True)
-def _gather_kernel(buf, offset, length, size, out):  # pragma: no cover - compiled
-    for i in range(offset.size):
-        start = offset[i]
-        n = min(length[i], size)
-        for k in range(n):
-            out[i, k] = buf[start + k]
-        for k in range(n, size):
-            out[i, k] = 0
-
-
 def gather_payloads(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
                     size: int) -> np.ndarray:
     """Copy payloads into an (N, size) uint8 array, zero-padding truncated MAVLink 2 payloads."""
+    if not use_kernels(buf.size):
+        return gather_payloads_reference(buf, offset, length, size)
+    from etsid.ingest.mavlink.scan_kernels import _gather_kernel
+
     out = np.empty((offset.size, size), np.uint8)
     _gather_kernel(buf, offset, length, size, out)
     return out
