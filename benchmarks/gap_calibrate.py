@@ -12,8 +12,9 @@ the best single's pairs over it. This script
 * ``fit``: sets the thresholds from the records of the generators named, at a stated
   false-positive rate, and writes the calibration file (by default the package's
   ``etsid/gap/calibration.json``):
-  - ``mismatch_ratio``: the (1 − α) quantile of the largest channel ratio of the
-    no-effect pairs,
+  - ``mismatch_ratio``: the (1 − α) quantile of the largest dynamic channel's ratio of
+    the no-effect pairs (a sensor-consistency channel is judged by its offset's F law at
+    the same rate, etsid/gap/criterion.py ``offset_limit``, nothing calibrated),
   - ``gain_per_sample``: the (1 − α) quantile of the best single's gain of the no-effect
     pairs,
   - ``pair_gain_per_sample``: the (1 − α) quantile of the best second effect's gain over
@@ -58,7 +59,7 @@ from etsid.gap.calibration import (
     calibration_dict,
     load_calibration,
 )
-from etsid.gap.criterion import choose
+from etsid.gap.criterion import choose, mismatched
 
 RECORDING = {"mismatch_ratio": 4.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
 """Thresholds while recording: below any value a calibration has set, so that every model a
@@ -148,8 +149,7 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
                 return {"answer": "different-vehicle", "verdict": "different-vehicle",
                         "confidence": {}}
             i += _n_params(part, models, theta)
-    ratio = crit["innovation_ratio"]
-    mismatch = any(v > cal.mismatch_ratio for v in ratio.values())
+    mismatch = bool(mismatched(crit["innovation_ratio"], crit.get("offset", {}), cal))
     if name is None:
         verdict = "mismatch" if mismatch else "consistent"
         return {"answer": verdict, "verdict": verdict, "confidence": {}}
@@ -193,7 +193,8 @@ def load(paths: list[str]) -> list[dict[str, Any]]:
 def fit(args: argparse.Namespace) -> None:
     rows = [r for r in load(args.records) if r["generator"] in args.generators.split(",")]
     none = [r for r in rows if r["label"] == "none" and r.get("criterion")]
-    ratios = [max(r["criterion"]["innovation_ratio"].values()) for r in none]
+    ratios = [max(v for c, v in r["criterion"]["innovation_ratio"].items()
+                  if c not in r["criterion"].get("offset", {})) for r in none]
     gains = []
     for r in none:
         singles = [m["per_sample"] for m in r["criterion"]["models"]
@@ -224,7 +225,7 @@ def fit(args: argparse.Namespace) -> None:
                 "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
                 "rule": "log-normal (1 - rate) quantile of the no-effect pairs' largest "
-                        "channel ratio and best single gain, and of the single-effect "
+                        "dynamic channel ratio and best single gain, and of the single-effect "
                         "pairs' best second-effect gain, never below the largest recorded",
                 "written": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")})
     out = Path(args.out) if args.out else CALIBRATION_PATH

@@ -25,11 +25,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from etsid.gap.calibration import Calibration
 from etsid.gap.candidates import Candidate, merge
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
-from etsid.gap.noise import NoiseModel
+from etsid.gap.noise import NoiseModel, offset_z2
 from etsid.gap.signals import true_runs
 
 N_FOLDS = 2
@@ -146,6 +147,9 @@ class Criterion:
     ratio: dict[str, float]
     """Channel → REAL's innovation variance under the null over its floor's (all
     evidence)."""
+    offset: dict[str, tuple[float, int]] = field(default_factory=dict)
+    """Sensor-consistency channel → (REAL's offset statistic under the null,
+    :func:`etsid.gap.noise.offset_z2`, and the draws k of its F(1, k) law)."""
     models: list[Evaluated] = field(default_factory=list)
     chosen: Evaluated | None = None
     notes: list[str] = field(default_factory=list)
@@ -170,7 +174,7 @@ class LikelihoodScorer:
         deviation reached on that fold's fitting samples, floored."""
         fit = self.folds.fit[k] & np.isfinite(innov)
         var = float(np.mean(innov[fit] ** 2)) if np.any(fit) else 0.0
-        var = max(var, self.noise.channels[c].sigma ** 2)
+        var = max(var, self.noise.channels[c].floor_var)
         out = np.full(innov.size, np.nan)
         s = self.folds.score[k] & np.isfinite(innov)
         out[s] = -0.5 * (np.log(2 * np.pi * var) + innov[s] ** 2 / var)
@@ -209,8 +213,48 @@ class LikelihoodScorer:
             mask |= s
         res = self.scorer.residuals(mods, self.channels) if mods is not None else None
         innov = self.noise.innovations(res) if res is not None else self.null_innov
-        return {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].sigma ** 2)
+        return {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].floor_var)
                 for c in self.channels}
+
+    def offsets(self, mods=None) -> dict[str, tuple[float, int]]:
+        """Sensor-consistency channel → (offset statistic over all evidence, its draws k)."""
+        mask = np.zeros(self.folds.block.size, dtype=bool)
+        for s in self.folds.score:
+            mask |= s
+        res = self.scorer.residuals(mods, self.channels) if mods is not None else None
+        innov = self.noise.innovations(res) if res is not None else self.null_innov
+        out = {}
+        for c in self.channels:
+            ch = self.noise.channels[c]
+            if ch.offset_dof > 0:
+                out[c] = (offset_z2(ch, innov[c], mask), ch.offset_dof)
+        return out
+
+
+def offset_limit(dof: int, n_channels: int, rate: float) -> float:
+    """Largest offset statistic a no-effect flight reaches at false-positive ``rate`` over
+    ``n_channels`` sensor-consistency channels: the F(1, dof) quantile at 1 − rate /
+    n_channels (Bonferroni; textbook statistics, no calibrated number but the rate)."""
+    return float(stats.f.ppf(1.0 - rate / max(n_channels, 1), 1, max(dof, 1)))
+
+
+def mismatched(ratio: dict[str, float], offset: dict[str, Any], cal: Calibration
+               ) -> list[str]:
+    """Channels that depart from SIM's model beyond a no-effect flight, largest first: a
+    dynamic channel by its innovation-variance ratio over ``cal.mismatch_ratio``, a
+    sensor-consistency channel by its offset statistic over :func:`offset_limit`
+    (``offset`` maps channel → (statistic, draws), as in gap.json)."""
+    out = []
+    for c, v in ratio.items():
+        if c in offset:
+            z2, dof = offset[c]
+            if np.isfinite(z2) and z2 > offset_limit(int(dof), len(offset),
+                                                    cal.false_positive_rate):
+                out.append((z2 / offset_limit(int(dof), len(offset), cal.false_positive_rate)
+                            * cal.mismatch_ratio, c))
+        elif v > cal.mismatch_ratio:
+            out.append((v, c))
+    return [c for _, c in sorted(out, reverse=True)]
 
 
 def _fold_fits(cands: tuple[Candidate, ...], ls: LikelihoodScorer, folds: Folds,
@@ -307,7 +351,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
     a bound, a channel made worse), "" when it may.
     """
-    crit = Criterion(ls.folds, ls.ratio())
+    crit = Criterion(ls.folds, ls.ratio(), ls.offsets())
     threshold = min(cal.gain_per_sample, cal.pair_gain_per_sample)
     singles = [evaluate((c,), ls, threshold) for c in library]
     for s in singles:

@@ -70,10 +70,21 @@ def noise_density(x: np.ndarray, fs: float, mask: np.ndarray) -> float | None:
     return float(np.average(levels, weights=weights))
 
 
-def sensor_floors(flight: Flight) -> dict[str, float]:
-    """Channel → the error REAL's own sensor noise alone gives after the channel's
-    processing (same units as the channel). Channels without a measurable noise level
-    (a slow log, no long airborne run) are absent."""
+def sensor_noise(flight: Flight) -> dict[str, np.ndarray]:
+    """Channel → a series of REAL's own sensor noise alone after the channel's processing
+    (white noise at the gyro's and accelerometer's measured densities pushed through
+    :func:`etsid.gap.nominal.measured`; same units as the channel, its filter's start-up
+    trimmed). Channels without a measurable noise level (a slow log, no long airborne run)
+    are absent."""
+    hit = flight.__dict__.get("_sensor_noise")
+    if hit is not None and hit[0] is flight.rates:
+        return hit[1]
+    out = _sensor_noise(flight)
+    flight.__dict__["_sensor_noise"] = (flight.rates, out)
+    return out
+
+
+def _sensor_noise(flight: Flight) -> dict[str, np.ndarray]:
     dens_rate = [noise_density(flight.rates[:, j], flight.fs, flight.airborne) for j in range(3)]
     dens_acc = [noise_density(flight.acc[:, j], flight.fs, flight.airborne)
                 if np.all(np.isfinite(flight.acc[:, j])) else None for j in range(3)]
@@ -98,8 +109,14 @@ def sensor_floors(flight: Flight) -> dict[str, float]:
                 "ay": 1, "az": 2, "kin_x": 0, "kin_y": 1, "kin_z": 2}.get(c)
         if axis is None or src[axis] is None:
             continue
-        out[c] = float(np.std(y[n // 10: -n // 10]))
+        out[c] = np.asarray(y[n // 10: -n // 10], dtype=float)
     return out
+
+
+def sensor_floors(flight: Flight) -> dict[str, float]:
+    """Channel → the error REAL's own sensor noise alone gives after the channel's
+    processing (the deviation of :func:`sensor_noise`'s series)."""
+    return {c: float(np.std(y)) for c, y in sensor_noise(flight).items()}
 
 
 def own_error(sim: Flight, nominal: NominalModel, probe: NominalModel, hold: np.ndarray,

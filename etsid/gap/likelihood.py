@@ -23,11 +23,13 @@ from etsid.gap.criterion import (
     LikelihoodScorer,
     effect_weight,
     make_folds,
+    mismatched,
     run_criterion,
 )
 from etsid.gap.detectable import cap_below_detectable
 from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
+from etsid.gap.floors import sensor_noise
 from etsid.gap.noise import fit_noise
 from etsid.gap.nominal import CUTOFF_HZ, LABELS, UNITS, NominalModel, measured
 from etsid.gap.signals import Flight
@@ -98,16 +100,21 @@ doubled inertia is another configuration of the vehicle, not a fault of it)."""
 def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                           sigma: dict[str, float], scorer: Scorer, base: dict[str, Any],
                           notes: list[str], info: dict[str, Any],
-                          say: Callable[[str], None], cal: Calibration | None = None
+                          say: Callable[[str], None], cal: Calibration | None = None,
+                          own: dict[str, float] | None = None
                           ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """gap.json's content and the report's series, decided by the likelihood criterion."""
+    """gap.json's content and the report's series, decided by the likelihood criterion
+    (``own``: SIM's own held-out error per channel, the noise model's scale-up; default
+    the floors ``sigma``)."""
     from etsid.gap.run import locate, located_by_driver
 
     cal = cal or load_calibration()
     ys = measured(sim)
     pred = nominal.predict(sim, None, scorer_channels(scorer))
     res_sim = {c: ys[c] - v for c, v in pred.items() if c in ys}
-    noise = fit_noise(res_sim, sim.airborne, sigma, sim.fs, CUTOFF_HZ)
+    res_real = scorer.residuals(None, tuple(res_sim))
+    noise = fit_noise(res_sim, sim.airborne, own or sigma, sim.fs, CUTOFF_HZ, sensor_noise(real),
+                      res_real, real.airborne)
     folds = make_folds(real.airborne, real.fs)
     ls = LikelihoodScorer(scorer, noise, folds)
     library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
@@ -118,8 +125,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     for s in folds.score:
         hold |= s
     res0 = scorer.residuals()
-    mismatch = sorted((c for c, v in crit.ratio.items() if v > cal.mismatch_ratio),
-                      key=lambda c: -crit.ratio[c])
+    mismatch = mismatched(crit.ratio, crit.offset, cal)
     chosen = crit.chosen
     final: Fit | None = None
     if chosen is not None:
@@ -127,9 +133,10 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
         final = fit_candidates(chosen.candidates, scorer, real.airborne, x0=x0)
     res1 = scorer.residuals(final.mods) if final is not None else res0
     ratio_after = ls.ratio(final.mods) if final is not None else crit.ratio
+    offset_after = ls.offsets(final.mods) if final is not None else crit.offset
     left = {c: {"z": ratio_after[c], "rmse": float(np.sqrt(np.mean(res1[c][hold] ** 2))),
                 "floor": sigma[c], "ratio": float(np.sqrt(ratio_after[c]))}
-            for c in ratio_after if ratio_after[c] > cal.mismatch_ratio}
+            for c in mismatched(ratio_after, offset_after, cal)}
     effects: list[dict[str, Any]] = []
     airframe: list[str] = []
     radius, ground_law = info.get("radius"), None
@@ -158,6 +165,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                                 "gain_per_sample": cal.gain_per_sample,
                                 "pair_gain_per_sample": cal.pair_gain_per_sample},
                  "innovation_ratio": crit.ratio,
+                 "offset": {c: [v, k] for c, (v, k) in crit.offset.items()},
                  "models": [{"name": m.name, "gain": round(m.gain, 3),
                              "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
                              "weight": round(m.weight, 4),

@@ -12,10 +12,29 @@ under SIM's own noise; a likelihood of innovations weighs every frequency by the
 of SIM's residual power there (the Whittle view), so a slow offset is judged against
 SIM's slow errors and a fast wobble against its fast ones.
 
-REAL's own sensor noise is the lower bound of each channel's innovation scale: the floor
-of :func:`etsid.gap.floors.channel_floors` (the larger of SIM's held-out error and REAL's
-sensor noise) divided by SIM's residual RMS scales SIM's innovation deviation up where
-REAL is the noisier log.
+Each channel's innovation floor is the largest of three deviations, all innovations of
+the same filter: SIM's (scaled up by SIM's held-out error over its in-sample residual where
+the nominal model does worse on data it was not fitted on), REAL's own sensor noise (white
+noise at REAL's measured gyro and accelerometer densities, :func:`etsid.gap.floors.
+sensor_noise`, through the channel's processing and the filter) and, on the
+sensor-consistency channels only, REAL's own within-flight innovation deviation (below).
+
+**Sensor-consistency channels** (gyro vs attitude, accelerometer vs velocity) compare two
+sensors of one log through that log's attitude estimator. Every effect of the vocabulary
+acts on them as a constant offset (a gyro or accelerometer bias and the lean it leaves);
+their variation within a flight is the estimator's answer to what was flown, which no
+effect changes and SIM's one flight cannot show. So their floor includes REAL's own
+within-flight deviation (about REAL's mean), and their residual is modelled as
+
+    e_t = β + u_t,   β ~ N(0, τ²) once per flight,   u_t the AR process above,
+
+where β is the flight's offset (a sensor's turn-on bias, the estimator's settled lean).
+A no-effect REAL is another flight of SIM's vehicle, so τ² is estimated from SIM's own
+flight: the mean square of SIM's offsets over the sensor's three axes (k = 3 draws). In
+innovations β appears as ``(1 − Σ a_i) β``; the floor of a model's innovation variance on
+these channels is ``σ² + (1 − Σ a_i)² τ²`` (an offset within the between-flight spread is no
+evidence), and REAL's offset is tested against τ by its F(1, k) distribution
+(:func:`offset_z2`).
 """
 
 from __future__ import annotations
@@ -24,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from etsid.gap.nominal import GYRO_CHANNELS, KIN_CHANNELS, SENSOR_CHANNELS
 from etsid.gap.signals import true_runs
 
 MAX_ORDER = 12
@@ -50,16 +70,35 @@ class ChannelNoise:
     coef : ndarray
         AR coefficients ``a_1 … a_p`` on the decimated grid (empty: white).
     sigma : float
-        Innovation deviation floor, in the channel's unit: SIM's innovation deviation,
-        raised by REAL's sensor noise where that is larger.
+        Innovation deviation floor, in the channel's unit: the largest of SIM's innovation
+        deviation, REAL's sensor noise's and (sensor-consistency channels) REAL's own
+        within-flight innovation deviation.
     step : int
         Decimation: the channel is read every ``step`` samples (at absolute indices that
         are multiples of it).
+    offset_sd : float
+        τ, the between-flight spread of the channel's constant offset, in its unit (0 on
+        the dynamic channels, which SIM's model fits with their offsets).
+    offset_dof : int
+        Draws τ was estimated from (0: not estimated).
     """
 
     coef: np.ndarray
     sigma: float
     step: int = 1
+    offset_sd: float = 0.0
+    offset_dof: int = 0
+
+    @property
+    def dc_gain(self) -> float:
+        """``1 − Σ a_i``: the filter's gain at zero frequency (what a constant becomes)."""
+        return float(1.0 - np.sum(self.coef))
+
+    @property
+    def floor_var(self) -> float:
+        """Least innovation variance a model can claim on this channel: ``σ² + (1 − Σ a)²
+        τ²``."""
+        return self.sigma ** 2 + (self.dc_gain * self.offset_sd) ** 2
 
     @property
     def order(self) -> int:
@@ -139,9 +178,28 @@ class NoiseModel:
                 if c in self.channels}
 
 
+SENSOR_GROUPS = (GYRO_CHANNELS, KIN_CHANNELS)
+"""Channels whose offsets are draws of one sensor's between-flight spread τ."""
+
+
+def _innovation_sd(noise: ChannelNoise, e: np.ndarray, mask: np.ndarray | None = None,
+                   demean: bool = False) -> float:
+    """Deviation of ``noise``'s innovations of ``e`` (over ``mask``; about their mean with
+    ``demean``), 0 when there are fewer than two."""
+    v = noise.whiten(e)
+    ok = np.isfinite(v) if mask is None else np.isfinite(v) & mask
+    if np.sum(ok) < 2:
+        return 0.0
+    x = v[ok] - (np.mean(v[ok]) if demean else 0.0)
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
 def fit_noise(sim_residuals: dict[str, np.ndarray], sim_mask: np.ndarray,
-              floors: dict[str, float], fs: float, cutoffs: dict[str, float]) -> NoiseModel:
-    """The noise model from SIM's residuals under its own nominal model.
+              floors: dict[str, float], fs: float, cutoffs: dict[str, float],
+              real_noise: dict[str, np.ndarray] | None = None,
+              real_residuals: dict[str, np.ndarray] | None = None,
+              real_mask: np.ndarray | None = None) -> NoiseModel:
+    """The noise model from SIM's residuals under its own nominal model, floored by REAL.
 
     Parameters
     ----------
@@ -150,21 +208,70 @@ def fit_noise(sim_residuals: dict[str, np.ndarray], sim_mask: np.ndarray,
     sim_mask : ndarray of bool
         SIM's airborne samples.
     floors : dict
-        Channel → floor (unit of the channel): the larger of SIM's held-out error and
-        REAL's sensor noise.
+        Channel → SIM's held-out error (unit of the channel), at least its in-sample
+        residual: where larger, SIM's innovation deviation is scaled up by the ratio.
     fs : float
         Sample rate of the analysis grid, Hz.
     cutoffs : dict
         Channel → low-pass cut-off of its residual, Hz.
+    real_noise : dict, optional
+        Channel → REAL's sensor noise alone through the channel's processing
+        (:func:`etsid.gap.floors.sensor_noise`).
+    real_residuals, real_mask : optional
+        REAL's residuals under the nominal model and its airborne samples: the
+        sensor-consistency channels' within-flight deviation.
     """
-    out = {}
+    out: dict[str, ChannelNoise] = {}
+    offsets: dict[str, float] = {}
+    real_noise = real_noise or {}
     for c, e in sim_residuals.items():
         if c not in floors:
             continue
+        sensor = c in SENSOR_CHANNELS
         ok = sim_mask & np.isfinite(e)
         step = decimation(fs, cutoffs[c])
-        coef, sd = fit_ar(np.nan_to_num(e), ok, step)
-        rms = float(np.sqrt(np.mean(e[ok] ** 2))) if np.any(ok) else 0.0
-        scale = max(floors[c] / rms, 1.0) if rms > 0 else 1.0
-        out[c] = ChannelNoise(coef, max(sd * scale, 1e-12), step)
+        e0 = np.nan_to_num(e)
+        if sensor and np.any(ok):
+            offsets[c] = float(np.mean(e[ok]))
+            e0 = e0 - offsets[c]
+        coef, sd = fit_ar(e0, ok, step)
+        if not sensor:
+            rms = float(np.sqrt(np.mean(e[ok] ** 2))) if np.any(ok) else 0.0
+            sd *= max(floors[c] / rms, 1.0) if rms > 0 else 1.0
+        ch = ChannelNoise(coef, max(sd, 1e-12), step)
+        terms = [ch.sigma]
+        if c in real_noise:
+            terms.append(_innovation_sd(ch, real_noise[c]))
+        if sensor and real_residuals is not None and c in real_residuals:
+            r = real_residuals[c]
+            terms.append(_innovation_sd(ch, np.nan_to_num(r), (
+                real_mask if real_mask is not None else np.ones(r.size, bool)) & np.isfinite(r),
+                demean=True))
+        out[c] = ChannelNoise(coef, max(terms), step)
+    for group in SENSOR_GROUPS:
+        have = [offsets[c] for c in group if c in offsets and c in out]
+        if not have:
+            continue
+        tau = float(np.sqrt(np.mean(np.square(have))))
+        for c in group:
+            if c in out:
+                ch = out[c]
+                out[c] = ChannelNoise(ch.coef, ch.sigma, ch.step, tau, len(have))
     return NoiseModel(out)
+
+
+def offset_z2(noise: ChannelNoise, innov: np.ndarray, mask: np.ndarray) -> float:
+    """REAL's offset on a sensor-consistency channel against the between-flight spread:
+    ``μ² / ((1 − Σ a)² τ² + s²/m)`` with μ the mean of the ``m`` innovations over ``mask``
+    and ``s`` their deviation about it. Under no effect it is distributed as F(1, k), k the
+    draws τ came from (as χ²₁ were τ known); NaN on a channel without τ."""
+    if noise.offset_dof <= 0:
+        return float("nan")
+    ok = mask & np.isfinite(innov)
+    m = int(np.sum(ok))
+    if m < 2:
+        return float("nan")
+    mu = float(np.mean(innov[ok]))
+    s2 = float(np.var(innov[ok], ddof=1))
+    den = (noise.dc_gain * noise.offset_sd) ** 2 + s2 / m
+    return mu * mu / den if den > 0 else float("inf")

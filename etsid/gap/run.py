@@ -135,6 +135,8 @@ class Floors:
     """SIM's band-by-band response (:mod:`etsid.gap.loop`)."""
     voltage_cover: float | None = None
     """Share of REAL's airborne pack voltage within SIM's span (:func:`voltage_covered`)."""
+    own: dict[str, float] | None = None
+    """Channel → SIM's own held-out error alone (:func:`etsid.gap.floors.own_error`)."""
 
 
 def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
@@ -266,7 +268,8 @@ def nominal_and_floors(sim: Flight, real: Flight, k: float | None) -> Floors:
                     [sim.airborne, *time_split(sim.airborne, FIT_SHARE)])
     sigma, source = channel_floors(own, real)
     nominal.reference = broadband_slopes(sim, nominal, RESPONSE_CHANNELS)
-    return Floors(nominal, sigma, source, band_response(sim, nominal, measured(sim)), cover)
+    return Floors(nominal, sigma, source, band_response(sim, nominal, measured(sim)), cover,
+                  own)
 
 
 def restrict_to_envelope(sim: Flight, real: Flight, nominal: NominalModel) -> str | None:
@@ -667,7 +670,7 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
                             "drag_law": nominal.drag_law, "speed_law": nominal.speed_law,
                             "channels": list(shared)}}
         data, series = explain_by_likelihood(sim, real, nominal, sigma, scorer, base, notes,
-                                             info, say)
+                                             info, say, own=floors.own)
         return GapResult(data, sim, real, nominal, series)
     res0 = scorer.residuals()
     r_fit, r_hold = split_evidence(real, res0, sigma)

@@ -10,8 +10,15 @@ import pytest
 
 from etsid.errors import GapError
 from etsid.gap.calibration import Calibration, calibration_dict, load_calibration
-from etsid.gap.criterion import Evaluated, choose, make_folds, pseudo_bma
-from etsid.gap.noise import decimation, fit_ar, fit_noise
+from etsid.gap.criterion import (
+    Evaluated,
+    choose,
+    make_folds,
+    mismatched,
+    offset_limit,
+    pseudo_bma,
+)
+from etsid.gap.noise import decimation, fit_ar, fit_noise, offset_z2
 
 
 def _ar2(n: int, a1: float, a2: float, sd: float, seed: int) -> np.ndarray:
@@ -47,6 +54,50 @@ def test_real_noise_raises_the_innovation_floor():
     loud = fit_noise({"p": e}, mask, {"p": 3.0 * rms}, 100.0, {"p": 100.0})
     assert quiet.channels["p"].sigma == pytest.approx(1.0, rel=0.05)
     assert loud.channels["p"].sigma == pytest.approx(3.0 * quiet.channels["p"].sigma, rel=1e-9)
+
+
+def test_real_sensor_noise_enters_the_innovation_floor_directly():
+    # SIM's residual: AR(1) with innovations 0.1; REAL's own sensor noise through the same
+    # processing: white, deviation 0.5 -> whitened by SIM's filter it keeps about
+    # 0.5 * sqrt(1 + a^2), and that is the floor, not SIM's 0.1
+    e = _ar2(20000, 0.6, 0.0, 0.1, 3)
+    mask = np.ones(e.size, dtype=bool)
+    noise_series = np.random.default_rng(4).normal(0.0, 0.5, 20000)
+    model = fit_noise({"p": e}, mask, {"p": 0.0}, 100.0, {"p": 100.0}, {"p": noise_series})
+    assert model.channels["p"].sigma == pytest.approx(0.5 * np.sqrt(1 + 0.6**2), rel=0.05)
+    bare = fit_noise({"p": e}, mask, {"p": 0.0}, 100.0, {"p": 100.0})
+    assert bare.channels["p"].sigma == pytest.approx(0.1, rel=0.05)
+
+
+def _sensor_flight(rng: np.random.Generator, offsets: np.ndarray, n: int = 6000
+                   ) -> dict[str, np.ndarray]:
+    return {c: b + rng.normal(0.0, 0.002, n) for c, b in
+            zip(("gyro_p", "gyro_q", "gyro_r"), offsets, strict=True)}
+
+
+def test_sensor_offsets_are_judged_against_the_spread_sim_shows():
+    # every flight (SIM and REAL) draws a per-axis offset of spread 0.005; REAL's offsets of
+    # that spread pass the F(1, 3) test at 1 % about 99 % of the time, a 0.2 offset never
+    rng = np.random.default_rng(5)
+    mask = np.ones(6000, dtype=bool)
+    cal = Calibration(2.0, 0.1, 0.1, 0.01, {})
+    flagged, n = 0, 300
+    for _ in range(n):
+        sim = _sensor_flight(rng, rng.normal(0.0, 0.005, 3))
+        real = _sensor_flight(rng, rng.normal(0.0, 0.005, 3))
+        model = fit_noise(sim, mask, dict.fromkeys(sim, 0.0), 100.0, dict.fromkeys(sim, 100.0),
+                          real_residuals=real, real_mask=mask)
+        offs = {c: (offset_z2(model.channels[c], model.channels[c].whiten(real[c]), mask), 3)
+                for c in real}
+        flagged += bool(mismatched(dict.fromkeys(real, 1.0), offs, cal))
+    assert flagged / n < 0.03
+    ch = model.channels["gyro_p"]
+    assert ch.offset_dof == 3 and ch.offset_sd > 0.0
+    assert ch.floor_var > ch.sigma ** 2  # an offset within the spread is no evidence
+    biased = dict(real, gyro_q=real["gyro_q"] + 0.2)
+    offs = {c: (offset_z2(ch, model.channels[c].whiten(biased[c]), mask), 3) for c in biased}
+    assert mismatched(dict.fromkeys(biased, 1.0), offs, cal) == ["gyro_q"]
+    assert offset_limit(3, 6, 0.01) > offset_limit(30, 6, 0.01) > 1.0
 
 
 def test_decimation_reads_a_slow_channel_sparsely():
