@@ -119,9 +119,11 @@ def validate(table: pd.DataFrame) -> pd.DataFrame:
         raise TableError("table time index 't' holds NaN or inf")
     if t.size > 1 and not np.all(np.diff(t) > 0):
         raise TableError("table time index 't' is not strictly increasing")
-    for name in table.columns:
+    # the same columns without attrs: pandas deep-copies attrs into every column it hands out
+    view = pd.DataFrame(table, copy=False)
+    for name in view.columns:
         if name in COLUMNS:
-            col = table[name]
+            col = view[name]
             if not pd.api.types.is_float_dtype(col):
                 raise TableError(f"column {name!r} must be float64, got {col.dtype}")
             if np.isinf(col.to_numpy()).any():

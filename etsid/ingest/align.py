@@ -77,25 +77,43 @@ def native_rate(t: np.ndarray) -> float:
     return 1.0 / native_period(t) if t.size > 1 else float("nan")
 
 
-def find_gaps(t: np.ndarray) -> list[tuple[float, float]]:
-    """Intervals (start, end) where consecutive samples are > GAP_PERIODS periods apart."""
+def find_gaps(t: np.ndarray, period: float | None = None) -> list[tuple[float, float]]:
+    """Intervals (start, end) where consecutive samples are > GAP_PERIODS periods apart;
+    ``period`` (s) is :func:`native_period` of ``t`` when the caller has it already."""
     if t.size < 3:
         return []
     dt = np.diff(t)
-    limit = GAP_PERIODS * native_period(t)
+    limit = GAP_PERIODS * (native_period(t) if period is None else period)
     idx = np.flatnonzero(dt > limit)
     return [(float(t[i]), float(t[i + 1])) for i in idx]
 
 
-def resample(sig: Signal, grid: np.ndarray) -> np.ndarray:
-    """Values of ``sig`` on ``grid`` following its column's interpolation rule."""
+def interpolation(column: str) -> str:
+    """How ``column`` is resampled: "linear", "angle" or "hold" (zero-order hold)."""
+    return COLUMNS[column].interp if column in COLUMNS else "linear"
+
+
+def hold_index(t: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Index of the last sample of ``t`` at or before each grid point (−1 before the first)."""
+    return np.searchsorted(t, grid, side="right") - 1
+
+
+def resample(sig: Signal, grid: np.ndarray, period: float | None = None,
+             held: np.ndarray | None = None) -> np.ndarray:
+    """Values of ``sig`` on ``grid`` following its column's interpolation rule.
+
+    ``period`` (s, :func:`native_period` of ``sig.t``) and ``held`` (:func:`hold_index` of
+    ``sig.t`` on ``grid``, held columns only) may be passed when the caller has them already
+    (the fields of one message share their time array).
+    """
     t, v = sig.t, sig.values
     if t.size == 0:
         return np.full(grid.size, np.nan)
-    interp = COLUMNS[sig.column].interp if sig.column in COLUMNS else "linear"
-    period = native_period(t) if t.size > 1 else 0.0
+    interp = interpolation(sig.column)
+    if period is None:
+        period = native_period(t) if t.size > 1 else 0.0
     if interp == "hold":
-        idx = np.searchsorted(t, grid, side="right") - 1
+        idx = hold_index(t, grid) if held is None else held
         out = v[np.clip(idx, 0, None)].astype(float)
         out[idx < 0] = np.nan
         out[grid > t[-1] + GAP_PERIODS * period] = np.nan
@@ -107,7 +125,7 @@ def resample(sig: Signal, grid: np.ndarray) -> np.ndarray:
         if interp == "angle":
             out = np.angle(np.exp(1j * out))
             out[out == -np.pi] = np.pi
-    for start, end in find_gaps(t):
+    for start, end in find_gaps(t, period):
         inside = (grid > start) & (grid < end)
         out[inside] = np.nan
     return out
@@ -150,7 +168,15 @@ def build_table(
     if not cleaned:
         raise IngestError(f"{raw.path}: no usable samples in any mapped signal")
     ref = reference_signal(cleaned)
-    rate = float(rate_hz) if rate_hz else native_rate(ref.t)
+    # native period of every signal, once per time array (a message's fields share theirs)
+    by_array: dict[int, float] = {}
+    period: dict[str, float] = {}
+    for column, sig in cleaned.items():
+        if id(sig.t) not in by_array:
+            by_array[id(sig.t)] = native_period(sig.t)
+        period[column] = by_array[id(sig.t)]
+    ref_column = next(c for c, s in cleaned.items() if s is ref)
+    rate = float(rate_hz) if rate_hz else 1.0 / period[ref_column]
     if not np.isfinite(rate) or rate <= 0:
         raise IngestError(f"{raw.path}: cannot infer a sample rate from {ref.source}")
     for name, value in (("--start", start), ("--end", end)):
@@ -174,16 +200,22 @@ def build_table(
     grid = lo + np.arange(n_grid) / rate
     keep = np.ones(grid.size, dtype=bool)
     gaps = []
-    for gap_start, gap_end in find_gaps(ref.t):
+    for gap_start, gap_end in find_gaps(ref.t, period[ref_column]):
         keep &= ~((grid > gap_start) & (grid < gap_end))
     for column, sig in cleaned.items():
-        for gap_start, gap_end in find_gaps(sig.t):
+        for gap_start, gap_end in find_gaps(sig.t, period[column]):
             gaps.append({"start": gap_start - t0, "end": gap_end - t0, "signal": sig.source,
                          "column": column})
     grid = grid[keep]
     if grid.size < 2:
         raise IngestError(f"{raw.path}: fewer than two samples on the time grid")
-    data = {c: resample(cleaned[c], grid) for c in ordered_columns(list(cleaned))}
+    data = {}
+    held: dict[int, np.ndarray] = {}  # hold_index per time array
+    for column in ordered_columns(list(cleaned)):
+        sig = cleaned[column]
+        if interpolation(column) == "hold" and id(sig.t) not in held:
+            held[id(sig.t)] = hold_index(sig.t, grid)
+        data[column] = resample(sig, grid, period[column], held.get(id(sig.t)))
     # segment counts up after every dropped stretch of the grid
     jumps = np.diff(grid) > 1.5 / rate
     data[SEGMENT] = np.concatenate(([0], np.cumsum(jumps))).astype(np.int64)

@@ -168,6 +168,17 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
     return stats, blocks, base
 
 
+def _concatenate(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The chunks' decoded arrays of one message joined. The packed records are joined as
+    their bytes and viewed back: numpy copies a packed structured array field by field,
+    about 10× slower (0.06 s for the 150,000-row messages of a 10-minute tlog)."""
+    out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "rec"}
+    dtype = parts[0]["rec"].dtype
+    out["rec"] = np.concatenate([np.ascontiguousarray(p["rec"]).view(np.uint8)
+                                 for p in parts]).view(dtype)
+    return out
+
+
 def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int, int, dict]:
     frames: dict[int, int] = {}
     att: dict[tuple[int, int], int] = {}
@@ -244,9 +255,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     for mid, parts in blocks.items():
         if not parts:
             continue
-        cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        cat = parts[0] if len(parts) == 1 else _concatenate(parts)
         mine = (cat["sysid"] == sysid) & (cat["compid"] == compid)
-        if mine.any():
+        if mine.all():  # one system: no copy (the values are the same)
+            msgs[mid] = cat
+        elif mine.any():
             msgs[mid] = {k: v[mine] for k, v in cat.items()}
     names = {mid: wanted[mid] for mid in msgs}
     index = np.concatenate([m["index"] for m in msgs.values()]) if msgs else np.empty(0, int)
