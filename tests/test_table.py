@@ -16,7 +16,14 @@ from etsid.frames import (
     ned_frd_euler_to_enu_flu_quat,
     quat_to_euler,
 )
-from etsid.ingest.align import build_table, find_gaps, resample
+from etsid.ingest.align import (
+    build_table,
+    find_gaps,
+    hold_index,
+    interpolation,
+    native_period,
+    resample,
+)
 from etsid.ingest.base import Override, RawLog, Signal, get_field
 from etsid.ingest.mapping import choose_signals, load_mapping_file, parse_override
 from etsid.table import load_table, save_table, validate
@@ -77,6 +84,21 @@ def test_resample_linear_hold_and_angle() -> None:
     # yaw crossing ±π interpolates the short way round
     yaw = resample(sig("yaw", t, [3.0, -3.0, -2.9], "A.yaw"), np.array([0.5]))
     assert abs(abs(yaw[0]) - np.pi) < 0.05
+
+
+def test_resample_with_the_callers_period_and_hold_index_is_unchanged() -> None:
+    # build_table passes the native period and hold index once per time array (a
+    # message's fields share theirs): the values must be those resample finds itself
+    t = np.concatenate([np.arange(0, 1, 0.01), np.arange(2, 3, 0.01), [3.5]])
+    grid = np.arange(-0.05, 3.7, 0.004)
+    for column in ("p", "u_roll", "yaw"):
+        s = sig(column, t, np.sin(3 * t), "A.x")
+        own = resample(s, grid)
+        held = hold_index(t, grid) if interpolation(column) == "hold" else None
+        given = resample(s, grid, native_period(t), held)
+        assert np.isnan(own).any() and np.isfinite(own).any()
+        np.testing.assert_array_equal(given, own)
+    assert interpolation("u_roll") == "hold" and interpolation("p") == "linear"
 
 
 def test_gaps_split_segments_and_never_interpolate() -> None:
