@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # Layers, lowest first: a room may import only rooms on a strictly lower layer.
 LAYERS: dict[str, int] = {
-    "errors": 0, "jitnote": 0, "frames": 0, "pwm": 0, "rosmsgs": 0, "cachedir": 0,
+    "errors": 0, "jitnote": 0, "blas": 0, "frames": 0, "pwm": 0, "rosmsgs": 0, "cachedir": 0,
     "etsid": 0.5,  # the package's __init__: sets the numba cache folder (cachedir)
     "escape": 0,
     "progress": 0.25,  # the narrator: installs jitnote's compile note

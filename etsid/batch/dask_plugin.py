@@ -39,7 +39,7 @@ class WarmWorker(WorkerPlugin):
         self.slowed: list[tuple[Any, float]] = []
 
     def setup(self, worker: Any) -> None:
-        from etsid.batch.local import BLAS_THREADS
+        from etsid.blas import BLAS_THREADS
 
         callbacks = getattr(worker, "periodic_callbacks", {})
         for name in self.QUIET:

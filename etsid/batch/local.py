@@ -40,6 +40,7 @@ from etsid.batch.worker import (
     run_log,
     run_pooled,
 )
+from etsid.blas import BLAS_THREADS, one_blas_thread
 
 WINDOW = 2
 """Logs submitted per worker at a time (the one running and the next)."""
@@ -75,9 +76,6 @@ def worker_context(command: str, preload: tuple[str, ...] = ()) -> Any:
         signal.signal(signal.SIGINT, previous)
     return ctx
 
-
-BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-"""Thread counts of the BLAS libraries, set to 1 in the workers unless the user set them."""
 
 
 @contextlib.contextmanager
@@ -115,23 +113,6 @@ def server_env() -> Iterator[None]:
                 os.environ[key] = value
 
 
-@contextlib.contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """This process's BLAS on one thread (as the pool workers run), unless the user set a
-    thread count: ``--jobs 1`` then spends the CPU per log a worker does (0.148 s instead
-    of 0.266 s for a 25 s flight, measured: OpenBLAS's threads only spin)."""
-    if any(os.environ.get(key) for key in BLAS_THREADS):
-        yield
-        return
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - a dependency; then BLAS keeps its threads
-        yield
-        return
-    with threadpool_limits(limits=1, user_api="blas"):
-        yield
-
-
 class LocalRunner:
     """Runs logs and reports each :class:`Outcome` to ``on_done`` as it finishes.
 
@@ -158,7 +139,7 @@ class LocalRunner:
         """Run every item; Ctrl-C stops the workers and re-raises :class:`KeyboardInterrupt`."""
         items = list(items)
         if self.jobs <= 1:
-            with one_blas_thread():
+            with one_blas_thread():  # as the pool workers run (etsid.blas)
                 for item in items:
                     on_running(1)
                     on_done(run_log(item, self.spec, self.out, self.done))

@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from etsid.blas import one_blas_thread
 from etsid.errors import IdentError
 from etsid.ets import ETS
 from etsid.ident.attitude_check import check_attitude_states
-from etsid.ident.blas import one_blas_thread
 from etsid.ident.blocks import (
     blocked_line,
     blocked_validation,
@@ -154,7 +154,7 @@ def identify(table: pd.DataFrame, config: IdentConfig | None = None,
 
 def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Path | None,
               show_progress: bool) -> Run:
-    """:func:`identify` with BLAS on one thread (:mod:`etsid.ident.blas`)."""
+    """:func:`identify` with BLAS on one thread (:mod:`etsid.blas`)."""
     config = config or IdentConfig()
     rate_hz = config.rate_for(not config.outputs)
     table = add_motor_commands(table)
