@@ -19,7 +19,6 @@ of ``time_delay`` is minus that period (no transport delay). Scored like ``bench
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -29,16 +28,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from thirdparty import fit_truth
 from thirdparty import multirotor_pairs as mp
 from thirdparty.common import to_table
 
-from etsid.fit import fit_tables
-from etsid.fit.result import ABS_TOLERANCE, TOLERANCE
-
-SCORED = ("hover_command", "thrust_to_weight", "idle_ratio", "motor_time_constant",
-          "time_delay", "roll_effectiveness", "pitch_effectiveness", "yaw_effectiveness",
-          "inertia_ratio_yx", "roll_accel_per_command", "pitch_accel_per_command",
-          "yaw_accel_per_command")
 DURATION = 60.0
 
 
@@ -82,44 +75,5 @@ def truth_of(t: dict[str, Any], v0: float) -> dict[str, float]:
             "inertia_ratio_yx": inertia[1] / inertia[0]}
 
 
-def score(seed: int) -> list[dict[str, Any]]:
-    table, t_in = fly(seed)
-    result = fit_tables([table])
-    truth = truth_of(t_in, float(result.layout["v0"]))
-    rows = []
-    for key in SCORED:
-        p = result.params.get(key)
-        if p is None:
-            continue
-        tv = truth[key]
-        lo, hi = p.interval
-        tol = ABS_TOLERANCE.get(key)
-        within = abs(p.value - tv) <= (tol if tol is not None else
-                                       TOLERANCE.get(key, 0.2) * abs(tv) if tv else 0.02)
-        rows.append({"seed": seed, "param": key, "value": p.value, "se": p.se, "truth": tv,
-                     "verdict": p.verdict, "in_interval": bool(lo <= tv <= hi),
-                     "within_class": bool(within)})
-    return rows
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, nargs="*", default=[700, 701])
-    args = ap.parse_args()
-    rows: list[dict[str, Any]] = []
-    for seed in args.seeds:
-        part = score(seed)
-        rows += part
-        for r in part:
-            print(f"seed {seed} {r['param']:24s} {r['value']:10.4g} ± {r['se']:8.2g} truth "
-                  f"{r['truth']:10.4g}  {r['verdict']:15s} in interval {r['in_interval']!s:5s} "
-                  f"in class {r['within_class']}", flush=True)
-    ident = [r for r in rows if r["verdict"] == "identified"]
-    print(f"identified {len(ident)}/{len(rows)}; in their 95 % interval "
-          f"{sum(r['in_interval'] for r in ident)}/{len(ident)}; within class "
-          f"{sum(r['within_class'] for r in ident)}/{len(ident)}; every verdict in interval "
-          f"{sum(r['in_interval'] for r in rows)}/{len(rows)}")
-
-
 if __name__ == "__main__":
-    main()
+    fit_truth.main(__doc__.splitlines()[0], fly, truth_of, [700, 701])
