@@ -30,7 +30,9 @@ import time
 from collections import Counter
 from pathlib import Path
 
+# this checkout's etsid, in this process and (structure.child_env) in its children
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fuzz"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import files
 import mutants

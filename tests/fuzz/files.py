@@ -179,7 +179,8 @@ def _cached_run() -> Path:
         CACHE.mkdir(parents=True, exist_ok=True)
         subprocess.run([sys.executable, "-m", "etsid", "identify", str(GAS), "--output",
                         "co2", "--regressors", "co2[k-1],input_gas_rate[k-4]", "--out",
-                        str(run), "--quiet"], check=True, capture_output=True)
+                        str(run), "--quiet"], check=True, capture_output=True,
+                       env=structure.child_env())
     return run
 
 
@@ -196,7 +197,7 @@ def _cached_batch() -> Path:
                         str(logs / "a.csv"), str(logs / "b.csv"),
                         "--output", "co2", "--regressors", "co2[k-1],input_gas_rate[k-4]",
                         "-j", "1", "-o", str(batch), "--quiet"], check=True,
-                       capture_output=True)
+                       capture_output=True, env=structure.child_env())
     return batch
 
 

@@ -770,6 +770,13 @@ def _peak_rss_mb(pid: int) -> float:
     return 0.0
 
 
+def child_env(**extra: str) -> dict[str, str]:
+    """The environment of an ``etsid`` child process: this checkout first on PYTHONPATH, so
+    a fuzzer run from a git worktree tests that worktree's code, not the installed one."""
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+    return {**os.environ, "PYTHONPATH": path, **extra}
+
+
 def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
              memory_bound_mb: float = MEMORY_BOUND_MB, kill_mb: float = 2048.0,
              env: dict[str, str] | None = None) -> Verdict:
@@ -787,7 +794,7 @@ def run_case(c: Case, work: Path, time_bound_s: float = TIME_BOUND_S,
     time_bound_s = c.seconds or time_bound_s
     proc = subprocess.Popen([sys.executable, "-m", "etsid", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=work,
-                            env={**os.environ, "ETSID_PROGRESS": "off", **(env or {})},
+                            env=child_env(ETSID_PROGRESS="off", **(env or {})),
                             start_new_session=True)  # progress lines: as in the test suite
     peak, why = 0.0, ""
     while proc.poll() is None:
