@@ -7,8 +7,9 @@ text (U+202A–U+202E, U+2066–U+2069, U+200E/F, U+061C) become ``\uNNNN``, so 
 sequence (OSC 52 "write the clipboard", CSI) and no reordering reaches a terminal or page.
 
 Each sink then escapes for itself: :func:`for_terminal` (the above, for text that did not
-pass through :func:`clean`), :func:`for_html` (the above plus HTML entities) and
-:func:`for_markdown` (HTML entities plus the Markdown table and emphasis characters).
+pass through :func:`clean`), :func:`for_html` (the above, line breaks kept, plus HTML
+entities) and :func:`for_markdown` (HTML entities plus the Markdown table and emphasis
+characters).
 Bokeh pages pass strings as data columns, never inside tooltip templates (which Bokeh
 renders as HTML): see etsid/report/interactive.py.
 
@@ -109,8 +110,14 @@ def for_terminal(text: object) -> str:
 
 
 def for_html(text: object) -> str:
-    """``str(text)`` safe inside HTML text or a quoted attribute."""
-    return html.escape(printable(str(text)), quote=True)
+    r"""``str(text)`` safe inside HTML text or a quoted attribute; line breaks and tabs are
+    kept (etsid's own multi-line text in a ``<pre>``: a rule base, a run's config; a string
+    from a file has its line breaks shown as ``\x0a`` by :func:`clean` already).
+
+    >>> for_html('<b onclick="x">\u202e\n\x1b')
+    '&lt;b onclick=&quot;x&quot;&gt;\\u202e\n\\x1b'
+    """
+    return html.escape(_TERMINAL_UNSAFE.sub(_shown, str(text)), quote=True)
 
 
 _MD_SPECIAL = re.compile(r"([\\`*_\[\]|#])")

@@ -209,4 +209,6 @@ def test_clean_reaches_every_string_of_a_deep_document() -> None:
 def test_sinks_escape_markup() -> None:
     assert escape.for_html('<img src=x onerror="a()">\u202e') == (
         "&lt;img src=x onerror=&quot;a()&quot;&gt;\\u202e")
+    # etsid's own multi-line text (a rule base, config.json in a <pre>) keeps its lines
+    assert escape.for_html("{\n\t\"a\": 1\r}\x1b") == "{\n\t&quot;a&quot;: 1\\x0d}\\x1b"
     assert escape.for_markdown("<b>|*") == "&lt;b&gt;\\|\\*"
