@@ -42,6 +42,10 @@ def printable(text: str) -> str:
     return _UNSAFE.sub(_shown, text)
 
 
+_PLAIN = {int, float, bool, type(None)}
+"""Types :func:`clean` keeps as they are."""
+
+
 def clean(value: Any) -> Any:
     r"""``value`` (a JSON-like document) with every string, keys too, made :func:`printable`.
 
@@ -68,6 +72,9 @@ def clean(value: Any) -> Any:
                 out[name] = None
                 todo.append((child, out, name))
         elif isinstance(item, list | tuple):
+            if set(map(type, item)) <= _PLAIN:  # numbers only (a matrix row): as they are
+                parent[slot] = list(item)
+                continue
             seq: list[Any] = [None] * len(item)
             parent[slot] = seq
             todo.extend((child, seq, i) for i, child in enumerate(item))
