@@ -330,8 +330,10 @@ def _control_rules(path: Path) -> dict | None:
         data = read_json(file, "rules", ModelError)
     except ModelError:
         return None
+    from etsid.escape import clean
     from etsid.ets import ETS
 
+    data = clean(data)  # names from the file made printable where they enter
     ETS.from_dict(data)  # ModelError names what is wrong
     return data
 

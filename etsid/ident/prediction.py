@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError, ModelError
+from etsid.escape import clean
 from etsid.ets import ETS
 from etsid.ets.serialize import check_caps, read_document
 from etsid.ident.checks import motion_warnings
@@ -49,6 +50,7 @@ def load_rules(path: str | Path) -> tuple[ETS, RegressorSpec, dict[str, Any]]:
         check_caps(data, str(path))
     except ModelError as err:
         raise IdentError(str(err)) from err
+    data = clean(data)  # names from the file made printable where they enter
     if not isinstance(data, dict) or not isinstance(data.get("regressors"), dict):
         raise IdentError(f"{path}: the rule base has no 'regressors' spec; "
                          "it was not written by etsid identify")
