@@ -12,8 +12,12 @@ set's own tables carry no pilot command). The truths come from PyFlyt's paramete
 flight used them: mass and inertia of the URDF (× the seed's spread), hub positions, thrust
 and torque coefficients, top speed at the median pack voltage, and the motor ramp's time
 constant as PyFlyt steps it (Euler at the physics rate: τ_eff = −dt / ln(1 − dt/τ)).
-``time_delay``: truth 0 (no transport delay; how PyFlyt
-stamps the state against the command was not worked out). Scored like
+``time_delay``: truth −dt/2 of the physics step (−2.1 ms), from PyFlyt's step order (its
+``Aviary.step``: control, motor step, state read, then ``stepSimulation``): the logged rates
+are read before the control period's last physics step, half a control period early
+(−h/2); the command is held over the period where the fit's law interpolates it (+h/2);
+the Euler motor step applies each step's end value over the whole step (−dt/2). There is
+no transport delay. Scored like
 ``benchmarks/fit.py``: a parameter called identified scores when the truth lies in its 95 %
 interval and within its accuracy class.
 """
@@ -95,7 +99,7 @@ def truth_of(t: dict[str, Any], v0: float) -> dict[str, float]:
     dfdm = 2.0 * k * x_h
     return {"hover_command": x_h, "thrust_to_weight": k * n / g, "idle_ratio": 0.0,
             "motor_time_constant": -dt / math.log(1.0 - dt / t["tau"]),
-            "time_delay": 0.0,
+            "time_delay": -0.5 * dt,
             **{f"{a}_effectiveness": e for a, e in eff.items()},
             **{f"{a}_accel_per_command": e * dfdm for a, e in eff.items()},
             "inertia_ratio_yx": inertia[1] / inertia[0]}

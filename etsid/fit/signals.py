@@ -25,6 +25,15 @@ the thrust and moment regressions do not model; those rows feed the drag fit onl
 MIN_AIRBORNE_S = 5.0
 """s of airborne data below which a flight is refused (nothing can be estimated)."""
 
+CONTACT_MARGIN_S = 1.0
+"""s cut at each take-off and landing edge of an airborne stretch. Motors spin above the
+airborne threshold (or a land detector says airborne) while the legs still carry part of
+the weight: there the accelerometer reads 1 g whatever the rotors do, and a few such rows
+of low thrust at −a_z = g bend the thrust curve (on the ``multirotor`` set: 12 rows of a
+60 s hover put the idle ratio at 0.04 for a truth of 0 and thrust/weight 7.5 % low). One
+second is the shorter of the land detectors' documented trigger times (ArduPilot
+``LAND_DETECTOR_TRIGGER_SEC``; :data:`etsid.ident.flight.LAND_MARGIN_S` cuts the same)."""
+
 
 @dataclass
 class Flight:
@@ -104,7 +113,8 @@ def prepare(table: pd.DataFrame, motors: list[str], v0: float | None,
     """A :class:`Flight` from a FlightTable and its active motor columns.
 
     Airborne: not ``landed`` where the log says, and the mean motor output above 40 % of
-    its in-flight median (a vehicle on the ground idles). NaN rows are held over (counted).
+    its in-flight median (a vehicle on the ground idles), less :data:`CONTACT_MARGIN_S` at
+    each take-off and landing edge (:func:`trim_contact`). NaN rows are held over (counted).
 
     Raises
     ------
@@ -129,6 +139,7 @@ def prepare(table: pd.DataFrame, motors: list[str], v0: float | None,
         airborne &= ~(tab["landed"].to_numpy(dtype=float) > 0.5)
     level = np.median(mean_m[airborne]) if airborne.any() else np.median(mean_m)
     airborne &= mean_m > 0.4 * level
+    airborne = trim_contact(airborne, dt)
     counts["airborne_rows"] = int(airborne.sum())
     if airborne.sum() * dt < MIN_AIRBORNE_S:
         raise FitError(f"{src}: {airborne.sum() * dt:.1f} s airborne (motors spinning, not "
@@ -159,6 +170,22 @@ def prepare(table: pd.DataFrame, motors: list[str], v0: float | None,
                   vel_body=vel_body, airborne=airborne,
                   motor_rate_hz=_rate(table, motors[0], 1.0 / dt),
                   gyro_rate_hz=_rate(table, "p", 1.0 / dt), counts=counts)
+
+
+def trim_contact(mask: np.ndarray, dt: float, margin_s: float = CONTACT_MARGIN_S
+                 ) -> np.ndarray:
+    """``mask`` without ``margin_s`` seconds at each edge of a True run that borders a False
+    row (ground contact at take-off and landing); the log's own start and end are kept."""
+    out = np.asarray(mask, dtype=bool).copy()
+    k = round(margin_s / dt)
+    edges = np.flatnonzero(np.diff(np.r_[0, out.astype(np.int8), 0]))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        lo = a + k if a > 0 else a
+        hi = b - k if b < out.size else b
+        out[a:b] = False
+        if hi > lo:
+            out[lo:hi] = True
+    return out
 
 
 def motor_state(flight: Flight, idle: float, tau: float, delay: float) -> np.ndarray:
