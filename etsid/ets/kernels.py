@@ -300,6 +300,11 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     _refresh_scales(lo, hi, s, w2, isx, n, xo)
     for i in range(si[1]):
         _sync_rule(i, rad, s, ac)
+    # views of z's outputs and consequent inputs, and of their ranges' lower ends: indexed
+    # from 0, so no index needs numba's negative-index fix-up
+    zy = z[na : na + m]
+    zx = z[xo : xo + n]
+    lox = lo[xo : xo + n]
 
     for t in range(N):
         k = si[0]
@@ -307,23 +312,22 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         for j in range(na):
             z[j] = S[t, j]
         for o in range(m):
-            z[na + o] = Y[t, o]
+            zy[o] = Y[t, o]
         if scheduled:
             for j in range(n):
-                z[xo + j] = X[t, j]
+                zx[j] = X[t, j]
         # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
         # _fire and _rule_outputs written out: a call costs an atomic reference-count
         # increment and decrement per array argument, more than the arithmetic here
         if R > 0:
+            emin = np.inf
             for i in range(R):
                 e = 0.0
                 for j in range(na):
                     dj = z[j] - cz[i, j]
                     e += dj * dj * ac[i, j]
                 ex[i] = e
-            emin = np.inf
-            for i in range(R):
-                emin = min(emin, ex[i])
+                emin = min(emin, e)
             tot = 0.0
             for i in range(R):
                 # exp(0) = 1 exactly: the nearest rule needs no call
@@ -335,7 +339,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                 lam[i] *= itot
             xe[0] = 1.0
             for j in range(n):
-                xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
+                xe[j + 1] = (zx[j] - lox[j]) * isx[j]
             for i in range(R):
                 for o in range(m):
                     acc = 0.0
@@ -391,20 +395,24 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         k += 1
         si[0] = k
         ik = 1.0 / k
+        # 4. (same pass) the sample's potential sums over the first dp entries of z
+        vterm = 0.0
+        acc = 0.0
         for j in range(d):
-            dj = z[j] - mean[j]
-            mean[j] += dj * ik
-            m2[j] += dj * (z[j] - mean[j])
+            zj = z[j]
+            dj = zj - mean[j]
+            mj = mean[j] + dj * ik
+            mean[j] = mj
+            m2j = m2[j] + dj * (zj - mj)
+            m2[j] = m2j
+            if j < dp:
+                vterm += m2j * w2[j]
+                dz = zj - mj
+                acc += dz * dz * w2[j]
         # 4. potentials of the sample and of every focal point
         pmax = -np.inf
         pmin = np.inf
         if k >= 2:
-            vterm = 0.0
-            acc = 0.0
-            for j in range(dp):
-                vterm += m2[j] * w2[j]
-                dj = z[j] - mean[j]
-                acc += dj * dj * w2[j]
             vterm *= ik
             kk = k / (k - 1.0)
             P = 1.0 / (1.0 + (acc + vterm) * kk)
@@ -500,7 +508,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             _fire(z, cz, ac, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
-                xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
+                xe[j + 1] = (zx[j] - lox[j]) * isx[j]
             _rule_outputs(xe, Pi, R, yr)
             for o in range(m):
                 acc = 0.0
@@ -555,36 +563,37 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         tr += Cl[i, a, a]
                     if tr > cbound:
                         fi = 1.0
-                # g = C_i x_e as a sum of columns; C_i is exactly symmetric, so column b
-                # equals row b and every g[a] is summed in the order of the row dot product
-                for a in range(n1):
-                    g[a] = 0.0
-                for b in range(n1):
-                    xb = xe[b]
-                    for a in range(n1):
-                        g[a] += Cl[i, b, a] * xb
+                # g = C_i x_e by row dot products (the sum stays in a register), and
+                # x_e^T g in the same pass
                 cwi = 0.0
                 for a in range(n1):
-                    cwi += xe[a] * g[a]
+                    acc = 0.0
+                    for b in range(n1):
+                        acc += Cl[i, a, b] * xe[b]
+                    g[a] = acc
+                    cwi += xe[a] * acc
                 c = wi / (fi + wi * cwi)
                 # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
+                for o in range(m):
+                    err[o] = zy[o] - yr[i, o]
+                # row a of C_i, then row a of Pi_i (gain g_a c)
                 if fi != 1.0:
                     ifi = 1.0 / fi
                     for a in range(n1):
                         ga = g[a]
                         for b in range(n1):
                             Cl[i, a, b] = (Cl[i, a, b] - c * (ga * g[b])) * ifi
+                        gc = ga * c
+                        for o in range(m):
+                            Pi[i, a, o] += gc * err[o]
                 else:
                     for a in range(n1):
                         ga = g[a]
                         for b in range(n1):
                             Cl[i, a, b] -= c * (ga * g[b])
-                for o in range(m):
-                    err[o] = z[na + o] - yr[i, o]
-                for a in range(n1):
-                    ga = g[a] * c
-                    for o in range(m):
-                        Pi[i, a, o] += ga * err[o]
+                        gc = ga * c
+                        for o in range(m):
+                            Pi[i, a, o] += gc * err[o]
             if n_shared > 0:
                 for a in range(n1):
                     for o in range(m):
