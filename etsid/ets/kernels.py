@@ -285,9 +285,11 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     z = np.empty(d)
     yh = np.empty(m)
     err = np.empty(m)
+    err2 = np.empty(m)
     pnew = np.zeros((n1, m))
     scat0 = np.empty(na)
     g = np.empty(rmax * n1 if is_global else n1)
+    g2 = np.empty(n1)
     phi = np.empty(rmax * n1 if is_global else 1)
     n_shared = 0
     for o in range(m):
@@ -548,23 +550,87 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if n_shared > 0:
                 # shared outputs: plain RLS on the common consequent (rule 0's column)
                 shared_rls(xe, z, na, sh, Pi[0], Cs, gs, ths, forget, cbound)
-            # one rule after the other, on its own covariance and consequent in place; a
-            # rule with lambda = 0 would get f_i = 1 and gain 0, i.e. exactly no change
-            for i in range(R):
-                wi = lam[i]
-                if wi == 0.0:
-                    continue
-                fi = 1.0 - wi * omf
+            # rules two at a time (one pass over both covariances: half the loop entries,
+            # two independent chains), the last one alone when R is odd; each on its own
+            # covariance and consequent in place. A rule with lambda = 0 gets f_i = 1 and
+            # c = 0: its update is exactly no change (alone it is skipped)
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                w0 = lam[i0]
+                w1 = lam[i1]
+                f0 = 1.0 - w0 * omf
+                f1 = 1.0 - w1 * omf
                 if forget != 1.0:
                     # wind-up guard (trace-bounded forgetting): rule i forgets only while
                     # trace(C_i) <= omega (n + 1), the trace of a new rule's covariance
+                    tr0 = 0.0
+                    tr1 = 0.0
+                    for a in range(n1):
+                        tr0 += Cl[i0, a, a]
+                        tr1 += Cl[i1, a, a]
+                    if tr0 > cbound:
+                        f0 = 1.0
+                    if tr1 > cbound:
+                        f1 = 1.0
+                # g = C_i x_e by row dot products (the sum stays in a register), and
+                # x_e^T g in the same pass
+                cw0 = 0.0
+                cw1 = 0.0
+                for a in range(n1):
+                    acc0 = 0.0
+                    acc1 = 0.0
+                    for b in range(n1):
+                        xb = xe[b]
+                        acc0 += Cl[i0, a, b] * xb
+                        acc1 += Cl[i1, a, b] * xb
+                    g[a] = acc0
+                    g2[a] = acc1
+                    cw0 += xe[a] * acc0
+                    cw1 += xe[a] * acc1
+                c0 = w0 / (f0 + w0 * cw0)
+                c1 = w1 / (f1 + w1 * cw1)
+                for o in range(m):
+                    err[o] = zy[o] - yr[i0, o]
+                    err2[o] = zy[o] - yr[i1, o]
+                # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed. Row a of
+                # C_i, then row a of Pi_i (gain g_a c); dividing by f_i = 1 is skipped
+                if f0 != 1.0 or f1 != 1.0:
+                    # x * (1 / 1) = x exactly: one formula for both rules
+                    if0 = 1.0 / f0
+                    if1 = 1.0 / f1
+                    for a in range(n1):
+                        ga0 = g[a]
+                        ga1 = g2[a]
+                        for b in range(n1):
+                            Cl[i0, a, b] = (Cl[i0, a, b] - c0 * (ga0 * g[b])) * if0
+                            Cl[i1, a, b] = (Cl[i1, a, b] - c1 * (ga1 * g2[b])) * if1
+                        gc0 = ga0 * c0
+                        gc1 = ga1 * c1
+                        for o in range(m):
+                            Pi[i0, a, o] += gc0 * err[o]
+                            Pi[i1, a, o] += gc1 * err2[o]
+                else:
+                    for a in range(n1):
+                        ga0 = g[a]
+                        ga1 = g2[a]
+                        for b in range(n1):
+                            Cl[i0, a, b] -= c0 * (ga0 * g[b])
+                            Cl[i1, a, b] -= c1 * (ga1 * g2[b])
+                        gc0 = ga0 * c0
+                        gc1 = ga1 * c1
+                        for o in range(m):
+                            Pi[i0, a, o] += gc0 * err[o]
+                            Pi[i1, a, o] += gc1 * err2[o]
+            if R % 2 == 1 and lam[R - 1] != 0.0:
+                i = R - 1
+                wi = lam[i]
+                fi = 1.0 - wi * omf
+                if forget != 1.0:
                     tr = 0.0
                     for a in range(n1):
                         tr += Cl[i, a, a]
                     if tr > cbound:
                         fi = 1.0
-                # g = C_i x_e by row dot products (the sum stays in a register), and
-                # x_e^T g in the same pass
                 cwi = 0.0
                 for a in range(n1):
                     acc = 0.0
@@ -573,27 +639,20 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                     g[a] = acc
                     cwi += xe[a] * acc
                 c = wi / (fi + wi * cwi)
-                # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
                 for o in range(m):
                     err[o] = zy[o] - yr[i, o]
-                # row a of C_i, then row a of Pi_i (gain g_a c)
-                if fi != 1.0:
-                    ifi = 1.0 / fi
-                    for a in range(n1):
-                        ga = g[a]
+                ifi = 1.0 / fi
+                for a in range(n1):
+                    ga = g[a]
+                    if fi != 1.0:
                         for b in range(n1):
                             Cl[i, a, b] = (Cl[i, a, b] - c * (ga * g[b])) * ifi
-                        gc = ga * c
-                        for o in range(m):
-                            Pi[i, a, o] += gc * err[o]
-                else:
-                    for a in range(n1):
-                        ga = g[a]
+                    else:
                         for b in range(n1):
                             Cl[i, a, b] -= c * (ga * g[b])
-                        gc = ga * c
-                        for o in range(m):
-                            Pi[i, a, o] += gc * err[o]
+                    gc = ga * c
+                    for o in range(m):
+                        Pi[i, a, o] += gc * err[o]
             if n_shared > 0:
                 for a in range(n1):
                     for o in range(m):
