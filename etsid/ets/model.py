@@ -41,7 +41,9 @@ def _finite_2d(a: Any, name: str, width: int | None = None) -> np.ndarray:
         raise ValueError(f"{name} has no columns")
     # one sum is NaN or inf when any value is (or, rarely, when finite values overflow):
     # the element-wise test runs only then, and allocates nothing on the common path
-    if not np.isfinite(np.add.reduce(arr, axis=None)) and not np.isfinite(arr).all():
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = np.add.reduce(arr, axis=None)
+    if not np.isfinite(total) and not np.isfinite(arr).all():
         bad = ~np.isfinite(arr)
         row, col = np.argwhere(bad)[0]
         raise ValueError(
