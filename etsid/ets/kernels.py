@@ -311,10 +311,9 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     for t in range(N):
         k = si[0]
         R = si[1]
+        # the outputs zy are copied in by the pass of steps 2-4 (the prediction uses none)
         for j in range(na):
             z[j] = S[t, j]
-        for o in range(m):
-            zy[o] = Y[t, o]
         if scheduled:
             for j in range(n):
                 zx[j] = X[t, j]
@@ -342,7 +341,20 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (zx[j] - lox[j]) * isx[j]
-            for i in range(R):
+            # rule outputs, two rules per pass (as the RLS of step 7)
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                for o in range(m):
+                    acc0 = 0.0
+                    acc1 = 0.0
+                    for a in range(n1):
+                        xa = xe[a]
+                        acc0 += xa * Pi[i0, a, o]
+                        acc1 += xa * Pi[i1, a, o]
+                    yr[i0, o] = acc0
+                    yr[i1, o] = acc1
+            if R % 2 == 1:
+                i = R - 1
                 for o in range(m):
                     acc = 0.0
                     for a in range(n1):
@@ -357,51 +369,46 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         else:
             for o in range(m):
                 Yhat[t, o] = np.nan
-        # 2. widen running ranges; rewrite consequents if an input range moved
+        # 2-4. one pass over z: the outputs copied in; 2. running ranges widened, with
+        # their widths as _refresh_scales computes them (entry by entry: the same values);
+        # 3. running mean / variance (Welford); 4. the sample's potential sums over the
+        # first dp entries
         changed_x = False
         changed_a = False
-        changed_y = False
-        for j in range(d):
-            if fixed[j] == 1:
-                continue
-            v = z[j]
-            if k == 0 or v < lo[j] or v > hi[j]:
-                if not changed_x and not changed_y:
-                    for q in range(n):
-                        lo_old[q] = lo[xo + q]
-                        hi_old[q] = hi[xo + q]
-                if k == 0:
-                    lo[j] = v
-                    hi[j] = v
-                elif v < lo[j]:
-                    lo[j] = v
-                else:
-                    hi[j] = v
-                if xo <= j < xo + n:
-                    changed_x = k > 0 or changed_x
-                if j < na:
-                    changed_a = k > 0 or changed_a
-                changed_y = True
-        if changed_y:
-            _refresh_scales(lo, hi, s, w2, isx, n, xo)
-        if changed_a:
-            for i in range(R):
-                _sync_rule(i, rad, s, ac)
-        if changed_x and R > 0:
-            reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
-                          is_global)
-            if n_shared > 0:
-                reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], 1, p_none,
-                              cs3, Cg, False)
-        # 3. running mean / variance of z (Welford)
-        k += 1
-        si[0] = k
-        ik = 1.0 / k
-        # 4. (same pass) the sample's potential sums over the first dp entries of z
+        first = True
+        k1 = k + 1
+        si[0] = k1
+        ik = 1.0 / k1
         vterm = 0.0
         acc = 0.0
         for j in range(d):
-            zj = z[j]
+            if na <= j < na + m:
+                zj = Y[t, j - na]
+                z[j] = zj
+            else:
+                zj = z[j]
+            if fixed[j] != 1 and (k == 0 or zj < lo[j] or zj > hi[j]):
+                if first:
+                    first = False
+                    for q in range(n):
+                        lo_old[q] = lox[q]
+                        hi_old[q] = hi[xo + q]
+                if k == 0:
+                    lo[j] = zj
+                    hi[j] = zj
+                elif zj < lo[j]:
+                    lo[j] = zj
+                else:
+                    hi[j] = zj
+                w = hi[j] - lo[j]
+                sj = w if w > 0.0 else 1.0
+                s[j] = sj
+                w2[j] = 1.0 / (sj * sj)
+                if xo <= j < xo + n:
+                    isx[j - xo] = 1.0 / sj
+                    changed_x = k > 0 or changed_x
+                if j < na:
+                    changed_a = k > 0 or changed_a
             dj = zj - mean[j]
             mj = mean[j] + dj * ik
             mean[j] = mj
@@ -411,6 +418,17 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                 vterm += m2j * w2[j]
                 dz = zj - mj
                 acc += dz * dz * w2[j]
+        k = k1
+        # rules and consequents follow a moved range
+        if changed_a:
+            for i in range(R):
+                _sync_rule(i, rad, s, ac)
+        if changed_x and R > 0:
+            reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
+                          is_global)
+            if n_shared > 0:
+                reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], 1, p_none,
+                              cs3, Cg, False)
         # 4. potentials of the sample and of every focal point
         pmax = -np.inf
         pmin = np.inf
