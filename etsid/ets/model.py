@@ -20,8 +20,9 @@ from etsid.ets.state import LearnedState
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-#: most consequent snapshots / events one learning-kernel call buffers before it returns
-_SNAPSHOTS_PER_CALL = 16
+#: one learning-kernel call buffers at most this many bytes of consequent snapshots (at
+#: least 16 snapshots) and this many events; it returns when a buffer is full
+_SNAPSHOT_BYTES_PER_CALL = 1 << 20
 _EVENTS_PER_CALL = 4096
 #: rule counts where learning switches kernels: the rule-major ``learn_kernel`` runs while
 #: R <= _RULE_MAJOR_MAX, ``learn_lanes`` (vectorised across rules) while R >= _LANES_MIN;
@@ -371,7 +372,8 @@ class ETS:
         rmax = int(self.max_rules)
         k0 = int(st["si"][0])
         # buffers the kernel fills; it returns early when one is full and is called again
-        n_snap = min(max(1, (k0 + N) // every - k0 // every), _SNAPSHOTS_PER_CALL)
+        per_call = max(16, _SNAPSHOT_BYTES_PER_CALL // (rmax * (n + 1) * m * 8))
+        n_snap = min(max(1, (k0 + N) // every - k0 // every), per_call)
         snap_k = np.empty(n_snap, dtype=np.int64)
         snap_ids = np.empty((n_snap, rmax), dtype=np.int64)
         snap_pi = np.empty((n_snap, rmax, n + 1, m))
