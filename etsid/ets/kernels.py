@@ -321,8 +321,24 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         # _fire and _rule_outputs written out: a call costs an atomic reference-count
         # increment and decrement per array argument, more than the arithmetic here
         if R > 0:
+            # exponents and their minimum, two rules per pass (as the RLS of step 7)
             emin = np.inf
-            for i in range(R):
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                e0 = 0.0
+                e1 = 0.0
+                for j in range(na):
+                    zj = z[j]
+                    d0 = zj - cz[i0, j]
+                    d1 = zj - cz[i1, j]
+                    e0 += d0 * d0 * ac[i0, j]
+                    e1 += d1 * d1 * ac[i1, j]
+                ex[i0] = e0
+                ex[i1] = e1
+                emin = min(emin, e0)
+                emin = min(emin, e1)
+            if R % 2 == 1:
+                i = R - 1
                 e = 0.0
                 for j in range(na):
                     dj = z[j] - cz[i, j]
@@ -341,9 +357,14 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             xe[0] = 1.0
             for j in range(n):
                 xe[j + 1] = (zx[j] - lox[j]) * isx[j]
-            # rule outputs, two rules per pass (as the RLS of step 7)
+            # rule outputs, two rules per pass, each added to the blend as it comes (the
+            # blend's sum over the rules keeps its order)
+            for o in range(m):
+                yh[o] = 0.0
             for i0 in range(0, R - 1, 2):
                 i1 = i0 + 1
+                l0 = lam[i0]
+                l1 = lam[i1]
                 for o in range(m):
                     acc0 = 0.0
                     acc1 = 0.0
@@ -353,19 +374,18 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         acc1 += xa * Pi[i1, a, o]
                     yr[i0, o] = acc0
                     yr[i1, o] = acc1
+                    yh[o] = (yh[o] + l0 * acc0) + l1 * acc1
             if R % 2 == 1:
                 i = R - 1
+                li = lam[i]
                 for o in range(m):
                     acc = 0.0
                     for a in range(n1):
                         acc += xe[a] * Pi[i, a, o]
                     yr[i, o] = acc
+                    yh[o] += li * acc
             for o in range(m):
-                acc = 0.0
-                for i in range(R):
-                    acc += lam[i] * yr[i, o]
-                Yhat[t, o] = acc
-                yh[o] = acc
+                Yhat[t, o] = yh[o]
         else:
             for o in range(m):
                 Yhat[t, o] = np.nan
@@ -436,7 +456,28 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             vterm *= ik
             kk = k / (k - 1.0)
             P = 1.0 / (1.0 + (acc + vterm) * kk)
-            for i in range(R):
+            # two rules per pass (as the RLS of step 7)
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                e0 = vterm
+                e1 = vterm
+                for j in range(dp):
+                    mj = mean[j]
+                    wj = w2[j]
+                    d0 = cz[i0, j] - mj
+                    d1 = cz[i1, j] - mj
+                    e0 += d0 * d0 * wj
+                    e1 += d1 * d1 * wj
+                p0 = 1.0 / (1.0 + e0 * kk)
+                p1 = 1.0 / (1.0 + e1 * kk)
+                pot[i0] = p0
+                pot[i1] = p1
+                pmax = max(pmax, p0)
+                pmin = min(pmin, p0)
+                pmax = max(pmax, p1)
+                pmin = min(pmin, p1)
+            if R % 2 == 1:
+                i = R - 1
                 e = vterm
                 for j in range(dp):
                     dj = cz[i, j] - mean[j]
