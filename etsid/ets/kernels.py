@@ -252,9 +252,14 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     adapts; every per-rule loop works on the state arrays in place (rule-major, no
     transposed copies), over the live rules only; the firing strengths and per-rule
     outputs of the prediction are reused by the update when the rule base and the ranges
-    did not change; a rule with λ_i = 0 exactly is skipped by the RLS (its update is
-    exactly no change); covariance updates are written on whole rows as
-    (C_ab − c g_a g_b) / f_i, which is exactly symmetric without mirroring, in one pass.
+    did not change; a rule with λ_i = 0 exactly keeps its consequent and covariance (in
+    a pair its update has c = 0, exactly no change; the odd rule alone is skipped);
+    covariance updates are written on whole rows as (C_ab − c g_a g_b) / f_i, which is
+    exactly symmetric without mirroring, in one pass.
+    The firing, the rule outputs, the focal potentials and the local RLS take two rules
+    per pass (half the loop entries, two independent chains; each rule's arithmetic and
+    every sum's order unchanged), and one pass over z copies the outputs, widens the
+    ranges and runs Welford and the sample's potential sums.
     """
     N, n = X.shape
     na = S.shape[1]
