@@ -252,9 +252,14 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     adapts; every per-rule loop works on the state arrays in place (rule-major, no
     transposed copies), over the live rules only; the firing strengths and per-rule
     outputs of the prediction are reused by the update when the rule base and the ranges
-    did not change; a rule with λ_i = 0 exactly is skipped by the RLS (its update is
-    exactly no change); covariance updates are written on whole rows as
-    (C_ab − c g_a g_b) / f_i, which is exactly symmetric without mirroring, in one pass.
+    did not change; a rule with λ_i = 0 exactly keeps its consequent and covariance (in
+    a pair its update has c = 0, exactly no change; the odd rule alone is skipped);
+    covariance updates are written on whole rows as (C_ab − c g_a g_b) / f_i, which is
+    exactly symmetric without mirroring, in one pass.
+    The firing, the rule outputs, the focal potentials and the local RLS take two rules
+    per pass (half the loop entries, two independent chains; each rule's arithmetic and
+    every sum's order unchanged), and one pass over z copies the outputs, widens the
+    ranges and runs Welford and the sample's potential sums.
     """
     N, n = X.shape
     na = S.shape[1]
@@ -285,9 +290,11 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     z = np.empty(d)
     yh = np.empty(m)
     err = np.empty(m)
+    err2 = np.empty(m)
     pnew = np.zeros((n1, m))
     scat0 = np.empty(na)
     g = np.empty(rmax * n1 if is_global else n1)
+    g2 = np.empty(n1)
     phi = np.empty(rmax * n1 if is_global else 1)
     n_shared = 0
     for o in range(m):
@@ -300,30 +307,49 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     _refresh_scales(lo, hi, s, w2, isx, n, xo)
     for i in range(si[1]):
         _sync_rule(i, rad, s, ac)
+    # views of z's outputs and consequent inputs, and of their ranges' lower ends: indexed
+    # from 0, so no index needs numba's negative-index fix-up
+    zy = z[na : na + m]
+    zx = z[xo : xo + n]
+    lox = lo[xo : xo + n]
 
     for t in range(N):
         k = si[0]
         R = si[1]
+        # the outputs zy are copied in by the pass of steps 2-4 (the prediction uses none)
         for j in range(na):
             z[j] = S[t, j]
-        for o in range(m):
-            z[na + o] = Y[t, o]
         if scheduled:
             for j in range(n):
-                z[xo + j] = X[t, j]
+                zx[j] = X[t, j]
         # 1. one-step prediction before any update (lam, x_e and the rule outputs are kept).
         # _fire and _rule_outputs written out: a call costs an atomic reference-count
         # increment and decrement per array argument, more than the arithmetic here
         if R > 0:
-            for i in range(R):
+            # exponents and their minimum, two rules per pass (as the RLS of step 7)
+            emin = np.inf
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                e0 = 0.0
+                e1 = 0.0
+                for j in range(na):
+                    zj = z[j]
+                    d0 = zj - cz[i0, j]
+                    d1 = zj - cz[i1, j]
+                    e0 += d0 * d0 * ac[i0, j]
+                    e1 += d1 * d1 * ac[i1, j]
+                ex[i0] = e0
+                ex[i1] = e1
+                emin = min(emin, e0)
+                emin = min(emin, e1)
+            if R % 2 == 1:
+                i = R - 1
                 e = 0.0
                 for j in range(na):
                     dj = z[j] - cz[i, j]
                     e += dj * dj * ac[i, j]
                 ex[i] = e
-            emin = np.inf
-            for i in range(R):
-                emin = min(emin, ex[i])
+                emin = min(emin, e)
             tot = 0.0
             for i in range(R):
                 # exp(0) = 1 exactly: the nearest rule needs no call
@@ -335,49 +361,90 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                 lam[i] *= itot
             xe[0] = 1.0
             for j in range(n):
-                xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
-            for i in range(R):
+                xe[j + 1] = (zx[j] - lox[j]) * isx[j]
+            # rule outputs, two rules per pass, each added to the blend as it comes (the
+            # blend's sum over the rules keeps its order)
+            for o in range(m):
+                yh[o] = 0.0
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                l0 = lam[i0]
+                l1 = lam[i1]
+                for o in range(m):
+                    acc0 = 0.0
+                    acc1 = 0.0
+                    for a in range(n1):
+                        xa = xe[a]
+                        acc0 += xa * Pi[i0, a, o]
+                        acc1 += xa * Pi[i1, a, o]
+                    yr[i0, o] = acc0
+                    yr[i1, o] = acc1
+                    yh[o] = (yh[o] + l0 * acc0) + l1 * acc1
+            if R % 2 == 1:
+                i = R - 1
+                li = lam[i]
                 for o in range(m):
                     acc = 0.0
                     for a in range(n1):
                         acc += xe[a] * Pi[i, a, o]
                     yr[i, o] = acc
+                    yh[o] += li * acc
             for o in range(m):
-                acc = 0.0
-                for i in range(R):
-                    acc += lam[i] * yr[i, o]
-                Yhat[t, o] = acc
-                yh[o] = acc
+                Yhat[t, o] = yh[o]
         else:
             for o in range(m):
                 Yhat[t, o] = np.nan
-        # 2. widen running ranges; rewrite consequents if an input range moved
+        # 2-4. one pass over z: the outputs copied in; 2. running ranges widened, with
+        # their widths as _refresh_scales computes them (entry by entry: the same values);
+        # 3. running mean / variance (Welford); 4. the sample's potential sums over the
+        # first dp entries
         changed_x = False
         changed_a = False
-        changed_y = False
+        first = True
+        k1 = k + 1
+        si[0] = k1
+        ik = 1.0 / k1
+        vterm = 0.0
+        acc = 0.0
         for j in range(d):
-            if fixed[j] == 1:
-                continue
-            v = z[j]
-            if k == 0 or v < lo[j] or v > hi[j]:
-                if not changed_x and not changed_y:
+            if na <= j < na + m:
+                zj = Y[t, j - na]
+                z[j] = zj
+            else:
+                zj = z[j]
+            if fixed[j] != 1 and (k == 0 or zj < lo[j] or zj > hi[j]):
+                if first:
+                    first = False
                     for q in range(n):
-                        lo_old[q] = lo[xo + q]
+                        lo_old[q] = lox[q]
                         hi_old[q] = hi[xo + q]
                 if k == 0:
-                    lo[j] = v
-                    hi[j] = v
-                elif v < lo[j]:
-                    lo[j] = v
+                    lo[j] = zj
+                    hi[j] = zj
+                elif zj < lo[j]:
+                    lo[j] = zj
                 else:
-                    hi[j] = v
+                    hi[j] = zj
+                w = hi[j] - lo[j]
+                sj = w if w > 0.0 else 1.0
+                s[j] = sj
+                w2[j] = 1.0 / (sj * sj)
                 if xo <= j < xo + n:
+                    isx[j - xo] = 1.0 / sj
                     changed_x = k > 0 or changed_x
                 if j < na:
                     changed_a = k > 0 or changed_a
-                changed_y = True
-        if changed_y:
-            _refresh_scales(lo, hi, s, w2, isx, n, xo)
+            dj = zj - mean[j]
+            mj = mean[j] + dj * ik
+            mean[j] = mj
+            m2j = m2[j] + dj * (zj - mj)
+            m2[j] = m2j
+            if j < dp:
+                vterm += m2j * w2[j]
+                dz = zj - mj
+                acc += dz * dz * w2[j]
+        k = k1
+        # rules and consequents follow a moved range
         if changed_a:
             for i in range(R):
                 _sync_rule(i, rad, s, ac)
@@ -387,28 +454,35 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if n_shared > 0:
                 reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], 1, p_none,
                               cs3, Cg, False)
-        # 3. running mean / variance of z (Welford)
-        k += 1
-        si[0] = k
-        ik = 1.0 / k
-        for j in range(d):
-            dj = z[j] - mean[j]
-            mean[j] += dj * ik
-            m2[j] += dj * (z[j] - mean[j])
         # 4. potentials of the sample and of every focal point
         pmax = -np.inf
         pmin = np.inf
         if k >= 2:
-            vterm = 0.0
-            acc = 0.0
-            for j in range(dp):
-                vterm += m2[j] * w2[j]
-                dj = z[j] - mean[j]
-                acc += dj * dj * w2[j]
             vterm *= ik
             kk = k / (k - 1.0)
             P = 1.0 / (1.0 + (acc + vterm) * kk)
-            for i in range(R):
+            # two rules per pass (as the RLS of step 7)
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                e0 = vterm
+                e1 = vterm
+                for j in range(dp):
+                    mj = mean[j]
+                    wj = w2[j]
+                    d0 = cz[i0, j] - mj
+                    d1 = cz[i1, j] - mj
+                    e0 += d0 * d0 * wj
+                    e1 += d1 * d1 * wj
+                p0 = 1.0 / (1.0 + e0 * kk)
+                p1 = 1.0 / (1.0 + e1 * kk)
+                pot[i0] = p0
+                pot[i1] = p1
+                pmax = max(pmax, p0)
+                pmin = min(pmin, p0)
+                pmax = max(pmax, p1)
+                pmin = min(pmin, p1)
+            if R % 2 == 1:
+                i = R - 1
                 e = vterm
                 for j in range(dp):
                     dj = cz[i, j] - mean[j]
@@ -500,7 +574,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             _fire(z, cz, ac, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
-                xe[j + 1] = (z[xo + j] - lo[xo + j]) * isx[j]
+                xe[j + 1] = (zx[j] - lox[j]) * isx[j]
             _rule_outputs(xe, Pi, R, yr)
             for o in range(m):
                 acc = 0.0
@@ -540,51 +614,109 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if n_shared > 0:
                 # shared outputs: plain RLS on the common consequent (rule 0's column)
                 shared_rls(xe, z, na, sh, Pi[0], Cs, gs, ths, forget, cbound)
-            # one rule after the other, on its own covariance and consequent in place; a
-            # rule with lambda = 0 would get f_i = 1 and gain 0, i.e. exactly no change
-            for i in range(R):
-                wi = lam[i]
-                if wi == 0.0:
-                    continue
-                fi = 1.0 - wi * omf
+            # rules two at a time (one pass over both covariances: half the loop entries,
+            # two independent chains), the last one alone when R is odd; each on its own
+            # covariance and consequent in place. A rule with lambda = 0 gets f_i = 1 and
+            # c = 0: its update is exactly no change (alone it is skipped)
+            for i0 in range(0, R - 1, 2):
+                i1 = i0 + 1
+                w0 = lam[i0]
+                w1 = lam[i1]
+                f0 = 1.0 - w0 * omf
+                f1 = 1.0 - w1 * omf
                 if forget != 1.0:
                     # wind-up guard (trace-bounded forgetting): rule i forgets only while
                     # trace(C_i) <= omega (n + 1), the trace of a new rule's covariance
+                    tr0 = 0.0
+                    tr1 = 0.0
+                    for a in range(n1):
+                        tr0 += Cl[i0, a, a]
+                        tr1 += Cl[i1, a, a]
+                    if tr0 > cbound:
+                        f0 = 1.0
+                    if tr1 > cbound:
+                        f1 = 1.0
+                # g = C_i x_e by row dot products (the sum stays in a register), and
+                # x_e^T g in the same pass
+                cw0 = 0.0
+                cw1 = 0.0
+                for a in range(n1):
+                    acc0 = 0.0
+                    acc1 = 0.0
+                    for b in range(n1):
+                        xb = xe[b]
+                        acc0 += Cl[i0, a, b] * xb
+                        acc1 += Cl[i1, a, b] * xb
+                    g[a] = acc0
+                    g2[a] = acc1
+                    cw0 += xe[a] * acc0
+                    cw1 += xe[a] * acc1
+                c0 = w0 / (f0 + w0 * cw0)
+                c1 = w1 / (f1 + w1 * cw1)
+                for o in range(m):
+                    err[o] = zy[o] - yr[i0, o]
+                    err2[o] = zy[o] - yr[i1, o]
+                # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed. Row a of
+                # C_i, then row a of Pi_i (gain g_a c); dividing by f_i = 1 is skipped
+                if f0 != 1.0 or f1 != 1.0:
+                    # x * (1 / 1) = x exactly: one formula for both rules
+                    if0 = 1.0 / f0
+                    if1 = 1.0 / f1
+                    for a in range(n1):
+                        ga0 = g[a]
+                        ga1 = g2[a]
+                        for b in range(n1):
+                            Cl[i0, a, b] = (Cl[i0, a, b] - c0 * (ga0 * g[b])) * if0
+                            Cl[i1, a, b] = (Cl[i1, a, b] - c1 * (ga1 * g2[b])) * if1
+                        gc0 = ga0 * c0
+                        gc1 = ga1 * c1
+                        for o in range(m):
+                            Pi[i0, a, o] += gc0 * err[o]
+                            Pi[i1, a, o] += gc1 * err2[o]
+                else:
+                    for a in range(n1):
+                        ga0 = g[a]
+                        ga1 = g2[a]
+                        for b in range(n1):
+                            Cl[i0, a, b] -= c0 * (ga0 * g[b])
+                            Cl[i1, a, b] -= c1 * (ga1 * g2[b])
+                        gc0 = ga0 * c0
+                        gc1 = ga1 * c1
+                        for o in range(m):
+                            Pi[i0, a, o] += gc0 * err[o]
+                            Pi[i1, a, o] += gc1 * err2[o]
+            if R % 2 == 1 and lam[R - 1] != 0.0:
+                i = R - 1
+                wi = lam[i]
+                fi = 1.0 - wi * omf
+                if forget != 1.0:
                     tr = 0.0
                     for a in range(n1):
                         tr += Cl[i, a, a]
                     if tr > cbound:
                         fi = 1.0
-                # g = C_i x_e as a sum of columns; C_i is exactly symmetric, so column b
-                # equals row b and every g[a] is summed in the order of the row dot product
-                for a in range(n1):
-                    g[a] = 0.0
-                for b in range(n1):
-                    xb = xe[b]
-                    for a in range(n1):
-                        g[a] += Cl[i, b, a] * xb
                 cwi = 0.0
                 for a in range(n1):
-                    cwi += xe[a] * g[a]
+                    acc = 0.0
+                    for b in range(n1):
+                        acc += Cl[i, a, b] * xe[b]
+                    g[a] = acc
+                    cwi += xe[a] * acc
                 c = wi / (fi + wi * cwi)
-                # C_ab - c (g_a g_b) is exactly symmetric: no mirroring needed
-                if fi != 1.0:
-                    ifi = 1.0 / fi
-                    for a in range(n1):
-                        ga = g[a]
+                for o in range(m):
+                    err[o] = zy[o] - yr[i, o]
+                ifi = 1.0 / fi
+                for a in range(n1):
+                    ga = g[a]
+                    if fi != 1.0:
                         for b in range(n1):
                             Cl[i, a, b] = (Cl[i, a, b] - c * (ga * g[b])) * ifi
-                else:
-                    for a in range(n1):
-                        ga = g[a]
+                    else:
                         for b in range(n1):
                             Cl[i, a, b] -= c * (ga * g[b])
-                for o in range(m):
-                    err[o] = z[na + o] - yr[i, o]
-                for a in range(n1):
-                    ga = g[a] * c
+                    gc = ga * c
                     for o in range(m):
-                        Pi[i, a, o] += ga * err[o]
+                        Pi[i, a, o] += gc * err[o]
             if n_shared > 0:
                 for a in range(n1):
                     for o in range(m):

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from etsid.ets import layout as L
-from etsid.ets.history import History, HistoryRecorder
+from etsid.ets.history import History, HistoryRecorder, raw_consequents
 from etsid.ets.kernels import learn_kernel, predict_kernel, predict_row, predict_setup
 from etsid.ets.kernels_lanes import learn_lanes
 from etsid.ets.normalisation import scales
@@ -20,23 +20,15 @@ from etsid.ets.state import LearnedState
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-#: most consequent snapshots / events one learning-kernel call buffers before it returns
-_SNAPSHOTS_PER_CALL = 16
+#: one learning-kernel call buffers at most this many bytes of consequent snapshots (at
+#: least 16 snapshots) and this many events; it returns when a buffer is full
+_SNAPSHOT_BYTES_PER_CALL = 1 << 20
 _EVENTS_PER_CALL = 4096
 #: rule counts where learning switches kernels: the rule-major ``learn_kernel`` runs while
 #: R <= _RULE_MAJOR_MAX, ``learn_lanes`` (vectorised across rules) while R >= _LANES_MIN;
 #: in between whichever ran last goes on (docs/performance.md measured the crossover)
 _RULE_MAJOR_MAX = 6
 _LANES_MIN = 4
-
-
-def raw_consequents(Pi: np.ndarray, lo: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Consequents ``Pi`` (R, n + 1, m) on x_e = [1, (x - lo) / s] re-expressed in the
-    original units: row 0 the intercept, row j the coefficient of input j."""
-    out = np.empty_like(Pi)
-    out[:, 1:, :] = Pi[:, 1:, :] / s[None, :, None]
-    out[:, 0, :] = Pi[:, 0, :] - np.einsum("rjo,j->ro", out[:, 1:, :], lo)
-    return out
 
 
 def _finite_2d(a: Any, name: str, width: int | None = None) -> np.ndarray:
@@ -48,8 +40,12 @@ def _finite_2d(a: Any, name: str, width: int | None = None) -> np.ndarray:
         raise ValueError(f"{name} must have {width} columns, got {arr.shape[1]}")
     if arr.shape[1] == 0:
         raise ValueError(f"{name} has no columns")
-    bad = ~np.isfinite(arr)
-    if bad.any():
+    # one sum is NaN or inf when any value is (or, rarely, when finite values overflow):
+    # the element-wise test runs only then, and allocates nothing on the common path
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = np.add.reduce(arr, axis=None)
+    if not np.isfinite(total) and not np.isfinite(arr).all():
+        bad = ~np.isfinite(arr)
         row, col = np.argwhere(bad)[0]
         raise ValueError(
             f"{name} contains {int(bad.sum())} non-finite value(s) (NaN or inf), "
@@ -376,7 +372,8 @@ class ETS:
         rmax = int(self.max_rules)
         k0 = int(st["si"][0])
         # buffers the kernel fills; it returns early when one is full and is called again
-        n_snap = min(max(1, (k0 + N) // every - k0 // every), _SNAPSHOTS_PER_CALL)
+        per_call = max(16, _SNAPSHOT_BYTES_PER_CALL // (rmax * (n + 1) * m * 8))
+        n_snap = min(max(1, (k0 + N) // every - k0 // every), per_call)
         snap_k = np.empty(n_snap, dtype=np.int64)
         snap_ids = np.empty((n_snap, rmax), dtype=np.int64)
         snap_pi = np.empty((n_snap, rmax, n + 1, m))
@@ -398,12 +395,10 @@ class ETS:
                 bound, *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
             )  # fmt: skip
             rec.add(k0 + 1, hist[start : start + done])
-            for step, kind, rid in ev[: counts[0]].tolist():
-                rec.add_event(step, L.EVENT_KINDS[kind], rid)
-            for q in range(int(counts[1])):
-                R = int(np.count_nonzero(snap_ids[q] >= 0))
-                rec.add_snapshot(int(snap_k[q]), snap_ids[q, :R],
-                                 raw_consequents(snap_pi[q, :R], snap_lo[q], snap_s[q]))
+            # kept as the kernel wrote them; dicts and original units when history is read
+            rec.add_events(ev[: counts[0]])
+            q = int(counts[1])
+            rec.add_snapshots(snap_k[:q], snap_ids[:q], snap_pi[:q], snap_lo[:q], snap_s[:q])
             start += done
         return Yhat[:, 0] if y1d else Yhat
 

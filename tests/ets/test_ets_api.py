@@ -55,6 +55,33 @@ def test_bad_arrays_raise_value_error(X, Y, match: str) -> None:
         ETS().run(X, Y)
 
 
+def test_finite_values_whose_sum_overflows_are_accepted() -> None:
+    # the finiteness check sums the array first; an overflowing sum of finite values must
+    # not be taken for a NaN or inf
+    X = np.array([[1e308, 1e308], [1e308, -1e308], [-1e308, 1e308]])
+    ETS().run(X, np.zeros(3))
+    with pytest.raises(ValueError, match=r"first at row 2, column 0"):
+        ETS().run(np.r_[X, [[-np.inf, 0.0]]][1:], np.zeros(3))
+
+
+def test_history_keeps_kernel_events_snapshots_and_later_events_in_order() -> None:
+    X, Y = _data(2000)
+    model = ETS(radius=0.3, history_every=100)
+    model.run(X[:1000], Y[:1000])
+    first = model.history
+    model.run(X[1000:], Y[1000:])
+    model.recorder_.add_event(2000, "merge", 0)
+    h = model.history
+    steps = [e["step"] for e in h.events]
+    assert steps == sorted(steps) and h.events[-1]["kind"] == "merge"
+    assert h.events[: len(first.events)] == first.events
+    assert {e["kind"] for e in h.events[:-1]} <= {"birth", "replace", "removal"}
+    assert [s["step"] for s in h.snapshots] == list(range(100, 2001, 100))
+    last = h.snapshots[-1]
+    np.testing.assert_array_equal(last["rule_ids"], model.export_state().rule_ids)
+    np.testing.assert_array_equal(last["consequents"], model.consequents_raw())
+
+
 def test_width_must_stay_the_same() -> None:
     X, Y = _data()
     model = ETS()
