@@ -16,11 +16,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from etsid.ets import ETS
+from etsid.gap.calibration import load_calibration
 from etsid.gap.candidates import LIBRARY, Candidate, ground_excess
 from etsid.gap.fitting import Fit, ResponseScorer, Scorer, fit_candidates
-from etsid.gap.nominal import QUADRATIC_SPEED, SENSOR_CHANNELS, Mods
+from etsid.gap.nominal import CUTOFF_HZ, QUADRATIC_SPEED, SENSOR_CHANNELS, Mods
 from etsid.gap.verdict import BoundHit, at_bound, worsened
 
 PARAM_PENALTY = 0.02
@@ -263,19 +265,43 @@ LOOK_ALIKES = (("mass", "thrust_scale"), ("weak_motor", "torque_offset"))
 """Pairs of effects whose signatures differ only in channels that need not be mismatched:
 a payload leaves roll/pitch authority alone where a thrust scale does not; a weak motor
 takes collective thrust away where a torque offset does not."""
-LOOK_ALIKE_MARGIN = 1.0
-"""Floor units (mean square, held out, summed over the dynamic channels) by which one of a
-look-alike pair must leave less excess than the other to be preferred at about the same
-score (within :data:`MIN_EXTRA_SHARE`)."""
 DEFAULT_OF = {"mass": "thrust_scale"}
 """The answer when a look-alike pair is not told apart (the thrust scale's words give the
 mass reading too); pairs without an entry keep the better score."""
 
 
-def _dynamic_excess(s: Scored) -> float:
-    """Held-out excess left on every non-sensor channel, focus or not."""
-    return float(sum(max(v - 1.0, 0.0) for c, v in s.z_after.items()
-                     if c not in SENSOR_CHANNELS))
+def held_out_preference(a: Scored, b: Scored, scorer: Scorer, hold: np.ndarray) -> float:
+    """How strongly REAL's held-out samples prefer ``a`` over ``b``, in standard errors.
+
+    Per held-out sample, ``d = Σ_c (r_b,c² − r_a,c²) / σ_c²`` over every dynamic channel both
+    predict (focus or not: a look-alike differs where the other leaves the data alone); the
+    statistic is ``mean(d)`` over its standard error, with the effective sample count of the
+    residuals low-passed at the channels' cutoff (2 × cutoff × duration, at most the sample
+    count; the convention of :meth:`Scorer.stderr`). Vuong's test for non-nested models,
+    with Gaussian errors of the floors' size. Positive: ``a`` leaves
+    less. A paired comparison of two fitted models on data neither was fitted on."""
+    res_a, res_b = scorer.residuals(a.fit.mods), scorer.residuals(b.fit.mods)
+    chans = [c for c in res_a if c in res_b and c in scorer.sigma and c not in SENSOR_CHANNELS]
+    if not chans or not np.any(hold):
+        return 0.0
+    d = sum((res_b[c][hold] ** 2 - res_a[c][hold] ** 2) / scorer.sigma[c] ** 2 for c in chans)
+    d = np.asarray(d, dtype=float)
+    d = d[np.isfinite(d)]
+    if d.size < 2:
+        return 0.0
+    band = min(CUTOFF_HZ[c] for c in chans)
+    n_eff = min(max(d.size * 2.0 * band / scorer.ctx.flight.fs, 2.0), float(d.size))
+    spread = float(np.std(d, ddof=1))
+    if spread <= 0.0:
+        return 0.0
+    return float(np.mean(d) / (spread / np.sqrt(n_eff)))
+
+
+def look_alike_limit() -> float:
+    """Preference (standard errors) beyond which one of a look-alike pair is named: the
+    two-sided normal quantile at the calibration's false-positive rate (2.58 at 1 %)."""
+    rate = load_calibration().false_positive_rate
+    return float(stats.norm.ppf(1.0 - rate / 2.0))
 
 
 HEIGHT_CONTRAST = 0.8
@@ -324,10 +350,11 @@ def _ground_over_flat(best: Scored, usable: list[Scored], sel: Selection, scorer
     return chosen
 
 
-def _look_alike(usable: list[Scored], sel: Selection) -> Scored:
+def _look_alike(usable: list[Scored], sel: Selection, scorer: Scorer,
+                hold: np.ndarray) -> Scored:
     """The best usable fit, unless its look-alike (:data:`LOOK_ALIKES`) scores about the
-    same: then the one leaving less excess over all dynamic channels by
-    :data:`LOOK_ALIKE_MARGIN`, else :data:`DEFAULT_OF` (with a note that they were not
+    same: then the one REAL's held-out samples prefer beyond :func:`look_alike_limit`
+    (:func:`held_out_preference`), else :data:`DEFAULT_OF` (with a note that they were not
     told apart)."""
     best = usable[0]
     pair = next((p for p in LOOK_ALIKES if best.fit.name in p), None)
@@ -337,11 +364,15 @@ def _look_alike(usable: list[Scored], sel: Selection) -> Scored:
     other = next((s for s in usable if s.fit.name == twin), None)
     if other is None or best.score - other.score >= MIN_EXTRA_SHARE:
         return best
-    left_best, left_other = _dynamic_excess(best), _dynamic_excess(other)
-    if left_other <= left_best - LOOK_ALIKE_MARGIN:
-        return other
-    if left_best <= left_other - LOOK_ALIKE_MARGIN:
-        return best
+    prefer = held_out_preference(other, best, scorer, hold)
+    limit = look_alike_limit()
+    if abs(prefer) > limit:
+        winner, loser = (other, best) if prefer > 0 else (best, other)
+        sel.notes.append(f"{winner.fit.name} rather than its look-alike {loser.fit.name}: the "
+                         f"held-out samples prefer it by {abs(prefer):.1f} standard errors "
+                         f"(beyond {limit:.2f}, the calibration's "
+                         f"{load_calibration().false_positive_rate:.0%} two-sided)")
+        return winner
     default = DEFAULT_OF.get(best.fit.name) or DEFAULT_OF.get(twin)
     sel.notes.append(f"{best.fit.name} and {twin} explain as much (shares {best.share:.3f}, "
                      f"{other.share:.3f}): the data do not tell them apart")
@@ -393,7 +424,8 @@ def select(scorer: Scorer, fit_mask: np.ndarray, hold: np.ndarray,
     usable = [s for s in fit_well if s.admissible]
     if not usable:
         return sel
-    best = _ground_over_flat(_look_alike(usable, sel), usable, sel, scorer, hold)
+    best = _ground_over_flat(_look_alike(usable, sel, scorer, hold), usable, sel, scorer,
+                            hold)
     chosen = best
     left = [c for c in focus if best.z_after.get(c, 0.0) > STRONG_LEFT * z_left]
     if not left and best.share >= 1.0 - MIN_EXTRA_SHARE:
