@@ -270,31 +270,43 @@ DEFAULT_OF = {"mass": "thrust_scale"}
 mass reading too); pairs without an entry keep the better score."""
 
 
-def held_out_preference(a: Scored, b: Scored, scorer: Scorer, hold: np.ndarray) -> float:
-    """How strongly REAL's held-out samples prefer ``a`` over ``b``, in standard errors.
+def held_out_preference(a: Scored, b: Scored, scorer: Scorer, hold: np.ndarray
+                        ) -> tuple[float, float]:
+    """How much REAL's held-out samples prefer ``a`` over ``b``: ``(Δ, z)``.
 
     Per held-out sample, ``d = Σ_c (r_b,c² − r_a,c²) / σ_c²`` over every dynamic channel both
-    predict (focus or not: a look-alike differs where the other leaves the data alone); the
-    statistic is ``mean(d)`` over its standard error, with the effective sample count of the
-    residuals low-passed at the channels' cutoff (2 × cutoff × duration, at most the sample
-    count; the convention of :meth:`Scorer.stderr`). Vuong's test for non-nested models,
-    with Gaussian errors of the floors' size. Positive: ``a`` leaves
-    less. A paired comparison of two fitted models on data neither was fitted on."""
+    predict (focus or not: a look-alike differs where the other leaves the data alone);
+    ``Δ = mean(d)`` (floor units of mean square: positive when ``a`` leaves less) and ``z`` =
+    Δ over its standard error, with the effective sample count of the residuals low-passed
+    at the channels' cutoff (2 × cutoff × duration, at most the sample count; the convention
+    of :meth:`Scorer.stderr`). Vuong's test for non-nested models, with Gaussian errors of
+    the floors' size."""
     res_a, res_b = scorer.residuals(a.fit.mods), scorer.residuals(b.fit.mods)
     chans = [c for c in res_a if c in res_b and c in scorer.sigma and c not in SENSOR_CHANNELS]
     if not chans or not np.any(hold):
-        return 0.0
+        return 0.0, 0.0
     d = sum((res_b[c][hold] ** 2 - res_a[c][hold] ** 2) / scorer.sigma[c] ** 2 for c in chans)
     d = np.asarray(d, dtype=float)
     d = d[np.isfinite(d)]
     if d.size < 2:
-        return 0.0
+        return 0.0, 0.0
     band = min(CUTOFF_HZ[c] for c in chans)
     n_eff = min(max(d.size * 2.0 * band / scorer.ctx.flight.fs, 2.0), float(d.size))
     spread = float(np.std(d, ddof=1))
+    mean = float(np.mean(d))
     if spread <= 0.0:
-        return 0.0
-    return float(np.mean(d) / (spread / np.sqrt(n_eff)))
+        return mean, 0.0
+    return mean, float(mean / (spread / np.sqrt(n_eff)))
+
+
+def look_alike_floor() -> float:
+    """Least held-out difference (floor units of mean square) that tells a look-alike pair
+    apart: the excess a channel reaches on a flight without any effect at the calibration's
+    false-positive rate (``mismatch_ratio − 1``). A smaller difference, however many samples
+    make it significant, is within what the nominal model's misfit changes from flight to
+    flight (PyFlyt Crazyflies whose thrust was scaled: a mass fitted their held-out vertical
+    force better by less than that, significantly)."""
+    return float(load_calibration().mismatch_ratio - 1.0)
 
 
 def look_alike_limit() -> float:
@@ -353,9 +365,9 @@ def _ground_over_flat(best: Scored, usable: list[Scored], sel: Selection, scorer
 def _look_alike(usable: list[Scored], sel: Selection, scorer: Scorer,
                 hold: np.ndarray) -> Scored:
     """The best usable fit, unless its look-alike (:data:`LOOK_ALIKES`) scores about the
-    same: then the one REAL's held-out samples prefer beyond :func:`look_alike_limit`
-    (:func:`held_out_preference`), else :data:`DEFAULT_OF` (with a note that they were not
-    told apart)."""
+    same: then the one REAL's held-out samples prefer beyond :func:`look_alike_limit` and
+    by more than :func:`look_alike_floor` (:func:`held_out_preference`), else
+    :data:`DEFAULT_OF` (with a note that they were not told apart)."""
     best = usable[0]
     pair = next((p for p in LOOK_ALIKES if best.fit.name in p), None)
     if pair is None:
@@ -364,14 +376,14 @@ def _look_alike(usable: list[Scored], sel: Selection, scorer: Scorer,
     other = next((s for s in usable if s.fit.name == twin), None)
     if other is None or best.score - other.score >= MIN_EXTRA_SHARE:
         return best
-    prefer = held_out_preference(other, best, scorer, hold)
-    limit = look_alike_limit()
-    if abs(prefer) > limit:
+    diff, prefer = held_out_preference(other, best, scorer, hold)
+    limit, floor = look_alike_limit(), look_alike_floor()
+    if abs(prefer) > limit and abs(diff) > floor:
         winner, loser = (other, best) if prefer > 0 else (best, other)
-        sel.notes.append(f"{winner.fit.name} rather than its look-alike {loser.fit.name}: the "
-                         f"held-out samples prefer it by {abs(prefer):.1f} standard errors "
-                         f"(beyond {limit:.2f}, the calibration's "
-                         f"{load_calibration().false_positive_rate:.0%} two-sided)")
+        sel.notes.append(f"{winner.fit.name} rather than its look-alike {loser.fit.name}: it "
+                         f"leaves {abs(diff):.2f} floor units less on the held-out samples "
+                         f"(more than {floor:.2f}, a no-effect flight's excess), "
+                         f"{abs(prefer):.1f} standard errors (beyond {limit:.2f})")
         return winner
     default = DEFAULT_OF.get(best.fit.name) or DEFAULT_OF.get(twin)
     sel.notes.append(f"{best.fit.name} and {twin} explain as much (shares {best.share:.3f}, "
