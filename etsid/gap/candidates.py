@@ -119,6 +119,17 @@ class Candidate:
 
     motor: int | None = None
     """For a per-motor law (``weak_motor``): the motor (0-based) it acts on."""
+    law_needs: tuple[str, ...] | None = None
+    """Signals the law itself reads (None: all of ``needs``). A sensor offset's law reads
+    nothing: it needs the velocity or attitude only for the channels that show it whole."""
+
+    def partly_seen(self, ctx: Context) -> bool:
+        """Whether the flight lacks a signal this candidate needs to be told apart, yet has
+        what its law reads: it then acts on the channels REAL has, unnamed (an
+        accelerometer bias on the vertical specific force of a log without velocity)."""
+        law = self.needs if self.law_needs is None else self.law_needs
+        return (not self.available(ctx) and self.motor is None
+                and all(s in ctx.flight.have for s in law))
 
     def available(self, ctx: Context) -> bool:
         """Whether the flight has the signals this candidate needs."""
@@ -449,7 +460,8 @@ LIBRARY: tuple[Candidate, ...] = (
         "authority alone",
         "f_accel = f_true + b (body axes)",
         lambda th, ctx: Mods(offset={"kin_x": th[0], "kin_y": th[1], "kin_z": th[2],
-                                     "ax": th[0], "ay": th[1], "az": th[2]}), ("vel",)),
+                                     "ax": th[0], "ay": th[1], "az": th[2]}), ("vel",),
+        law_needs=()),
 )
 
 BY_NAME: dict[str, Candidate] = {

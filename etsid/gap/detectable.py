@@ -207,7 +207,8 @@ def cap_below_detectable(effects: list[dict[str, Any]], sizes: dict[str, dict[st
 
 
 def words(sizes: dict[str, dict[str, Any]], names: list[str] | None = None) -> str:
-    """``"a time delay below 42 ms, a gyro bias below 0.02 rad/s …; insufficient: …"``."""
+    """``"time delay below 42 ms, gyro bias below 0.02 rad/s …; at any size within its
+    range: ground effect, …"`` (the second part: the effects marked ``insufficient``)."""
     parts, blind = [], []
     for name, e in sizes.items():
         if names is not None and name not in names:
@@ -225,5 +226,5 @@ def words(sizes: dict[str, dict[str, Any]], names: list[str] | None = None) -> s
             parts.append(f"{label} below {size:.2g} {unit}")
     text = ", ".join(parts)
     if blind:
-        text += ("; " if text else "") + "insufficient for " + ", ".join(blind)
+        text += ("; " if text else "") + "at any size within its range: " + ", ".join(blind)
     return text

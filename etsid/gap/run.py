@@ -72,7 +72,7 @@ from etsid.gap.signals import (
     input_kinds,
     prepare,
 )
-from etsid.gap.summary import effect_entry, summary_sentence
+from etsid.gap.summary import NICE, effect_entry, summary_sentence
 from etsid.gap.validation import blocked_split, time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
 from etsid.gap.verdict import (
@@ -880,7 +880,9 @@ def undecided_look_alike(effects: list[dict[str, Any]], sel: Selection | None) -
     named_as, twin = sel.look_alike
     for e in effects:
         if e["name"] == named_as and "caveat" not in e:
-            e["caveat"] = f"a {twin.replace('_', ' ')} explains the data as well"
+            label = NICE.get(twin, twin.replace("_", " ")).split(" (")[0]
+            article = "an" if label[:1] in "aeiou" else "a"
+            e["caveat"] = f"{article} {label} explains the data as well"
             e["confidence"] = min(float(e["confidence"]), SUSPECT_CONFIDENCE)
 
 
