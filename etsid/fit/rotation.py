@@ -27,7 +27,11 @@ every standard error, τ's and d's included, is a delete-one-block jackknife ove
 does not fool it), combined with the grid's resolution for τ and d, and for the
 coefficients with their shift when the same equations are fitted on half the bandwidth
 (a model that holds gives the same coefficients at every frequency; the shift measures
-what the unmodelled dynamics move).
+what the unmodelled dynamics move). The jackknife cannot see a bias every block shares —
+with weak instruments the (τ, d) minimum slides along the valley τ + d ≈ const — so τ's and
+d's standard errors are widened to the projections of the Anderson–Rubin 95 % set over the
+grid (:mod:`etsid.fit.weakiv`), whose coverage does not depend on the instruments'
+strength; a set touching the grid's edge, or empty, leaves both not determined.
 """
 
 from __future__ import annotations
