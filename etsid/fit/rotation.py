@@ -31,7 +31,8 @@ what the unmodelled dynamics move). The jackknife cannot see a bias every block 
 with weak instruments the (τ, d) minimum slides along the valley τ + d ≈ const — so τ's and
 d's standard errors are widened to the projections of the Anderson–Rubin 95 % set over the
 grid (:mod:`etsid.fit.weakiv`), whose coverage does not depend on the instruments'
-strength; a set touching the grid's edge, or empty, leaves both not determined.
+strength; a set touching the grid's edge leaves both not determined. An empty set (the
+model rejected at every (τ, d): not exact, strong instruments) leaves the jackknife's.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ from etsid.fit.weakiv import (
     ar_statistic,
     confidence_set,
     instrument_autocov,
-    joint_pvalue,
+    joint_statistic,
 )
 
 TAU_GRID = np.round(np.geomspace(0.005, 0.25, 29), 5)
@@ -97,8 +98,11 @@ class RotationFit:
     delay_set: tuple[float, float] = (float("nan"), float("nan"))
     """s, its projection on d."""
     set_open: str = ""
-    """Why the set does not bound τ and d ("" when it does): it reaches the grid's edge or
-    is empty (the instruments reject the moment model at every grid point)."""
+    """Why the set does not bound τ and d ("" when it does or is empty): it reaches the
+    grid's edge."""
+    set_misfit: float = float("nan")
+    """Smallest AR statistic over its degrees of freedom on the grid (at least 1); the set
+    is empty (NaN projections, jackknife standard errors) when this is large."""
 
 
 class _Prep:
@@ -214,28 +218,33 @@ def _moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: f
     return out
 
 
-def _ar_pvalue(preps: list[_Prep], raw: list[np.ndarray]) -> float:
-    """Joint Anderson–Rubin p-value of the roll and pitch equations at the (τ, d) that made
-    ``raw`` (:mod:`etsid.fit.weakiv`); NaN without instruments."""
+def _ar_joint(preps: list[_Prep], raw: list[np.ndarray]) -> tuple[float, float]:
+    """Joint Anderson–Rubin statistic and degrees of freedom of the roll and pitch equations
+    at the (τ, d) that made ``raw`` (:func:`etsid.fit.weakiv.joint_statistic`); NaN without
+    instruments."""
+    nan = (float("nan"), float("nan"))
     if any(pr.q is None for pr in preps):
-        return float("nan")
+        return nan
     stats = []
     for a in (0, 1):
         parts = [(np.column_stack([pr.acc[:, a], fs[:, a], pr.extra_full[a]]), pr.q)
                  for pr, fs in zip(preps, raw, strict=True)]
         st = ar_statistic(parts, [pr.gamma for pr in preps])
         if st is None:
-            return float("nan")
+            return nan
         stats.append(st)
-    return joint_pvalue(stats)
+    return joint_statistic(stats)
 
 
 def _objective(preps: list[_Prep], geom: np.ndarray, k: float, idle: float,
-               taus: np.ndarray, delays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+               taus: np.ndarray, delays: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Σ log SSR of the projected roll and pitch equations on the (τ, d) grid: [0] with all
-    blocks, [b + 1] with block b left out; and the Anderson–Rubin p-value table."""
+    blocks, [b + 1] with block b left out; and the Anderson–Rubin statistic and degrees of
+    freedom tables."""
     obj = np.zeros((N_BLOCKS + 1, taus.size, delays.size))
-    pval = np.full((taus.size, delays.size), np.nan)
+    stat = np.full((taus.size, delays.size), np.nan)
+    dof = np.full((taus.size, delays.size), np.nan)
     for i, tau in enumerate(taus):
         for j, d in enumerate(delays):
             raw = [_roll_pitch_regressor(pr, geom, k, idle, float(tau), float(d))
@@ -244,8 +253,8 @@ def _objective(preps: list[_Prep], geom: np.ndarray, k: float, idle: float,
                 obj[0, i, j] += np.log(m.solve()[1])
                 for b in range(N_BLOCKS):
                     obj[b + 1, i, j] += np.log(m.solve(b)[1])
-            pval[i, j] = _ar_pvalue(preps, raw)
-    return obj, pval
+            stat[i, j], dof[i, j] = _ar_joint(preps, raw)
+    return obj, stat, dof
 
 
 def _jive_moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: float,
@@ -326,6 +335,7 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
                        "log has fewer (too slow a log, or no slow flight)")
     preps = _prepare(flights)
     open_why = ""
+    misfit = float("nan")
     sets = ((float("nan"), float("nan")), (float("nan"), float("nan")))
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
     delays = np.round(np.arange(DELAY_MIN, DELAY_MAX + 1e-9, DELAY_STEP), 4)
@@ -334,14 +344,14 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     else:
         tau_c = TAU_GRID[::2]
         delay_c = delays[::2]
-        coarse, pv_c = _objective(preps, geom, k, idle, tau_c, delay_c)
-        grids = [(tau_c, delay_c, pv_c)]
+        coarse, st_c, df_c = _objective(preps, geom, k, idle, tau_c, delay_c)
+        grids = [(tau_c, delay_c, st_c, df_c)]
         if fine:
             ic, jc = _argmin2(coarse[0])
             tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
             delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
-            obj, pv_f = _objective(preps, geom, k, idle, tau_f, delays)
-            grids.append((tau_f, delays, pv_f))
+            obj, st_f, df_f = _objective(preps, geom, k, idle, tau_f, delays)
+            grids.append((tau_f, delays, st_f, df_f))
         else:
             tau_f, delays, obj = tau_c, delay_c, coarse
         i, j = _argmin2(obj[0])
@@ -363,9 +373,11 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         if all(np.isfinite(g[2]).all() for g in grids):
             cs = confidence_set(grids, ((TAU_GRID[0], TAU_GRID[-1]), (DELAY_MIN, DELAY_MAX)))
             tau_se, d_se = _widen(tau_se, d_se, tau, delay, cs, res_tau, res_d)
-            open_why = ("every (τ, d) rejected by the instruments" if cs.empty else
-                        "its 95 % set reaches the (τ, d) grid's edge" if cs.at_edge else "")
+            # an empty set is the model failing the over-identification test everywhere,
+            # not a statement about τ and d: the jackknife interval stands (the note says)
+            open_why = "its 95 % set reaches the (τ, d) grid's edge" if cs.at_edge else ""
             sets = ((cs.lo[0], cs.hi[0]), (cs.lo[1], cs.hi[1]))
+            misfit = cs.misfit
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)
     half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
@@ -379,4 +391,5 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
                              alt=[a[i].solve()[0] for a in alts])
     return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
                        tau_at_edge=edge, instrumented=all(p.instrumented for p in preps),
-                       tau_set=sets[0], delay_set=sets[1], set_open=open_why)
+                       tau_set=sets[0], delay_set=sets[1], set_open=open_why,
+                       set_misfit=misfit)

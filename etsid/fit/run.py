@@ -173,8 +173,11 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
     def set_note(lo_hi: tuple[float, float]) -> str:
         if rot.set_open:
             return f"Anderson–Rubin: {rot.set_open}"
-        if not all(math.isfinite(v) for v in lo_hi):
+        if not math.isfinite(rot.set_misfit):
             return ""
+        if not all(math.isfinite(v) for v in lo_hi):
+            return (f"Anderson–Rubin set empty (misfit ×{rot.set_misfit:.2f} at the best "
+                    "(τ, d)): jackknife interval")
         lo, hi = (1000 * v for v in lo_hi)
         return f"Anderson–Rubin 95 % set {lo:.1f}…{hi:.1f} ms"
 

@@ -47,11 +47,20 @@ def test_a_wrong_candidate_is_rejected_with_strong_instruments() -> None:
 
 def test_the_set_is_the_projection_of_the_accepted_points_and_flags_the_edge() -> None:
     taus, delays = np.array([0.01, 0.02, 0.04]), np.array([-0.01, 0.0, 0.01])
-    pv = np.zeros((3, 3))
-    pv[1, 1] = pv[1, 2] = 0.5
-    cs = confidence_set([(taus, delays, pv)], ((0.005, 0.08), (-0.02, 0.04)))
+    dof = np.full((3, 3), 10.0)
+    st = np.full((3, 3), 100.0)
+    st[1, 1] = st[1, 2] = 5.0
+    cs = confidence_set([(taus, delays, st, dof)], ((0.005, 0.08), (-0.02, 0.04)))
     assert cs.lo == (0.02, 0.0) and cs.hi == (0.02, 0.01) and not cs.at_edge
-    cs = confidence_set([(taus, delays, pv)], ((0.005, 0.08), (-0.02, 0.01)))
+    assert cs.misfit == 1.0
+    cs = confidence_set([(taus, delays, st, dof)], ((0.005, 0.08), (-0.02, 0.01)))
     assert cs.at_edge
-    assert confidence_set([(taus, delays, np.zeros((3, 3)))], ((0.005, 0.08),
-                                                                 (-0.02, 0.04))).empty
+
+
+def test_a_model_rejected_everywhere_gives_an_empty_set_and_its_misfit() -> None:
+    taus, delays = np.array([0.01, 0.02, 0.04]), np.array([-0.01, 0.0, 0.01])
+    dof = np.full((3, 3), 10.0)
+    st = np.full((3, 3), 1000.0)
+    st[1, 1] = 50.0          # the best point too is far beyond χ²₉₅(10) = 18.3
+    cs = confidence_set([(taus, delays, st, dof)], ((0.005, 0.08), (-0.02, 0.04)))
+    assert cs.empty and cs.misfit == 5.0 and np.isnan(cs.lo[0])
