@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.fft import irfft, next_fast_len, rfft
 
 HUBER_K = 1.345
 """Huber's tuning constant: 95 % efficiency under Gaussian noise."""
@@ -31,23 +32,35 @@ class LinearFit:
     r2: float             # explained share of the target's variance
 
 
+def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """Autocorrelation ρ(0 … max_lag) of a series (mean removed, biased estimator)."""
+    x = np.asarray(x, dtype=float) - np.mean(x)
+    n = x.size
+    var = float(np.dot(x, x))
+    if var <= 0:
+        return np.zeros(max_lag + 1)
+    size = next_fast_len(2 * n, real=True)
+    f = rfft(x, size)
+    return irfft(f.real ** 2 + f.imag ** 2, size)[: max_lag + 1] / var
+
+
+def integrated_time(acf: np.ndarray) -> float:
+    """τ_int = 1 + 2 Σ ρ_k (1 − k/(m+1)) over the initial run of lags with ρ_k ≥ 0.05
+    (Geyer-style cut), m + 1 the length of ``acf``."""
+    m = len(acf) - 1
+    low = np.nonzero(acf[1:] < 0.05)[0]
+    stop = int(low[0]) if low.size else m
+    k = np.arange(1, stop + 1)
+    return max(1.0 + 2.0 * float(np.sum(acf[1:stop + 1] * (1.0 - k / (m + 1)))), 1.0)
+
+
 def correlation_time(resid: np.ndarray, max_lag: int = 2000) -> float:
     """Integrated autocorrelation time τ_int = 1 + 2 Σ ρ_k of ``resid`` (samples), summed
     over the initial run of lags whose correlation stays above 0.05 (Geyer-style cut)."""
-    x = np.asarray(resid, dtype=float) - np.mean(resid)
-    n = x.size
-    var = float(np.dot(x, x))
-    if n < 4 or var <= 0:
+    n = np.asarray(resid).size
+    if n < 4 or float(np.var(resid)) <= 0:
         return 1.0
-    m = min(max_lag, n // 4)
-    f = np.fft.rfft(x, 2 * n)
-    acf = np.fft.irfft(f * np.conj(f))[: m + 1] / var
-    total = 1.0
-    for k in range(1, m + 1):
-        if acf[k] < 0.05:
-            break
-        total += 2.0 * acf[k] * (1.0 - k / (m + 1))
-    return max(total, 1.0)
+    return integrated_time(autocorrelation(resid, min(max_lag, n // 4)))
 
 
 def effective_n(resid: np.ndarray) -> float:

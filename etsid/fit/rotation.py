@@ -27,7 +27,12 @@ every standard error, τ's and d's included, is a delete-one-block jackknife ove
 does not fool it), combined with the grid's resolution for τ and d, and for the
 coefficients with their shift when the same equations are fitted on half the bandwidth
 (a model that holds gives the same coefficients at every frequency; the shift measures
-what the unmodelled dynamics move).
+what the unmodelled dynamics move). The jackknife cannot see a bias every block shares —
+with weak instruments the (τ, d) minimum slides along the valley τ + d ≈ const — so τ's and
+d's standard errors are widened to the projections of the Anderson–Rubin 95 % set over the
+grid (:mod:`etsid.fit.weakiv`), whose coverage does not depend on the instruments'
+strength; a set touching the grid's edge leaves both not determined. An empty set (the
+model rejected at every (τ, d): not exact, strong instruments) leaves the jackknife's.
 """
 
 from __future__ import annotations
@@ -35,10 +40,19 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.stats import norm
 
 from etsid.errors import FitError
 from etsid.fit.regress import N_BLOCKS, Moments, block_ids, instrument_basis, jackknife_se
 from etsid.fit.signals import Flight, motor_state
+from etsid.fit.weakiv import (
+    LEVEL,
+    ConfidenceSet,
+    ar_statistic,
+    confidence_set,
+    instrument_autocov,
+    joint_statistic,
+)
 
 TAU_GRID = np.round(np.geomspace(0.005, 0.25, 29), 5)
 """s, motor time constants tried (log-spaced, 15 % apart)."""
@@ -51,6 +65,8 @@ way: a log that stamps the state after the step its command already drove (PyFly
 ``multirotor`` package's sets of ``benchmarks/thirdparty``) has the rotors lead the command
 by a period; held at 0, the fitted τ took it up (−30 % on both). The vehicle file takes
 max(0, d)."""
+_Z_LEVEL = float(norm.ppf(0.5 + LEVEL / 2))
+"""Two-sided normal quantile of :data:`etsid.fit.weakiv.LEVEL` (1.96)."""
 MIN_ROWS = 50
 """Rows near hover a flight needs to enter the moment equations."""
 MIN_MOTOR_HZ = 40.0
@@ -77,6 +93,16 @@ class RotationFit:
     axes: dict[str, AxisFit]
     tau_at_edge: bool
     instrumented: bool
+    tau_set: tuple[float, float] = (float("nan"), float("nan"))
+    """s, projection of the (τ, d) Anderson–Rubin 95 % set on τ (NaN: not computed)."""
+    delay_set: tuple[float, float] = (float("nan"), float("nan"))
+    """s, its projection on d."""
+    set_open: str = ""
+    """Why the set does not bound τ and d ("" when it does or is empty): it reaches the
+    grid's edge."""
+    set_misfit: float = float("nan")
+    """Smallest AR statistic over its degrees of freedom on the grid (at least 1); the set
+    is empty (NaN projections, jackknife standard errors) when this is large."""
 
 
 class _Prep:
@@ -101,7 +127,9 @@ class _Prep:
         self.instrumented = z is not None
         self.q = instrument_basis(z[keep]) if z is not None else None
         self.qt = np.ascontiguousarray(self.q.T) if self.q is not None else None
+        self.gamma = instrument_autocov(self.q) if self.q is not None else None
         acc = f.lowpass(np.gradient(f.gyro, f.dt, axis=0))[keep]
+        self.acc, self.extra_full = acc, extra
         self.target = self.reduce(acc)
         self.extra = [self.reduce(e) for e in extra]
         self.target_raw = {b: acc[sl] for b, sl in self.slices.items()}
@@ -149,16 +177,28 @@ def _prepare(flights: list[Flight], cutoff_scale: float = 1.0) -> list[_Prep]:
     return out
 
 
+def _roll_pitch_regressor(pr: _Prep, geom: np.ndarray, k: float, idle: float, tau: float,
+                          delay: float) -> np.ndarray:
+    """Low-passed Σ g f_j of the roll and pitch equations on the kept rows (n, 3)."""
+    f = pr.flight
+    x = motor_state(f, idle, tau, delay)
+    return f.lowpass((k * x * x) @ geom.T)[pr.keep]
+
+
 def _moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: float,
-             delay: float, axes: tuple[int, ...]) -> list[Moments]:
+             delay: float, axes: tuple[int, ...],
+             raw: list[np.ndarray] | None = None) -> list[Moments]:
+    """Projected moments per block of each axis; ``raw``: the per-prep unprojected moment
+    regressors Σ g f_j, when already computed."""
     p_cols = {0: 5, 1: 5, 2: 5}
     out = []
     per_axis = {a: Moments(np.zeros((N_BLOCKS, p_cols[a], p_cols[a])),
                            np.zeros((N_BLOCKS, p_cols[a])), np.zeros(N_BLOCKS)) for a in axes}
-    for pr in preps:
+    for n_pr, pr in enumerate(preps):
         f = pr.flight
-        x = motor_state(f, idle, tau, delay)
-        fs = pr.reduce(f.lowpass((k * x * x) @ geom.T)[pr.keep])
+        x = motor_state(f, idle, tau, delay) if raw is None or 2 in axes else None
+        fs_raw = raw[n_pr] if raw is not None else f.lowpass((k * x * x) @ geom.T)[pr.keep]
+        fs = pr.reduce(fs_raw)
         dx = (pr.reduce(f.lowpass(np.gradient(x, f.dt, axis=0) @ geom[2])[pr.keep][:, None])
               if 2 in axes else None)
         for a in axes:
@@ -178,18 +218,43 @@ def _moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: f
     return out
 
 
+def _ar_joint(preps: list[_Prep], raw: list[np.ndarray]) -> tuple[float, float]:
+    """Joint Anderson–Rubin statistic and degrees of freedom of the roll and pitch equations
+    at the (τ, d) that made ``raw`` (:func:`etsid.fit.weakiv.joint_statistic`); NaN without
+    instruments."""
+    nan = (float("nan"), float("nan"))
+    if any(pr.q is None for pr in preps):
+        return nan
+    stats = []
+    for a in (0, 1):
+        parts = [(np.column_stack([pr.acc[:, a], fs[:, a], pr.extra_full[a]]), pr.q)
+                 for pr, fs in zip(preps, raw, strict=True)]
+        st = ar_statistic(parts, [pr.gamma for pr in preps])
+        if st is None:
+            return nan
+        stats.append(st)
+    return joint_statistic(stats)
+
+
 def _objective(preps: list[_Prep], geom: np.ndarray, k: float, idle: float,
-               taus: np.ndarray, delays: np.ndarray) -> np.ndarray:
+               taus: np.ndarray, delays: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Σ log SSR of the projected roll and pitch equations on the (τ, d) grid: [0] with all
-    blocks, [b + 1] with block b left out."""
+    blocks, [b + 1] with block b left out; and the Anderson–Rubin statistic and degrees of
+    freedom tables."""
     obj = np.zeros((N_BLOCKS + 1, taus.size, delays.size))
+    stat = np.full((taus.size, delays.size), np.nan)
+    dof = np.full((taus.size, delays.size), np.nan)
     for i, tau in enumerate(taus):
         for j, d in enumerate(delays):
-            for m in _moments(preps, geom, k, idle, float(tau), float(d), (0, 1)):
+            raw = [_roll_pitch_regressor(pr, geom, k, idle, float(tau), float(d))
+                   for pr in preps]
+            for m in _moments(preps, geom, k, idle, float(tau), float(d), (0, 1), raw):
                 obj[0, i, j] += np.log(m.solve()[1])
                 for b in range(N_BLOCKS):
                     obj[b + 1, i, j] += np.log(m.solve(b)[1])
-    return obj
+            stat[i, j], dof[i, j] = _ar_joint(preps, raw)
+    return obj, stat, dof
 
 
 def _jive_moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, tau: float,
@@ -239,6 +304,19 @@ def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
     return float(np.exp(v)) if log else float(v)
 
 
+def _widen(tau_se: float, d_se: float, tau: float, delay: float, cs: ConfidenceSet,
+           res_tau: float, res_d: float) -> tuple[float, float]:
+    """Standard errors at least as wide as the Anderson–Rubin set's projections: the
+    farther end from the estimate is 1.96 se away (plus the grid's resolution)."""
+    if cs.empty:
+        return tau_se, d_se
+    z = _Z_LEVEL
+    half_tau = max(cs.hi[0] - tau, tau - cs.lo[0], 0.0)
+    half_d = max(cs.hi[1] - delay, delay - cs.lo[1], 0.0)
+    return (max(tau_se, float(np.hypot(half_tau / z, res_tau))),
+            max(d_se, float(np.hypot(half_d / z, res_d))))
+
+
 def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
                  tau_default: float, fine: bool = True,
                  ends: tuple[tuple[float, float], ...] = ()) -> RotationFit:
@@ -256,6 +334,9 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         raise FitError(f"{MIN_ROWS} rows near hover needed for the moment equations; the "
                        "log has fewer (too slow a log, or no slow flight)")
     preps = _prepare(flights)
+    open_why = ""
+    misfit = float("nan")
+    sets = ((float("nan"), float("nan")), (float("nan"), float("nan")))
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
     delays = np.round(np.arange(DELAY_MIN, DELAY_MAX + 1e-9, DELAY_STEP), 4)
     if slow:
@@ -263,12 +344,14 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     else:
         tau_c = TAU_GRID[::2]
         delay_c = delays[::2]
-        coarse = _objective(preps, geom, k, idle, tau_c, delay_c)
+        coarse, st_c, df_c = _objective(preps, geom, k, idle, tau_c, delay_c)
+        grids = [(tau_c, delay_c, st_c, df_c)]
         if fine:
             ic, jc = _argmin2(coarse[0])
             tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
             delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
-            obj = _objective(preps, geom, k, idle, tau_f, delays)
+            obj, st_f, df_f = _objective(preps, geom, k, idle, tau_f, delays)
+            grids.append((tau_f, delays, st_f, df_f))
         else:
             tau_f, delays, obj = tau_c, delay_c, coarse
         i, j = _argmin2(obj[0])
@@ -283,9 +366,18 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         # interpolation notwithstanding)
         log_step = float(np.log(tau_f[1] / tau_f[0])) if tau_f.size > 1 else 0.0
         d_step = float(delays[1] - delays[0]) if delays.size > 1 else DELAY_STEP
-        tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), tau * log_step / np.sqrt(12)))
-        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), d_step / np.sqrt(12)))
+        res_tau, res_d = tau * log_step / np.sqrt(12), d_step / np.sqrt(12)
+        tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), res_tau))
+        d_se = float(np.hypot(jackknife_se(np.array(reps_d)), res_d))
         edge = tau_f[i] in (TAU_GRID[0], TAU_GRID[-1])
+        if all(np.isfinite(g[2]).all() for g in grids):
+            cs = confidence_set(grids, ((TAU_GRID[0], TAU_GRID[-1]), (DELAY_MIN, DELAY_MAX)))
+            tau_se, d_se = _widen(tau_se, d_se, tau, delay, cs, res_tau, res_d)
+            # an empty set is the model failing the over-identification test everywhere,
+            # not a statement about τ and d: the jackknife interval stands (the note says)
+            open_why = "its 95 % set reaches the (τ, d) grid's edge" if cs.at_edge else ""
+            sets = ((cs.lo[0], cs.hi[0]), (cs.lo[1], cs.hi[1]))
+            misfit = cs.misfit
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)
     half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
@@ -298,4 +390,6 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift),
                              alt=[a[i].solve()[0] for a in alts])
     return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
-                       tau_at_edge=edge, instrumented=all(p.instrumented for p in preps))
+                       tau_at_edge=edge, instrumented=all(p.instrumented for p in preps),
+                       tau_set=sets[0], delay_set=sets[1], set_open=open_why,
+                       set_misfit=misfit)

@@ -170,14 +170,26 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
         notes.append("no accelerometer: thrust curve and drag not fitted (template values)")
     slow = not math.isfinite(rot.tau_se)
     motor_hz = min(f.motor_rate_hz for f in flights)
+    def set_note(lo_hi: tuple[float, float]) -> str:
+        if rot.set_open:
+            return f"Anderson–Rubin: {rot.set_open}"
+        if not math.isfinite(rot.set_misfit):
+            return ""
+        if not all(math.isfinite(v) for v in lo_hi):
+            return (f"Anderson–Rubin set empty (misfit ×{rot.set_misfit:.2f} at the best "
+                    "(τ, d)): jackknife interval")
+        lo, hi = (1000 * v for v in lo_hi)
+        return f"Anderson–Rubin 95 % set {lo:.1f}…{hi:.1f} ms"
+
     add("motor_time_constant", _param(
         "motor_time_constant", rot.tau, rot.tau_se, "s", "first-order rotor-speed lag",
-        verdict="not-determined" if slow or rot.tau_at_edge else None,
+        verdict="not-determined" if slow or rot.tau_at_edge or rot.set_open else None,
         note=(f"motor outputs logged at {motor_hz:.0f} Hz: too slow to resolve" if slow
-              else "at the grid's edge" if rot.tau_at_edge else "")))
+              else "at the grid's edge" if rot.tau_at_edge else set_note(rot.tau_set))))
     add("time_delay", _param("time_delay", rot.delay, rot.delay_se, "s",
                              "command-to-rotor transport delay",
-                             verdict="not-determined" if slow else None))
+                             verdict="not-determined" if slow or rot.set_open else None,
+                             note="" if slow else set_note(rot.delay_set)))
     if not rot.instrumented:
         notes.append("no pilot commands to instrument the rotation fit: its coefficients "
                      "are biased towards zero by the motor outputs' sampling noise")
