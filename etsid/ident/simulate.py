@@ -122,6 +122,10 @@ def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:
     return np.vstack([lo - factor * width, hi + factor * width])
 
 
+_NO_KINEMATICS = np.zeros((1, 6))
+_NO_KINEMATICS.flags.writeable = False  # read-only like build's: one kernel signature
+
+
 def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
              spec: RegressorSpec, start: int, n_table: int, bounds: np.ndarray | None = None,
              diverged: list[float] | None = None, fallback: Fallback | None = None
@@ -170,7 +174,7 @@ def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
     rate_idx = np.array([list(spec.outputs).index(c) for c in ("p", "q", "r")]
                         if len(angles) else [0, 0, 0], dtype=np.int64)
     kin = (np.ascontiguousarray(reg.kinematics, dtype=np.float64) if len(angles)
-           else np.zeros((1, 6)))
+           else _NO_KINEMATICS)
     bias = (kinematic_bias(reg.kinematics, int(reg.rows[start])) if len(angles) and start < N
             else np.zeros(2))
     seg = (np.ascontiguousarray(reg.segment, dtype=np.int64) if reg.segment is not None
