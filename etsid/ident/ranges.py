@@ -32,7 +32,11 @@ def learn_range(v: np.ndarray) -> tuple[float, float]:
     v = v[np.isfinite(v)]
     if v.size == 0:
         return -0.5, 0.5
-    lo, hi = float(v.min()), float(v.max())
+    return _widened(float(v.min()), float(v.max()))
+
+
+def _widened(lo: float, hi: float) -> tuple[float, float]:
+    """:func:`learn_range` of values whose min and max are ``lo`` and ``hi``."""
     width = hi - lo
     if width <= 1e-9 * max(1.0, abs(lo), abs(hi)):
         mid = 0.5 * (lo + hi)
@@ -53,14 +57,21 @@ def fixed_ranges(reg: Regression, spec: RegressorSpec, split: int,
         raise IdentError(f"--normalise {mode!r}: choose one of {', '.join(NORMALISE_MODES)}")
     if mode == "running":
         return None, None
-    X, Y = reg.X[:split], reg.Y[:split]
-    x_range = np.array([learn_range(X[:, j]) for j in range(X.shape[1])])
-    y_range = np.array([learn_range(Y[:, o]) for o in range(Y.shape[1])])
+    x_range, y_range = _columns_range(reg.X[:split]), _columns_range(reg.Y[:split])
     if mode == "apriori":
         for j, term in enumerate(spec.terms):
             if term.name in APRIORI_RANGES:
                 x_range[j] = APRIORI_RANGES[term.name]
     return x_range, y_range
+
+
+def _columns_range(A: np.ndarray) -> np.ndarray:
+    """:func:`learn_range` of each column of ``A``, shape (n_columns, 2); min and max over
+    the whole array at once when every value is finite (the same numbers, faster)."""
+    if len(A) and np.isfinite(A).all():
+        return np.array([_widened(lo, hi) for lo, hi in
+                         zip(A.min(axis=0).tolist(), A.max(axis=0).tolist(), strict=True)])
+    return np.array([learn_range(A[:, j]) for j in range(A.shape[1])])
 
 
 def schedule_range(reg: Regression, spec: RegressorSpec, split: int,

@@ -322,6 +322,7 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
         kinematics = np.column_stack([np.asarray(table.index, dtype=float)]
                                      + [table[c].to_numpy(dtype=float)
                                         for c in (*ATTITUDE_STATES, *RATES)])
+        kinematics.flags.writeable = False  # shared by every free run (simulate.py caches)
     return Regression(X[use], Y[use], rows, t, skipped, seg[use],
                       None if S is None else S[use], kinematics)
 

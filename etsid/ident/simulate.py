@@ -122,6 +122,10 @@ def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:
     return np.vstack([lo - factor * width, hi + factor * width])
 
 
+_NO_KINEMATICS = np.zeros((1, 6))
+_NO_KINEMATICS.flags.writeable = False  # read-only like build's: one kernel signature
+
+
 def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
              spec: RegressorSpec, start: int, n_table: int, bounds: np.ndarray | None = None,
              diverged: list[float] | None = None, fallback: Fallback | None = None
@@ -170,7 +174,7 @@ def free_run(model: ETS | ARX | Callable[..., np.ndarray], reg: Regression,
     rate_idx = np.array([list(spec.outputs).index(c) for c in ("p", "q", "r")]
                         if len(angles) else [0, 0, 0], dtype=np.int64)
     kin = (np.ascontiguousarray(reg.kinematics, dtype=np.float64) if len(angles)
-           else np.zeros((1, 6)))
+           else _NO_KINEMATICS)
     bias = (kinematic_bias(reg.kinematics, int(reg.rows[start])) if len(angles) and start < N
             else np.zeros(2))
     seg = (np.ascontiguousarray(reg.segment, dtype=np.int64) if reg.segment is not None
@@ -295,6 +299,40 @@ MIN_BIAS_PAIRS = 50
 """Fewest consecutive row pairs :func:`kinematic_bias` needs; with fewer it returns 0."""
 
 
+_BIAS_TERMS: list[tuple[np.ndarray, tuple[np.ndarray, ...]]] = []
+"""Recent :func:`_bias_terms` of read-only kinematics arrays (identify simulates the same
+regression from many starts: candidates, blocks, baselines)."""
+BIAS_TERMS_KEPT = 4
+"""How many kinematics arrays :data:`_BIAS_TERMS` keeps."""
+
+
+def _bias_terms(kin: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per row pair of ``kin``: the time step (s) and, for roll and pitch, the kinematic
+    rate from the gyro less the measured angle's rate of change (rad/s); elementwise, so
+    that the terms of ``kin[:upto]`` are the first ``upto - 1`` of these. Kept for arrays
+    that cannot change (read-only, owning their data)."""
+    fixed = not kin.flags.writeable and kin.base is None
+    if fixed:
+        for known, terms in _BIAS_TERMS:
+            if known is kin:
+                return terms
+    dt = np.diff(kin[:, 0])
+    roll, pitch = kin[:, 1], kin[:, 2]
+    p, q, r = kin[:, 3], kin[:, 4], kin[:, 5]
+    d_roll = p + (q * np.sin(roll) + r * np.cos(roll)) * np.tan(pitch)
+    d_pitch = q * np.cos(roll) - r * np.sin(roll)
+    res = []
+    for rate, angle in ((d_roll, roll), (d_pitch, pitch)):
+        change = np.angle(np.exp(1j * np.diff(angle)))  # wrapped to ±π
+        with np.errstate(invalid="ignore", divide="ignore"):
+            res.append(0.5 * (rate[1:] + rate[:-1]) - change / dt)
+    terms = (dt, *res)
+    if fixed:
+        _BIAS_TERMS.insert(0, (kin, terms))
+        del _BIAS_TERMS[BIAS_TERMS_KEPT:]
+    return terms
+
+
 def kinematic_bias(kin: np.ndarray, upto: int) -> np.ndarray:
     """Mean (rad/s) of the Euler-kinematic angle rates computed from the gyro minus the
     measured angles' rate of change, for roll and pitch, over table rows before ``upto``.
@@ -303,23 +341,16 @@ def kinematic_bias(kin: np.ndarray, upto: int) -> np.ndarray:
     This is the gyro bias as the log's attitude estimator saw it; zeros with fewer than
     :data:`MIN_BIAS_PAIRS` pairs (``etsid predict`` from the first row, for example).
     """
-    k = kin[:max(int(upto), 0)]
-    if len(k) <= MIN_BIAS_PAIRS:
+    n = min(max(int(upto), 0), len(kin))
+    if n <= MIN_BIAS_PAIRS:
         return np.zeros(2)
-    dt = np.diff(k[:, 0])
-    roll, pitch = k[:, 1], k[:, 2]
-    p, q, r = k[:, 3], k[:, 4], k[:, 5]
-    d_roll = p + (q * np.sin(roll) + r * np.cos(roll)) * np.tan(pitch)
-    d_pitch = q * np.cos(roll) - r * np.sin(roll)
+    dt, *res = (a[:n - 1] for a in _bias_terms(kin))
     out = np.zeros(2)
     step = np.nanmedian(dt) if np.any(np.isfinite(dt)) else np.nan
-    for j, (rate, angle) in enumerate(((d_roll, roll), (d_pitch, pitch))):
-        change = np.angle(np.exp(1j * np.diff(angle)))  # wrapped to ±π
-        with np.errstate(invalid="ignore", divide="ignore"):
-            res = 0.5 * (rate[1:] + rate[:-1]) - change / dt
-        ok = np.isfinite(res) & (dt > 0) & (dt <= 1.5 * step)
+    for j, r in enumerate(res):
+        ok = np.isfinite(r) & (dt > 0) & (dt <= 1.5 * step)
         if ok.sum() >= MIN_BIAS_PAIRS:
-            out[j] = float(np.mean(res[ok]))
+            out[j] = float(np.mean(r[ok]))
     return out
 
 

@@ -20,6 +20,7 @@ from etsid.ingest.base import Override, ReadOptions
 from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, autopilot_clock
 from etsid.ingest.mavlink.dtypes import crc_extra_table
 from etsid.ingest.mavlink.scan import (
+    gather_grouped,
     gather_payloads,
     gather_payloads_reference,
     scan_frames,
@@ -124,6 +125,17 @@ def test_scan_kernel_matches_reference(tlog: Path) -> None:
     payload = gather_payloads(buf, fast.offset, fast.length, 40)
     np.testing.assert_array_equal(payload,
                                   gather_payloads_reference(buf, fast.offset, fast.length, 40))
+    # one pass for several groups: each equals the group's own gather (rows zero-padded to
+    # a size above some frames' length, cut below others'; frames of no group skipped)
+    slot = np.where(fast.msgid % 3 == 0, -1, fast.msgid % 2).astype(np.int64)
+    sizes = [40, 9]
+    grouped = gather_grouped(buf, fast.offset, fast.length, slot, sizes)
+    assert len(grouped) == 2 and all(len(g) for g in grouped)
+    for g, size in enumerate(sizes):
+        sel = slot == g
+        np.testing.assert_array_equal(grouped[g], gather_payloads_reference(
+            buf, fast.offset[sel], fast.length[sel], size))
+    assert gather_grouped(buf, fast.offset, fast.length, slot, []) == []
 
 
 def test_small_chunks_give_the_same_table(tlog: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -162,6 +162,31 @@ def gather_payloads(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
     return out
 
 
+def gather_grouped(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
+                   slot: np.ndarray, sizes: list[int]) -> list[np.ndarray]:
+    """:func:`gather_payloads` of several groups of frames in one pass over ``buf``:
+    group ``g`` holds the frames with ``slot == g`` in their order (``slot`` −1: no group)
+    and gets an (N_g, ``sizes[g]``) uint8 array. One pass instead of one per group: the
+    groups' frames interleave, so a pass per group streams the whole buffer each time."""
+    if not sizes:
+        return []
+    slot = np.asarray(slot, dtype=np.int64)
+    counts = np.bincount(slot[slot >= 0], minlength=len(sizes))[:len(sizes)]
+    if not use_kernels(buf.size):
+        return [gather_payloads_reference(buf, offset[slot == g], length[slot == g], size)
+                for g, size in enumerate(sizes)]
+    from etsid.ingest.mavlink.scan_kernels import _gather_grouped_kernel
+
+    nbytes = counts * np.asarray(sizes, dtype=np.int64)
+    bases = np.concatenate(([0], np.cumsum(nbytes)[:-1])).astype(np.int64)
+    out = np.empty(int(nbytes.sum()), np.uint8)
+    _gather_grouped_kernel(buf, offset, length, slot, np.asarray(sizes, dtype=np.int64),
+                           bases, out)
+    return [out[b:b + n].reshape(int(c), size)
+            for b, n, c, size in zip(bases.tolist(), nbytes.tolist(), counts.tolist(), sizes,
+                                     strict=True)]
+
+
 def gather_payloads_reference(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
                               size: int) -> np.ndarray:
     """Plain-numpy version of :func:`gather_payloads`."""

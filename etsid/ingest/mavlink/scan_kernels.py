@@ -108,3 +108,25 @@ def _gather_kernel(buf, offset, length, size, out):  # pragma: no cover - compil
             out[i, k] = buf[start + k]
         for k in range(n, size):
             out[i, k] = 0
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather_grouped_kernel(buf, offset, length, slot, sizes, bases, out
+                           ):  # pragma: no cover - compiled
+    """One pass over the frames: frame ``i`` of group ``slot[i]`` (−1: none) goes to the
+    next row of that group's block of ``out``, which starts at ``bases[slot]`` and has rows
+    of ``sizes[slot]`` bytes (zero-padded)."""
+    row = np.zeros(sizes.size, np.int64)
+    for i in range(offset.size):
+        g = slot[i]
+        if g < 0:
+            continue
+        size = sizes[g]
+        dest = bases[g] + row[g] * size
+        row[g] += 1
+        start = offset[i]
+        n = min(np.int64(length[i]), size)
+        for k in range(n):
+            out[dest + k] = buf[start + k]
+        for k in range(n, size):
+            out[dest + k] = 0

@@ -35,7 +35,7 @@ from etsid.ingest.mavlink.dtypes import (
     message_dtype,
     message_ids,
 )
-from etsid.ingest.mavlink.scan import OK, UNKNOWN, ScanResult, gather_payloads, scan_frames
+from etsid.ingest.mavlink.scan import OK, UNKNOWN, ScanResult, gather_grouped, scan_frames
 from etsid.ingest.mavlink.signals import CLOCK_FIELDS, DECODERS
 from etsid.ingest.vehicle import (
     ardupilot_version,
@@ -148,10 +148,16 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
                                   strict=True):
                     stats.unknown[int(mid)] = stats.unknown.get(int(mid), 0) + int(c)
             take = np.isin(res.msgid, wanted_ids) & (res.status == OK)
-            for mid in np.unique(res.msgid[take]).tolist():
-                sel = np.flatnonzero(take & (res.msgid == mid))
+            mids = np.unique(res.msgid[take]).tolist()
+            slot = np.full(res.offset.size, -1, np.int64)
+            sels = []
+            for g, mid in enumerate(mids):
+                sels.append(np.flatnonzero(take & (res.msgid == mid)))
+                slot[sels[-1]] = g
+            payloads = gather_grouped(buf, res.offset, res.length, slot,
+                                      [message_dtype(mid).itemsize for mid in mids])
+            for mid, sel, payload in zip(mids, sels, payloads, strict=True):
                 dtype = message_dtype(mid)
-                payload = gather_payloads(buf, res.offset[sel], res.length[sel], dtype.itemsize)
                 blocks[mid].append({
                     "rec": payload.view(dtype).ravel(),
                     "index": base + sel.astype(np.int64),
