@@ -52,14 +52,19 @@ def save_figure(fig: Any, path: Path) -> Path:
     it out and again to render it, 15 % of a run report's time.
     """
     canvas = FigureCanvasAgg(fig)
-    if path.suffix.lower() == ".png" and _default_save_settings(fig):
-        import matplotlib.image
+    with warnings.catch_warnings():
+        # a title longer than the figure (a long file name) leaves the layout engine no
+        # room: the figure is still drawn, only not laid out; not worth a raw warning
+        warnings.filterwarnings("ignore", message="constrained_layout not applied",
+                                category=UserWarning)
+        if path.suffix.lower() == ".png" and _default_save_settings(fig):
+            import matplotlib.image
 
-        canvas.draw()
-        matplotlib.image.imsave(path, canvas.buffer_rgba(), format="png", origin="upper",
-                                dpi=fig.dpi)
-        return path
-    fig.savefig(path)
+            canvas.draw()
+            matplotlib.image.imsave(path, canvas.buffer_rgba(), format="png",
+                                    origin="upper", dpi=fig.dpi)
+            return path
+        fig.savefig(path)
     return path
 
 
