@@ -106,16 +106,23 @@ def chromium() -> Iterator[Any]:
     driver.quit()
 
 
+def load_page(driver: Any, page: Path, timeout_s: float = 60.0) -> float:
+    """Open ``page`` in a 1280 × 900 window and wait until the document has loaded; the
+    monotonic deadline (``timeout_s`` from now) is returned for the caller's own waits."""
+    driver.set_window_size(1280, 900)
+    driver.get(page.resolve().as_uri())
+    deadline = time.monotonic() + timeout_s
+    while driver.execute_script("return document.readyState") != "complete":
+        assert time.monotonic() < deadline, f"{page}: never finished loading"
+        time.sleep(0.05)
+    return deadline
+
+
 def hover_everything(driver: Any, page: Path) -> dict[str, Any]:
     """Load ``page``, draw every plot, move the mouse across each one (hover boxes open),
     and return what the DOM holds: handlers that ran, live markup, hover-box text, the
     title, headings, visible text and every ``<pre>`` block's text."""
-    driver.set_window_size(1280, 900)
-    driver.get(page.resolve().as_uri())
-    deadline = time.monotonic() + 60
-    while driver.execute_script("return document.readyState") != "complete":
-        assert time.monotonic() < deadline, f"{page}: never finished loading"
-        time.sleep(0.05)
+    deadline = load_page(driver, page)
     height = driver.execute_script("return document.documentElement.scrollHeight")
     driver.set_window_size(1280, min(int(height) + 40, 16000))
     while not driver.execute_script(IDLE):

@@ -26,6 +26,7 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from hostile import load_page
 
 from etsid.cli import cli
 
@@ -212,12 +213,7 @@ def open_report(driver: Any, page: Path, shot: str) -> dict[str, Any]:
     drawn and screenshot), screenshot the whole page, return what it shows; fail on console
     errors, network requests, plots without data, series that cannot be seen and
     undecodable figures."""
-    driver.set_window_size(1280, 900)
-    driver.get(page.resolve().as_uri())
-    deadline = time.monotonic() + 60
-    while driver.execute_script("return document.readyState") != "complete":
-        assert time.monotonic() < deadline, f"{page}: never finished loading"
-        time.sleep(0.05)
+    deadline = load_page(driver, page)
     views = scroll_through(driver, page, shot, deadline)
     assert views >= 1
     # every section was drawn by scrolling (none needs a tall window to appear)
