@@ -121,6 +121,9 @@ class Evaluated:
     extrapolated: bool = False
     weight: float = 0.0
     refused: str = ""
+    by_channel: dict[str, tuple[float, int]] = field(default_factory=dict)
+    """Channel → (held-out gain on it, nats; its scored samples): a sensor-consistency
+    channel is read at its own, lower rate."""
 
     @property
     def gain(self) -> float:
@@ -187,11 +190,12 @@ class LikelihoodScorer:
                            minlength=self.folds.n_blocks)
 
     def gain(self, fits: list[Fit | None], base: list[Fit] | None = None
-             ) -> tuple[np.ndarray, int]:
-        """(per-block gain over the null, samples scored) of the fold fits ``fits``
-        (None: that fold not scored)."""
+             ) -> tuple[np.ndarray, int, dict[str, tuple[float, int]]]:
+        """(per-block gain over the null, samples scored, channel → (gain, its scored
+        samples)) of the fold fits ``fits`` (None: that fold not scored)."""
         total = np.zeros(self.folds.n_blocks)
         n = 0
+        by_channel: dict[str, tuple[float, int]] = {}
         for k, fit in enumerate(fits):
             if fit is None:
                 continue
@@ -203,8 +207,10 @@ class LikelihoodScorer:
             for c in chans:
                 d = self._loglik(c, innov[c], k) - self.null_ll[c][k]
                 total += self.blocks(d)
+                g0, n0 = by_channel.get(c, (0.0, 0))
+                by_channel[c] = (g0 + float(np.nansum(d)), n0 + int(np.sum(np.isfinite(d))))
             n += int(np.sum(self.folds.score[k]))
-        return total, n
+        return total, n, by_channel
 
     def ratio(self, mods=None) -> dict[str, float]:
         """Channel → innovation variance over all evidence ÷ floor variance."""
@@ -274,7 +280,7 @@ def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: floa
     threshold; with ``base``, when its gain over ``base`` on that fold is)."""
     folds = ls.folds
     fits = _fold_fits(cands, ls, folds, range(1), x0=x0)
-    g, n = ls.gain(fits)
+    g, n, by_channel = ls.gain(fits)
     extrapolated = False
     ref = 0.0
     if base is not None:
@@ -284,16 +290,19 @@ def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: floa
         # the other folds as this one: the same gain per scored sample
         n_all = int(sum(np.sum(s) for s in folds.score))
         g = g * (n_all / max(n, 1))
+        by_channel = {c: (v * n_all / max(n, 1), round(m * n_all / max(n, 1)))
+                      for c, (v, m) in by_channel.items()}
         n, extrapolated = n_all, True
     else:
         assert fits[0] is not None
         rest = _fold_fits(cands, ls, folds, range(1, len(folds.score)),
                           x0=fits[0].theta if fits[0].theta.size > 1 else None)
         rest[0] = fits[0]
-        g, n = ls.gain(rest)
+        g, n, by_channel = ls.gain(rest)
         fits = rest
     name = "+".join(c.name for c in cands)
-    return Evaluated(name, cands, [f for f in fits if f is not None], g, n, extrapolated)
+    return Evaluated(name, cands, [f for f in fits if f is not None], g, n, extrapolated,
+                     by_channel=by_channel)
 
 
 def pseudo_bma(models: list[Evaluated], seed: int = BOOTSTRAP_SEED) -> np.ndarray:

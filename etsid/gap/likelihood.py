@@ -168,6 +168,10 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                  "offset": {c: [v, k] for c, (v, k) in crit.offset.items()},
                  "models": [{"name": m.name, "gain": round(m.gain, 3),
                              "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
+                             "gain_se": (round(m.gain_se, 3) if np.isfinite(m.gain_se)
+                                         else None),
+                             "by_channel": {c: [round(g, 3), k]
+                                            for c, (g, k) in m.by_channel.items()},
                              "weight": round(m.weight, 4),
                              "theta": [round(float(v), 6) for v in np.mean(
                                  [f.theta for f in m.fits], axis=0)],
