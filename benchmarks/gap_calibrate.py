@@ -12,16 +12,17 @@ the best single's pairs over it. This script
 * ``fit``: sets the thresholds from the records of the generators named, at a stated
   false-positive rate, and writes the calibration file (by default the package's
   ``etsid/gap/calibration.json``):
-  - ``mismatch_ratio``: the (1 − α) quantile of the largest dynamic channel's ratio of
-    the no-effect pairs (a sensor-consistency channel is judged by its offset's F law at
-    the same rate, etsid/gap/criterion.py ``offset_limit``, nothing calibrated),
-  - ``gain_per_sample``: the (1 − α) quantile of the best single's gain of the no-effect
-    pairs,
-  - ``pair_gain_per_sample``: the (1 − α) quantile of the best second effect's gain over
-    a correctly named first effect on the single-effect pairs;
-  each quantile from a log-normal fitted to the records (a handful of pairs per generator
-  cannot show a 1 % tail empirically; the log-normal extrapolates it, and the threshold is
-  never below the largest recorded value);
+  - ``mismatch_ratio``: the largest dynamic channel's ratio of the no-effect pairs (a
+    sensor-consistency channel is judged by its offset's F law at the rate,
+    etsid/gap/criterion.py ``offset_limit``, nothing calibrated),
+  - ``gain_per_sample``: the best significant single's gain of the no-effect pairs (an
+    effect is named only when its gain is also significant at the rate among the singles
+    tried, ``criterion.significant``),
+  - ``pair_gain_per_sample``: the best second effect's gain over a correctly named first
+    effect on the single-effect pairs;
+  each the largest recorded value: a new exchangeable pair exceeds the largest of n with
+  probability 1/(n + 1), the rate the records can show (printed, and written to the file
+  as ``supported_rate``); no tail model extrapolates below it;
 * ``score``: decides the recorded pairs of a generator again under a calibration file and
   prints named-right, false positives, out-of-vocabulary answers, the reliability of
   confidence ≥ 0.9 and, where recorded, the old method pair by pair.
@@ -48,7 +49,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -59,7 +59,7 @@ from etsid.gap.calibration import (
     calibration_dict,
     load_calibration,
 )
-from etsid.gap.criterion import choose, mismatched
+from etsid.gap.criterion import choose, mismatched, significant
 
 RECORDING = {"mismatch_ratio": 4.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
 """Thresholds while recording: below any value a calibration has set, so that every model a
@@ -172,15 +172,14 @@ def _same(expected: str, named: str) -> bool:
 
 # ---------------------------------------------------------------- fit
 def _quantile(values: list[float], alpha: float) -> float:
-    """(1 − α) quantile of a log-normal fitted to the positive ``values``, never below
-    their maximum (a value ≤ 0, a model that loses to its base, is below any threshold
-    and not part of the tail)."""
-    pos = [float(x) for x in values if x > 0]
-    if not pos:
-        return 0.0
-    v = np.log(np.asarray(pos))
-    mu, sd = float(np.mean(v)), float(np.std(v, ddof=1)) if v.size > 1 else 1.0
-    return float(max(np.exp(mu + stats.norm.ppf(1.0 - alpha) * sd), np.exp(v.max())))
+    """The threshold no recorded value exceeds: the largest of ``values`` (a value ≤ 0, a
+    model that loses to its base, counts as 0). For exchangeable pairs a new one exceeds
+    the largest of n with probability 1/(n + 1), the rate n pairs can show; a tail model
+    that extrapolates to a smaller ``alpha`` from a few pairs is not used (round 2: a
+    log-normal over values spread across two decades put the 1 % quantile 2–2.5× above
+    every recorded value and above several true effects)."""
+    del alpha  # the rate the pairs support is stated by the caller, 1/(n + 1)
+    return float(max([0.0] + [float(x) for x in values]))
 
 
 def load(paths: list[str]) -> list[dict[str, Any]]:
@@ -197,9 +196,12 @@ def fit(args: argparse.Namespace) -> None:
                   if c not in r["criterion"].get("offset", {})) for r in none]
     gains = []
     for r in none:
-        singles = [m["per_sample"] for m in r["criterion"]["models"]
-                   if "+" not in m["name"] and not m.get("refused")]
-        gains.append(max(singles) if singles else 1e-9)
+        models = r["criterion"]["models"]
+        n_singles = sum("+" not in m["name"] for m in models)
+        singles = [m["per_sample"] for m in models
+                   if "+" not in m["name"] and not m.get("refused")
+                   and significant(m["gain"], m.get("gain_se"), n_singles, args.fpr)]
+        gains.append(max(singles) if singles else 0.0)
     extras = []
     for r in rows:
         if r["label"] == "none" or r.get("oov") or "+" in r["expected"] or not r.get("criterion"):
@@ -224,9 +226,12 @@ def fit(args: argparse.Namespace) -> None:
         source={"generators": args.generators.split(","),
                 "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
-                "rule": "log-normal (1 - rate) quantile of the no-effect pairs' largest "
-                        "dynamic channel ratio and best single gain, and of the single-effect "
-                        "pairs' best second-effect gain, never below the largest recorded",
+                "rule": "largest recorded value of the no-effect pairs' largest dynamic "
+                        "channel ratio and best significant single gain, and of the "
+                        "single-effect pairs' best second-effect gain (a new pair exceeds the "
+                        "largest of n with probability 1/(n + 1)); an effect's gain must also "
+                        "be significant at the rate among the singles tried (Bonferroni)",
+                "supported_rate": round(1.0 / (len(none) + 1), 4),
                 "written": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")})
     out = Path(args.out) if args.out else CALIBRATION_PATH
     out.write_text(json.dumps(calibration_dict(cal), indent=1) + "\n")

@@ -328,18 +328,32 @@ def combined(fit_a: Fit, fit_b: Fit) -> Fit:
                np.concatenate([fit_a.stderr, fit_b.stderr]), merge(fit_a.mods, fit_b.mods))
 
 
+def significant(gain: float, se: float | None, n_tested: int, rate: float) -> bool:
+    """Whether a held-out gain (nats) is above zero beyond chance: ``gain / se`` over the
+    one-sided normal quantile at ``rate`` shared by the ``n_tested`` models tried
+    (Bonferroni; ``se`` from the block-to-block spread; None or non-finite: not known, true).
+    Textbook statistics, nothing calibrated but the rate."""
+    if se is None or not np.isfinite(se) or se <= 0:
+        return True
+    return gain > float(stats.norm.ppf(1.0 - rate / max(n_tested, 1))) * se
+
+
 def choose(models: list[Any], cal: Calibration) -> str | None:
     """The name of the model the criterion names, or None: the best admissible single whose
-    held-out gain per scored sample exceeds ``cal.gain_per_sample``, joined by a second
-    effect when the pair's gain over that single, per scored sample, exceeds
-    ``cal.pair_gain_per_sample``. ``models`` are :class:`Evaluated` or their gap.json rows
-    (``name``, ``gain``, ``per_sample``, ``n_scored``, ``refused``), so that a benchmark can
-    decide recorded runs again under another calibration."""
+    held-out gain per scored sample exceeds ``cal.gain_per_sample`` and whose gain is
+    :func:`significant` among the singles tried, joined by a second effect when the pair's
+    gain over that single, per scored sample, exceeds ``cal.pair_gain_per_sample``.
+    ``models`` are :class:`Evaluated` or their gap.json rows (``name``, ``gain``,
+    ``gain_se``, ``per_sample``, ``n_scored``, ``refused``), so that a benchmark can decide
+    recorded runs again under another calibration."""
     def get(m: Any, key: str) -> Any:
         return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
     singles = sorted((m for m in models if "+" not in get(m, "name")
                       and not get(m, "refused")), key=lambda m: -get(m, "gain"))
-    if not singles or get(singles[0], "per_sample") <= cal.gain_per_sample:
+    n_singles = sum("+" not in get(m, "name") for m in models)
+    if not singles or get(singles[0], "per_sample") <= cal.gain_per_sample or not significant(
+            float(get(singles[0], "gain")), get(singles[0], "gain_se") or None, n_singles,
+            cal.false_positive_rate):
         return None
     lead = singles[0]
     best, best_gain = str(get(lead, "name")), float(get(lead, "gain"))
@@ -381,8 +395,11 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
                             x0=x0, base=lead)
             pair.refused = admissible(pair)
             models.append(pair)
-    w = pseudo_bma(models)
-    for m, wi in zip(models, w[:-1], strict=True):
+    # weights over the models that may be named: one refused by a verdict rule (a
+    # parameter at its bound, a channel made worse) is not an explanation of REAL
+    admitted = [m for m in models if not m.refused]
+    w = pseudo_bma(admitted)
+    for m, wi in zip(admitted, w[:-1], strict=True):
         m.weight = float(wi)
     crit.models = models
     name = choose(models, cal)

@@ -17,6 +17,7 @@ from etsid.gap.criterion import (
     mismatched,
     offset_limit,
     pseudo_bma,
+    significant,
 )
 from etsid.gap.noise import decimation, fit_ar, fit_noise, offset_z2
 
@@ -147,6 +148,21 @@ def test_choose_names_above_the_threshold_and_pairs_only_past_their_own():
     rows = [{"name": "thrust_scale", "gain": 100.0, "per_sample": 0.1, "n_scored": 1000,
              "refused": ""}]
     assert choose(rows, cal) == "thrust_scale"
+
+
+def test_a_gain_within_its_block_spread_is_not_named():
+    """Above the size threshold but not beyond chance over the blocks: not named."""
+    cal = Calibration(4.0, 0.01, 0.05, 0.01, {})
+    steady = _ev("thrust_scale", [25.0, 25.0, 25.0, 25.0], n=1000)  # 0.1 per sample
+    erratic = _ev("thrust_scale", [400.0, -300.0, 250.0, -250.0], n=1000)  # 0.1 too
+    assert significant(steady.gain, steady.gain_se, 16, 0.01)
+    assert not significant(erratic.gain, erratic.gain_se, 16, 0.01)
+    assert choose([steady], cal) == "thrust_scale"
+    assert choose([erratic], cal) is None
+    row = {"name": "thrust_scale", "gain": 100.0, "per_sample": 0.1, "n_scored": 1000,
+           "gain_se": 80.0, "refused": ""}
+    assert choose([row], cal) is None  # recorded rows decide the same way
+    assert choose([{**row, "gain_se": 20.0}], cal) == "thrust_scale"
 
 
 def test_calibration_file_round_trip_and_bad_file(tmp_path):
