@@ -61,9 +61,10 @@ from etsid.gap.calibration import (
 )
 from etsid.gap.criterion import choose, mismatched, significant
 
-RECORDING = {"mismatch_ratio": 4.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
-"""Thresholds while recording: below any value a calibration has set, so that every model a
-calibrated run could name is fully evaluated."""
+RECORDING = {"mismatch_ratio": 1.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
+RECORDING_RATE = 0.5
+"""Thresholds and rate while recording: looser than any a calibration sets, so that every
+model a calibrated run could name (pairs included) is fully evaluated."""
 CONFIDENT = 0.9
 AIRFRAME_SCALES = {"thrust_scale": (0.6, 1.6), "inertia_scale": (0.5, 2.2)}
 
@@ -101,7 +102,8 @@ def record(args: argparse.Namespace) -> None:
 
     rec_file = Path(args.out).with_suffix(".recording.json")
     rec_file.write_text(json.dumps({"schema": "etsid.gap.calibration/1",
-                                    "false_positive_rate": 0.0, "thresholds": RECORDING,
+                                    "false_positive_rate": RECORDING_RATE,
+                                    "thresholds": RECORDING,
                                     "source": {"note": "recording thresholds"}}))
     labels = args.only.split(",") if args.only else None
     pairs = (_etsid_pairs([int(s) for s in args.etsid_seeds.split(",")], labels)
@@ -138,7 +140,7 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
     if not crit:  # decided before the criterion (insufficient, different-vehicle)
         return {"answer": row["verdict"], "verdict": row["verdict"], "confidence": {}}
     models = crit["models"]
-    name = choose(models, cal)
+    name = choose(models, cal, crit.get("after_lead"))
     if name is not None:
         m = next(m for m in models if m["name"] == name)
         theta = m["theta"]
@@ -202,25 +204,33 @@ def fit(args: argparse.Namespace) -> None:
                    if "+" not in m["name"] and not m.get("refused")
                    and significant(m["gain"], m.get("gain_se"), n_singles, args.fpr)]
         gains.append(max(singles) if singles else 0.0)
+    if not none:
+        raise SystemExit("no no-effect pairs recorded for " + args.generators)
+    alpha = args.fpr
+    mismatch_ratio = _quantile(ratios, alpha)
+    probe = Calibration(mismatch_ratio, 0.0, 0.0, alpha, {})
     extras = []
     for r in rows:
         if r["label"] == "none" or r.get("oov") or "+" in r["expected"] or not r.get("criterion"):
             continue
-        models = r["criterion"]["models"]
+        crit = r["criterion"]
+        models = crit["models"]
         singles = sorted((m for m in models if "+" not in m["name"] and not m.get("refused")),
                          key=lambda m: -m["gain"])
         if not singles or not _same(r["expected"], singles[0]["name"]):
             continue
         lead = singles[0]
-        ex = [(m["gain"] - lead["gain"]) / max(m["n_scored"], 1) for m in models
-              if "+" in m["name"] and m["name"].split("+")[0] == lead["name"]
-              and not m.get("refused")]
-        extras.append(max(ex) if ex else 1e-9)
-    if not none:
-        raise SystemExit("no no-effect pairs recorded for " + args.generators)
-    alpha = args.fpr
+        after = crit.get("after_lead")
+        if after and after.get("name") == lead["name"] and not mismatched(
+                after["ratio"], after.get("offset", {}), probe):
+            continue  # nothing left after the first effect: no second one is sought
+        pairs = [m for m in models if "+" in m["name"]
+                 and m["name"].split("+")[0] == lead["name"] and not m.get("refused")]
+        ex = [(m["gain"] - lead["gain"]) / max(m["n_scored"], 1) for m in pairs
+              if significant(m["gain"] - lead["gain"], m.get("extra_se"), len(pairs), alpha)]
+        extras.append(max(ex) if ex else 0.0)
     cal = Calibration(
-        mismatch_ratio=_quantile(ratios, alpha), gain_per_sample=_quantile(gains, alpha),
+        mismatch_ratio=mismatch_ratio, gain_per_sample=_quantile(gains, alpha),
         pair_gain_per_sample=_quantile(extras, alpha) if extras else _quantile(gains, alpha),
         false_positive_rate=alpha,
         source={"generators": args.generators.split(","),
@@ -228,9 +238,10 @@ def fit(args: argparse.Namespace) -> None:
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
                 "rule": "largest recorded value of the no-effect pairs' largest dynamic "
                         "channel ratio and best significant single gain, and of the "
-                        "single-effect pairs' best second-effect gain (a new pair exceeds the "
-                        "largest of n with probability 1/(n + 1)); an effect's gain must also "
-                        "be significant at the rate among the singles tried (Bonferroni)",
+                        "single-effect pairs' best significant second-effect gain where a "
+                        "channel is still mismatched after the first (a new pair exceeds "
+                        "the largest of n with probability 1/(n + 1)); every gain must also "
+                        "be significant at the rate among the models tried (Bonferroni)",
                 "supported_rate": round(1.0 / (len(none) + 1), 4),
                 "written": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")})
     out = Path(args.out) if args.out else CALIBRATION_PATH
@@ -238,8 +249,8 @@ def fit(args: argparse.Namespace) -> None:
     print(f"{len(none)} no-effect pairs ({args.generators}): largest channel ratio "
           f"{np.round(sorted(ratios), 2).tolist()}")
     print(f"  best single gain per sample {np.round(sorted(gains), 4).tolist()}")
-    print(f"{len(extras)} single-effect pairs named right: best second-effect gain per "
-          f"sample {np.round(sorted(extras), 4).tolist()}")
+    print(f"{len(extras)} single-effect pairs named right with a channel left: best "
+          f"significant second-effect gain per sample {np.round(sorted(extras), 4).tolist()}")
     print(f"at a false-positive rate of {alpha:g}: mismatch_ratio {cal.mismatch_ratio:.3g}, "
           f"gain_per_sample {cal.gain_per_sample:.3g}, pair_gain_per_sample "
           f"{cal.pair_gain_per_sample:.3g}; written to {out}")

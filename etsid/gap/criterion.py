@@ -121,6 +121,8 @@ class Evaluated:
     extrapolated: bool = False
     weight: float = 0.0
     refused: str = ""
+    extra_se: float | None = None
+    """A pair's: standard error of its gain over its first effect, nats (blocks)."""
     by_channel: dict[str, tuple[float, int]] = field(default_factory=dict)
     """Channel → (held-out gain on it, nats; its scored samples): a sensor-consistency
     channel is read at its own, lower rate."""
@@ -154,6 +156,9 @@ class Criterion:
     """Sensor-consistency channel → (REAL's offset statistic under the null,
     :func:`etsid.gap.noise.offset_z2`, and the draws k of its F(1, k) law)."""
     models: list[Evaluated] = field(default_factory=list)
+    after_lead: dict[str, Any] = field(default_factory=dict)
+    """The best single's name and REAL's held-out ``ratio`` and ``offset`` under it (as
+    :attr:`ratio` and :attr:`offset`): what a second effect could still explain."""
     chosen: Evaluated | None = None
     notes: list[str] = field(default_factory=list)
 
@@ -221,6 +226,28 @@ class LikelihoodScorer:
         innov = self.noise.innovations(res) if res is not None else self.null_innov
         return {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].floor_var)
                 for c in self.channels}
+
+    def held_out(self, ev: Evaluated) -> tuple[dict[str, float], dict[str, tuple[float, int]]]:
+        """(:meth:`ratio`, :meth:`offsets`) of REAL under model ``ev``, each fold's samples
+        predicted by the fit made without them (held out)."""
+        chans = tuple(c for c in channels_of(ev.candidates, self.scorer) if c in self.channels)
+        innov = {c: v.copy() for c, v in self.null_innov.items()}
+        for k, fit in enumerate(ev.fits):
+            if k >= len(self.folds.score):
+                break
+            fold = self.noise.innovations(self.scorer.residuals(fit.mods, chans))
+            s = self.folds.score[k]
+            for c in chans:
+                innov[c][s] = fold[c][s]
+        mask = np.zeros(self.folds.block.size, dtype=bool)
+        for s in self.folds.score[:len(ev.fits)]:
+            mask |= s
+        ratio = {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].floor_var)
+                 for c in self.channels}
+        offsets = {c: (offset_z2(self.noise.channels[c], innov[c], mask),
+                       self.noise.channels[c].offset_dof)
+                   for c in self.channels if self.noise.channels[c].offset_dof > 0}
+        return ratio, offsets
 
     def offsets(self, mods=None) -> dict[str, tuple[float, int]]:
         """Sensor-consistency channel → (offset statistic over all evidence, its draws k)."""
@@ -301,8 +328,11 @@ def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: floa
         g, n, by_channel = ls.gain(rest)
         fits = rest
     name = "+".join(c.name for c in cands)
+    extra_se = None
+    if base is not None and g.size > 1:
+        extra_se = float(np.sqrt(g.size) * np.std(g - base.gain_blocks, ddof=1))
     return Evaluated(name, cands, [f for f in fits if f is not None], g, n, extrapolated,
-                     by_channel=by_channel)
+                     extra_se=extra_se, by_channel=by_channel)
 
 
 def pseudo_bma(models: list[Evaluated], seed: int = BOOTSTRAP_SEED) -> np.ndarray:
@@ -338,14 +368,20 @@ def significant(gain: float, se: float | None, n_tested: int, rate: float) -> bo
     return gain > float(stats.norm.ppf(1.0 - rate / max(n_tested, 1))) * se
 
 
-def choose(models: list[Any], cal: Calibration) -> str | None:
-    """The name of the model the criterion names, or None: the best admissible single whose
-    held-out gain per scored sample exceeds ``cal.gain_per_sample`` and whose gain is
-    :func:`significant` among the singles tried, joined by a second effect when the pair's
-    gain over that single, per scored sample, exceeds ``cal.pair_gain_per_sample``.
-    ``models`` are :class:`Evaluated` or their gap.json rows (``name``, ``gain``,
-    ``gain_se``, ``per_sample``, ``n_scored``, ``refused``), so that a benchmark can decide
-    recorded runs again under another calibration."""
+def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | None = None
+           ) -> str | None:
+    """The name of the model the criterion names, or None.
+
+    The best admissible single whose held-out gain per scored sample exceeds
+    ``cal.gain_per_sample`` and whose gain is :func:`significant` among the singles tried;
+    joined by a second effect only while REAL, predicted by that single on held-out blocks
+    (``after_lead``: its ``ratio`` and ``offset``), still has a mismatched channel, and
+    when the pair's gain over the single exceeds ``cal.pair_gain_per_sample`` per scored
+    sample and is significant among the pairs tried. ``models`` are :class:`Evaluated` or
+    their gap.json rows (``name``, ``gain``, ``gain_se``, ``extra_se``, ``per_sample``,
+    ``n_scored``, ``refused``), so that a benchmark can decide recorded runs again under
+    another calibration.
+    """
     def get(m: Any, key: str) -> Any:
         return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
     singles = sorted((m for m in models if "+" not in get(m, "name")
@@ -357,13 +393,18 @@ def choose(models: list[Any], cal: Calibration) -> str | None:
         return None
     lead = singles[0]
     best, best_gain = str(get(lead, "name")), float(get(lead, "gain"))
-    for m in models:
-        name = str(get(m, "name"))
-        if "+" not in name or name.split("+")[0] != get(lead, "name") or get(m, "refused"):
-            continue
-        extra = (float(get(m, "gain")) - float(get(lead, "gain"))) / max(get(m, "n_scored"), 1)
-        if extra > cal.pair_gain_per_sample and float(get(m, "gain")) > best_gain:
-            best, best_gain = name, float(get(m, "gain"))
+    if after_lead and after_lead.get("name") == best and not mismatched(
+            after_lead["ratio"], after_lead.get("offset", {}), cal):
+        return best
+    pairs = [m for m in models if "+" in str(get(m, "name"))
+             and str(get(m, "name")).split("+")[0] == best and not get(m, "refused")]
+    for m in pairs:
+        extra = float(get(m, "gain")) - float(get(lead, "gain"))
+        if (extra / max(get(m, "n_scored"), 1) > cal.pair_gain_per_sample
+                and significant(extra, get(m, "extra_se") or None, len(pairs),
+                                cal.false_positive_rate)
+                and float(get(m, "gain")) > best_gain):
+            best, best_gain = str(get(m, "name")), float(get(m, "gain"))
     return best
 
 
@@ -389,7 +430,10 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     usable = [m for m in ranked if not m.refused]
     if usable and usable[0].per_sample > cal.gain_per_sample:
         lead = usable[0]
-        for other in usable[1:1 + PAIR_POOL]:
+        ratio, offset = ls.held_out(lead)
+        crit.after_lead = {"name": lead.name, "ratio": ratio, "offset": offset}
+        left = mismatched(ratio, offset, cal)  # nothing left: no second effect to seek
+        for other in usable[1:1 + PAIR_POOL] if left else ():
             x0 = np.concatenate([lead.fits[0].theta, other.fits[0].theta])
             pair = evaluate(lead.candidates + other.candidates, ls, cal.pair_gain_per_sample,
                             x0=x0, base=lead)
@@ -402,7 +446,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     for m, wi in zip(admitted, w[:-1], strict=True):
         m.weight = float(wi)
     crit.models = models
-    name = choose(models, cal)
+    name = choose(models, cal, crit.after_lead or None)
     crit.chosen = next((m for m in models if m.name == name), None)
     return crit
 

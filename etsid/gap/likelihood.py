@@ -166,10 +166,17 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                                 "pair_gain_per_sample": cal.pair_gain_per_sample},
                  "innovation_ratio": crit.ratio,
                  "offset": {c: [v, k] for c, (v, k) in crit.offset.items()},
+                 **({"after_lead": {"name": crit.after_lead["name"],
+                                    "ratio": crit.after_lead["ratio"],
+                                    "offset": {c: [v, k] for c, (v, k)
+                                               in crit.after_lead["offset"].items()}}}
+                    if crit.after_lead else {}),
                  "models": [{"name": m.name, "gain": round(m.gain, 3),
                              "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
                              "gain_se": (round(m.gain_se, 3) if np.isfinite(m.gain_se)
                                          else None),
+                             **({"extra_se": round(m.extra_se, 3)}
+                                if m.extra_se is not None else {}),
                              "by_channel": {c: [round(g, 3), k]
                                             for c, (g, k) in m.by_channel.items()},
                              "weight": round(m.weight, 4),
