@@ -165,6 +165,24 @@ def test_a_gain_within_its_block_spread_is_not_named():
     assert choose([{**row, "gain_se": 20.0}], cal) == "thrust_scale"
 
 
+def test_a_second_effect_is_sought_only_while_a_channel_is_left():
+    """A pair that passes its own threshold is not named when REAL, held out under the
+    first effect, has no channel left beyond its floor; it is when one is left."""
+    cal = Calibration(2.0, 0.01, 0.05, 0.01, {})
+    lead = _ev("thrust_scale", [100.0], n=1000)
+    pair = _ev("thrust_scale+gyro_bias", [200.0], n=1000)  # +0.1 per sample
+    done = {"name": "thrust_scale", "ratio": {"az": 1.1, "p": 1.3}, "offset": {}}
+    left = {"name": "thrust_scale", "ratio": {"az": 1.1, "p": 3.5}, "offset": {}}
+    assert choose([lead, pair], cal, done) == "thrust_scale"
+    assert choose([lead, pair], cal, left) == "thrust_scale+gyro_bias"
+    noisy = {"name": "thrust_scale+gyro_bias", "gain": 200.0, "per_sample": 0.2,
+             "n_scored": 1000, "extra_se": 60.0, "refused": ""}  # +100 ± 60 nats
+    row = {"name": "thrust_scale", "gain": 100.0, "per_sample": 0.1, "n_scored": 1000,
+           "refused": ""}
+    assert choose([row, noisy], cal, left) == "thrust_scale"
+    assert choose([row, {**noisy, "extra_se": 20.0}], cal, left) == "thrust_scale+gyro_bias"
+
+
 def test_calibration_file_round_trip_and_bad_file(tmp_path):
     cal = Calibration(5.5, 0.012, 0.04, 0.01, {"generators": ["a", "b"]})
     path = tmp_path / "cal.json"
