@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import FitError
-from etsid.fit.drag import fit_drag
+from etsid.fit.drag import fit_drag, rotor_speed_ratio
 from etsid.fit.layout import active_motors, geometry_rows, rotor_layout
 from etsid.fit.regress import N_BLOCKS, block_ids, jackknife_se
 from etsid.fit.result import FitResult, Param, judge
@@ -228,7 +228,14 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
     ratio = cr.coef[0] / cp.coef[0]
     rse = abs(ratio) * math.hypot(cr.se[0] / cr.coef[0], cp.se[0] / cp.coef[0])
     add("inertia_ratio_yx", _param("inertia_ratio_yx", ratio, rse, "-", "Iyy / Ixx"))
-    drag = fit_drag(flights) if thrust is not None else None
+    drag = None
+    if thrust is not None:
+        x_hover = math.sqrt(g / (n * thrust.k)) if thrust.k > 0 else float("nan")
+        tau_s = rot.tau if math.isfinite(rot.tau) else 0.0
+        delay_s = rot.delay if math.isfinite(rot.delay) else 0.0
+        speeds = ([rotor_speed_ratio(f, thrust.idle, tau_s, delay_s, x_hover)
+                   for f in flights] if math.isfinite(x_hover) else None)
+        drag = fit_drag(flights, speeds)
     if drag is not None:
         for ax, fit in drag.items():
             add(f"drag_{ax}", _param(f"drag_{ax}", -fit.coef[0], fit.se[0], "1/s",
