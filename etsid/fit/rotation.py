@@ -31,8 +31,22 @@ what the unmodelled dynamics move). The jackknife cannot see a bias every block 
 with weak instruments the (τ, d) minimum slides along the valley τ + d ≈ const — so τ's and
 d's standard errors are widened to the projections of the Anderson–Rubin 95 % set over the
 grid (:mod:`etsid.fit.weakiv`), whose coverage does not depend on the instruments'
-strength; a set touching the grid's edge leaves both not determined. An empty set (the
-model rejected at every (τ, d): not exact, strong instruments) leaves the jackknife's.
+strength; a set touching the grid's edge leaves both not determined. An empty AR set (the
+model rejected at every (τ, d): not exact, strong instruments) is replaced by the
+misfit-scaled distance set (:func:`etsid.fit.weakiv.distance_set`).
+
+The coefficients are estimated at the point (τ, d): a two-step estimator, whose first
+step's error moves every coefficient (0.9 % of the roll effectiveness per ms of τ on a
+tarot680). A jackknife that holds (τ, d) fixed does not see it (the generated-regressor
+problem of two-step estimators, Murphy and Topel 1985), so the coefficients' jackknife is
+of the whole estimator: each left-out block's coefficients at that replicate's own (τ, d)
+(2.6× the fixed-(τ, d) jackknife on a quad250 roll axis). It measures how (τ, d)
+scatter between blocks, not a bias they share; so, where the (τ, d) set bounds them, the
+coefficients are also refitted at the set's extreme points (the ends of τ, d, τ + d and
+τ − d over its grid points), and their largest move / 1.96 is added to the standard
+errors, as for the thrust curve's interval — a projection of the 95 % set, as conservative
+as that. Where the set reaches the grid's edge (τ and d not determined) no bounded move
+exists: the whole-estimator jackknife is then all, and τ's note says so.
 """
 
 from __future__ import annotations
@@ -50,6 +64,7 @@ from etsid.fit.weakiv import (
     ConfidenceSet,
     ar_statistic,
     confidence_set,
+    distance_set,
     instrument_autocov,
     joint_statistic,
 )
@@ -80,6 +95,9 @@ class AxisFit:
     coef: np.ndarray
     se: np.ndarray
     alt: list[np.ndarray]   # coefficients refitted at the thrust curve's interval ends
+    td_shift: np.ndarray | None = None
+    """Largest move of the coefficients over the (τ, d) set's extreme points (included in
+    ``se`` as shift / 1.96); None when the set gives none."""
 
 
 @dataclass
@@ -101,8 +119,13 @@ class RotationFit:
     """Why the set does not bound τ and d ("" when it does or is empty): it reaches the
     grid's edge."""
     set_misfit: float = float("nan")
-    """Smallest AR statistic over its degrees of freedom on the grid (at least 1); the set
-    is empty (NaN projections, jackknife standard errors) when this is large."""
+    """Smallest AR statistic over its degrees of freedom on the grid (at least 1); the AR
+    set is empty when this is large, and the distance set stands in."""
+    set_kind: str = ""
+    """"anderson-rubin", "distance" (the AR set empty) or "" (no set computed)."""
+    ratio: float = float("nan")
+    """Iyy / Ixx, roll over pitch effectiveness (:func:`_inertia_ratio`)."""
+    ratio_se: float = float("nan")
 
 
 class _Prep:
@@ -284,6 +307,28 @@ def _jive_moments(preps: list[_Prep], geom: np.ndarray, k: float, idle: float, t
     return per_axis
 
 
+def _inertia_ratio(full: list[Moments], half: list[Moments], alts: list[list[Moments]],
+                   at_set: list[list[Moments]], at_reps: list[list[Moments]]
+                   ) -> tuple[float, float]:
+    """Iyy / Ixx = roll over pitch effectiveness, with its standard error from the same
+    sources as the coefficients' (jackknife, half band, thrust curve's ends, (τ, d) set),
+    each taken on the ratio itself: a τ, d or K error moves both axes alike and largely
+    cancels in it, which treating the two axes' errors as independent would not see."""
+    def r(ms: list[Moments], leave: int | None = None) -> float:
+        return float(ms[0].solve(leave)[0][0] / ms[1].solve(leave)[0][0])
+
+    ratio = r(full)
+    if at_reps:
+        pseudo = np.array([r(a, b) for b, a in enumerate(at_reps)])
+    else:
+        pseudo = np.array([r(full, b) for b in range(N_BLOCKS) if full[0].yty[b] > 0])
+    parts = [jackknife_se(pseudo), abs(r(half) - ratio)]
+    for group in (alts, at_set):
+        if group:
+            parts.append(max(abs(r(a) - ratio) for a in group) / _Z_LEVEL)
+    return ratio, float(np.sqrt(np.sum(np.square(parts))))
+
+
 def _argmin2(table: np.ndarray) -> tuple[int, int]:
     i, j = np.unravel_index(np.argmin(table), table.shape)
     return int(i), int(j)
@@ -304,22 +349,33 @@ def _refine(grid: np.ndarray, values: np.ndarray, i: int, log: bool) -> float:
     return float(np.exp(v)) if log else float(v)
 
 
-def _widen(tau_se: float, d_se: float, tau: float, delay: float, cs: ConfidenceSet,
-           res_tau: float, res_d: float) -> tuple[float, float]:
-    """Standard errors at least as wide as the Anderson–Rubin set's projections: the
-    farther end from the estimate is 1.96 se away (plus the grid's resolution)."""
+def _widen(tau_se: float, d_se: float, tau: float, delay: float, cs: ConfidenceSet
+           ) -> tuple[float, float]:
+    """Standard errors at least as wide as the (τ, d) set's projections: the farther end
+    from the estimate is 1.96 se away (the projections are of the grid points bounding the
+    set, so they include the grid's resolution)."""
     if cs.empty:
         return tau_se, d_se
     z = _Z_LEVEL
     half_tau = max(cs.hi[0] - tau, tau - cs.lo[0], 0.0)
     half_d = max(cs.hi[1] - delay, delay - cs.lo[1], 0.0)
-    return (max(tau_se, float(np.hypot(half_tau / z, res_tau))),
-            max(d_se, float(np.hypot(half_d / z, res_d))))
+    return max(tau_se, half_tau / z), max(d_se, half_d / z)
+
+
+def set_extremes(points: np.ndarray) -> np.ndarray:
+    """The (τ, d) points of a set at the ends of τ, d, τ + d and τ − d (unique rows)."""
+    if points.size == 0:
+        return np.zeros((0, 2))
+    keys = (points[:, 0], points[:, 1], points[:, 0] + points[:, 1],
+            points[:, 0] - points[:, 1])
+    idx = sorted({int(f(k)) for k in keys for f in (np.argmin, np.argmax)})
+    return points[idx]
 
 
 def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
                  tau_default: float, fine: bool = True,
-                 ends: tuple[tuple[float, float], ...] = ()) -> RotationFit:
+                 ends: tuple[tuple[float, float], ...] = (), spread: bool = True
+                 ) -> RotationFit:
     """Fit τ, d and each axis's coefficients (module docstring).
 
     ``ends``: (K, ι) pairs at the ends of the thrust curve's 95 % interval; the
@@ -328,6 +384,10 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
 
     With motor outputs logged slower than :data:`MIN_MOTOR_HZ` the lag and delay cannot be
     resolved: τ is held at ``tau_default``, d at 0, and their standard errors are infinite.
+
+    ``spread``: False skips what only the standard errors need (the whole-estimator
+    jackknife, the refits over the (τ, d) set, and the fine (τ, d) grid's half steps, which
+    the set's bound is one step of), for a first pass.
     """
     flights = [f for f in flights if f.hover.sum() > MIN_ROWS]
     if not flights:
@@ -337,6 +397,9 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
     open_why = ""
     misfit = float("nan")
     sets = ((float("nan"), float("nan")), (float("nan"), float("nan")))
+    kind = ""
+    corners = np.zeros((0, 2))
+    reps: list[tuple[float, float]] = []
     slow = min(f.motor_rate_hz for f in flights) < MIN_MOTOR_HZ
     delays = np.round(np.arange(DELAY_MIN, DELAY_MAX + 1e-9, DELAY_STEP), 4)
     if slow:
@@ -350,6 +413,11 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
             ic, jc = _argmin2(coarse[0])
             tau_f = TAU_GRID[max(0, 2 * ic - 3):2 * ic + 4]
             delays = delays[max(0, 2 * jc - 4):2 * jc + 5]
+            if spread:
+                # half steps: the set is bounded to one step of this grid (weakiv)
+                tau_f = np.round(np.sort(np.concatenate(
+                    [tau_f, np.sqrt(tau_f[:-1] * tau_f[1:])])), 6)
+                delays = np.round(np.arange(delays[0], delays[-1] + 1e-9, DELAY_STEP / 2), 5)
             obj, st_f, df_f = _objective(preps, geom, k, idle, tau_f, delays)
             grids.append((tau_f, delays, st_f, df_f))
         else:
@@ -367,29 +435,51 @@ def fit_rotation(flights: list[Flight], geom: np.ndarray, k: float, idle: float,
         log_step = float(np.log(tau_f[1] / tau_f[0])) if tau_f.size > 1 else 0.0
         d_step = float(delays[1] - delays[0]) if delays.size > 1 else DELAY_STEP
         res_tau, res_d = tau * log_step / np.sqrt(12), d_step / np.sqrt(12)
+        reps = list(zip(reps_tau, reps_d, strict=True))
         tau_se = float(np.hypot(jackknife_se(np.array(reps_tau)), res_tau))
         d_se = float(np.hypot(jackknife_se(np.array(reps_d)), res_d))
         edge = tau_f[i] in (TAU_GRID[0], TAU_GRID[-1])
         if all(np.isfinite(g[2]).all() for g in grids):
-            cs = confidence_set(grids, ((TAU_GRID[0], TAU_GRID[-1]), (DELAY_MIN, DELAY_MAX)))
-            tau_se, d_se = _widen(tau_se, d_se, tau, delay, cs, res_tau, res_d)
-            # an empty set is the model failing the over-identification test everywhere,
-            # not a statement about τ and d: the jackknife interval stands (the note says)
+            bounds = ((TAU_GRID[0], TAU_GRID[-1]), (DELAY_MIN, DELAY_MAX))
+            cs = confidence_set(grids, bounds)
+            if cs.empty:
+                # the model fails the over-identification test everywhere: the misfit is
+                # taken as an over-dispersion and the distance set bounds τ and d
+                cs = distance_set(grids, bounds)
+            tau_se, d_se = _widen(tau_se, d_se, tau, delay, cs)
             open_why = "its 95 % set reaches the (τ, d) grid's edge" if cs.at_edge else ""
             sets = ((cs.lo[0], cs.hi[0]), (cs.lo[1], cs.hi[1]))
-            misfit = cs.misfit
+            misfit, kind = cs.misfit, cs.kind
+            if not cs.at_edge and spread:
+                corners = set_extremes(cs.points)
     axes = {}
     full = _jive_moments(preps, geom, k, idle, tau, delay)
     half = _jive_moments(_prepare(flights, cutoff_scale=0.5), geom, k, idle, tau, delay)
     alts = [_jive_moments(preps, geom, ka, ia, tau, delay) for ka, ia in ends]
+    at_set = [_jive_moments(preps, geom, k, idle, float(t), float(d)) for t, d in corners]
+    # the whole estimator's jackknife: block b left out of the (τ, d) choice and of the
+    # coefficients alike
+    at_reps = [_jive_moments(preps, geom, k, idle, tb, db) for tb, db in reps] if spread \
+        else []
     for i, (name, m, mh) in enumerate(zip(("roll", "pitch", "yaw"), full, half, strict=True)):
         coef, se = m.jackknife()
+        if at_reps:
+            pseudo = np.array([a[i].solve(b)[0] for b, a in enumerate(at_reps)])
+            se = np.sqrt((len(pseudo) - 1) / len(pseudo)
+                         * np.sum((pseudo - pseudo.mean(0)) ** 2, axis=0))
         # model error: the same equation fitted on half the bandwidth must give the same
         # coefficients if the model holds; what unmodelled dynamics move is added
         shift = np.abs(coef - mh.solve()[0])
-        axes[name] = AxisFit(coef=coef, se=np.hypot(se, shift),
-                             alt=[a[i].solve()[0] for a in alts])
+        se = np.hypot(se, shift)
+        td = None
+        if at_set:
+            # the (τ, d) set's extreme points are its 95 % boundary: move / 1.96 = 1 se
+            td = np.max([np.abs(a[i].solve()[0] - coef) for a in at_set], axis=0)
+            se = np.hypot(se, td / _Z_LEVEL)
+        axes[name] = AxisFit(coef=coef, se=se, alt=[a[i].solve()[0] for a in alts],
+                             td_shift=td)
+    ratio, ratio_se = _inertia_ratio(full, half, alts, at_set, at_reps)
     return RotationFit(tau=tau, tau_se=tau_se, delay=delay, delay_se=d_se, axes=axes,
                        tau_at_edge=edge, instrumented=all(p.instrumented for p in preps),
                        tau_set=sets[0], delay_set=sets[1], set_open=open_why,
-                       set_misfit=misfit)
+                       set_misfit=misfit, set_kind=kind, ratio=ratio, ratio_se=ratio_se)

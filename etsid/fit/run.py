@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import FitError
-from etsid.fit.drag import fit_drag
+from etsid.fit.drag import fit_drag, rotor_speed_ratio
 from etsid.fit.layout import active_motors, geometry_rows, rotor_layout
 from etsid.fit.regress import N_BLOCKS, block_ids, jackknife_se
 from etsid.fit.result import FitResult, Param, judge
@@ -135,12 +135,14 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
     k, idle, tau, delay = base["k"] * n / tmpl.n_rotors, base["idle_ratio"], \
         base["motor_time_constant"], 0.0
     thrust = rot = None
-    for _ in range(1 if quick else 2):
+    passes = 1 if quick else 2
+    for i in range(passes):
         thrust = fit_thrust(flights, tau, delay)
         if thrust is not None:
             k, idle = thrust.k, thrust.idle
         rot = fit_rotation(flights, geom, k, idle, base["motor_time_constant"], fine=not quick,
-                           ends=thrust.ends if thrust is not None else ())
+                           ends=thrust.ends if thrust is not None else (),
+                           spread=i == passes - 1)
         tau, delay = rot.tau, rot.delay
     assert rot is not None
     params: dict[str, Param] = {}
@@ -172,13 +174,14 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
     motor_hz = min(f.motor_rate_hz for f in flights)
     def set_note(lo_hi: tuple[float, float]) -> str:
         if rot.set_open:
-            return f"Anderson–Rubin: {rot.set_open}"
-        if not math.isfinite(rot.set_misfit):
+            return (f"Anderson–Rubin: {rot.set_open} (the moment coefficients carry τ's "
+                    "and d's scatter between blocks only)")
+        if not math.isfinite(rot.set_misfit) or not all(math.isfinite(v) for v in lo_hi):
             return ""
-        if not all(math.isfinite(v) for v in lo_hi):
-            return (f"Anderson–Rubin set empty (misfit ×{rot.set_misfit:.2f} at the best "
-                    "(τ, d)): jackknife interval")
         lo, hi = (1000 * v for v in lo_hi)
+        if rot.set_kind == "distance":
+            return (f"Anderson–Rubin set empty (misfit ×{rot.set_misfit:.2f} at the best "
+                    f"(τ, d)): misfit-scaled distance 95 % set {lo:.1f}…{hi:.1f} ms")
         return f"Anderson–Rubin 95 % set {lo:.1f}…{hi:.1f} ms"
 
     add("motor_time_constant", _param(
@@ -224,11 +227,16 @@ def _fit(tables: Sequence[pd.DataFrame], template: Vehicle | None, name: str,
             params[f"{axis}_effectiveness"].verdict = "not-determined"
             params[f"{axis}_effectiveness"].note = "scales with the thrust curve, which " \
                 "this flight does not determine"
-    cr, cp = rot.axes["roll"], rot.axes["pitch"]
-    ratio = cr.coef[0] / cp.coef[0]
-    rse = abs(ratio) * math.hypot(cr.se[0] / cr.coef[0], cp.se[0] / cp.coef[0])
+    ratio, rse = rot.ratio, rot.ratio_se
     add("inertia_ratio_yx", _param("inertia_ratio_yx", ratio, rse, "-", "Iyy / Ixx"))
-    drag = fit_drag(flights) if thrust is not None else None
+    drag = None
+    if thrust is not None:
+        x_hover = math.sqrt(g / (n * thrust.k)) if thrust.k > 0 else float("nan")
+        tau_s = rot.tau if math.isfinite(rot.tau) else 0.0
+        delay_s = rot.delay if math.isfinite(rot.delay) else 0.0
+        speeds = ([rotor_speed_ratio(f, thrust.idle, tau_s, delay_s, x_hover)
+                   for f in flights] if math.isfinite(x_hover) else None)
+        drag = fit_drag(flights, speeds)
     if drag is not None:
         for ax, fit in drag.items():
             add(f"drag_{ax}", _param(f"drag_{ax}", -fit.coef[0], fit.se[0], "1/s",
