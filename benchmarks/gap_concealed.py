@@ -30,7 +30,7 @@ from collections import Counter
 
 import numpy as np
 
-from etsid.gap.candidates import ground_ratio
+from etsid.gap.candidates import ground_ratio, ground_ratio_exp
 from etsid.gap.run import analyse
 from etsid.sim import load_vehicle, simulate
 
@@ -195,7 +195,9 @@ def param_error(name: str, eff: dict, truth: dict) -> float | None:
     """Relative error of the fitted parameter against the generator's truth."""
     p = {k: v["value"] for k, v in eff["parameters"].items()}
     if name == "ground_effect":
-        fit = float(np.mean(ground_ratio(truth["alt_series"], p["R"], p["exponent"]))) - 1.0
+        ratio = (ground_ratio_exp(truth["alt_series"], p["excess"], p["decay"])
+                 if "excess" in p else ground_ratio(truth["alt_series"], p["R"], p["exponent"]))
+        fit = float(np.mean(ratio)) - 1.0  # either law of the candidate, at the hub height
         return abs(fit - truth["ge_excess"]) / truth["ge_excess"]
     if name == "motor_lag":
         return abs(p["tau"] - truth["tau"]) / truth["tau"]
