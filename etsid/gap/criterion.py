@@ -217,51 +217,50 @@ class LikelihoodScorer:
             n += int(np.sum(self.folds.score[k]))
         return total, n, by_channel
 
-    def ratio(self, mods=None) -> dict[str, float]:
-        """Channel → innovation variance over all evidence ÷ floor variance."""
+    def _scored(self, n_folds: int | None = None) -> np.ndarray:
+        """Samples scored by the first ``n_folds`` folds (all by default)."""
         mask = np.zeros(self.folds.block.size, dtype=bool)
-        for s in self.folds.score:
+        for s in self.folds.score[:n_folds]:
             mask |= s
-        res = self.scorer.residuals(mods, self.channels) if mods is not None else None
-        innov = self.noise.innovations(res) if res is not None else self.null_innov
+        return mask
+
+    def _innovations(self, mods) -> dict[str, np.ndarray]:
+        """Innovations of every channel under ``mods`` (None: the null's)."""
+        if mods is None:
+            return self.null_innov
+        return self.noise.innovations(self.scorer.residuals(mods, self.channels))
+
+    def _ratio_of(self, innov: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
         return {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].floor_var)
                 for c in self.channels}
+
+    def _offsets_of(self, innov: dict[str, np.ndarray], mask: np.ndarray
+                    ) -> dict[str, tuple[float, int]]:
+        return {c: (offset_z2(self.noise.channels[c], innov[c], mask),
+                    self.noise.channels[c].offset_dof)
+                for c in self.channels if self.noise.channels[c].offset_dof > 0}
+
+    def ratio(self, mods=None) -> dict[str, float]:
+        """Channel → innovation variance over all evidence ÷ floor variance."""
+        return self._ratio_of(self._innovations(mods), self._scored())
+
+    def offsets(self, mods=None) -> dict[str, tuple[float, int]]:
+        """Sensor-consistency channel → (offset statistic over all evidence, its draws k)."""
+        return self._offsets_of(self._innovations(mods), self._scored())
 
     def held_out(self, ev: Evaluated) -> tuple[dict[str, float], dict[str, tuple[float, int]]]:
         """(:meth:`ratio`, :meth:`offsets`) of REAL under model ``ev``, each fold's samples
         predicted by the fit made without them (held out)."""
         chans = tuple(c for c in channels_of(ev.candidates, self.scorer) if c in self.channels)
         innov = {c: v.copy() for c, v in self.null_innov.items()}
-        for k, fit in enumerate(ev.fits):
-            if k >= len(self.folds.score):
-                break
-            fold = self.noise.innovations(self.scorer.residuals(fit.mods, chans))
+        n_folds = min(len(ev.fits), len(self.folds.score))
+        for k in range(n_folds):
+            fold = self.noise.innovations(self.scorer.residuals(ev.fits[k].mods, chans))
             s = self.folds.score[k]
             for c in chans:
                 innov[c][s] = fold[c][s]
-        mask = np.zeros(self.folds.block.size, dtype=bool)
-        for s in self.folds.score[:len(ev.fits)]:
-            mask |= s
-        ratio = {c: float(np.nanmean(innov[c][mask] ** 2) / self.noise.channels[c].floor_var)
-                 for c in self.channels}
-        offsets = {c: (offset_z2(self.noise.channels[c], innov[c], mask),
-                       self.noise.channels[c].offset_dof)
-                   for c in self.channels if self.noise.channels[c].offset_dof > 0}
-        return ratio, offsets
-
-    def offsets(self, mods=None) -> dict[str, tuple[float, int]]:
-        """Sensor-consistency channel → (offset statistic over all evidence, its draws k)."""
-        mask = np.zeros(self.folds.block.size, dtype=bool)
-        for s in self.folds.score:
-            mask |= s
-        res = self.scorer.residuals(mods, self.channels) if mods is not None else None
-        innov = self.noise.innovations(res) if res is not None else self.null_innov
-        out = {}
-        for c in self.channels:
-            ch = self.noise.channels[c]
-            if ch.offset_dof > 0:
-                out[c] = (offset_z2(ch, innov[c], mask), ch.offset_dof)
-        return out
+        mask = self._scored(n_folds)
+        return self._ratio_of(innov, mask), self._offsets_of(innov, mask)
 
 
 def offset_limit(dof: int, n_channels: int, rate: float) -> float:
