@@ -173,14 +173,13 @@ def _same(expected: str, named: str) -> bool:
 
 
 # ---------------------------------------------------------------- fit
-def _quantile(values: list[float], alpha: float) -> float:
+def _largest(values: list[float]) -> float:
     """The threshold no recorded value exceeds: the largest of ``values`` (a value ≤ 0, a
     model that loses to its base, counts as 0). For exchangeable pairs a new one exceeds
     the largest of n with probability 1/(n + 1), the rate n pairs can show; a tail model
-    that extrapolates to a smaller ``alpha`` from a few pairs is not used (round 2: a
+    that extrapolates to a smaller rate from a few pairs is not used (round 2: a
     log-normal over values spread across two decades put the 1 % quantile 2–2.5× above
     every recorded value and above several true effects)."""
-    del alpha  # the rate the pairs support is stated by the caller, 1/(n + 1)
     return float(max([0.0] + [float(x) for x in values]))
 
 
@@ -207,7 +206,7 @@ def fit(args: argparse.Namespace) -> None:
     if not none:
         raise SystemExit("no no-effect pairs recorded for " + args.generators)
     alpha = args.fpr
-    mismatch_ratio = _quantile(ratios, alpha)
+    mismatch_ratio = _largest(ratios)
     probe = Calibration(mismatch_ratio, 0.0, 0.0, alpha, {})
     extras = []
     for r in rows:
@@ -230,8 +229,8 @@ def fit(args: argparse.Namespace) -> None:
               if significant(m["gain"] - lead["gain"], m.get("extra_se"), len(pairs), alpha)]
         extras.append(max(ex) if ex else 0.0)
     cal = Calibration(
-        mismatch_ratio=mismatch_ratio, gain_per_sample=_quantile(gains, alpha),
-        pair_gain_per_sample=_quantile(extras, alpha) if extras else _quantile(gains, alpha),
+        mismatch_ratio=mismatch_ratio, gain_per_sample=_largest(gains),
+        pair_gain_per_sample=_largest(extras) if extras else _largest(gains),
         false_positive_rate=alpha,
         source={"generators": args.generators.split(","),
                 "records": [Path(r).name for r in args.records],
