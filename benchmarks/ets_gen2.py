@@ -17,52 +17,85 @@ another ground-effect law, another controller and another sensor model.
 - **Flight**: 180 s, alternating dwells low (0.15–0.4 m) and high (0.8–3 m), 0.5 m/s climbs
   and descents, random multisine sticks on roll, pitch and yaw throughout.
 
+Airframes (``--airframe``): ``quad10``, the 1.2 kg quad X with 10-inch rotors above (issue
+24's); ``hexa15``, a Tarot-680-class hexacopter (2.8 kg, 680 mm wheelbase, 15-inch rotors),
+the airframe class of the chapter and of the issue's independent generator. Hayden's law
+depends on h/R: at the lowest dwell a 15-inch rotor gains 8.5 % thrust, a 10-inch one 4 %
+(at 0.4 m, 1.3 % and 0.3 %). The controller's torque gains scale with the inertia, so both
+attitude loops have the same bandwidth.
+
 Settings frozen before the first run: ``IdentConfig()`` as of commit d5b31b4 (structure
 auto, rule merging on), free-run fit % on identify's validation part. The first result is
 recorded in docs/identify.md ("A second generator").
 
-    python benchmarks/ets_gen2.py [--seeds 1,2,3] [--no-regime]
+    python benchmarks/ets_gen2.py [--seeds 1,2,3] [--no-regime] [--airframe hexa15]
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 G = 9.81
-MASS = 1.2                      # kg
-INERTIA = np.array([0.012, 0.012, 0.022])  # kg m²
-ARM = 0.225                     # m, centre to rotor
-ROTOR_R = 0.127                 # m (10-inch rotors)
-ROTOR_ABOVE_CG = 0.04           # m
-T_MAX = 8.0                     # N per rotor
-YAW_PER_THRUST = 0.016          # N m per N
-MOTOR_TAU = 0.04                # s
 PHYS_HZ = 1000
 LOG_HZ = 200
 STICK_HZ = 50
 RANGE_HZ = 20
-_A = ARM / math.sqrt(2.0)
-ROTOR_X = np.array([_A, -_A, _A, -_A])
-ROTOR_Y = np.array([_A, -_A, -_A, _A])
-SPIN = np.array([1.0, 1.0, -1.0, -1.0])
 
 
-def ground_gain(h: np.ndarray) -> np.ndarray:
-    """Thrust gain of a rotor at height ``h`` (m) above ground (Hayden, at constant power)."""
-    h = np.maximum(h, 0.3 * ROTOR_R)
-    return (0.9926 + 0.03794 * (2.0 * ROTOR_R / h) ** 2) ** (2.0 / 3.0)
+@dataclass(frozen=True)
+class Airframe:
+    """A multirotor of this generator: rotors evenly spaced on a circle (an X layout,
+    spins alternating), with the controller's torque gains scaled by the inertia so that
+    every airframe's attitude loop has the same bandwidth."""
+
+    name: str
+    n_rotors: int
+    mass: float                 # kg
+    inertia: tuple[float, float, float]  # kg m²
+    arm: float                  # m, centre to rotor
+    rotor_r: float              # m
+    rotor_above_cg: float       # m
+    t_max: float                # N per rotor
+    yaw_per_thrust: float       # N m per N
+    motor_tau: float            # s
+
+    def rotors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """x (forward), y (right) of each rotor, m, and its spin sign."""
+        if self.n_rotors == 4:  # the original quad X (rotor order kept: outputs unchanged)
+            a = self.arm / math.sqrt(2.0)
+            return (np.array([a, -a, a, -a]), np.array([a, -a, -a, a]),
+                    np.array([1.0, 1.0, -1.0, -1.0]))
+        ang = np.pi / self.n_rotors + 2.0 * np.pi * np.arange(self.n_rotors) / self.n_rotors
+        spin = np.where(np.arange(self.n_rotors) % 2 == 0, 1.0, -1.0)
+        return self.arm * np.cos(ang), self.arm * np.sin(ang), spin
 
 
-def _mixer() -> np.ndarray:
-    """[total, roll, pitch, yaw] = M @ thrusts."""
-    return np.vstack([np.ones(4), -ROTOR_Y, ROTOR_X, SPIN * YAW_PER_THRUST])
+#: a 1.2 kg quad X with 10-inch rotors (the generator of issue 24)
+QUAD10 = Airframe("quad10", 4, 1.2, (0.012, 0.012, 0.022), 0.225, 0.127, 0.04, 8.0, 0.016,
+                  0.04)
+#: a Tarot-680-class hexacopter, the chapter's airframe class: 680 mm wheelbase, 15-inch
+#: rotors, 2.8 kg (Santoso et al. fly a Tarot 680 below 40 cm)
+HEXA15 = Airframe("hexa15", 6, 2.8, (0.065, 0.065, 0.12), 0.34, 0.19, 0.05, 14.0, 0.02, 0.06)
+AIRFRAMES = {a.name: a for a in (QUAD10, HEXA15)}
 
 
-MIX_INV = np.linalg.inv(_mixer())
+def ground_gain(h: np.ndarray, rotor_r: float = QUAD10.rotor_r) -> np.ndarray:
+    """Thrust gain of a rotor of radius ``rotor_r`` (m) at height ``h`` (m) above ground
+    (Hayden, at constant power)."""
+    h = np.maximum(h, 0.3 * rotor_r)
+    return (0.9926 + 0.03794 * (2.0 * rotor_r / h) ** 2) ** (2.0 / 3.0)
+
+
+def mixer_inverse(frame: Airframe) -> np.ndarray:
+    """Thrusts = M⁺ @ [total, roll, pitch, yaw] (least-norm for more than four rotors)."""
+    x, y, spin = frame.rotors()
+    mix = np.vstack([np.ones(frame.n_rotors), -y, x, spin * frame.yaw_per_thrust])
+    return np.linalg.inv(mix) if frame.n_rotors == 4 else np.linalg.pinv(mix)
 
 
 def _multisine(rng: np.random.Generator, t: np.ndarray, amp: float) -> np.ndarray:
@@ -88,8 +121,16 @@ def _altitude_plan(rng: np.random.Generator, duration: float, regimes: bool
     return np.array(t), np.array(h)
 
 
-def fly(seed: int, duration: float = 180.0, regimes: bool = True) -> pd.DataFrame:
-    """Fly the scenario (module docstring) and return a FlightTable at 200 Hz."""
+def fly(seed: int, duration: float = 180.0, regimes: bool = True,
+        frame: Airframe = QUAD10) -> pd.DataFrame:
+    """Fly the scenario (module docstring) with ``frame`` and return a FlightTable at
+    200 Hz."""
+    rotor_x, rotor_y, spin = frame.rotors()
+    mix_inv = mixer_inverse(frame)
+    inertia = np.array(frame.inertia)
+    nr, mass, t_max = frame.n_rotors, frame.mass, frame.t_max
+    k_xy = inertia[0] / QUAD10.inertia[0]  # torque gains per unit inertia of the quad's
+    k_z = inertia[2] / QUAD10.inertia[2]
     rng = np.random.default_rng(seed)
     n_phys = int(duration * PHYS_HZ)
     dt = 1.0 / PHYS_HZ
@@ -104,7 +145,8 @@ def fly(seed: int, duration: float = 180.0, regimes: bool = True) -> pd.DataFram
     ang = np.zeros(3)
     rate = np.zeros(3)
     h, vz = h0, 0.0
-    thrust = np.full(4, MASS * G / 4 / float(ground_gain(np.array([h0 + ROTOR_ABOVE_CG]))[0]))
+    thrust = np.full(nr, mass * G / nr / float(ground_gain(np.array([h0 + frame.rotor_above_cg]),
+                                                           frame.rotor_r)[0]))
     integ = np.zeros(2)
     bias = rng.normal(0.0, 0.01, 3)
     gyro_f = np.zeros(3)
@@ -123,28 +165,28 @@ def fly(seed: int, duration: float = 180.0, regimes: bool = True) -> pd.DataFram
         sp = np.array([0.45 * u_roll, 0.45 * u_pitch])
         err = sp - ang[:2]
         integ += err * dt
-        tau_xy = 0.6 * err + 0.25 * integ - 0.1 * rate[:2]
-        tau_z = 0.06 * (2.0 * u_yaw - rate[2])
+        tau_xy = k_xy * (0.6 * err + 0.25 * integ - 0.1 * rate[:2])
+        tau_z = k_z * (0.06 * (2.0 * u_yaw - rate[2]))
         e = h_meas - h_est  # complementary filter: poles at −10 rad/s (double)
         h_est += dt * (vz_est + 20.0 * e)
         vz_est += dt * 100.0 * e
         acc_cmd = 3.0 * (h_sp_all[k] - h_est) - 2.5 * vz_est
-        total = MASS * (G + acc_cmd) / max(math.cos(ang[0]) * math.cos(ang[1]), 0.5)
-        cmd = np.clip(MIX_INV @ np.array([total, *tau_xy, tau_z]), 0.0, T_MAX)
-        u_thrust = float(cmd.sum() / (4 * T_MAX))
+        total = mass * (G + acc_cmd) / max(math.cos(ang[0]) * math.cos(ang[1]), 0.5)
+        cmd = np.clip(mix_inv @ np.array([total, *tau_xy, tau_z]), 0.0, t_max)
+        u_thrust = float(cmd.sum() / (nr * t_max))
         # plant
-        thrust += (cmd - thrust) * (dt / MOTOR_TAU)
-        down = -ROTOR_X * math.sin(ang[1]) + ROTOR_Y * math.sin(ang[0]) * math.cos(ang[1])
-        eff = thrust * ground_gain(h + ROTOR_ABOVE_CG - down)
-        moment = np.array([-(ROTOR_Y * eff).sum(), (ROTOR_X * eff).sum(),
-                           (SPIN * YAW_PER_THRUST * thrust).sum()])
-        rate = rate + dt * (moment - np.cross(rate, INERTIA * rate)) / INERTIA
+        thrust += (cmd - thrust) * (dt / frame.motor_tau)
+        down = -rotor_x * math.sin(ang[1]) + rotor_y * math.sin(ang[0]) * math.cos(ang[1])
+        eff = thrust * ground_gain(h + frame.rotor_above_cg - down, frame.rotor_r)
+        moment = np.array([-(rotor_y * eff).sum(), (rotor_x * eff).sum(),
+                           (spin * frame.yaw_per_thrust * thrust).sum()])
+        rate = rate + dt * (moment - np.cross(rate, inertia * rate)) / inertia
         phi, theta = ang[0], ang[1]
         ang = ang + dt * np.array([
             rate[0] + math.tan(theta) * (math.sin(phi) * rate[1] + math.cos(phi) * rate[2]),
             math.cos(phi) * rate[1] - math.sin(phi) * rate[2],
             (math.sin(phi) * rate[1] + math.cos(phi) * rate[2]) / math.cos(theta)])
-        acc = eff.sum() * math.cos(phi) * math.cos(theta) / MASS - G
+        acc = eff.sum() * math.cos(phi) * math.cos(theta) / mass - G
         vz += acc * dt
         h = max(h + vz * dt, 0.05)
         # sensors
@@ -159,8 +201,8 @@ def fly(seed: int, duration: float = 180.0, regimes: bool = True) -> pd.DataFram
     cols = ["t", "p", "q", "r", "roll", "pitch", "yaw", "u_roll", "u_pitch", "u_yaw",
             "u_thrust", "alt"]
     table = pd.DataFrame(rows, columns=cols).set_index("t")
-    table.attrs.update({"source": "benchmarks/ets_gen2.py", "rotor_radius_m": ROTOR_R,
-                        "seed": seed})
+    table.attrs.update({"source": "benchmarks/ets_gen2.py", "rotor_radius_m": frame.rotor_r,
+                        "seed": seed, "airframe": frame.name})
     return table
 
 
@@ -191,13 +233,17 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=180.0)
     ap.add_argument("--no-regime", action="store_true",
                     help="dwells between 1.2 and 2.6 m only (no ground effect)")
+    ap.add_argument("--airframe", choices=sorted(AIRFRAMES), default="quad10",
+                    help="quad10: the 10-inch quad of issue 24; hexa15: a Tarot-680-class "
+                         "hexacopter with 15-inch rotors")
     args = ap.parse_args()
     print("| seed | structure | rules peak / frozen (merges) | eTS free-run fit p / q / r |"
           " ARX | Δ p / q / r | eTS / ARX val 1-step p / q / r |")
     print("|---|---|---|---|---|---|---|")
     deltas = []
     for seed in (int(s) for s in args.seeds.split(",")):
-        table = fly(seed, args.duration, regimes=not args.no_regime)
+        table = fly(seed, args.duration, regimes=not args.no_regime,
+                    frame=AIRFRAMES[args.airframe])
         run = identify(table, IdentConfig())
         out = run.metrics["outputs"]
         ets = [out[y]["validation"]["free_run"]["fit"] for y in "pqr"]

@@ -14,6 +14,7 @@ Settings frozen before the first run: ``IdentConfig()`` at the commit that added
 script. The first result is recorded in docs/identify.md (issue 41 section).
 
     python benchmarks/regime_bands.py --generator gen2 --seeds 7,8,9
+    python benchmarks/regime_bands.py --generator gen2 --airframe hexa15 --seeds 31,32,33
     python benchmarks/regime_bands.py --generator etsid --seeds 111,112
 """
 
@@ -27,13 +28,13 @@ import numpy as np
 import pandas as pd
 
 
-def flight(generator: str, seed: int) -> pd.DataFrame:
-    """The regime flight of ``generator`` for ``seed``."""
+def flight(generator: str, seed: int, airframe: str = "quad10") -> pd.DataFrame:
+    """The regime flight of ``generator`` for ``seed`` (``airframe``: gen2's airframe)."""
     if generator == "gen2":
         sys.path.insert(0, str(Path(__file__).parent))
-        from ets_gen2 import fly
+        from ets_gen2 import AIRFRAMES, fly
 
-        return fly(seed, 180.0, regimes=True)
+        return fly(seed, 180.0, regimes=True, frame=AIRFRAMES[airframe])
     from etsid.sim import simulate
 
     return simulate("ige-oge", duration=150.0, seed=seed).table
@@ -60,12 +61,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--generator", choices=("etsid", "gen2"), default="gen2")
     ap.add_argument("--seeds", default="7,8,9")
+    ap.add_argument("--airframe", choices=("quad10", "hexa15"), default="quad10",
+                    help="gen2's airframe (benchmarks/ets_gen2.py)")
     args = ap.parse_args()
     print("| seed | structure, rules | band | val rows | eTS / ARX free-run fit % p | q | r |")
     print("|---|---|---|---|---|---|---|")
     whole, worst = [], {y: np.inf for y in "pqr"}
     for seed in (int(s) for s in args.seeds.split(",")):
-        run = identify(flight(args.generator, seed), IdentConfig())
+        run = identify(flight(args.generator, seed, args.airframe), IdentConfig())
         m = run.metrics
         label = f"{(m.get('structure') or {}).get('chosen')}, {m['rules']['frozen']}"
         for name, rows, fits in band_deltas(m["regimes"]):
