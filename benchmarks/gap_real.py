@@ -6,7 +6,7 @@ commands and at least a minute of flight); REAL is the same flight with one chan
 known size made to its FlightTable (:func:`inject`), plus the identical copy and the copy
 re-encoded through a Parquet table. Every change is run at sizes from below to well above
 what such a flight can show. How each injection is made, and why it is faithful, is in
-docs/gap.md ("Real recordings: injected changes").
+docs/gap_benchmarks.md ("Real recordings: injected changes").
 
 Run::
 
@@ -14,7 +14,7 @@ Run::
     python benchmarks/gap_real.py --logs hexa         # logs whose name contains "hexa"
     python benchmarks/gap_real.py --changes delay,gyro_bias --json out.json
 
-A case is scored as (docs/gap.md gives the rules):
+A case is scored as (docs/gap_benchmarks.md gives the rules):
 
 * ``identical`` / ``parquet``: right when ``consistent`` with every channel within its floor;
 * an in-vocabulary change: ``named`` when its effect is among the named ones;

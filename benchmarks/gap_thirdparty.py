@@ -12,7 +12,7 @@ Each seed gives 24 pairs per simulator: every effect of issue 22's vocabulary th
 can express, four no-effect pairs, thrust scale + time delay together, and three changes
 outside the vocabulary (gyro scale factor, tilted IMU, tilted rotor axes). The vehicle,
 controller, sensor model, log format and rate differ from etsid's own simulator and from
-each other (docs/gap.md, "Third-party benchmarks"). Labels live only in ``labels.json`` of
+each other (docs/gap_benchmarks.md). Labels live only in ``labels.json`` of
 the output directory, never in the logs or their names.
 
 Run::

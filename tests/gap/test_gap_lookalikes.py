@@ -43,7 +43,7 @@ def test_its_look_alike_a_thrust_scale_is_not_named_mass() -> None:
 
 def test_a_weak_motor_is_named_with_its_motor() -> None:
     """Named first, with its motor and thrust factor (a torque offset is still added as a
-    second effect for what the law leaves on roll: docs/gap.md, Limits)."""
+    second effect for what the law leaves on roll: docs/gap_tiers.md, Limits)."""
     data = _gap({"vehicle.weak_motor": [3, 0.8]})
     assert data["effects"][0]["name"] == "weak_motor", data["summary"]
     p = data["effects"][0]["parameters"]
