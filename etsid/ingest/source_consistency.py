@@ -1,0 +1,299 @@
+"""Judge a candidate signal against the other channels: physics that ties columns together
+(rule 5 of :mod:`etsid.ingest.mapping`, with :mod:`etsid.ingest.source_check`).
+
+A source can be complete and moving and still be wrong: a gyro topic in deg/s, a height
+that is a rangefinder's garbage while the vehicle climbs, a specific force in g or with z
+up. Three cheap checks, each on the reference span of :func:`~etsid.ingest.source_check.
+reference_span`, each against a *referee* that is another column's chosen signal (never
+the candidate's own column, so there is no circle):
+
+- **body rates** ``p q r`` against the body rates the attitude's derivative implies (ZYX
+  Euler kinematics, ``p = φ̇ − ψ̇ sin θ``, ``q = θ̇ cos φ + ψ̇ sin φ cos θ``,
+  ``r = −θ̇ sin φ + ψ̇ cos φ cos θ``); referee: the chosen ``roll pitch yaw``;
+- **height** ``alt`` (up) against the vertical velocity ``vz`` (NED, down):
+  ``d(alt)/dt = −vz``; referee: the chosen ``vz``;
+- **specific force** ``az`` (FRD) against gravity: averaged over the flight it is ``−g``
+  times the mean cosine of the tilt, so its mean lies in :data:`AZ_MEAN_RANGE`; ``ax``
+  and ``ay`` of the same message share its unit and frame and share its verdict.
+
+Rates and height are compared on :data:`BIN_S` bins: the candidate's mean in each bin
+against the referee's increment over the bin (an exact integral, whatever either's rate);
+the least-squares gain ``k`` of candidate on referee is 1 for a sound source. The candidate
+is *implausible* when ``k`` is outside :data:`GAIN_RANGE` by more than :data:`Z_SIGMA`
+standard errors, on at least :data:`MIN_BINS` bins where the referee moves at least its
+excitation floor. A body-rate candidate whose sibling (same topic, another of ``p q r``)
+is implausibly *scaled* (``|k|`` above the range: deg/s read as rad/s) is implausible too,
+even where its own axis is too still to tell.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from etsid.ingest.base import Signal
+
+STANDARD_GRAVITY = 9.80665
+"""m/s²."""
+
+BIN_S = 0.5
+"""s: bin length; long enough that the lag between an estimator and a sensor (tens of ms)
+and the noise of a 10 Hz attitude average out, short enough to follow a manoeuvre."""
+
+MIN_BINS = 20
+"""Least number of judged bins (10 s of flight): fewer say nothing about a unit."""
+
+GAIN_RANGE = (0.5, 2.0)
+"""Plausible gain of candidate on referee: filtering, lag and bias move a sound source's
+gain by tens of percent; a unit or sign error moves it by ×57.3 (deg), ×100 (cm), ×0.102
+(g) or ×−1 (frame), far outside a factor of two."""
+
+Z_SIGMA = 3.0
+"""Standard errors by which ``k`` must miss :data:`GAIN_RANGE` (a 0.3 % chance for a sound
+source with independent bin errors)."""
+
+MIN_RATE_RMS = 0.05
+"""rad/s: the referee body rate must move at least this much (RMS over the bins), the level
+below which identify calls an axis not informative; below it a gain is noise."""
+
+MIN_CLIMB_RMS = 0.2
+"""m/s: the referee −vz must move at least this much (RMS over the bins): well above an
+estimator's vertical-velocity noise (≈0.05 m/s), so its errors do not shrink ``k``."""
+
+OUTLIER_MADS = 5.0
+"""A bin whose residual is beyond this many robust standard deviations (1.4826 × MAD) of
+the first fit is dropped before the second: an aerobatic flip or a glitch the 10 Hz
+attitude cannot follow, not a unit (a unit error scales every bin alike)."""
+
+MAX_EULER_PITCH = 1.2
+"""rad: bins whose pitch exceeds this (≈70°) are skipped; near ±90° the Euler yaw and roll
+jump by π and their derivative says nothing about the body rates."""
+
+AZ_MEAN_RANGE = (-1.5 * STANDARD_GRAVITY, -0.5 * STANDARD_GRAVITY)
+"""m/s²: plausible mean ``az`` over the flight. Mean acceleration over a flight is zero, so
+the mean specific force is −g·cos(tilt) in FRD: −0.5 g needs a mean tilt of 60°, −1.5 g a
+sustained 1.5 g pull; a source in g (≈ −1) or with z up (≈ +9.8) is far outside."""
+
+MIN_AZ_SAMPLES = 10
+"""Least samples of ``az`` in the span for its mean to be judged."""
+
+RATE_COLUMNS = ("p", "q", "r")
+FORCE_COLUMNS = ("ax", "ay", "az")
+REFEREE_COLUMNS = ("roll", "pitch", "yaw", "vz")
+"""Columns whose chosen signal referees others; they are chosen before the columns they
+judge (:func:`etsid.ingest.mapping.choose_signals`)."""
+
+AXIS_WORDS = {"p": "roll rate", "q": "pitch rate", "r": "yaw rate"}
+
+
+def _edges(t0: float, t1: float) -> np.ndarray:
+    n = int((t1 - t0) // BIN_S)
+    return t0 + BIN_S * np.arange(n + 1)
+
+
+def bin_means(sig: Signal, edges: np.ndarray) -> np.ndarray:
+    """Mean of ``sig``'s finite samples in each bin ``[edges[i], edges[i+1])``; NaN in a bin
+    without samples."""
+    t = np.asarray(sig.t, dtype=float)
+    v = np.asarray(sig.values, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(v) & (t >= edges[0]) & (t < edges[-1])
+    idx = np.searchsorted(edges, t[ok], side="right") - 1
+    n = edges.size - 1
+    counts = np.bincount(idx, minlength=n)[:n]
+    sums = np.bincount(idx, weights=v[ok], minlength=n)[:n]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+
+
+def _samples(sig: Signal, unwrap: bool) -> tuple[np.ndarray, np.ndarray]:
+    t = np.asarray(sig.t, dtype=float)
+    v = np.asarray(sig.values, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(v)
+    t, v = t[ok], v[ok]
+    order = np.argsort(t, kind="stable")
+    t, v = t[order], v[order]
+    return t, (np.unwrap(v) if unwrap else v)
+
+
+def bin_increments(sig: Signal, edges: np.ndarray, unwrap: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """``(increment over each bin, value at each bin's middle)`` of ``sig`` interpolated
+    linearly (angles unwrapped when ``unwrap``); NaN in a bin without a sample of its own."""
+    t, v = _samples(sig, unwrap)
+    n = edges.size - 1
+    if t.size < 2:
+        return np.full(n, np.nan), np.full(n, np.nan)
+    at = np.interp(edges, t, v)
+    mid = np.interp(0.5 * (edges[:-1] + edges[1:]), t, v)
+    counts = np.bincount(np.searchsorted(edges, t[(t >= edges[0]) & (t < edges[-1])],
+                                         side="right") - 1, minlength=n)[:n]
+    inc = np.where(counts > 0, np.diff(at), np.nan)
+    return inc, np.where(counts > 0, mid, np.nan)
+
+
+def gain(candidate: np.ndarray, referee: np.ndarray, floor: float
+         ) -> tuple[float, float, int] | None:
+    """``(k, standard error, bins)`` of the least-squares fit ``candidate ≈ k·referee`` on
+    the bins where both are finite; None when fewer than :data:`MIN_BINS` or the referee's
+    RMS is below ``floor``."""
+    ok = np.isfinite(candidate) & np.isfinite(referee)
+    c, a = candidate[ok], referee[ok]
+    if c.size < MIN_BINS:
+        return None
+    saa = float(np.dot(a, a))
+    if saa <= 0.0 or np.sqrt(saa / a.size) < floor:
+        return None
+    k = float(np.dot(c, a) / saa)
+    resid = c - k * a
+    spread = OUTLIER_MADS * 1.4826 * float(np.median(np.abs(resid - np.median(resid))))
+    keep = np.abs(resid) <= spread if spread > 0 else np.ones(c.size, dtype=bool)
+    if MIN_BINS <= int(keep.sum()) < c.size:
+        c, a = c[keep], a[keep]
+        saa = float(np.dot(a, a))
+        k = float(np.dot(c, a) / saa)
+        resid = c - k * a
+    se = float(np.sqrt(np.dot(resid, resid) / (c.size - 1) / saa))
+    return k, se, int(c.size)
+
+
+def off_range(k: float, se: float) -> bool:
+    """True when ``k`` misses :data:`GAIN_RANGE` by more than :data:`Z_SIGMA` errors."""
+    lo, hi = GAIN_RANGE
+    return k + Z_SIGMA * se < lo or k - Z_SIGMA * se > hi
+
+
+class Referee:
+    """The other channels a candidate is judged against, binned once per column.
+
+    Parameters
+    ----------
+    chosen
+        Column → chosen signal so far (at least the :data:`REFEREE_COLUMNS` present).
+    candidates
+        Column → every candidate (for the siblings of a body rate or a specific force).
+    span
+        ``(t0, t1, what)`` of :func:`etsid.ingest.source_check.reference_span`.
+    """
+
+    def __init__(self, chosen: dict[str, Signal], candidates: dict[str, list[Signal]],
+                 span: tuple[float, float, str]) -> None:
+        self.chosen = chosen
+        self.candidates = candidates
+        self.t0, self.t1, self.what = span
+        self._edges = _edges(self.t0, self.t1) if self.t1 - self.t0 >= BIN_S else None
+        self._rates: dict[str, np.ndarray] | None = None
+        self._climb: np.ndarray | None = None
+        self._own: dict[int, tuple[str, float] | None] = {}
+
+    def judge(self, column: str, sig: Signal) -> str | None:
+        """Why ``sig`` is implausible for ``column`` against the other channels, or None
+        (also when there is no referee or too little motion to tell)."""
+        if column in RATE_COLUMNS:
+            return self._judge_rate(column, sig)
+        if column == "alt":
+            return self._judge_alt(sig)
+        if column in FORCE_COLUMNS:
+            return self._judge_force(column, sig)
+        return None
+
+    # body rates -----------------------------------------------------------------------
+    def _attitude_rates(self) -> dict[str, np.ndarray]:
+        if self._rates is not None:
+            return self._rates
+        self._rates = {}
+        angles = [self.chosen.get(c) for c in ("roll", "pitch", "yaw")]
+        if self._edges is None or any(a is None for a in angles):
+            return self._rates
+        (d_phi, phi), (d_theta, theta), (d_psi, _) = (
+            bin_increments(a, self._edges, unwrap=c != "pitch")  # type: ignore[arg-type]
+            for a, c in zip(angles, ("roll", "pitch", "yaw"), strict=True))
+        t, v = _samples(angles[1], unwrap=False)  # type: ignore[arg-type]
+        tilt = np.abs(np.interp(self._edges, t, v)) if t.size else np.zeros(self._edges.size)
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.maximum(np.abs(theta), np.maximum(tilt[:-1], tilt[1:]))
+                    <= MAX_EULER_PITCH)
+        rd, pd, yd = (x / BIN_S for x in (d_phi, d_theta, d_psi))
+        out = {"p": rd - yd * np.sin(theta),
+               "q": pd * np.cos(phi) + yd * np.sin(phi) * np.cos(theta),
+               "r": -pd * np.sin(phi) + yd * np.cos(phi) * np.cos(theta)}
+        self._rates = {c: np.where(bad, np.nan, v) for c, v in out.items()}
+        return self._rates
+
+    def _rate_gain(self, column: str, sig: Signal) -> tuple[str, float] | None:
+        """``(kind, k)`` of an implausible body-rate candidate on its own axis (kind
+        ``scale`` when ``|k|`` is above the range, else ``gain``), or None."""
+        key = id(sig)
+        if key not in self._own:
+            self._own[key] = None
+            ref = self._attitude_rates().get(column)
+            if ref is not None and self._edges is not None:
+                fit = gain(bin_means(sig, self._edges), ref, MIN_RATE_RMS)
+                if fit is not None and off_range(fit[0], fit[1]):
+                    kind = "scale" if abs(fit[0]) > GAIN_RANGE[1] else "gain"
+                    self._own[key] = (kind, fit[0])
+        return self._own[key]
+
+    def _judge_rate(self, column: str, sig: Signal) -> str | None:
+        own = self._rate_gain(column, sig)
+        lo, hi = GAIN_RANGE
+        if own is not None:
+            return (f"is {own[1]:.3g} × the {AXIS_WORDS[column]} the attitude's derivative "
+                    f"implies over {self.what} (plausible {lo:g}…{hi:g}: a unit, axis or "
+                    "sign error)")
+        for other in RATE_COLUMNS:
+            if other == column:
+                continue
+            for sib in self.candidates.get(other, []):
+                if sib.topic != sig.topic:
+                    continue
+                got = self._rate_gain(other, sib)
+                if got is not None and got[0] == "scale":
+                    return (f"shares its topic with {sib.source}, which is {got[1]:.3g} × "
+                            f"the {AXIS_WORDS[other]} the attitude's derivative implies "
+                            "(a unit error)")
+        return None
+
+    # height ---------------------------------------------------------------------------
+    def _judge_alt(self, sig: Signal) -> str | None:
+        vz = self.chosen.get("vz")
+        if vz is None or self._edges is None:
+            return None
+        if self._climb is None:
+            self._climb = -bin_means(vz, self._edges)
+        rise, _ = bin_increments(sig, self._edges)
+        fit = gain(rise / BIN_S, self._climb, MIN_CLIMB_RMS)
+        if fit is None or not off_range(fit[0], fit[1]):
+            return None
+        lo, hi = GAIN_RANGE
+        return (f"climbs at {fit[0]:.3g} × −{vz.source} over {self.what} (plausible "
+                f"{lo:g}…{hi:g}: it does not follow the vertical velocity)")
+
+    # specific force -------------------------------------------------------------------
+    def _az_mean(self, sig: Signal) -> float | None:
+        inside = (sig.t >= self.t0) & (sig.t <= self.t1)
+        v = np.asarray(sig.values, dtype=float)[inside]
+        v = v[np.isfinite(v)]
+        return float(np.mean(v)) if v.size >= MIN_AZ_SAMPLES else None
+
+    def _judge_force(self, column: str, sig: Signal) -> str | None:
+        if column == "az":
+            az = sig
+        else:
+            az = next((s for s in self.candidates.get("az", []) if s.topic == sig.topic),
+                      None)
+            if az is None:
+                return None
+        mean = self._az_mean(az)
+        lo, hi = AZ_MEAN_RANGE
+        if mean is None or lo <= mean <= hi:
+            return None
+        if az is not sig:
+            return (f"shares its message (unit and frame) with {az.source}, whose mean is "
+                    f"{mean:+.3g} m/s²")
+        return (f"averages {mean:+.3g} m/s² over {self.what} (FRD: −g·cos tilt, plausible "
+                f"{lo:.3g}…{hi:.3g}; a unit or sign error)")
+
+
+Judge = Callable[[str, Signal], str | None]
+"""``judge(column, candidate)`` → why the candidate is implausible, or None."""
