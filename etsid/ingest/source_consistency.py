@@ -29,6 +29,7 @@ even where its own axis is too still to tell.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
@@ -52,6 +53,11 @@ gain by tens of percent; a unit or sign error moves it by ×57.3 (deg), ×100 (c
 Z_SIGMA = 3.0
 """Standard errors by which ``k`` must miss :data:`GAIN_RANGE` (a 0.3 % chance for a sound
 source with independent bin errors)."""
+
+MIN_CORRELATION = 0.3
+"""Least correlation of a sound candidate with its referee (without centring): below it
+the referee explains under 9 % of the candidate's motion — noise or another quantity, not
+the same one filtered (filtering, lag and sparse sampling leave r well above 0.5)."""
 
 MIN_RATE_RMS = 0.05
 """rad/s: the referee body rate must move at least this much (RMS over the bins), the level
@@ -132,11 +138,23 @@ def bin_increments(sig: Signal, edges: np.ndarray, unwrap: bool = False
     return inc, np.where(counts > 0, mid, np.nan)
 
 
-def gain(candidate: np.ndarray, referee: np.ndarray, floor: float
-         ) -> tuple[float, float, int] | None:
-    """``(k, standard error, bins)`` of the least-squares fit ``candidate ≈ k·referee`` on
-    the bins where both are finite; None when fewer than :data:`MIN_BINS` or the referee's
-    RMS is below ``floor``."""
+class Fit(NamedTuple):
+    """Least-squares fit ``candidate ≈ k·referee`` over the judged bins."""
+
+    k: float
+    """Gain (1 for a sound source)."""
+    se: float
+    """Standard error of ``k``."""
+    r: float
+    """Correlation without centring (the model has no offset): the share of the
+    candidate's motion the referee explains is ``r²``."""
+    bins: int
+
+
+def gain(candidate: np.ndarray, referee: np.ndarray, floor: float) -> Fit | None:
+    """The :class:`Fit` on the bins where both are finite, after dropping the bins beyond
+    :data:`OUTLIER_MADS` of the first fit; None when fewer than :data:`MIN_BINS` or the
+    referee's RMS is below ``floor``."""
     ok = np.isfinite(candidate) & np.isfinite(referee)
     c, a = candidate[ok], referee[ok]
     if c.size < MIN_BINS:
@@ -154,13 +172,35 @@ def gain(candidate: np.ndarray, referee: np.ndarray, floor: float
         k = float(np.dot(c, a) / saa)
         resid = c - k * a
     se = float(np.sqrt(np.dot(resid, resid) / (c.size - 1) / saa))
-    return k, se, int(c.size)
+    scc = float(np.dot(c, c))
+    r = float(np.dot(c, a) / np.sqrt(scc * saa)) if scc > 0 else 0.0
+    return Fit(k, se, r, int(c.size))
 
 
-def off_range(k: float, se: float) -> bool:
-    """True when ``k`` misses :data:`GAIN_RANGE` by more than :data:`Z_SIGMA` errors."""
+def misfit(fit: Fit | None) -> str | None:
+    """``"scale"`` when ``k`` is significantly above :data:`GAIN_RANGE`, ``"gain"`` when
+    below it (a sign or axis error, or a signal that does not follow), ``"follow"`` when
+    ``r`` is below :data:`MIN_CORRELATION`; None for a sound (or unjudged) candidate."""
+    if fit is None:
+        return None
     lo, hi = GAIN_RANGE
-    return k + Z_SIGMA * se < lo or k - Z_SIGMA * se > hi
+    if fit.k - Z_SIGMA * fit.se > hi:
+        return "scale"
+    if fit.k + Z_SIGMA * fit.se < lo:
+        return "gain"
+    if fit.r < MIN_CORRELATION:
+        return "follow"
+    return None
+
+
+def describe(fit: Fit, kind: str, referee: str) -> str:
+    """The note's words for a misfit of ``kind``: ``referee`` names what it was held to."""
+    lo, hi = GAIN_RANGE
+    if kind == "follow":
+        return (f"follows {referee} with r = {fit.r:.2f} (a sound source: r ≥ "
+                f"{MIN_CORRELATION:g}; it does not follow it)")
+    return (f"is {fit.k:.3g} × {referee} (plausible {lo:g}…{hi:g}: a unit, axis or sign "
+            "error)")
 
 
 class Referee:
@@ -184,7 +224,7 @@ class Referee:
         self._edges = _edges(self.t0, self.t1) if self.t1 - self.t0 >= BIN_S else None
         self._rates: dict[str, np.ndarray] | None = None
         self._climb: np.ndarray | None = None
-        self._own: dict[int, tuple[str, float] | None] = {}
+        self._own: dict[int, tuple[Fit, str] | None] = {}
 
     def judge(self, column: str, sig: Signal) -> str | None:
         """Why ``sig`` is implausible for ``column`` against the other channels, or None
@@ -220,38 +260,36 @@ class Referee:
         self._rates = {c: np.where(bad, np.nan, v) for c, v in out.items()}
         return self._rates
 
-    def _rate_gain(self, column: str, sig: Signal) -> tuple[str, float] | None:
-        """``(kind, k)`` of an implausible body-rate candidate on its own axis (kind
-        ``scale`` when ``|k|`` is above the range, else ``gain``), or None."""
+    def _rate_fit(self, column: str, sig: Signal) -> tuple[Fit, str] | None:
+        """``(fit, kind)`` of an implausible body-rate candidate on its own axis, or
+        None."""
         key = id(sig)
         if key not in self._own:
             self._own[key] = None
             ref = self._attitude_rates().get(column)
             if ref is not None and self._edges is not None:
                 fit = gain(bin_means(sig, self._edges), ref, MIN_RATE_RMS)
-                if fit is not None and off_range(fit[0], fit[1]):
-                    kind = "scale" if abs(fit[0]) > GAIN_RANGE[1] else "gain"
-                    self._own[key] = (kind, fit[0])
+                kind = misfit(fit)
+                if fit is not None and kind is not None:
+                    self._own[key] = (fit, kind)
         return self._own[key]
 
     def _judge_rate(self, column: str, sig: Signal) -> str | None:
-        own = self._rate_gain(column, sig)
-        lo, hi = GAIN_RANGE
+        own = self._rate_fit(column, sig)
         if own is not None:
-            return (f"is {own[1]:.3g} × the {AXIS_WORDS[column]} the attitude's derivative "
-                    f"implies over {self.what} (plausible {lo:g}…{hi:g}: a unit, axis or "
-                    "sign error)")
+            return describe(own[0], own[1], f"the {AXIS_WORDS[column]} the attitude's "
+                            f"derivative implies over {self.what}")
         for other in RATE_COLUMNS:
             if other == column:
                 continue
             for sib in self.candidates.get(other, []):
                 if sib.topic != sig.topic:
                     continue
-                got = self._rate_gain(other, sib)
-                if got is not None and got[0] == "scale":
-                    return (f"shares its topic with {sib.source}, which is {got[1]:.3g} × "
-                            f"the {AXIS_WORDS[other]} the attitude's derivative implies "
-                            "(a unit error)")
+                got = self._rate_fit(other, sib)
+                if got is not None and got[1] == "scale":
+                    return (f"shares its message (unit) with {sib.source}, which is "
+                            f"{got[0].k:.3g} × the {AXIS_WORDS[other]} the attitude's "
+                            "derivative implies")
         return None
 
     # height ---------------------------------------------------------------------------
@@ -263,11 +301,10 @@ class Referee:
             self._climb = -bin_means(vz, self._edges)
         rise, _ = bin_increments(sig, self._edges)
         fit = gain(rise / BIN_S, self._climb, MIN_CLIMB_RMS)
-        if fit is None or not off_range(fit[0], fit[1]):
+        kind = misfit(fit)
+        if fit is None or kind is None:
             return None
-        lo, hi = GAIN_RANGE
-        return (f"climbs at {fit[0]:.3g} × −{vz.source} over {self.what} (plausible "
-                f"{lo:g}…{hi:g}: it does not follow the vertical velocity)")
+        return "has a climb rate that " + describe(fit, kind, f"−{vz.source} over {self.what}")
 
     # specific force -------------------------------------------------------------------
     def _az_mean(self, sig: Signal) -> float | None:
