@@ -199,8 +199,9 @@ def describe(fit: Fit, kind: str, referee: str) -> str:
     if kind == "follow":
         return (f"follows {referee} with r = {fit.r:.2f} (a sound source: r ≥ "
                 f"{MIN_CORRELATION:g}; it does not follow it)")
-    return (f"is {fit.k:.3g} × {referee} (plausible {lo:g}…{hi:g}: a unit, axis or sign "
-            "error)")
+    why = ("a unit error" if kind == "scale" else "a sign or axis error" if fit.k < 0
+           else "a unit error, or it does not follow it")
+    return f"is {fit.k:.3g} × {referee} (plausible {lo:g}…{hi:g}: {why})"
 
 
 class Referee:
