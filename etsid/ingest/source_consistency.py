@@ -34,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from etsid.ingest.base import Signal
+from etsid.ingest.plausibility import implausible_mask
 
 STANDARD_GRAVITY = 9.80665
 """m/s²."""
@@ -93,7 +94,16 @@ judge (:func:`etsid.ingest.mapping.choose_signals`)."""
 AXIS_WORDS = {"p": "roll rate", "q": "pitch rate", "r": "yaw rate"}
 
 
-def _edges(t0: float, t1: float) -> np.ndarray:
+MAX_BINS = 100_000
+"""Most bins judged (14 h at :data:`BIN_S`, beyond any battery flight): a longer span is a
+damaged clock, and nothing is judged on it."""
+
+
+def _edges(t0: float, t1: float) -> np.ndarray | None:
+    """Bin edges over ``[t0, t1]``; None when the span is too short, too long or not
+    finite."""
+    if not (np.isfinite(t0) and np.isfinite(t1)) or not BIN_S <= t1 - t0 <= MAX_BINS * BIN_S:
+        return None
     n = int((t1 - t0) // BIN_S)
     return t0 + BIN_S * np.arange(n + 1)
 
@@ -105,12 +115,20 @@ def _bin_index(t: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return np.minimum(idx, edges.size - 2)
 
 
-def bin_means(sig: Signal, edges: np.ndarray) -> np.ndarray:
-    """Mean of ``sig``'s finite samples in each bin ``[edges[i], edges[i+1])``; NaN in a bin
-    without samples."""
+def _usable(sig: Signal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, values, ok)``: ok where both are finite and the value is within the limits of
+    :mod:`etsid.ingest.plausibility` (damaged samples ingest drops later must not judge a
+    source)."""
     t = np.asarray(sig.t, dtype=float)
     v = np.asarray(sig.values, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(v) & (t >= edges[0]) & (t < edges[-1])
+    return t, v, np.isfinite(t) & np.isfinite(v) & ~implausible_mask(sig.column, v)
+
+
+def bin_means(sig: Signal, edges: np.ndarray) -> np.ndarray:
+    """Mean of ``sig``'s usable samples in each bin ``[edges[i], edges[i+1])``; NaN in a bin
+    without samples."""
+    t, v, ok = _usable(sig)
+    ok &= (t >= edges[0]) & (t < edges[-1])
     idx = _bin_index(t[ok], edges)
     n = edges.size - 1
     counts = np.bincount(idx, minlength=n)[:n]
@@ -120,9 +138,7 @@ def bin_means(sig: Signal, edges: np.ndarray) -> np.ndarray:
 
 
 def _samples(sig: Signal, unwrap: bool) -> tuple[np.ndarray, np.ndarray]:
-    t = np.asarray(sig.t, dtype=float)
-    v = np.asarray(sig.values, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(v)
+    t, v, ok = _usable(sig)
     t, v = t[ok], v[ok]
     if t.size > 1 and np.any(t[1:] < t[:-1]):
         order = np.argsort(t, kind="stable")
@@ -230,7 +246,7 @@ class Referee:
         self.chosen = chosen
         self.candidates = candidates
         self.t0, self.t1, self.what = span
-        self._edges = _edges(self.t0, self.t1) if self.t1 - self.t0 >= BIN_S else None
+        self._edges = _edges(self.t0, self.t1)
         self._rates: dict[str, np.ndarray] | None = None
         self._climb: np.ndarray | None = None
         self._own: dict[int, tuple[Fit, str] | None] = {}
@@ -317,9 +333,8 @@ class Referee:
 
     # specific force -------------------------------------------------------------------
     def _az_mean(self, sig: Signal) -> float | None:
-        inside = (sig.t >= self.t0) & (sig.t <= self.t1)
-        v = np.asarray(sig.values, dtype=float)[inside]
-        v = v[np.isfinite(v)]
+        t, v, ok = _usable(sig)
+        v = v[ok & (t >= self.t0) & (t <= self.t1)]
         return float(np.mean(v)) if v.size >= MIN_AZ_SAMPLES else None
 
     def _judge_force(self, column: str, sig: Signal) -> str | None:

@@ -318,3 +318,24 @@ def test_no_referee_no_verdict() -> None:
     referee = Referee({}, {"p": [p]}, (0.0, 60.0, "the log"))
     assert referee.judge("p", p) is None
     assert referee.judge("alt", _sig("alt", t, np.sin(t), "rng")) is None
+
+
+def test_damaged_samples_and_clocks_judge_nothing() -> None:
+    """Samples ingest drops as implausible later (a gyro reading 1e30) do not condemn a
+    sound source, and a damaged timestamp (a span of 30 years) is not binned at all."""
+    t = np.arange(0.0, 60.0, 0.01)
+    roll = 0.3 * np.sin(1.3 * t)
+    zero = np.zeros_like(t)
+    att = {c: _sig(c, t, v, "att.q") for c, v in (("roll", roll), ("pitch", zero),
+                                                  ("yaw", zero))}
+    p = 0.39 * np.cos(1.3 * t)
+    damaged = p.copy()
+    damaged[::500] = 1e30
+    sound = _sig("p", t, damaged, "rates.xyz[0]")
+    assert Referee(att, {"p": [sound]}, (0.0, 60.0, "the log")).judge("p", sound) is None
+    deg = _sig("p", t, p / DEG, "rates.xyz[0]")
+    assert "57.3 ×" in Referee(att, {"p": [deg]}, (0.0, 60.0, "the log")).judge("p", deg)
+    stray = _sig("p", np.append(t, 1e9), np.append(p / DEG, 0.0), "rates.xyz[0]")
+    assert Referee(att, {"p": [stray]}, (0.0, 1e9, "the log")).judge("p", stray) is None
+    g = _sig("az", t, np.where(np.arange(t.size) % 100, -G, 1e30), "imu.z")
+    assert Referee(att, {"az": [g]}, (0.0, 60.0, "the log")).judge("az", g) is None
