@@ -3,9 +3,9 @@
 
 A source can be complete and moving and still be wrong: a gyro topic in deg/s, a height
 that is a rangefinder's garbage while the vehicle climbs, a specific force in g or with z
-up. Three cheap checks, each on the reference span of :func:`~etsid.ingest.source_check.
-reference_span`, each against a *referee* that is another column's chosen signal (never
-the candidate's own column, so there is no circle):
+up. Three cheap checks, each on the reference span (``source_check.reference_span``: the
+airborne part when the log says), each against a *referee* that is another column's
+chosen signal (never the candidate's own column, so there is no circle):
 
 - **body rates** ``p q r`` against the body rates the attitude's derivative implies (ZYX
   Euler kinematics, ``p = φ̇ − ψ̇ sin θ``, ``q = θ̇ cos φ + ψ̇ sin φ cos θ``,
@@ -16,14 +16,19 @@ the candidate's own column, so there is no circle):
   times the mean cosine of the tilt, so its mean lies in :data:`AZ_MEAN_RANGE`; ``ax``
   and ``ay`` of the same message share its unit and frame and share its verdict.
 
-Rates and height are compared on :data:`BIN_S` bins: the candidate's mean in each bin
-against the referee's increment over the bin (an exact integral, whatever either's rate);
+Rates and height are compared on :data:`BIN_S` bins: a rate's mean in each bin against
+the increment of the quantity it is the derivative of over the bin (the gyro's mean
+against the attitude's increment; the height's increment against the mean of ``−vz``),
+an exact integral whatever either's sample rate;
 the least-squares gain ``k`` of candidate on referee is 1 for a sound source. The candidate
 is *implausible* when ``k`` is outside :data:`GAIN_RANGE` by more than :data:`Z_SIGMA`
-standard errors, on at least :data:`MIN_BINS` bins where the referee moves at least its
-excitation floor. A body-rate candidate whose sibling (same topic, another of ``p q r``)
-is implausibly *scaled* (``|k|`` above the range: deg/s read as rad/s) is implausible too,
-even where its own axis is too still to tell.
+standard errors, or its correlation with the referee is below :data:`MIN_CORRELATION`, on
+at least :data:`MIN_BINS` bins where the referee moves at least its excitation floor.
+Without a referee, or with one too still, nothing is judged. A body-rate candidate whose
+sibling (same topic, another of ``p q r``) is implausibly *scaled* (``k`` above the range:
+deg/s read as rad/s) is implausible too, even where its own axis is too still to tell.
+Samples beyond the limits of :mod:`etsid.ingest.plausibility` (damage ingest drops later)
+take no part.
 """
 
 from __future__ import annotations

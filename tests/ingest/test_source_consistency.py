@@ -150,6 +150,9 @@ def test_a_gyro_in_deg_per_s_gives_way(tmp_path: Path) -> None:
     result = CliRunner().invoke(cli, ["inspect", str(path)])
     assert result.exit_code == 0, result.output
     assert "r: used sensor_combined.gyro_rad[2] by content" in result.output
+    result = CliRunner().invoke(cli, ["ingest", str(path), "-o", str(tmp_path / "t.parquet")])
+    assert result.exit_code == 0, result.output
+    assert "note: q: used sensor_combined.gyro_rad[1] by content" in result.output
 
 
 def test_a_gyro_axis_of_the_wrong_sign_gives_way(tmp_path: Path) -> None:
