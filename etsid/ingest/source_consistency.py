@@ -99,6 +99,11 @@ judge (:func:`etsid.ingest.mapping.choose_signals`)."""
 AXIS_WORDS = {"p": "roll rate", "q": "pitch rate", "r": "yaw rate"}
 
 
+SAMPLE_HZ = 50.0
+"""Hz: a quantity whose increments are taken (attitude, height) is thinned to about this
+rate first: 25 samples per bin place its edges well, and an angle still moves less than π
+between two of them below 78 rad/s (unwrapping holds)."""
+
 MAX_BINS = 100_000
 """Most bins judged (14 h at :data:`BIN_S`, beyond any battery flight): a longer span is a
 damaged clock, and nothing is judged on it."""
@@ -143,12 +148,18 @@ def bin_means(sig: Signal, edges: np.ndarray) -> np.ndarray:
 
 
 def _samples(sig: Signal, unwrap: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Usable samples of ``sig`` in time order, thinned to about :data:`SAMPLE_HZ`
+    (angles unwrapped when ``unwrap``)."""
     t, v, ok = _usable(sig)
-    t, v = t[ok], v[ok]
+    step = max(1, int(sig.rate_hz // SAMPLE_HZ))
+    t, v = t[::step][ok[::step]], v[::step][ok[::step]]
     if t.size > 1 and np.any(t[1:] < t[:-1]):
         order = np.argsort(t, kind="stable")
         t, v = t[order], v[order]
-    return t, (np.unwrap(v) if unwrap else v)
+    if unwrap and v.size > 1:
+        turns = np.round(np.diff(v) * (0.5 / np.pi))
+        v = v - 2.0 * np.pi * np.concatenate(([0.0], np.cumsum(turns)))
+    return t, v
 
 
 def bin_increments(sig: Signal, edges: np.ndarray, unwrap: bool = False
