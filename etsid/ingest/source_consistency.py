@@ -39,10 +39,7 @@ from typing import NamedTuple
 import numpy as np
 
 from etsid.ingest.base import Signal
-from etsid.ingest.plausibility import implausible_mask
-
-STANDARD_GRAVITY = 9.80665
-"""m/s²."""
+from etsid.ingest.plausibility import STANDARD_GRAVITY, implausible_mask
 
 BIN_S = 0.5
 """s: bin length; long enough that the lag between an estimator and a sensor (tens of ms)
@@ -53,12 +50,12 @@ MIN_BINS = 20
 
 GAIN_RANGE = (0.5, 2.0)
 """Plausible gain of candidate on referee: filtering, lag and bias move a sound source's
-gain by tens of percent; a unit or sign error moves it by ×57.3 (deg), ×100 (cm), ×0.102
-(g) or ×−1 (frame), far outside a factor of two."""
+gain by tens of percent; a unit or sign error moves it by ×57.3 (deg/s read as rad/s),
+×0.0175 (the reverse), ×100 (cm) or ×−1 (frame), far outside a factor of two."""
 
 Z_SIGMA = 3.0
-"""Standard errors by which ``k`` must miss :data:`GAIN_RANGE` (a 0.3 % chance for a sound
-source with independent bin errors)."""
+"""Standard errors by which ``k`` must miss :data:`GAIN_RANGE` (a 0.1 % chance, one-sided,
+for a sound source with independent bin errors)."""
 
 MIN_CORRELATION = 0.3
 """Least correlation of a sound candidate with its referee (without centring): below it
@@ -82,6 +79,16 @@ MAX_EULER_PITCH = 1.2
 """rad: bins whose pitch exceeds this (≈70°) are skipped; near ±90° the Euler yaw and roll
 jump by π and their derivative says nothing about the body rates."""
 
+SAMPLE_HZ = 50.0
+"""Hz: a quantity whose increments are taken (attitude, height) and that is sampled faster
+is thinned to between this and twice this rate first: 25 samples per bin place its edges
+well, and an angle moves less than π between two of them below 157 rad/s, far beyond the
+35 rad/s of a gyro's range (unwrapping holds)."""
+
+MAX_BINS = 100_000
+"""Most bins judged (14 h at :data:`BIN_S`, beyond any battery flight): a longer span is a
+damaged clock, and nothing is judged on it."""
+
 AZ_MEAN_RANGE = (-1.5 * STANDARD_GRAVITY, -0.5 * STANDARD_GRAVITY)
 """m/s²: plausible mean ``az`` over the flight. Mean acceleration over a flight is zero, so
 the mean specific force is −g·cos(tilt) in FRD: −0.5 g needs a mean tilt of 60°, −1.5 g a
@@ -97,16 +104,6 @@ REFEREE_COLUMNS = ("roll", "pitch", "yaw", "vz")
 judge (:func:`etsid.ingest.mapping.choose_signals`)."""
 
 AXIS_WORDS = {"p": "roll rate", "q": "pitch rate", "r": "yaw rate"}
-
-
-SAMPLE_HZ = 50.0
-"""Hz: a quantity whose increments are taken (attitude, height) is thinned to about this
-rate first: 25 samples per bin place its edges well, and an angle still moves less than π
-between two of them below 78 rad/s (unwrapping holds)."""
-
-MAX_BINS = 100_000
-"""Most bins judged (14 h at :data:`BIN_S`, beyond any battery flight): a longer span is a
-damaged clock, and nothing is judged on it."""
 
 
 def _edges(t0: float, t1: float) -> np.ndarray | None:
