@@ -13,8 +13,9 @@ Rule when several signals can fill one column (documented in docs/ingest.md):
    for the rate loop, e.g. DataFlash ``RATE`` at 10 Hz) and another candidate is at least
    twice as fast (``IMU.GyrX`` at 49 Hz), the fastest candidate wins (:func:`prefer_rate`);
 5. content beats name for the measured columns: a candidate empty over most of the
-   flight or stuck at one value gives way to a sound one
-   (:mod:`etsid.ingest.source_check`), and the note says which and why.
+   flight, stuck at one value (:mod:`etsid.ingest.source_check`) or implausible against
+   the other channels (:mod:`etsid.ingest.source_consistency`) gives way to a sound one,
+   and the note says which and why.
 
 A caller that has already chosen the signal of some columns by its own rule (identify's
 input family, :mod:`etsid.ident.inputs`) passes them as ``preset``; they are used as given
@@ -30,6 +31,7 @@ from etsid.errors import IngestError
 from etsid.files import read_toml
 from etsid.ingest.base import DEFAULT_RC_MAP, Override, Signal, split_source
 from etsid.ingest.source_check import order_by_content, reference_span
+from etsid.ingest.source_consistency import REFEREE_COLUMNS, Referee
 from etsid.table import COLUMNS
 
 
@@ -142,11 +144,15 @@ def choose_signals(
     for sig in signals:
         if sig.t.size:
             by_column.setdefault(sig.column, []).append(sig)
-    notes: list[str] = []
+    notes_of: dict[str, str] = {}
     chosen: dict[str, Signal] = {}
     wanted = {o.column: o for o in overrides}
     preset = preset or {}
-    for column, cands in by_column.items():
+    referee = Referee(chosen, by_column, span)
+    # the referees (attitude, vertical velocity) first: the columns they judge read them
+    order = sorted(by_column, key=lambda c: c not in REFEREE_COLUMNS)
+    for column in order:
+        cands = by_column[column]
         override = wanted.get(column)
         if override is None and column in preset:
             chosen[column] = preset[column]
@@ -166,13 +172,14 @@ def choose_signals(
         cands = sorted(cands, key=signal_rank)
         why = None
         if override is None:
-            cands, why = order_by_content(column, prefer_rate(column, cands), span)
+            cands, why = order_by_content(column, prefer_rate(column, cands), span,
+                                          referee.judge)
         chosen[column] = cands[0]
         if why is not None:
-            notes.append(why)
+            notes_of[column] = why
         elif len({s.source for s in cands}) > 1 and override is None:
             others = ", ".join(s.source for s in cands[1:])
-            notes.append(f"{column}: used {cands[0].source} (also found {others})")
+            notes_of[column] = f"{column}: used {cands[0].source} (also found {others})"
     for column, override in wanted.items():
         if column not in chosen:
             topics = sorted({s.topic for s in signals})
@@ -180,7 +187,9 @@ def choose_signals(
                 f"{path}: --map {override.text}: topic or field not found; topics with "
                 f"usable data: {', '.join(topics) or 'none'}"
             )
-    return chosen, notes
+    # columns and notes in the reader's order, whatever order they were judged in
+    return ({c: chosen[c] for c in by_column if c in chosen},
+            [notes_of[c] for c in by_column if c in notes_of])
 
 
 def check_columns(column: str) -> None:

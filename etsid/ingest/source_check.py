@@ -15,10 +15,14 @@ the span of the body-rate source, else the whole log),
 - it is constant there: one value in at least :data:`STUCK_SHARE` of its samples (a sensor
   at a limit, an unset field).
 
-A flawed candidate gives way to the best-ranked sound one; when every candidate is flawed
-the order stays and the note says so. Inputs and setpoints are not judged here (a still
-stick is a fact of the flight; identify chooses its inputs by excitation,
-:mod:`etsid.ident.inputs`); motor outputs neither (unused outputs are marked elsewhere).
+A candidate is also faulty when it is implausible against the other channels (a gyro in
+deg/s against the attitude's derivative, a height that does not follow the vertical
+velocity, a specific force in g: :mod:`etsid.ingest.source_consistency`). A faulty
+candidate gives way to the best-ranked sound one; when every candidate is faulty the order
+stays and the note says so; a lone implausible candidate stays, with a warning note.
+Inputs and setpoints are not judged here (a still stick is a fact of the flight; identify
+chooses its inputs by excitation, :mod:`etsid.ident.inputs`); motor outputs neither
+(unused outputs are marked elsewhere).
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from etsid.ingest.base import Signal
+from etsid.ingest.source_consistency import Judge
 
 CHECKED_COLUMNS = ("p", "q", "r", "roll", "pitch", "yaw", "ax", "ay", "az", "alt",
                    "vx", "vy", "vz", "vbat")
@@ -113,25 +118,42 @@ def flaw(sig: Signal, t0: float, t1: float, what: str) -> str | None:
     return None
 
 
-def order_by_content(column: str, cands: list[Signal], span: tuple[float, float, str]
-                     ) -> tuple[list[Signal], str | None]:
-    """``cands`` (best-ranked first) with flawed candidates after the first sound one, and a
-    note naming each flawed candidate that was passed over and why (None when the first
-    candidate is sound or the column is not judged)."""
-    if column not in CHECKED_COLUMNS or len(cands) < 2:
+def order_by_content(column: str, cands: list[Signal], span: tuple[float, float, str],
+                     judge: Judge | None = None) -> tuple[list[Signal], str | None]:
+    """``cands`` (best-ranked first) with faulty candidates after the first sound one, and a
+    note naming each faulty candidate that was passed over and why (None when the first
+    candidate is sound or the column is not judged).
+
+    A candidate is faulty when :func:`flaw` finds a flaw or ``judge(column, candidate)``
+    (:meth:`etsid.ingest.source_consistency.Referee.judge`) finds it implausible against the
+    other channels. A lone candidate is never dropped; when it is implausible the note
+    warns that it was used anyway."""
+    if column not in CHECKED_COLUMNS or not cands:
         return cands, None
     t0, t1, what = span
-    first_flaw = flaw(cands[0], t0, t1, what)
-    if first_flaw is None:
+
+    def fault(sig: Signal) -> str | None:
+        found = flaw(sig, t0, t1, what)
+        if found is None and judge is not None:
+            found = judge(column, sig)
+        return found
+
+    if len(cands) < 2:
+        why = judge(column, cands[0]) if judge is not None else None
+        return cands, (None if why is None else
+                       f"{column}: {cands[0].source} {why}, and it is the only candidate; "
+                       "used it anyway")
+    first_fault = fault(cands[0])
+    if first_fault is None:
         return cands, None
-    flaws = {id(s): flaw(s, t0, t1, what) for s in cands[1:]}
-    flaws[id(cands[0])] = first_flaw
-    sound = next((s for s in cands if flaws[id(s)] is None), None)
+    faults = {id(s): fault(s) for s in cands[1:]}
+    faults[id(cands[0])] = first_fault
+    sound = next((s for s in cands if faults[id(s)] is None), None)
     if sound is None:
-        return cands, (f"{column}: {cands[0].source} {first_flaw}, and no other candidate is "
+        return cands, (f"{column}: {cands[0].source} {first_fault}, and no other candidate is "
                        "better; used it anyway")
     at = next(i for i, s in enumerate(cands) if s is sound)
     passed = cands[:at]
-    why = "; ".join(f"{s.source} {flaws[id(s)]}" for s in passed)
+    why = "; ".join(f"{s.source} {faults[id(s)]}" for s in passed)
     return [sound] + [s for s in cands if s is not sound], \
         f"{column}: used {sound.source} by content, not {passed[0].source}: {why}"
