@@ -26,7 +26,7 @@ from etsid.gap.criterion import (
     mismatched,
     run_criterion,
 )
-from etsid.gap.detectable import cap_below_detectable
+from etsid.gap.detectable import BELOW_CONFIDENCE, cap_below_detectable
 from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.floors import sensor_noise
@@ -92,9 +92,35 @@ def _entry(cand, theta: np.ndarray, err: np.ndarray, crit: Criterion, chosen: Ev
     return entry
 
 
-AIRFRAME_SCALES = {"thrust_scale": (0.6, 1.6), "inertia_scale": (0.5, 2.2)}
+AIRFRAME_SCALES = {"thrust_scale": (0.6, 1.6), "inertia_scale": (0.5, 2.2),
+                   "mass": (1 / 1.6, 1 / 0.6)}
 """Fault ranges of the airframe-scale effects (physics: a lost 40 % of thrust or more than
-doubled inertia is another configuration of the vehicle, not a fault of it)."""
+doubled inertia is another configuration of the vehicle, not a fault of it). A mass ratio r
+gives the vertical dynamics of a thrust scale 1/r, so its range is the thrust scale's
+inverted: thrust-to-weight beyond the same factors."""
+
+
+def _airframe_evidence(name: str, value: float, how: str) -> str | None:
+    """Words when ``value`` of airframe-scale effect ``name`` lies beyond one airframe's
+    fault range (:data:`AIRFRAME_SCALES`), else None."""
+    lo, hi = AIRFRAME_SCALES.get(name, (-np.inf, np.inf))
+    if lo <= value <= hi:
+        return None
+    return f"{name} {value:.3g} {how}, beyond a fault of one airframe ({lo:.3g}–{hi:.3g})"
+
+
+def cap_partial(effects: list[dict[str, Any]], left: dict[str, Any]) -> None:
+    """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every named
+    effect when a channel is still mismatched on held-out data after them: the weights are
+    those of a candidate set that holds the answer, and a leftover says this one does not
+    (a partial explanation, not a finding)."""
+    if not left:
+        return
+    still = ", ".join(f"{LABELS.get(c, c)} {v['ratio']:.1f}×" for c, v in left.items())
+    note = f"a partial explanation: {still} its floor still on held-out data"
+    for e in effects:
+        e["confidence"] = min(float(e["confidence"]), BELOW_CONFIDENCE)
+        e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
 
 
 def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
@@ -143,23 +169,30 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     if final is not None:
         for cand, theta, err in final.split():
             effects.append(_entry(cand, theta, err, crit, chosen, res0, res1, hold))
-            lo, hi = AIRFRAME_SCALES.get(cand.name, (-np.inf, np.inf))
-            if not lo <= float(theta[0]) <= hi:
-                airframe.append(f"{cand.name} {float(theta[0]):.3g} fitted, beyond a fault of "
-                                f"one airframe ({lo:g}–{hi:g})")
+            found = _airframe_evidence(cand.name, float(theta[0]), "fitted")
+            if found:
+                airframe.append(found)
             if cand.name == "ground_effect":
                 exponential = cand.params[0].name == "excess"
                 ground_law = ground_excess(theta, exponential)
                 if radius is None and not exponential:
                     radius = float(theta[0])
     cap_below_detectable(effects, base.get("detectable") or {})
+    cap_partial(effects, left)
     for m in crit.models:
         if m.refused and m.per_sample > cal.gain_per_sample and (
                 chosen is None or m.gain > chosen.gain):
             notes.append(f"not kept: {m.name} ({m.refused})")
-    beyond = [m.refused[len("at bound: "):] for m in crit.models
-              if m.refused.startswith("at bound") and m.per_sample > cal.gain_per_sample
-              and (chosen is None or m.gain > chosen.gain)]
+    at_bounds = [m for m in crit.models
+                 if m.refused.startswith("at bound") and m.per_sample > cal.gain_per_sample
+                 and (chosen is None or m.gain > chosen.gain)]
+    beyond = [m.refused[len("at bound: "):] for m in at_bounds]
+    for m in at_bounds:  # a scale that explains more than the named model, held at its bound
+        if "+" not in m.name:
+            theta = float(np.mean([f.theta[0] for f in m.fits]))
+            found = _airframe_evidence(m.name, theta, "at its search bound")
+            if found:
+                airframe.append(found)
     criterion = {"method": "likelihood", "folds": len(folds.score), "blocks": folds.n_blocks,
                  "thresholds": {"mismatch_ratio": cal.mismatch_ratio,
                                 "gain_per_sample": cal.gain_per_sample,
