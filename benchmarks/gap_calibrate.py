@@ -60,13 +60,14 @@ from etsid.gap.calibration import (
     load_calibration,
 )
 from etsid.gap.criterion import choose, mismatched, significant
+from etsid.gap.detectable import BELOW_CONFIDENCE
+from etsid.gap.likelihood import AIRFRAME_SCALES
 
 RECORDING = {"mismatch_ratio": 1.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
 RECORDING_RATE = 0.5
 """Thresholds and rate while recording: looser than any a calibration sets, so that every
 model a calibrated run could name (pairs included) is fully evaluated."""
 CONFIDENT = 0.9
-AIRFRAME_SCALES = {"thrust_scale": (0.6, 1.6), "inertia_scale": (0.5, 2.2)}
 
 
 # ---------------------------------------------------------------- record
@@ -151,6 +152,14 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
                 return {"answer": "different-vehicle", "verdict": "different-vehicle",
                         "confidence": {}}
             i += _n_params(part, models, theta)
+    best = next((m["gain"] for m in models if m["name"] == name), -np.inf) if name else -np.inf
+    for m in models:  # an airframe scale held at its bound beyond a fault, explaining more
+        if (m.get("refused", "").startswith("at bound") and "+" not in m["name"]
+                and m["per_sample"] > cal.gain_per_sample and m["gain"] > best):
+            lo, hi = AIRFRAME_SCALES.get(m["name"], (-np.inf, np.inf))
+            if not lo <= m["theta"][0] <= hi:
+                return {"answer": "different-vehicle", "verdict": "different-vehicle",
+                        "confidence": {}}
     mismatch = bool(mismatched(crit["innovation_ratio"], crit.get("offset", {}), cal))
     if name is None:
         verdict = "mismatch" if mismatch else "consistent"
@@ -158,6 +167,12 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
     conf = {}
     for part in name.split("+"):
         conf[part] = float(sum(m["weight"] for m in models if part in m["name"].split("+")))
+    lead = crit.get("after_lead") or {}
+    if "+" not in name and lead.get("name") == name and mismatched(
+            lead["ratio"], {c: tuple(v) for c, v in lead.get("offset", {}).items()}, cal):
+        # a partial explanation (the package's likelihood.cap_partial); the records hold
+        # the held-out channels after a single effect only, so a pair is not capped here
+        conf = {k: min(v, BELOW_CONFIDENCE) for k, v in conf.items()}
     return {"answer": "+".join(sorted(name.split("+"))), "verdict": "mismatch",
             "confidence": conf}
 
