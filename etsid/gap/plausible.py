@@ -97,11 +97,23 @@ def _drag_slope(flight: Flight) -> tuple[float, float] | None:
     return -slope, se
 
 
+def down_velocity(flight: Flight) -> np.ndarray:
+    """Earth-frame down velocity (m/s): the body velocity turned back through the attitude,
+    v_down = −sin θ v_x + sin φ cos θ v_y + cos φ cos θ v_z (body z alone where the attitude
+    is missing). Body z is not "down" in forward flight: pitched 0.15 rad at 3 m/s it reads
+    0.45 m/s of climb that is not there."""
+    roll, pitch = flight.att[:, 0], flight.att[:, 1]
+    vb = flight.v_body
+    down = (-np.sin(pitch) * vb[:, 0] + np.sin(roll) * np.cos(pitch) * vb[:, 1]
+            + np.cos(roll) * np.cos(pitch) * vb[:, 2])
+    return np.where(np.isfinite(down), down, vb[:, 2])
+
+
 def _climb_disagreement(flight: Flight) -> float | None:
     """Median over :data:`CLIMB_WINDOW_S` windows of |height change − ∫ climb rate| (m)."""
     if not np.any(np.isfinite(flight.alt)):
         return None
-    vz = flight.v_body[:, 2]  # body z ≈ down at small tilt; climb = −v_down
+    vz = down_velocity(flight)  # climb = −v_down
     n = int(CLIMB_WINDOW_S * flight.fs)
     out = []
     for a, b in true_runs(flight.airborne):
