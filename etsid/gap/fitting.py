@@ -241,8 +241,14 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
         own = _mods(cands, theta, scorer.ctx)
         return merge(base.mods, own) if base is not None else own
 
+    seen: dict[bytes, float] = {}
+
     def f(theta: np.ndarray) -> float:
-        return scorer.objective(mods_at(theta), mask, chans)
+        # the search revisits points (its start, the optimum for the standard errors)
+        key = np.asarray(theta, dtype=float).tobytes()
+        if key not in seen:
+            seen[key] = scorer.objective(mods_at(theta), mask, chans)
+        return seen[key]
 
     if len(params) == 1:
         grid = np.linspace(lo[0], hi[0], 13)
