@@ -188,7 +188,23 @@ def kinematic_specific_force(flight: Flight) -> np.ndarray:
 
 
 def measured(flight: Flight) -> dict[str, np.ndarray]:
-    """Filtered measured outputs of every channel the flight supports."""
+    """Filtered measured outputs of every channel the flight supports (read-only arrays,
+    kept on the flight for as long as its signal arrays are the same objects: the nominal
+    fit reads them a hundred times)."""
+    signals = (flight.rates, flight.acc, flight.att, flight.v_body)
+    key = (frozenset(flight.have), flight.fs)
+    cached = flight.__dict__.get("_measured")
+    if cached is not None and cached[1] == key and all(
+            a is b for a, b in zip(cached[0], signals, strict=True)):
+        return dict(cached[2])
+    out = _measured(flight)
+    for v in out.values():
+        v.flags.writeable = False
+    flight.__dict__["_measured"] = (signals, key, out)
+    return dict(out)
+
+
+def _measured(flight: Flight) -> dict[str, np.ndarray]:
     fs = flight.fs
     out: dict[str, np.ndarray] = {}
     acc_rates = derivative(lowpass(flight.rates, fs, CUTOFF_HZ["p"]), fs)
@@ -271,6 +287,40 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     speed scales with the pack voltage over it, None: it does not)."""
     if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
         return {}
+    if np.ndim(mods.thrust_gain) or np.ndim(mods.torque_gain):
+        return _features(flight, k, tau, mods, channels, delay, v_ref)
+    # a fit that varies what acts after the regressors (inertia, mass, offsets, damping,
+    # drag) builds them once: kept on the flight per channel and regressor inputs
+    signals = (flight.motors, flight.rates, flight.v_body, flight.att)
+    key = (float(k), float(tau if mods.tau is None else mods.tau), float(delay + mods.delay),
+           v_ref, tuple(mods.wind), float(mods.thrust_gain), float(mods.torque_gain),
+           float(mods.spinup), flight.inputs)
+    cache = flight.__dict__.setdefault("_features", {})
+    out: dict[str, np.ndarray] = {}
+    for c in (*channels, "spin"):
+        hit = cache.get((key, c))
+        if hit is None or not all(a is b for a, b in zip(hit[0], signals, strict=True)):
+            break
+        out[c] = hit[1]
+    else:
+        return out
+    out = _features(flight, k, tau, mods, channels, delay, v_ref)
+    for c, v in out.items():
+        v.flags.writeable = False
+        cache.pop((key, c), None)
+        if len(cache) >= FEATURES_CACHED:
+            cache.pop(next(iter(cache)))
+        cache[(key, c)] = (signals, v)
+    return out
+
+
+FEATURES_CACHED = 24
+"""Regressor matrices kept per flight (one per channel and regressor inputs)."""
+
+
+def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[str, ...],
+              delay: float, v_ref: float | None) -> dict[str, np.ndarray]:
+    """:func:`features`, computed."""
     tau_eff = tau if mods.tau is None else mods.tau
     m_eff, om, pw, spin = _motor_terms(flight, k, tau_eff, delay + mods.delay, v_ref)
     p, q, r = flight.rates.T
