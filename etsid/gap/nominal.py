@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
-from etsid.gap.signals import Flight, derivative, lowpass
+from etsid.gap.signals import Flight, derivative, lowpass, lowpass_series
 
 FORCE_CHANNELS = ("az", "ax", "ay")
 RATE_CHANNELS = ("p", "q", "r")
@@ -308,14 +308,15 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     for c, v in out.items():
         v.flags.writeable = False
         cache.pop((key, c), None)
-        if len(cache) >= FEATURES_CACHED:
+        while cache and sum(e[1].nbytes for e in cache.values()) + v.nbytes > FEATURES_BYTES:
             cache.pop(next(iter(cache)))
         cache[(key, c)] = (signals, v)
     return out
 
 
-FEATURES_CACHED = 24
-"""Regressor matrices kept per flight (one per channel and regressor inputs)."""
+FEATURES_BYTES = 48e6
+"""Bytes of regressor matrices kept per flight, oldest dropped first (a fit's channels
+under one set of regressor inputs: ≈ 1 MB for 90 s at 100 Hz, 8 MB for 600 s)."""
 
 
 def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[str, ...],
@@ -476,9 +477,9 @@ class NominalModel:
         # one filter call per cut-off: filtering is column-wise, the columns share it
         for cutoff in {CUTOFF_HZ[c] for c in raw}:
             group = [c for c in raw if CUTOFF_HZ[c] == cutoff]
-            filtered = lowpass(np.column_stack([raw[c] for c in group]), flight.fs, cutoff)
+            filtered = lowpass_series([raw[c] for c in group], flight.fs, cutoff)
             for j, c in enumerate(group):
-                out[c] = filtered[:, j] + mods.offset.get(c, 0.0)
+                out[c] = filtered[j] + mods.offset.get(c, 0.0)
         if any(c in chans for c in GYRO_CHANNELS):
             kin = _kinematic_rates(flight)
             for j, c in enumerate(GYRO_CHANNELS):
@@ -595,7 +596,11 @@ def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
     """Regressors the simulation does not excite enough to extrapolate from (their
     coefficient is fixed at 0): vertical-speed terms below 0.3 m/s of climb-rate spread,
     the translational-lift term below :data:`QUADRATIC_SPEED` of horizontal speed (the
-    horizontal drag law's shape is chosen on SIM's own data, :func:`_drag_law`)."""
+    horizontal drag law's shape is chosen on SIM's own data, :func:`_drag_law`). The last
+    answer is kept on the flight (the nominal fit asks a hundred times with one mask)."""
+    cached = flight.__dict__.get("_unexcited")
+    if cached is not None and cached[0] is flight.v_body and np.array_equal(cached[1], mask):
+        return {c: list(v) for c, v in cached[2].items()}
     vb = flight.v_body[mask]
     speed = float(np.max(np.hypot(vb[:, 0], vb[:, 1]))) if vb.size else 0.0
     climb = float(np.std(vb[:, 2])) * 4.0 if vb.size else 0.0
@@ -604,7 +609,8 @@ def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
         out["az"].append(1)
     if speed < QUADRATIC_SPEED:
         out["az"].append(3)
-    return out
+    flight.__dict__["_unexcited"] = (flight.v_body, np.array(mask, dtype=bool), out)
+    return {c: list(v) for c, v in out.items()}
 
 
 DRAG_TERMS = (0, 1, 3)
