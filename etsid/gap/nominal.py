@@ -479,7 +479,7 @@ class NominalModel:
             group = [c for c in raw if CUTOFF_HZ[c] == cutoff]
             filtered = lowpass_series([raw[c] for c in group], flight.fs, cutoff)
             for j, c in enumerate(group):
-                out[c] = filtered[j] + mods.offset.get(c, 0.0)
+                out[c] = filtered[j] + mods.offset[c] if c in mods.offset else filtered[j]
         if any(c in chans for c in GYRO_CHANNELS):
             kin = _kinematic_rates(flight)
             for j, c in enumerate(GYRO_CHANNELS):
@@ -538,14 +538,15 @@ class NominalModel:
             coef = self.coef[c]
             if mods.drag_shape == "quadratic" and c in self.drag_quadratic:
                 coef = self.drag_quadratic[c]
-            y = feats[c] @ coef  # filtering is linear: filter the sum once
+            y = _regression(self, c, feats[c], coef)  # filtering is linear: filter the sum once
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
                          else np.ones(1))
                 y = y + mods.spin_torque * (feats["spin"] @ signs)
             if c in RATE_CHANNELS:
-                y = y / mods.inertia
+                if mods.inertia != 1.0:  # y / 1.0 is y: no copy
+                    y = y / mods.inertia
             elif mods.mass != 1.0:
                 y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:
@@ -559,6 +560,22 @@ class NominalModel:
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]
             raw[c] = y
         return raw
+
+
+def _regression(model: NominalModel, c: str, x: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """``x @ coef``; while ``x`` is a kept (read-only) regressor matrix, the product of
+    channel ``c`` is kept on the model too (a fit of what acts after the regression, such as
+    an inertia or a damping, reuses it at every evaluation)."""
+    if x.flags.writeable:
+        return x @ coef
+    cache = model.__dict__.setdefault("_products", {})
+    hit = cache.get(c)
+    if hit is not None and hit[0] is x and hit[1] is coef:
+        return hit[2]
+    y = x @ coef
+    y.flags.writeable = False
+    cache[c] = (x, coef, y)
+    return y
 
 
 BROADBAND_TAU = 1e-6
