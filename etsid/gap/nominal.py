@@ -308,8 +308,9 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     for c, v in out.items():
         v.flags.writeable = False
         cache.pop((key, c), None)
-        while cache and sum(e[1].nbytes for e in cache.values()) + v.nbytes > FEATURES_BYTES:
-            cache.pop(next(iter(cache)))
+        held = sum(e[1].nbytes for e in cache.values()) + v.nbytes
+        while cache and held > FEATURES_BYTES:
+            held -= cache.pop(next(iter(cache)))[1].nbytes
         cache[(key, c)] = (signals, v)
     return out
 

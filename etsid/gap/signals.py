@@ -17,11 +17,7 @@ import pandas as pd
 from scipy.signal import butter, sosfilt, sosfilt_zi, sosfiltfilt
 
 from etsid.errors import GapError
-
-try:  # the kernel of ``scipy.signal.sosfilt`` (private; a fit filters thousands of series)
-    from scipy.signal._sosfilt import _sosfilt
-except ImportError:  # pragma: no cover - another scipy layout: the public function
-    _sosfilt = None
+from etsid.gap.zero_phase import filtfilt_columns
 
 MODEL_HZ = 100.0
 ANTIALIAS_SHARE = 0.4
@@ -108,45 +104,28 @@ def lowpass(x: np.ndarray, fs: float, cutoff: float = ANALYSIS_CUTOFF_HZ) -> np.
 
     The steps of :func:`scipy.signal.sosfiltfilt` (odd extension, forward and backward
     passes from steady state) with the filter's initial conditions computed once, every
-    column laid out as one contiguous row and both passes run by scipy's own second-order
-    section kernel (bit-identical to ``sosfilt``, without its per-call checks and copies)."""
+    column through the same arithmetic as scipy's section kernel, the columns advanced
+    together (:mod:`etsid.gap.zero_phase`; bit-identical to ``sosfilt``)."""
     sos, zi, edge = _lowpass_sos(min(cutoff / (0.5 * fs), 0.95))
     x = np.asarray(x, dtype=float)
     if x.shape[0] <= edge:
         return sosfiltfilt(sos, x, axis=0)
-    if _sosfilt is None:
-        return _lowpass_public(x, sos, zi, edge)
-    rows = x.reshape(x.shape[0], -1).T  # (columns, time)
-    return _filtfilt_rows(rows, sos, zi, edge).T.reshape(x.shape)
+    return filtfilt_columns(x.reshape(x.shape[0], -1), sos, zi, edge).reshape(x.shape)
 
 
 def lowpass_series(series: list[np.ndarray], fs: float, cutoff: float = ANALYSIS_CUTOFF_HZ
                    ) -> list[np.ndarray]:
     """Each 1-D series of one length low-passed as by :func:`lowpass`, bit for bit, in one
-    pass of the kernel (no stacking into columns first)."""
+    call (no stacking into columns first)."""
     sos, zi, edge = _lowpass_sos(min(cutoff / (0.5 * fs), 0.95))
-    if _sosfilt is None or series[0].shape[0] <= edge:
+    if series[0].shape[0] <= edge:
         return list(lowpass(np.column_stack(series), fs, cutoff).T)
-    return list(_filtfilt_rows(series, sos, zi, edge))
-
-
-def _filtfilt_rows(rows, sos: np.ndarray, zi: np.ndarray, edge: int) -> np.ndarray:
-    """(columns, time) zero-phase filtered ``rows`` (a 2-D array or a list of 1-D series):
-    odd extension, forward and backward passes from steady state."""
-    n = rows[0].shape[0]
-    ext = np.empty((len(rows), n + 2 * edge))
-    for j, x in enumerate(rows):  # the signal mirrored through its end points
-        ext[j, :edge] = 2 * x[:1] - x[edge:0:-1]
-        ext[j, edge:edge + n] = x
-        ext[j, edge + n:] = 2 * x[-1:] - x[-2:-edge - 2:-1]
-    _sosfilt(sos, ext, zi[None, :, :] * ext[:, :1, None])
-    back = ext[:, ::-1].copy()
-    _sosfilt(sos, back, zi[None, :, :] * back[:, :1, None])
-    return back[:, ::-1][:, edge:edge + n]
+    return list(filtfilt_columns(series, sos, zi, edge).T)
 
 
 def _lowpass_public(x: np.ndarray, sos: np.ndarray, zi: np.ndarray, edge: int) -> np.ndarray:
-    """:func:`lowpass` through ``scipy.signal.sosfilt`` (a scipy without the kernel)."""
+    """:func:`lowpass` through ``scipy.signal.sosfilt`` (the reference its kernel is tested
+    against)."""
     ext = np.concatenate([2 * x[:1] - x[edge:0:-1], x, 2 * x[-1:] - x[-2:-edge - 2:-1]])
     z = zi.reshape(zi.shape + (1,) * (x.ndim - 1))
     y, _ = sosfilt(sos, ext, axis=0, zi=z * ext[:1])
