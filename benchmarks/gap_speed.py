@@ -27,14 +27,18 @@ from etsid.sim import simulate
 
 
 def tiled(table: pd.DataFrame, seconds: float) -> pd.DataFrame:
-    """``table`` repeated end to end until it lasts ``seconds`` (each column tiled once: no
-    list of copies held while they are joined)."""
+    """``table`` repeated end to end until it lasts ``seconds`` (tiled at once: no list of
+    copies held while they are joined)."""
     span = float(table.index[-1] - table.index[0]) + 1.0 / 50.0
     k = max(math.ceil(seconds / span), 1)
     t = table.index.to_numpy()
     index = pd.Index(np.concatenate([t + i * span for i in range(k)]), name=table.index.name)
-    out = pd.DataFrame({c: np.tile(table[c].to_numpy(), k) for c in table.columns},
-                       index=index)
+    if all(table.dtypes == np.float64):  # one block, not joined from columns
+        out = pd.DataFrame(np.tile(table.to_numpy(), (k, 1)), columns=table.columns,
+                           index=index)
+    else:
+        out = pd.DataFrame({c: np.tile(table[c].to_numpy(), k) for c in table.columns},
+                           index=index)
     out.attrs = dict(table.attrs)
     return out
 
