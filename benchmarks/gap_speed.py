@@ -35,7 +35,7 @@ def tiled(table: pd.DataFrame, seconds: float) -> pd.DataFrame:
     index = pd.Index(np.concatenate([t + i * span for i in range(k)]), name=table.index.name)
     if all(table.dtypes == np.float64):  # one block, not joined from columns
         out = pd.DataFrame(np.tile(table.to_numpy(), (k, 1)), columns=table.columns,
-                           index=index)
+                           index=index, copy=False)
     else:
         out = pd.DataFrame({c: np.tile(table[c].to_numpy(), k) for c in table.columns},
                            index=index)
