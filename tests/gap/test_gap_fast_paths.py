@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from etsid.gap.candidates import LIBRARY, Context
-from etsid.gap.fitting import Scorer, fit_candidates
+from etsid.gap.fitting import Scorer, SharedMasks, fit_candidates
 from etsid.gap.nominal import (
     Mods,
     _features,
@@ -102,9 +102,9 @@ def test_a_fit_evaluates_each_parameter_point_once(flight):
     points: list[bytes] = []
 
     class Counting(Scorer):
-        def objective(self, mods, mask, channels):
+        def objectives(self, mods, masks, channels):
             points.append(np.array([mods.inertia, mods.damping, mods.yaw_damping]).tobytes())
-            return super().objective(mods, mask, channels)
+            return super().objectives(mods, masks, channels)
 
     scorer = Counting(ctx, ys, sigma)
     for name in ("inertia_scale", "rate_damping"):
@@ -112,3 +112,28 @@ def test_a_fit_evaluates_each_parameter_point_once(flight):
         points.clear()
         fit_candidates((cand,), scorer, flight.airborne)
         assert points and len(points) == len(set(points))
+
+
+def test_folds_share_one_prediction_and_get_their_own_answers(flight):
+    """With shared masks each fold's fit equals its fit alone, and the second fold's
+    coarse grid costs no new prediction."""
+    nominal = fit_nominal(flight)
+    ctx = Context(flight, nominal, None, None)
+    ys = measured(flight)
+    scorer = Scorer(ctx, ys, {c: float(np.std(ys[c])) or 1.0 for c in ys})
+    idx = np.arange(flight.n)
+    masks = [flight.airborne & (idx % 800 < 400), flight.airborne & (idx % 800 >= 400)]
+    cand = next(c for c in LIBRARY if c.name == "thrust_scale")
+    shared = SharedMasks(masks)
+    together = [fit_candidates((cand,), scorer, m, shared=shared) for m in masks]
+    alone = [fit_candidates((cand,), scorer, m) for m in masks]
+    for a, b in zip(together, alone, strict=True):
+        assert np.array_equal(a.theta, b.theta) and np.array_equal(a.stderr, b.stderr)
+    assert not np.array_equal(together[0].theta, together[1].theta)
+    first = SharedMasks(masks)
+    fit_candidates((cand,), scorer, masks[0], shared=first)
+    n_first = len(first.values)
+    fit_candidates((cand,), scorer, masks[1], shared=first)
+    own = SharedMasks([masks[1]])
+    fit_candidates((cand,), scorer, masks[1], shared=own)
+    assert len(first.values) - n_first <= len(own.values) - 13  # the 13-point grid reused
