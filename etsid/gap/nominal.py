@@ -305,19 +305,19 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     else:
         return out
     out = _features(flight, k, tau, mods, channels, delay, v_ref)
+    recent = [*list(dict.fromkeys(kc[0] for kc in cache))[-(FEATURES_KEYS - 1):], key]
+    for kc in [kc for kc in cache if kc[0] not in recent]:
+        del cache[kc]
     for c, v in out.items():
         v.flags.writeable = False
-        cache.pop((key, c), None)
-        held = sum(e[1].nbytes for e in cache.values()) + v.nbytes
-        while cache and held > FEATURES_BYTES:
-            held -= cache.pop(next(iter(cache)))[1].nbytes
         cache[(key, c)] = (signals, v)
     return out
 
 
-FEATURES_BYTES = 48e6
-"""Bytes of regressor matrices kept per flight, oldest dropped first (a fit's channels
-under one set of regressor inputs: ≈ 1 MB for 90 s at 100 Hz, 8 MB for 600 s)."""
+FEATURES_KEYS = 2
+"""Sets of regressor inputs whose matrices are kept per flight, the latest (a fit of what
+acts after the regressors uses one; the nominal fit, one per lag it tries): ≈ 2 MB each
+for 90 s at 100 Hz, 15 MB for the 620 s of a long log's windows."""
 
 
 def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[str, ...],
