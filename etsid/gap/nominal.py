@@ -305,7 +305,8 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     else:
         return out
     out = _features(flight, k, tau, mods, channels, delay, v_ref)
-    recent = [*list(dict.fromkeys(kc[0] for kc in cache))[-(FEATURES_KEYS - 1):], key]
+    keys = list(dict.fromkeys(kc[0] for kc in cache))  # oldest first
+    recent = {*keys[max(len(keys) - FEATURES_KEYS + 1, 0):], key}
     for kc in [kc for kc in cache if kc[0] not in recent]:
         del cache[kc]
     for c, v in out.items():

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import etsid.gap.nominal as nominal_module
 from etsid.gap.candidates import LIBRARY, Context
 from etsid.gap.fitting import Scorer, SharedMasks, fit_candidates
 from etsid.gap.nominal import (
@@ -92,6 +93,17 @@ def test_kept_regressors_equal_fresh_ones_and_serve_post_regression_changes(flig
     assert np.array_equal(c["az"], features(flight, nominal.k, nominal.tau,
                                             Mods(thrust_gain=0.9), chans, nominal.delay,
                                             nominal.v_ref)["az"])
+
+
+@pytest.mark.parametrize("n_keys", [1, 2])
+def test_kept_regressors_are_bounded(flight, n_keys, monkeypatch):
+    monkeypatch.setattr(nominal_module, "FEATURES_KEYS", n_keys)
+    nominal = fit_nominal(flight)
+    for tau in np.linspace(0.02, 0.1, 6):
+        features(flight, nominal.k, float(tau), Mods(), ("p", "q"), nominal.delay,
+                 nominal.v_ref)
+    kept = {key for key, _ in flight.__dict__["_features"]}
+    assert len(kept) == n_keys
 
 
 def test_a_fit_evaluates_each_parameter_point_once(flight):
