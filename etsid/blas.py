@@ -1,4 +1,5 @@
-"""BLAS on one thread: identify while it runs, a batch's own process (``--jobs 1``).
+"""BLAS on one thread: identify and the gap analysis while they run, a batch's own process
+(``--jobs 1``).
 
 identify's linear algebra is skinny (tens of columns, thousands of rows: ARX fits, scores,
 norms). OpenBLAS splits such products over its threads, and on a shared machine those

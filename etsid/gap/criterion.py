@@ -29,7 +29,7 @@ from scipy import stats
 
 from etsid.gap.calibration import Calibration
 from etsid.gap.candidates import Candidate, merge
-from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
+from etsid.gap.fitting import Fit, Scorer, SharedMasks, channels_of, fit_candidates
 from etsid.gap.noise import NoiseModel, offset_z2
 from etsid.gap.signals import true_runs
 
@@ -290,12 +290,14 @@ def mismatched(ratio: dict[str, float], offset: dict[str, Any], cal: Calibration
 
 
 def _fold_fits(cands: tuple[Candidate, ...], ls: LikelihoodScorer, folds: Folds,
-               folds_to_fit: range, x0: np.ndarray | None = None) -> list[Fit | None]:
+               folds_to_fit: range, x0: np.ndarray | None = None,
+               shared: SharedMasks | None = None) -> list[Fit | None]:
     """Per fold, the fit on its fitting samples (None for a fold not in ``folds_to_fit``);
-    a multi-parameter fit starts from ``x0``."""
+    a multi-parameter fit starts from ``x0``; ``shared``: the model's objective values over
+    every fold's fitting samples (:class:`~etsid.gap.fitting.SharedMasks`)."""
     fits: list[Fit | None] = [None] * len(folds.score)
     for k in folds_to_fit:
-        fits[k] = fit_candidates(cands, ls.scorer, folds.fit[k], x0=x0)
+        fits[k] = fit_candidates(cands, ls.scorer, folds.fit[k], x0=x0, shared=shared)
     return fits
 
 
@@ -305,7 +307,8 @@ def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: floa
     """One model through the folds (screened after the first fold when far below the
     threshold; with ``base``, when its gain over ``base`` on that fold is)."""
     folds = ls.folds
-    fits = _fold_fits(cands, ls, folds, range(1), x0=x0)
+    shared = SharedMasks(folds.fit)  # one prediction scores every fold's fitting samples
+    fits = _fold_fits(cands, ls, folds, range(1), x0=x0, shared=shared)
     g, n, by_channel = ls.gain(fits)
     extrapolated = False
     ref = 0.0
@@ -322,7 +325,7 @@ def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: floa
     else:
         assert fits[0] is not None
         rest = _fold_fits(cands, ls, folds, range(1, len(folds.score)),
-                          x0=fits[0].theta if fits[0].theta.size > 1 else None)
+                          x0=fits[0].theta if fits[0].theta.size > 1 else None, shared=shared)
         rest[0] = fits[0]
         g, n, by_channel = ls.gain(rest)
         fits = rest

@@ -9,7 +9,7 @@ from the curvature of ``J`` with the effective sample count of low-passed residu
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
@@ -97,6 +97,14 @@ class Scorer:
         """Sum of the normalised mean squared residuals of ``channels`` over ``mask``."""
         return float(sum(self.zscores(mods, mask, channels).values()))
 
+    def objectives(self, mods: Mods, masks: list[np.ndarray], channels: tuple[str, ...]
+                   ) -> list[float]:
+        """:meth:`objective` over each of ``masks``, from one prediction."""
+        res = self.residuals(mods, channels)
+        chans = channels or tuple(res)
+        return [float(sum({c: float(np.mean(res[c][mask] ** 2) / self.sigma[c] ** 2)
+                           for c in chans if c in res}.values())) for mask in masks]
+
     def stderr(self, objective: float, curvature: float, mask: np.ndarray) -> float:
         """Gauss–Newton standard error of a parameter from the objective at the optimum and
         its curvature there (effective samples: the low-passed residuals over ``mask``)."""
@@ -127,9 +135,25 @@ class ResponseScorer(Scorer):
         effect that removes one shift by making another is fitted against)."""
         return self.mismatch(mods, mask)
 
+    def objectives(self, mods: Mods, masks: list[np.ndarray], channels: tuple[str, ...]
+                   ) -> list[float]:
+        """:meth:`objective` over each of ``masks``."""
+        return [self.objective(mods, mask, channels) for mask in masks]
+
     def stderr(self, objective: float, curvature: float, mask: np.ndarray) -> float:
         """From the χ² curvature: Δχ² = 1 at one standard error."""
         return float(np.sqrt(2.0 / curvature))
+
+
+@dataclass
+class SharedMasks:
+    """Objective values of one candidate set at every point evaluated, over several masks
+    at once (the folds of one model): the folds differ only in the samples they score, so
+    one prediction serves them all, and a fold's search that visits a point another fold's
+    visited (the coarse grids) reuses its value."""
+
+    masks: list[np.ndarray]
+    values: dict[bytes, list[float]] = field(default_factory=dict)
 
 
 def _mods(cands: tuple[Candidate, ...], theta: np.ndarray, ctx: Context) -> Mods:
@@ -227,11 +251,13 @@ def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarr
 
 
 def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
-                   x0: np.ndarray | None = None, base: Fit | None = None) -> Fit:
+                   x0: np.ndarray | None = None, base: Fit | None = None,
+                   shared: SharedMasks | None = None) -> Fit:
     """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
     e.g. the single fits of a pair; default the candidates' own starts). With ``base``, on
     top of that fitted effect, whose parameters stay fixed (the returned fit holds only
-    ``cands``; its ``mods`` include the base's)."""
+    ``cands``; its ``mods`` include the base's). With ``shared`` (``mask`` one of its masks,
+    the same ``cands`` and ``base`` for all), every evaluation scores all its masks."""
     chans = channels_of(cands + (base.candidates if base else ()), scorer)
     params = [p for c in cands for p in c.params]
     lo = np.array([p.lo for p in params])
@@ -241,8 +267,15 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
         own = _mods(cands, theta, scorer.ctx)
         return merge(base.mods, own) if base is not None else own
 
+    # the search revisits points (its start, the optimum for the standard errors)
+    memo = shared or SharedMasks([mask])
+    k = next(i for i, m in enumerate(memo.masks) if m is mask)
+
     def f(theta: np.ndarray) -> float:
-        return scorer.objective(mods_at(theta), mask, chans)
+        key = np.asarray(theta, dtype=float).tobytes()
+        if key not in memo.values:
+            memo.values[key] = scorer.objectives(mods_at(theta), memo.masks, chans)
+        return memo.values[key][k]
 
     if len(params) == 1:
         grid = np.linspace(lo[0], hi[0], 13)

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
-from etsid.gap.signals import Flight, derivative, lowpass
+from etsid.gap.signals import Flight, derivative, lowpass, lowpass_series
 
 FORCE_CHANNELS = ("az", "ax", "ay")
 RATE_CHANNELS = ("p", "q", "r")
@@ -188,7 +188,23 @@ def kinematic_specific_force(flight: Flight) -> np.ndarray:
 
 
 def measured(flight: Flight) -> dict[str, np.ndarray]:
-    """Filtered measured outputs of every channel the flight supports."""
+    """Filtered measured outputs of every channel the flight supports (read-only arrays,
+    kept on the flight for as long as its signal arrays are the same objects: the nominal
+    fit reads them a hundred times)."""
+    signals = (flight.rates, flight.acc, flight.att, flight.v_body)
+    key = (frozenset(flight.have), flight.fs)
+    cached = flight.__dict__.get("_measured")
+    if cached is not None and cached[1] == key and all(
+            a is b for a, b in zip(cached[0], signals, strict=True)):
+        return dict(cached[2])
+    out = _measured(flight)
+    for v in out.values():
+        v.flags.writeable = False
+    flight.__dict__["_measured"] = (signals, key, out)
+    return dict(out)
+
+
+def _measured(flight: Flight) -> dict[str, np.ndarray]:
     fs = flight.fs
     out: dict[str, np.ndarray] = {}
     acc_rates = derivative(lowpass(flight.rates, fs, CUTOFF_HZ["p"]), fs)
@@ -271,6 +287,43 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     speed scales with the pack voltage over it, None: it does not)."""
     if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
         return {}
+    if np.ndim(mods.thrust_gain) or np.ndim(mods.torque_gain):
+        return _features(flight, k, tau, mods, channels, delay, v_ref)
+    # a fit that varies what acts after the regressors (inertia, mass, offsets, damping,
+    # drag) builds them once: kept on the flight per channel and regressor inputs
+    signals = (flight.motors, flight.rates, flight.v_body, flight.att)
+    key = (float(k), float(tau if mods.tau is None else mods.tau), float(delay + mods.delay),
+           v_ref, tuple(mods.wind), float(mods.thrust_gain), float(mods.torque_gain),
+           float(mods.spinup), flight.inputs)
+    cache = flight.__dict__.setdefault("_features", {})
+    out: dict[str, np.ndarray] = {}
+    for c in (*channels, "spin"):
+        hit = cache.get((key, c))
+        if hit is None or not all(a is b for a, b in zip(hit[0], signals, strict=True)):
+            break
+        out[c] = hit[1]
+    else:
+        return out
+    out = _features(flight, k, tau, mods, channels, delay, v_ref)
+    keys = list(dict.fromkeys(kc[0] for kc in cache))  # oldest first
+    recent = {*keys[max(len(keys) - FEATURES_KEYS + 1, 0):], key}
+    for kc in [kc for kc in cache if kc[0] not in recent]:
+        del cache[kc]
+    for c, v in out.items():
+        v.flags.writeable = False
+        cache[(key, c)] = (signals, v)
+    return out
+
+
+FEATURES_KEYS = 2
+"""Sets of regressor inputs whose matrices are kept per flight, the latest (a fit of what
+acts after the regressors uses one; the nominal fit, one per lag it tries): ≈ 2 MB each
+for 90 s at 100 Hz, 15 MB for the 620 s of a long log's windows."""
+
+
+def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[str, ...],
+              delay: float, v_ref: float | None) -> dict[str, np.ndarray]:
+    """:func:`features`, computed."""
     tau_eff = tau if mods.tau is None else mods.tau
     m_eff, om, pw, spin = _motor_terms(flight, k, tau_eff, delay + mods.delay, v_ref)
     p, q, r = flight.rates.T
@@ -283,29 +336,35 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     one = np.ones_like(p)
     if flight.inputs == "motors":
         thrust = pw * tg
-        s = thrust.sum(axis=1)
+        s = _row_sum(thrust)
         # collective thrust makes no moment: only differences between rotors enter
-        mom = thrust - thrust.mean(axis=1, keepdims=True)
-        tq = pw * qg
-        dom = spin * mods.spinup
-        yaw = np.column_stack([tq - tq.mean(axis=1, keepdims=True),
-                               dom - dom.mean(axis=1, keepdims=True)])
-        om_mean = om.mean(axis=1)
+        mom = thrust - _row_mean(thrust) if "p" in channels or "q" in channels else thrust
+
+        def yaw() -> list[np.ndarray]:
+            tq = pw * qg
+            dom = spin * mods.spinup
+            return [tq - _row_mean(tq), dom - _row_mean(dom)]
+
+        def om_mean() -> np.ndarray:
+            return _row_mean(om)[:, 0]
     else:  # stick commands: collective and three moment demands
         omt = om[:, 0]
         s = pw[:, 0] * tg.mean(axis=1)
         mom = m_eff[:, 1:] * (omt * tg.mean(axis=1))[:, None]
-        yaw = np.column_stack([m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
-                               spin * mods.spinup])
-        om_mean = omt
+
+        def yaw() -> list[np.ndarray]:
+            return [m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None], spin * mods.spinup]
+
+        def om_mean() -> np.ndarray:
+            return omt
     build = {
         "az": lambda: np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
-        "ax": lambda: _drag_columns(om_mean, va, 0),
-        "ay": lambda: _drag_columns(om_mean, va, 1),
+        "ax": lambda: _drag_columns(om_mean(), va, 0),
+        "ay": lambda: _drag_columns(om_mean(), va, 1),
         # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
         "p": lambda: np.column_stack([mom, q * r, p, one]),
         "q": lambda: np.column_stack([mom, p * r, q, one]),
-        "r": lambda: np.column_stack([yaw, p * q, r, one]),
+        "r": lambda: np.column_stack([*yaw(), p * q, r, one]),
     }
     out = {c: make() for c, make in build.items() if c in channels}
     out["spin"] = spin
@@ -317,7 +376,28 @@ def _drag_columns(om_mean: np.ndarray, va: np.ndarray, j: int) -> np.ndarray:
     ``Ω̄ v``, per-axis and whole-speed quadratic drag ``|v_j| v_j`` and ``|v| v_j``, offset."""
     v = va[:, j]
     return np.column_stack([om_mean * v, np.abs(v) * v, np.ones_like(v),
-                            np.linalg.norm(va, axis=1) * v])
+                            np.sqrt(_row_sum(va * va)) * v])
+
+
+def _row_sum(a: np.ndarray) -> np.ndarray:
+    """``a.sum(axis=1)`` of a 2-D array, bit for bit, as column additions in numpy's own
+    order (sequential below eight columns, its eight-way pairwise sum at eight): numpy
+    reduces a short row element by element, which costs ≈ 10× more."""
+    k = a.shape[1]
+    if k < 8:
+        out = a[:, 0].copy()
+        for j in range(1, k):
+            out += a[:, j]
+        return out
+    if k == 8 and a.flags.c_contiguous:
+        c = [a[:, j] for j in range(8)]
+        return ((c[0] + c[1]) + (c[2] + c[3])) + ((c[4] + c[5]) + (c[6] + c[7]))
+    return a.sum(axis=1)
+
+
+def _row_mean(a: np.ndarray) -> np.ndarray:
+    """``a.mean(axis=1, keepdims=True)`` of a 2-D array, bit for bit (:func:`_row_sum`)."""
+    return (_row_sum(a) / a.shape[1])[:, None]
 
 
 @dataclass
@@ -399,9 +479,9 @@ class NominalModel:
         # one filter call per cut-off: filtering is column-wise, the columns share it
         for cutoff in {CUTOFF_HZ[c] for c in raw}:
             group = [c for c in raw if CUTOFF_HZ[c] == cutoff]
-            filtered = lowpass(np.column_stack([raw[c] for c in group]), flight.fs, cutoff)
+            filtered = lowpass_series([raw[c] for c in group], flight.fs, cutoff)
             for j, c in enumerate(group):
-                out[c] = filtered[:, j] + mods.offset.get(c, 0.0)
+                out[c] = filtered[j] + mods.offset[c] if c in mods.offset else filtered[j]
         if any(c in chans for c in GYRO_CHANNELS):
             kin = _kinematic_rates(flight)
             for j, c in enumerate(GYRO_CHANNELS):
@@ -460,14 +540,15 @@ class NominalModel:
             coef = self.coef[c]
             if mods.drag_shape == "quadratic" and c in self.drag_quadratic:
                 coef = self.drag_quadratic[c]
-            y = feats[c] @ coef  # filtering is linear: filter the sum once
+            y = _regression(self, c, feats[c], coef)  # filtering is linear: filter the sum once
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
                          else np.ones(1))
                 y = y + mods.spin_torque * (feats["spin"] @ signs)
             if c in RATE_CHANNELS:
-                y = y / mods.inertia
+                if mods.inertia != 1.0:  # y / 1.0 is y: no copy
+                    y = y / mods.inertia
             elif mods.mass != 1.0:
                 y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:
@@ -481,6 +562,22 @@ class NominalModel:
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]
             raw[c] = y
         return raw
+
+
+def _regression(model: NominalModel, c: str, x: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """``x @ coef``; while ``x`` is a kept (read-only) regressor matrix, the product of
+    channel ``c`` is kept on the model too (a fit of what acts after the regression, such as
+    an inertia or a damping, reuses it at every evaluation)."""
+    if x.flags.writeable:
+        return x @ coef
+    cache = model.__dict__.setdefault("_products", {})
+    hit = cache.get(c)
+    if hit is not None and hit[0] is x and hit[1] is coef:
+        return hit[2]
+    y = x @ coef
+    y.flags.writeable = False
+    cache[c] = (x, coef, y)
+    return y
 
 
 BROADBAND_TAU = 1e-6
@@ -518,7 +615,11 @@ def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
     """Regressors the simulation does not excite enough to extrapolate from (their
     coefficient is fixed at 0): vertical-speed terms below 0.3 m/s of climb-rate spread,
     the translational-lift term below :data:`QUADRATIC_SPEED` of horizontal speed (the
-    horizontal drag law's shape is chosen on SIM's own data, :func:`_drag_law`)."""
+    horizontal drag law's shape is chosen on SIM's own data, :func:`_drag_law`). The last
+    answer is kept on the flight (the nominal fit asks a hundred times with one mask)."""
+    cached = flight.__dict__.get("_unexcited")
+    if cached is not None and cached[0] is flight.v_body and np.array_equal(cached[1], mask):
+        return {c: list(v) for c, v in cached[2].items()}
     vb = flight.v_body[mask]
     speed = float(np.max(np.hypot(vb[:, 0], vb[:, 1]))) if vb.size else 0.0
     climb = float(np.std(vb[:, 2])) * 4.0 if vb.size else 0.0
@@ -527,7 +628,8 @@ def _unexcited(flight: Flight, mask: np.ndarray) -> dict[str, list[int]]:
         out["az"].append(1)
     if speed < QUADRATIC_SPEED:
         out["az"].append(3)
-    return out
+    flight.__dict__["_unexcited"] = (flight.v_body, np.array(mask, dtype=bool), out)
+    return {c: list(v) for c, v in out.items()}
 
 
 DRAG_TERMS = (0, 1, 3)

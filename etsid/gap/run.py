@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from etsid.blas import one_blas_thread
 from etsid.errors import GapError
 from etsid.gap.candidates import LIBRARY, Context, ground_excess
 from etsid.gap.damping import LOW_BAND_HZ, LowBandReading, low_band_reading
@@ -591,6 +592,15 @@ def analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str = "
     GapError
         A log lacks the channels the analysis needs.
     """
+    with one_blas_thread():
+        return _analyse(sim_table, real_table, sim_name, real_name, vehicle, progress, method)
+
+
+def _analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str,
+             real_name: str, vehicle: Any, progress: Callable[[str], None] | None,
+             method: str | None) -> GapResult:
+    """:func:`analyse` with BLAS on one thread (:mod:`etsid.blas`: the analysis' least
+    squares and QR factorisations are skinny, and threads mostly wait for each other)."""
     say = progress or (lambda line: None)
     say(f"gap: preparing {sim_name} and {real_name} (same inputs, same grid)")
     sim, real = prepare_pair(sim_table, real_table, sim_name, real_name)
