@@ -153,9 +153,11 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
                         "confidence": {}}
             i += _n_params(part, models, theta)
     best = next((m["gain"] for m in models if m["name"] == name), -np.inf) if name else -np.inf
-    for m in models:  # an airframe scale held at its bound beyond a fault, explaining more
+    top = max((m["gain"] for m in models if "+" not in m["name"]), default=-np.inf)
+    for m in models:  # the single that explains most is an airframe scale held at its bound
         if (m.get("refused", "").startswith("at bound") and "+" not in m["name"]
-                and m["per_sample"] > cal.gain_per_sample and m["gain"] > best):
+                and m["per_sample"] > cal.gain_per_sample and m["gain"] > best
+                and m["gain"] >= top):
             lo, hi = AIRFRAME_SCALES.get(m["name"], (-np.inf, np.inf))
             if not lo <= m["theta"][0] <= hi:
                 return {"answer": "different-vehicle", "verdict": "different-vehicle",

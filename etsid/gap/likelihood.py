@@ -187,8 +187,9 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                  if m.refused.startswith("at bound") and m.per_sample > cal.gain_per_sample
                  and (chosen is None or m.gain > chosen.gain)]
     beyond = [m.refused[len("at bound: "):] for m in at_bounds]
-    for m in at_bounds:  # a scale that explains more than the named model, held at its bound
-        if "+" not in m.name:
+    top = max((m.gain for m in crit.models if "+" not in m.name), default=-np.inf)
+    for m in at_bounds:  # the single that explains most is a scale held at its bound
+        if "+" not in m.name and m.gain >= top:
             theta = float(np.mean([f.theta[0] for f in m.fits]))
             found = _airframe_evidence(m.name, theta, "at its search bound")
             if found:
