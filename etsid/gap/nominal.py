@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
-from etsid.gap.signals import Flight, derivative, lowpass, lowpass_series
+from etsid.gap.signals import Flight, derivative, down_in_body, lowpass, lowpass_series
 
 FORCE_CHANNELS = ("az", "ax", "ay")
 RATE_CHANNELS = ("p", "q", "r")
@@ -181,10 +181,7 @@ def kinematic_specific_force(flight: Flight) -> np.ndarray:
     rates and the attitude: ``v̇_b + ω × v_b − Rᵀ (0, 0, g)``."""
     vb = flight.v_body
     acc = derivative(vb, flight.fs) + np.cross(flight.rates, vb)
-    phi, th = flight.att[:, 0], flight.att[:, 1]
-    g_body = GRAVITY * np.column_stack([-np.sin(th), np.sin(phi) * np.cos(th),
-                                        np.cos(phi) * np.cos(th)])
-    return acc - g_body
+    return acc - GRAVITY * down_in_body(flight.att)
 
 
 def measured(flight: Flight) -> dict[str, np.ndarray]:

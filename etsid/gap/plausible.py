@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from etsid.gap.signals import Flight, true_runs
+from etsid.gap.signals import Flight, down_in_body, true_runs
 
 MAX_TILT_DEG = 60.0
 """Tilt beyond which a sample is an upset or aerobatics: the autopilots' own lean limits in
@@ -102,10 +102,9 @@ def down_velocity(flight: Flight) -> np.ndarray:
     v_down = −sin θ v_x + sin φ cos θ v_y + cos φ cos θ v_z (body z alone where the attitude
     is missing). Body z is not "down" in forward flight: pitched 0.15 rad at 3 m/s it reads
     0.45 m/s of climb that is not there."""
-    roll, pitch = flight.att[:, 0], flight.att[:, 1]
     vb = flight.v_body
-    down = (-np.sin(pitch) * vb[:, 0] + np.sin(roll) * np.cos(pitch) * vb[:, 1]
-            + np.cos(roll) * np.cos(pitch) * vb[:, 2])
+    d = down_in_body(flight.att)
+    down = vb[:, 0] * d[:, 0] + vb[:, 1] * d[:, 1] + vb[:, 2] * d[:, 2]
     return np.where(np.isfinite(down), down, vb[:, 2])
 
 

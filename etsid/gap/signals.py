@@ -143,6 +143,14 @@ def _motor_columns(table: pd.DataFrame) -> list[str]:
     return sorted(cols, key=lambda c: int(c[1:]))
 
 
+def down_in_body(att: np.ndarray) -> np.ndarray:
+    """(n, 3) the earth's down direction in body axes for Euler angles ``att`` (roll,
+    pitch, yaw; rad): the third column of Rᵀ, ``(−sin θ, sin φ cos θ, cos φ cos θ)``."""
+    roll, pitch = att[:, 0], att[:, 1]
+    return np.column_stack([-np.sin(pitch), np.sin(roll) * np.cos(pitch),
+                            np.cos(roll) * np.cos(pitch)])
+
+
 def _body_velocity(vned: np.ndarray, att: np.ndarray) -> np.ndarray:
     roll, pitch, yaw = att[:, 0], att[:, 1], att[:, 2]
     cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
