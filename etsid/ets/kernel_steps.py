@@ -110,11 +110,13 @@ def shared_rls(xe, z, na, sh, p0, Cs, gs, ths, forget, cbound) -> None:
     column (read only here): the new consequent into ``ths`` (columns with ``sh[o] = 1``),
     ``Cs`` updated in place with the rules' forgetting and wind-up guard."""
     n1 = xe.shape[0]
+    # gs = Cs x_e as a sum of columns (Cs is exactly symmetric: the row dot product's order)
     for a in range(n1):
-        acc = 0.0
-        for b in range(n1):
-            acc += Cs[a, b] * xe[b]
-        gs[a] = acc
+        gs[a] = 0.0
+    for b in range(n1):
+        xb = xe[b]
+        for a in range(n1):
+            gs[a] += Cs[b, a] * xb
     fs = forget
     if forget != 1.0:
         tr = 0.0

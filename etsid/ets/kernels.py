@@ -636,21 +636,22 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         f0 = 1.0
                     if tr1 > cbound:
                         f1 = 1.0
-                # g = C_i x_e by row dot products (the sum stays in a register), and
-                # x_e^T g in the same pass
+                # g = C_i x_e as a sum of columns (C_i is exactly symmetric, so column b
+                # is row b, and every g[a] is summed in the row dot product's order):
+                # the inner loop runs along a row and vectorises. Then x_e^T g
+                for a in range(n1):
+                    g[a] = 0.0
+                    g2[a] = 0.0
+                for b in range(n1):
+                    xb = xe[b]
+                    for a in range(n1):
+                        g[a] += Cl[i0, b, a] * xb
+                        g2[a] += Cl[i1, b, a] * xb
                 cw0 = 0.0
                 cw1 = 0.0
                 for a in range(n1):
-                    acc0 = 0.0
-                    acc1 = 0.0
-                    for b in range(n1):
-                        xb = xe[b]
-                        acc0 += Cl[i0, a, b] * xb
-                        acc1 += Cl[i1, a, b] * xb
-                    g[a] = acc0
-                    g2[a] = acc1
-                    cw0 += xe[a] * acc0
-                    cw1 += xe[a] * acc1
+                    cw0 += xe[a] * g[a]
+                    cw1 += xe[a] * g2[a]
                 c0 = w0 / (f0 + w0 * cw0)
                 c1 = w1 / (f1 + w1 * cw1)
                 for o in range(m):
@@ -695,13 +696,15 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         tr += Cl[i, a, a]
                     if tr > cbound:
                         fi = 1.0
+                for a in range(n1):
+                    g[a] = 0.0
+                for b in range(n1):
+                    xb = xe[b]
+                    for a in range(n1):
+                        g[a] += Cl[i, b, a] * xb
                 cwi = 0.0
                 for a in range(n1):
-                    acc = 0.0
-                    for b in range(n1):
-                        acc += Cl[i, a, b] * xe[b]
-                    g[a] = acc
-                    cwi += xe[a] * acc
+                    cwi += xe[a] * g[a]
                 c = wi / (fi + wi * cwi)
                 for o in range(m):
                     err[o] = zy[o] - yr[i, o]

@@ -86,8 +86,9 @@ class ARX:
 @njit(cache=True, boundscheck=False)
 def _rls_kernel(X: np.ndarray, Y: np.ndarray, omega: float) -> np.ndarray:  # pragma: no cover
     """Predict-then-learn RLS over the rows of ``X``, without allocating per sample: the
-    updates of :func:`rls_reference` element by element (the symmetrisation keeps P[a, b]
-    and P[b, a] equal, so it is done once per pair)."""
+    updates of :func:`rls_reference` element by element, with the same result bit for bit
+    (the symmetrisation keeps P[a, b] and P[b, a] equal, which lets P x_e be summed by
+    columns and the update and its symmetrisation be one pass along the rows)."""
     n, m = X.shape[1] + 1, Y.shape[1]
     P = np.eye(n) * omega
     theta = np.zeros((n, m))
@@ -106,26 +107,31 @@ def _rls_kernel(X: np.ndarray, Y: np.ndarray, omega: float) -> np.ndarray:  # pr
                 acc += xe[a] * theta[a, o]
             out[k, o] = acc
             err[o] = Y[k, o] - acc
+        # px = P x_e as a sum of columns (P is exactly symmetric: each px[a] is summed in
+        # the row dot product's order), so the inner loop runs along a row and vectorises
+        for a in range(n):
+            px[a] = 0.0
+        for b in range(n):
+            xb = xe[b]
+            for a in range(n):
+                px[a] += P[b, a] * xb
         den = 0.0
         for a in range(n):
-            acc = 0.0
-            for b in range(n):
-                acc += P[a, b] * xe[b]
-            px[a] = acc
-            den += xe[a] * acc
+            den += xe[a] * px[a]
         den += 1.0
         for a in range(n):
             gain[a] = px[a] / den
             for o in range(m):
                 theta[a, o] += gain[a] * err[o]
+        # P - gain pxᵀ symmetrised, in one pass along the rows: the mean of the (a, b) and
+        # (b, a) updates (P[a, b] = P[b, a] before), which is the update itself on the
+        # diagonal and exactly symmetric off it
         for a in range(n):
+            ga = gain[a]
+            pa = px[a]
             for b in range(n):
-                P[a, b] -= gain[a] * px[b]
-        for a in range(n):
-            for b in range(a + 1, n):
-                v = 0.5 * (P[a, b] + P[b, a])
-                P[a, b] = v
-                P[b, a] = v
+                p_ab = P[a, b]
+                P[a, b] = 0.5 * ((p_ab - ga * px[b]) + (p_ab - gain[b] * pa))
     return out
 
 
