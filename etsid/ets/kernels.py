@@ -12,6 +12,7 @@ from numba import njit
 
 from etsid.ets.kernel_steps import add_event, global_gain, read_parameters, shared_rls
 from etsid.ets.layout import (
+    COLUMN_SUMS,
     EV_BIRTH,
     EV_REMOVAL,
     EV_REPLACE,
@@ -636,17 +637,29 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         f0 = 1.0
                     if tr1 > cbound:
                         f1 = 1.0
-                # g = C_i x_e as a sum of columns (C_i is exactly symmetric, so column b
-                # is row b, and every g[a] is summed in the row dot product's order):
-                # the inner loop runs along a row and vectorises. Then x_e^T g
-                for a in range(n1):
-                    g[a] = 0.0
-                    g2[a] = 0.0
-                for b in range(n1):
-                    xb = xe[b]
+                # g = C_i x_e, then x_e^T g. Few regressors: row dot products (the sum
+                # stays in a register). Many: a sum of columns (C_i is exactly symmetric,
+                # so column b is row b and every g[a] is summed in the same order), whose
+                # inner loop runs along a row and vectorises (COLUMN_SUMS)
+                if n1 < COLUMN_SUMS:
                     for a in range(n1):
-                        g[a] += Cl[i0, b, a] * xb
-                        g2[a] += Cl[i1, b, a] * xb
+                        acc0 = 0.0
+                        acc1 = 0.0
+                        for b in range(n1):
+                            xb = xe[b]
+                            acc0 += Cl[i0, a, b] * xb
+                            acc1 += Cl[i1, a, b] * xb
+                        g[a] = acc0
+                        g2[a] = acc1
+                else:
+                    for a in range(n1):
+                        g[a] = 0.0
+                        g2[a] = 0.0
+                    for b in range(n1):
+                        xb = xe[b]
+                        for a in range(n1):
+                            g[a] += Cl[i0, b, a] * xb
+                            g2[a] += Cl[i1, b, a] * xb
                 cw0 = 0.0
                 cw1 = 0.0
                 for a in range(n1):
@@ -696,12 +709,19 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         tr += Cl[i, a, a]
                     if tr > cbound:
                         fi = 1.0
-                for a in range(n1):
-                    g[a] = 0.0
-                for b in range(n1):
-                    xb = xe[b]
+                if n1 < COLUMN_SUMS:
                     for a in range(n1):
-                        g[a] += Cl[i, b, a] * xb
+                        acc = 0.0
+                        for b in range(n1):
+                            acc += Cl[i, a, b] * xe[b]
+                        g[a] = acc
+                else:
+                    for a in range(n1):
+                        g[a] = 0.0
+                    for b in range(n1):
+                        xb = xe[b]
+                        for a in range(n1):
+                            g[a] += Cl[i, b, a] * xb
                 cwi = 0.0
                 for a in range(n1):
                     cwi += xe[a] * g[a]
