@@ -20,6 +20,7 @@ from etsid.ingest.base import Override, ReadOptions
 from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, autopilot_clock
 from etsid.ingest.mavlink.dtypes import crc_extra_table
 from etsid.ingest.mavlink.scan import (
+    crc_x25,
     gather_grouped,
     gather_payloads,
     gather_payloads_reference,
@@ -105,6 +106,20 @@ def test_rates_are_unequal_and_as_configured(tlog: Path) -> None:
     assert rates["RC_CHANNELS"] == pytest.approx(25, rel=0.02)
     assert rates["SYS_STATUS"] == pytest.approx(2, rel=0.1)
     assert raw.extra["sysids"] == [1]
+
+
+def test_crc_equals_pymavlinks_x25() -> None:
+    """The reference CRC (binascii on bit-reversed bytes) is pymavlink's X.25, seed byte
+    included, on random frames of every length a MAVLink 2 frame can have."""
+    from pymavlink.generator.mavcrc import x25crc
+
+    rng = np.random.default_rng(7)
+    for size in [*range(0, 40), *rng.integers(40, 281, 60)]:
+        data = rng.integers(0, 256, int(size), dtype=np.uint8).tobytes()
+        extra = int(rng.integers(0, 256))
+        want = x25crc(data)
+        want.accumulate(bytes((extra,)))
+        assert crc_x25(data, extra) == want.crc, size
 
 
 def test_scan_kernel_matches_reference(tlog: Path) -> None:

@@ -22,6 +22,7 @@ import (≈ 0.5 s of CPU with the scipy it loads) to save a fraction of that.
 
 from __future__ import annotations
 
+import binascii
 import sys
 from dataclasses import dataclass
 
@@ -32,11 +33,12 @@ MAGIC_V2 = 0xFD
 STAMP = 8
 """Bytes of the ground-station timestamp in front of each frame."""
 
-SMALL_BYTES = 2 << 20
-"""Largest buffer scanned by the plain reference while numba is not loaded: the reference
-takes ≈ 0.3 s of CPU per MiB, importing numba and its scipy ≈ 0.5–0.6 s (measured on
-``sample_logs/hexa_ige_oge.tlog``, 1.5 MB: ``etsid inspect`` 0.69–0.77 s of CPU this way,
-1.00–1.09 s through numba; docs/performance.md)."""
+SMALL_BYTES = 4 << 20
+"""Largest buffer scanned by the plain reference while numba is not loaded. The reference
+takes ≈ 0.1 s of CPU per MiB (the CRC through ``binascii``), importing numba and its scipy
+≈ 0.5–0.6 s, so they break even near 5 MiB: ``etsid inspect`` of a 5.3 MB tlog took
+1.45–1.68 s of user CPU through numba and 1.37–1.64 s plain (4 runs each); of
+``sample_logs/hexa_ige_oge.tlog`` (1.5 MB) 0.66 s wall plain (docs/performance.md)."""
 
 
 def use_kernels(size: int) -> bool:
@@ -95,14 +97,17 @@ def scan_frames(buf: np.ndarray, crc_extra: np.ndarray, final: bool) -> ScanResu
     return ScanResult(off, ln, mid, sid, cid, ts, st, int(consumed), int(skipped), int(bad))
 
 
+_REFLECT = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
+"""Each byte with its bit order reversed (``bytes.translate`` table)."""
+
+
 def crc_x25(data: bytes, extra: int) -> int:
-    """Plain-Python X.25 CRC of ``data`` followed by the ``extra`` seed byte (reference)."""
-    crc = 0xFFFF
-    for byte in [*data, extra]:
-        tmp = (byte ^ (crc & 0xFF)) & 0xFF
-        tmp = (tmp ^ (tmp << 4)) & 0xFF
-        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
-    return crc
+    """X.25 CRC (CRC-16/MCRF4XX) of ``data`` followed by the ``extra`` seed byte, at C
+    speed: MCRF4XX is the bit-reflected form of CRC-16/CCITT with the same polynomial
+    (0x1021) and an all-ones start, so it is ``binascii.crc_hqx`` of the bit-reversed
+    bytes, bit-reversed (≈ 1 µs for a 40-byte frame, 19× a byte loop in Python)."""
+    crc = binascii.crc_hqx((data + bytes((extra,))).translate(_REFLECT), 0xFFFF)
+    return (_REFLECT[crc & 0xFF] << 8) | _REFLECT[crc >> 8]
 
 
 def scan_frames_reference(data: bytes, crc_extra: np.ndarray, final: bool = True) -> ScanResult:
