@@ -4,7 +4,8 @@ pymavlink's compiled indexer stops at the first FMT record whose length is short
 message header (an FMT of length 0 or 1 at the start leaves nothing; in the middle it cuts
 the rest of the log), and prints a line per bad byte, which DFReader's callers capture in
 an unbounded temporary file. :func:`build_offsets` replaces it (same arguments, same
-result: one list of offsets per message type), compiled with numba:
+result: one list of offsets per message type), compiled with numba
+(:mod:`.dataflash_kernels`; plain Python for a small log while numba is not loaded):
 
 * an FMT record is accepted only when its length is at least the 3-byte header, its
   format characters are known, their sizes fit in its length and it does not change
@@ -27,10 +28,10 @@ import struct
 from dataclasses import dataclass, field
 from typing import Any
 
-import numba
 import numpy as np
 
 from etsid.ingest import mapped
+from etsid.ingest.kernel_choice import use_kernels
 
 FMT_TYPE = 0x80
 FMT_BYTES = 89
@@ -62,8 +63,7 @@ def _char_sizes() -> np.ndarray:
     return sizes
 
 
-@numba.njit(cache=True)
-def _grow(arr: np.ndarray, k: int) -> np.ndarray:  # pragma: no cover - compiled
+def _grow(arr: np.ndarray, k: int) -> np.ndarray:
     if k < arr.size:
         return arr
     out = np.empty(arr.size * 2, dtype=arr.dtype)
@@ -71,8 +71,7 @@ def _grow(arr: np.ndarray, k: int) -> np.ndarray:  # pragma: no cover - compiled
     return out
 
 
-@numba.njit(cache=True)
-def _fmt_length(buf: np.ndarray, pos: int, sizes: np.ndarray) -> int:  # pragma: no cover
+def _fmt_length(buf: np.ndarray, pos: int, sizes: np.ndarray) -> int:
     """Message length an FMT record at ``pos`` defines, or -1 when it is not valid."""
     length = np.int64(buf[pos + 4])
     total = 3
@@ -88,11 +87,12 @@ def _fmt_length(buf: np.ndarray, pos: int, sizes: np.ndarray) -> int:  # pragma:
     return length
 
 
-@numba.njit(cache=True)
 def _index(buf: np.ndarray, pos: int, limit: int, resync: int, head1: int, head2: int,
            sizes: np.ndarray, lengths: np.ndarray
-           ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
-    """Index from ``pos`` until ``limit`` (messages may end past it).
+           ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Index from ``pos`` until ``limit`` (messages may end past it). Plain Python,
+    compiled by :mod:`.dataflash_kernels`; run plain on a small log while numba is not
+    loaded (:mod:`etsid.ingest.kernel_choice`).
 
     ``resync``: start of the bad stretch being skipped (-1: none); ``lengths``: message
     length per type, updated by the FMT records met. Returns (where to go on, the resync
@@ -174,9 +174,12 @@ def build_offsets(data: Any, fmt_type: int, fmt_len: int, type_offset: int, size
     lengths[FMT_TYPE] = FMT_BYTES
     parts: list[tuple[np.ndarray, ...]] = []
     pos, resync, done = 0, -1, 0
+    index = _index
+    if use_kernels(buf.size):
+        from etsid.ingest.dataflash_kernels import index
     try:
         while pos + 3 <= buf.size:
-            pos, resync, *found = _index(buf, pos, pos + WINDOW_BYTES, resync, head1, head2,
+            pos, resync, *found = index(buf, pos, pos + WINDOW_BYTES, resync, head1, head2,
                                          _SIZES, lengths)
             parts.append(tuple(found))
             if isinstance(owner, mmap.mmap):  # pages behind are not needed again here

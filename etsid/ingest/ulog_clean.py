@@ -5,8 +5,9 @@ pyulog steps one byte at a time (in Python) through bytes that are not messages 
 definitions section, or where no sync marker follows): gigabytes of zeros after a valid
 header run for hours. And a message format that refers to itself (``loop:loop next;``), directly or
 through other formats, makes pyulog recurse until Python stops it, losing every topic of
-the file. Before pyulog reads a file, :func:`clean` walks its messages (compiled, over a
-memory map):
+the file. Before pyulog reads a file, :func:`clean` walks its messages (over a
+memory map; compiled by :mod:`.ulog_kernels`, in plain Python for a small file while numba
+is not loaded, :mod:`etsid.ingest.kernel_choice`):
 
 * where the chain breaks (a message type 0, size 0 or an unknown type longer than
   10 000 bytes, pyulog's own tests), the walk resumes where :data:`RESYNC_MESSAGES`
@@ -26,12 +27,12 @@ import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numba
 import numpy as np
 
 from etsid.errors import IngestError
 from etsid.files import open_binary
 from etsid.ingest import mapped
+from etsid.ingest.kernel_choice import use_kernels
 
 HEADER_BYTES = 16
 RESYNC_MESSAGES = 8
@@ -79,10 +80,9 @@ class Cleaned:
         return bool(self.skipped or self.tail or self.replace)
 
 
-@numba.njit(cache=True)
-def _chain(buf: np.ndarray, pos: int, known: np.ndarray) -> tuple[int, int]:  # pragma: no cover
+def _chain(buf: np.ndarray, pos: int, known: np.ndarray) -> tuple[int, int]:
     """Walk messages from ``pos``: (where the chain stops, 0 at a break / 1 at the end or
-    an incomplete last message)."""
+    an incomplete last message). Plain Python, compiled by :mod:`.ulog_kernels`."""
     n = buf.size
     while pos + 3 <= n:
         size = np.int64(buf[pos]) | (np.int64(buf[pos + 1]) << 8)
@@ -95,9 +95,8 @@ def _chain(buf: np.ndarray, pos: int, known: np.ndarray) -> tuple[int, int]:  # 
     return pos, 1
 
 
-@numba.njit(cache=True)
 def _resync(buf: np.ndarray, first: int, limit: int, known: np.ndarray,
-            depth: int) -> int:  # pragma: no cover
+            depth: int) -> int:  # pragma: no cover - run compiled (.ulog_kernels)
     """The first position from ``first`` (below ``limit``) where ``depth`` messages of
     known types follow one another (or fewer that end exactly at the end of the file);
     -1 when the file ends first, -2 when ``limit`` is reached first."""
@@ -133,8 +132,11 @@ def clean(path: Path) -> Cleaned:
         buf = np.frombuffer(mm, dtype=np.uint8)
         try:
             start = pos = HEADER_BYTES
+            chain = _chain
+            if use_kernels(size):
+                from etsid.ingest.ulog_kernels import chain
             while True:
-                stop, whole = _chain(buf, pos, _KNOWN)
+                stop, whole = (int(v) for v in chain(buf, pos, _KNOWN))
                 if whole:
                     out.spans.append((start if out.spans else 0, stop))
                     out.cut = size - stop
@@ -153,10 +155,12 @@ def clean(path: Path) -> Cleaned:
 
 
 def _next_chain(mm: mmap.mmap, buf: np.ndarray, first: int) -> int:
-    """:func:`_resync` a window at a time, the pages searched given back (memory stays
-    bounded over gigabytes of garbage)."""
+    """:func:`_resync` (compiled: it steps a byte at a time) a window at a time, the pages
+    searched given back (memory stays bounded over gigabytes of garbage)."""
+    from etsid.ingest.ulog_kernels import resync
+
     while True:
-        got = _resync(buf, first, first + mapped.WINDOW_BYTES, _KNOWN, RESYNC_MESSAGES)
+        got = resync(buf, first, first + mapped.WINDOW_BYTES, _KNOWN, RESYNC_MESSAGES)
         if got != -2:
             return got
         mapped.release(mm, first, first + mapped.WINDOW_BYTES)

@@ -1,6 +1,6 @@
 """Commands import only what they use: ``etsid --help`` no science stack, ``etsid inspect``
-no pandas/matplotlib (and no numba for formats read without it, and for a tlog small enough
-to scan without it)."""
+no pandas/matplotlib (and no numba for formats read without it, and for a tlog, ULog or
+DataFlash log small enough to walk without it, :mod:`etsid.ingest.kernel_choice`)."""
 
 from __future__ import annotations
 
@@ -44,6 +44,9 @@ def test_help_imports_no_science_stack() -> None:
 @pytest.mark.parametrize(("log", "absent"), [
     ("sample_logs/hexa_ige_oge.tlog", {"pandas", "matplotlib", "pyarrow", "numba", "scipy"}),
     ("sample_logs/hexa_ige_oge.bag", {"pandas", "matplotlib", "pyarrow", "numba", "scipy"}),
+    ("tests/data/px4_sitl_tagged.ulg", {"pandas", "matplotlib", "pyarrow", "numba", "scipy"}),
+    ("tests/data/ardupilot_copter403_hexa_loiter_real.bin",
+     {"pandas", "matplotlib", "pyarrow", "numba", "scipy"}),
 ])  # fmt: skip
 def test_inspect_imports_no_table_or_plot_stack(log: str, absent: set[str]) -> None:
     loaded = _modules_after(["inspect", "--quiet", log])

@@ -14,37 +14,24 @@ byte at a time until a valid record starts again, counting what it skipped.
 A frame whose message id the dialect does not know cannot be CRC-checked: it is
 accepted (and reported as unknown) only when the next record starts right after it.
 
-The numba kernels live in :mod:`.scan_kernels`, imported only when needed: a buffer of at
-most :data:`SMALL_BYTES` read while numba is not loaded yet is scanned by the plain
-reference (same result), so that ``etsid inspect`` of a small tlog does not pay numba's
-import (≈ 0.5 s of CPU with the scipy it loads) to save a fraction of that.
+The numba kernels live in :mod:`.scan_kernels`, imported only when needed: a small buffer
+read while numba is not loaded yet is scanned by the plain reference (same result;
+:mod:`etsid.ingest.kernel_choice`).
 """
 
 from __future__ import annotations
 
 import binascii
-import sys
 from dataclasses import dataclass
 
 import numpy as np
+
+from etsid.ingest.kernel_choice import use_kernels
 
 MAGIC_V1 = 0xFE
 MAGIC_V2 = 0xFD
 STAMP = 8
 """Bytes of the ground-station timestamp in front of each frame."""
-
-SMALL_BYTES = 4 << 20
-"""Largest buffer scanned by the plain reference while numba is not loaded. The reference
-takes ≈ 0.1 s of CPU per MiB (the CRC through ``binascii``), importing numba and its scipy
-≈ 0.5–0.6 s, so they break even near 5 MiB: ``etsid inspect`` of a 5.3 MB tlog took
-1.45–1.68 s of user CPU through numba and 1.37–1.64 s plain (4 runs each); of
-``sample_logs/hexa_ige_oge.tlog`` (1.5 MB) 0.66 s wall plain (docs/performance.md)."""
-
-
-def use_kernels(size: int) -> bool:
-    """Whether to run the numba kernels on ``size`` bytes (else the plain references)."""
-    return "numba" in sys.modules or size > SMALL_BYTES
-
 
 # status codes per frame
 OK = 0
