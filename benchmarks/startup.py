@@ -1,5 +1,5 @@
 """Whole-process time of commands that should start at once: ``etsid --help`` and
-``etsid inspect`` on small logs (imports, numba cache loading and the work).
+``etsid inspect`` on small logs of each format (imports, numba cache loading and the work).
 
 Run from the repository root::
 
@@ -25,11 +25,14 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 LOGS = ROOT / "sample_logs"
+DATA = ROOT / "tests" / "data"  # real ULog (1.9 MB) and DataFlash (1.3 MB) logs
 COMMANDS = [
     ["--help"],
     ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.tlog")],
     ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.bag")],
     ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.mcap")],
+    ["inspect", "--quiet", str(DATA / "px4_sitl_tagged.ulg")],
+    ["inspect", "--quiet", str(DATA / "ardupilot_copter403_hexa_loiter_real.bin")],
 ]
 
 
