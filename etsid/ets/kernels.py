@@ -10,12 +10,19 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from etsid.ets.kernel_steps import add_event, global_gain, read_parameters, shared_rls
+from etsid.ets.kernel_steps import (
+    add_event,
+    global_gain,
+    interp_pair,
+    read_parameters,
+    shared_rls,
+)
 from etsid.ets.layout import (
     COLUMN_SUMS,
     EV_BIRTH,
     EV_REMOVAL,
     EV_REPLACE,
+    IP_BLEND,
     IP_SCHEDULED,
     RADIUS_FLOOR,
     SQRT8,
@@ -179,11 +186,13 @@ def _gain_by_columns(C, xe, g) -> None:
 
 
 @njit(cache=True, boundscheck=False)
-def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo) -> None:
+def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo, interp) -> None:
     """Batch prediction with frozen rules; NaN rows when the model has no rule.
 
     ``S`` holds the antecedent (scheduling) inputs, ``X`` the consequent inputs (the same
-    array when the model is not scheduled); ``xo`` is the offset of x in z.
+    array when the model is not scheduled); ``xo`` is the offset of x in z; ``interp``:
+    the output is interpolated between rules (``blend="interpolate"``, :func:`interp_pair`)
+    instead of blended by the firing.
     Same arithmetic, in the same order, as step 1 of ``learn_kernel``, so a prediction
     equals the one ``run`` would have made bit for bit.
     """
@@ -218,6 +227,11 @@ def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo) -> None:
         for j in range(n):
             xe[j + 1] = (X[t, j] - lo[xo + j]) * isx[j]
         _rule_outputs(xe, Pi, R, yr)
+        if interp:
+            i0, i1, w = interp_pair(za[0], cz[:, 0], R)
+            for o in range(m):
+                Yhat[t, o] = (1.0 - w) * yr[i0, o] + w * yr[i1, o]
+            continue
         for o in range(m):
             acc = 0.0
             for i in range(R):
@@ -284,6 +298,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     d = lo.shape[0]
     n1 = n + 1
     scheduled = ip[IP_SCHEDULED] == 1
+    interp = ip[IP_BLEND] == 1  # the output interpolated (learning still uses lam)
     xo = na + m if scheduled else 0  # offset of x in z
     dp = na if scheduled else na + m  # dimensions of the potential space
     (variant, is_global, rmax, min_support, prune_after, adaptive, omega, forget, umin,
@@ -406,8 +421,13 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         acc += xe[a] * Pi[i, a, o]
                     yr[i, o] = acc
                     yh[o] += li * acc
-            for o in range(m):
-                Yhat[t, o] = yh[o]
+            if interp:
+                i0, i1, w = interp_pair(z[0], cz[:, 0], R)
+                for o in range(m):
+                    Yhat[t, o] = (1.0 - w) * yr[i0, o] + w * yr[i1, o]
+            else:
+                for o in range(m):
+                    Yhat[t, o] = yh[o]
         else:
             for o in range(m):
                 Yhat[t, o] = np.nan
@@ -827,8 +847,10 @@ def predict_row(x, sv, out, frozen, work) -> bool:
     in the same order (bit-identical). ``frozen`` packs, flat, the consequent inputs' ``lo``
     (n), ``1/s`` (n), then per rule its focal point on the antecedents (na), firing
     coefficients (na) and consequents (n + 1, m) (``ETS`` builds it once per rule base, from
-    :func:`predict_setup`); ``work`` holds 2 R + n + 1 values. Few arguments on purpose: the
-    call is made once per free-run step and numba checks every argument's type. Returns
+    :func:`predict_setup`); ``work`` holds 2 R + n + 1 values. Firing coefficients below 0
+    (``ETS.frozen_predictor`` negates them for ``blend="interpolate"``) mean the output is
+    interpolated (:func:`interp_pair`) on the one antecedent input. Few arguments on purpose:
+    the call is made once per free-run step and numba checks every argument's type. Returns
     False, without predicting, when an input is not finite."""
     n = x.shape[0]
     for j in range(n):
@@ -845,6 +867,8 @@ def predict_row(x, sv, out, frozen, work) -> bool:
     ex = work[:R]
     lam = work[R : 2 * R]
     xe = work[2 * R :]
+    if na > 0 and frozen[2 * n + na] < 0.0:
+        return _interpolated_row(x, sv[0], out, frozen, xe, ex, R, stride)
     emin = np.inf
     for i in range(R):
         b = 2 * n + i * stride
@@ -874,4 +898,30 @@ def predict_row(x, sv, out, frozen, work) -> bool:
                 yr += xe[a] * frozen[b + a * m + o]
             acc += lam[i] * yr
         out[o] = acc
+    return True
+
+
+@njit(cache=True, boundscheck=False)
+def _interpolated_row(x, s0, out, frozen, xe, f, R, stride) -> bool:
+    """:func:`predict_row` of a model with ``blend="interpolate"`` (one antecedent input):
+    the rule outputs as ``predict_kernel`` computes them, then :func:`interp_pair`; ``f``
+    (≥ R values) is scratch for the focal values."""
+    n = x.shape[0]
+    m = out.shape[0]
+    n1 = n + 1
+    for i in range(R):
+        f[i] = frozen[2 * n + i * stride]
+    i0, i1, w = interp_pair(s0, f, R)
+    xe[0] = 1.0
+    for j in range(n):
+        xe[j + 1] = (x[j] - frozen[j]) * frozen[n + j]
+    b0 = 2 * n + i0 * stride + 2
+    b1 = 2 * n + i1 * stride + 2
+    for o in range(m):
+        y0 = 0.0
+        y1 = 0.0
+        for a in range(n1):
+            y0 += xe[a] * frozen[b0 + a * m + o]
+            y1 += xe[a] * frozen[b1 + a * m + o]
+        out[o] = (1.0 - w) * y0 + w * y1
     return True

@@ -44,7 +44,8 @@ IP_ADAPTIVE = 5
 IP_COVERAGE = 6  # eTS+: also grow wherever no rule covers the sample
 IP_SCHEDULED = 7  # 1: antecedents on a separate scheduling vector s, z = [s; y; x]
 IP_CLUSTERING = 8  # 0: potential-driven structure (eTS / eTS+), 1: evolving vector quantisation
-N_IP = 9
+IP_BLEND = 9  # 0: output blended by the normalised firing, 1: interpolated (one antecedent)
+N_IP = 10
 # float parameters ``fp``
 FP_OMEGA = 0
 FP_FORGET = 1

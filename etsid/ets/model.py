@@ -14,7 +14,7 @@ from etsid.ets.history import History, HistoryRecorder, raw_consequents
 from etsid.ets.kernels import learn_kernel, predict_kernel, predict_row, predict_setup
 from etsid.ets.kernels_lanes import learn_lanes
 from etsid.ets.normalisation import scales
-from etsid.ets.params import CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
+from etsid.ets.params import BLENDS, CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
 from etsid.ets.state import LearnedState
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -109,6 +109,15 @@ class ETS:
         point moves to the running mean of the samples it has won, so focal points sit at
         the centres of the regimes visited instead of chasing the global data mean; the
         potentials are still recorded and the eTS+ pruning still applies (variant "ets+").
+    blend : {"firing", "interpolate"}
+        How the rule outputs make the model's output (every prediction: ``run``'s one-step
+        predictions, ``predict``, ``predict_one``). "firing": weighted by the normalised
+        firing λ_i. "interpolate" (a scheduled model with one antecedent input only):
+        linear interpolation in s between the two rules whose focal points enclose it,
+        y = (1 − w) y_lo + w y_hi with w = (s − s*_lo) / (s*_hi − s*_lo), the outermost
+        rule alone beyond them — the local models are the regimes' own and the model
+        between two regimes is their linear interpolation, as in gain scheduling. Learning
+        (firing, potentials, births, consequent RLS weights λ_i) is the same for both.
     input_names, output_names : sequence of str, optional
         Names used by :meth:`rules` and the rule-base JSON (default x1.., y1..).
     antecedent_names : sequence of str, optional
@@ -159,6 +168,7 @@ class ETS:
         s_range: Any = None,
         history_every: int = DEFAULTS.history_every,
         clustering: str = DEFAULTS.clustering,
+        blend: str = DEFAULTS.blend,
         input_names: Sequence[str] | None = None,
         output_names: Sequence[str] | None = None,
         antecedent_names: Sequence[str] | None = None,
@@ -180,6 +190,7 @@ class ETS:
         self.s_range = s_range
         self.history_every = history_every
         self.clustering = clustering
+        self.blend = blend
         self.input_names = input_names
         self.output_names = output_names
         self.antecedent_names = antecedent_names
@@ -197,6 +208,8 @@ class ETS:
         if self.clustering not in CLUSTERINGS:
             raise ValueError(f"clustering must be one of {CLUSTERINGS}, "
                              f"got {self.clustering!r}")
+        if self.blend not in BLENDS:
+            raise ValueError(f"blend must be one of {BLENDS}, got {self.blend!r}")
         if self.rls not in RLS_KINDS:
             raise ValueError(f"rls must be one of {RLS_KINDS}, got {self.rls!r}")
         r = np.atleast_1d(np.asarray(self.radius, dtype=np.float64))
@@ -219,6 +232,10 @@ class ETS:
         na scheduling inputs (z = [s; y; x]); otherwise z = [x; y]."""
         self._check_params()
         scheduled = na is not None
+        if self.blend == "interpolate" and na != 1:
+            raise ValueError("blend='interpolate' needs a scheduled model with one antecedent "
+                             f"input (run(X, Y, S) with S of one column); got "
+                             f"{'no S' if na is None else f'{na} columns'}")
         na = n if na is None else na
         r = np.atleast_1d(np.asarray(self.radius, dtype=np.float64))
         if r.size == 1:
@@ -297,6 +314,7 @@ class ETS:
         ip[L.IP_COVERAGE] = int(bool(self.coverage))
         ip[L.IP_SCHEDULED] = int(self.scheduled_)
         ip[L.IP_CLUSTERING] = CLUSTERINGS.index(self.clustering)
+        ip[L.IP_BLEND] = BLENDS.index(self.blend)
         fp = np.zeros(L.N_FP)
         fp[L.FP_OMEGA] = float(self.omega)
         fp[L.FP_FORGET] = float(self.forgetting)
@@ -425,7 +443,7 @@ class ETS:
         Yhat = np.empty((Xa.shape[0], self.n_outputs_))
         R = int(st["si"][1])
         predict_kernel(Xa, Sa, Yhat, R, st["lo"], st["hi"], st["cz"], st["rad"], st["Pi"],
-                       self.x_offset_)
+                       self.x_offset_, self.blend == "interpolate")
         return Yhat[:, 0] if self.y_1d_ else Yhat
 
     def predict_one(self, x: Any, s: Any = None) -> np.ndarray:
@@ -465,8 +483,8 @@ class ETS:
         -------
         frozen : ndarray
             Flat: the consequent inputs' ``lo`` (n) and ``1/s`` (n), then per rule its focal
-            point on the antecedents (na), firing coefficients (na) and consequents
-            (n + 1, m).
+            point on the antecedents (na), firing coefficients (na; negated when ``blend``
+            is "interpolate") and consequents (n + 1, m).
         work : ndarray, shape (2 R + n + 1,)
             Scratch space of ``predict_row``.
         """
@@ -476,6 +494,8 @@ class ETS:
             st, R, n, xo = self.state_, self.n_rules, self.n_inputs_, self.x_offset_
             na = self.n_antecedents_
             isx, ac = predict_setup(st["lo"], st["hi"], st["rad"], R, n, xo)
+            if self.blend == "interpolate":
+                ac = -ac  # the sign tells predict_row to interpolate
             per_rule = np.concatenate([st["cz"][:R, :na], ac, st["Pi"][:R].reshape(R, -1)],
                                       axis=1)
             self._predictor = (np.concatenate([st["lo"][xo : xo + n], isx, per_rule.ravel()]),

@@ -34,6 +34,13 @@ VARIANTS = ("ets", "ets+")
 RLS_KINDS = ("local", "global")
 """Values of ``rls``: fuzzily weighted local RLS per rule, or one global RLS."""
 
+BLENDS = ("firing", "interpolate")
+"""Values of ``blend``: how the rules' outputs make the model's output. ``firing``: weighted
+by the rules' normalised firing (eTS). ``interpolate`` (a scheduled model with one antecedent
+only): linear interpolation between the two rules whose focal points enclose the scheduling
+value, the outermost rule alone beyond them. Learning (firing, births, consequents) is the
+same for both."""
+
 CLUSTERINGS = ("potential", "evq")
 """Values of ``clustering``: births and moves driven by the potentials (eTS / eTS+), or
 evolving vector quantisation (births where no rule covers the sample, the winner's focal
@@ -73,6 +80,8 @@ class ETSParams:
         Samples between two snapshots of all consequents.
     clustering
         ``potential`` or ``evq`` (:data:`CLUSTERINGS`).
+    blend
+        ``firing`` or ``interpolate`` (:data:`BLENDS`).
     """
 
     radius: float | tuple[float, ...] = 0.7
@@ -88,6 +97,7 @@ class ETSParams:
     coverage: bool = False
     history_every: int = 1000
     clustering: str = "potential"
+    blend: str = "firing"
 
     def to_dict(self) -> dict[str, Any]:
         """The parameters as keyword arguments of :class:`etsid.ets.ETS`."""

@@ -37,7 +37,7 @@ IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
     (docs/identify.md), on 36 regressors with fixed learning-part ranges.
 """
 
-IDENT_SCHEDULED_ETS = replace(IDENT_ETS, radius=0.3, clustering="evq")
+IDENT_SCHEDULED_ETS = replace(IDENT_ETS, radius=0.3, clustering="evq", blend="interpolate")
 """eTS parameters of a scheduled ``etsid identify`` model (rules firing on ``--antecedent``
 terms, by default :data:`etsid.ident.defaults.SCHEDULE`): :data:`IDENT_ETS` except
 
@@ -49,6 +49,13 @@ terms, by default :data:`etsid.ident.defaults.SCHEDULE`): :data:`IDENT_ETS` exce
     Rules are born where no rule covers the scheduling vector and their focal points follow
     the mean of the samples they win, so they sit at the regimes flown (the potential of
     eTS peaks at the global mean, between the regimes).
+``blend`` "interpolate" (one antecedent input; several: ``firing``)
+    Between two regimes the output is the linear interpolation of their rules' local
+    models in the scheduling variable, not their firing-weighted blend: with radius 0.3
+    the normalised firing is a steep sigmoid between two focal points, so on the second
+    generator's hexacopter a dwell at 0.40 m between rules at 0.30 and 1.1 m was predicted
+    ~90 % by the ground-effect rule and lost 1.4–2.6 points of free-run fit to ARX there
+    (docs/identify.md, "Interpolating between regimes"). Learning is unchanged.
 """
 
 
@@ -66,10 +73,11 @@ class IdentConfig:
     output_lags, input_lags
         Lags of the default rate model, samples.
     radius, omega, variant, max_rules, rls, forgetting, utility_threshold, min_support,
-    prune_after, adaptive_spread, coverage, history_every, clustering
-        eTS parameters (see :class:`etsid.ets.ETS`); defaults :data:`IDENT_ETS`. ``radius``
-        and ``clustering`` None: :data:`IDENT_ETS`'s value when the rules fire on the
-        regressors, :data:`IDENT_SCHEDULED_ETS`'s when they fire on an antecedent.
+    prune_after, adaptive_spread, coverage, history_every, clustering, blend
+        eTS parameters (see :class:`etsid.ets.ETS`); defaults :data:`IDENT_ETS`. ``radius``,
+        ``clustering`` and ``blend`` None: :data:`IDENT_ETS`'s value when the rules fire on
+        the regressors, :data:`IDENT_SCHEDULED_ETS`'s when they fire on an antecedent
+        (``blend``: ``firing`` when it has more than one input).
     validate
         Fraction of the usable rows, at the end, held out for frozen validation (0 … 0.9).
     normalise
@@ -133,6 +141,7 @@ class IdentConfig:
     coverage: bool = IDENT_ETS.coverage
     history_every: int = IDENT_ETS.history_every
     clustering: str | None = None
+    blend: str | None = None
     validate: float = 0.3
     ident_rate: float | None = None
     inputs: str = "auto"
@@ -152,15 +161,18 @@ class IdentConfig:
             raise IdentError(f"--ident-rate must be ≥ 0 Hz, got {self.ident_rate}")
         return float(self.ident_rate) or None
 
-    def ets_params(self, scheduled: bool = False) -> dict[str, Any]:
+    def ets_params(self, scheduled: bool = False, antecedents: int = 1) -> dict[str, Any]:
         """Keyword arguments of :class:`etsid.ets.ETS` (every name of
-        :data:`etsid.ets.params.PARAM_NAMES`); ``radius`` and ``clustering`` left None
-        take the default of a ``scheduled`` or unscheduled model."""
+        :data:`etsid.ets.params.PARAM_NAMES`); ``radius``, ``clustering`` and ``blend``
+        left None take the default of a ``scheduled`` (with ``antecedents`` inputs) or
+        unscheduled model."""
         base = IDENT_SCHEDULED_ETS if scheduled else IDENT_ETS
         out = {k: getattr(self, k) for k in PARAM_NAMES}
-        for key in ("radius", "clustering"):
+        for key in ("radius", "clustering", "blend"):
             if out[key] is None:
                 out[key] = getattr(base, key)
+        if self.blend is None and antecedents != 1:
+            out["blend"] = IDENT_ETS.blend  # interpolation is along one antecedent only
         return out
 
     def shared_outputs(self, outputs: tuple[str, ...], scheduled: bool) -> list[int]:

@@ -98,7 +98,8 @@ def _new_model(config: IdentConfig, spec: RegressorSpec, x_range: np.ndarray | N
                y_range: np.ndarray | None = None, s_range: np.ndarray | None = None) -> ETS:
     try:
         shared = config.shared_outputs(spec.outputs, bool(spec.antecedent))
-        return ETS(**config.ets_params(bool(spec.antecedent)), input_names=spec.input_names,
+        params = config.ets_params(bool(spec.antecedent), len(spec.antecedent_names or []))
+        return ETS(**params, input_names=spec.input_names,
                    output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
                    s_range=s_range, antecedent_names=spec.antecedent_names,
                    shared_outputs=shared)
@@ -278,7 +279,8 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
                   "sample_rate": rate_info(table),
                   **({"attitude_states": attitude.to_dict()} if attitude else {})},
         "parameters": asdict(config),
-        "ets": {**config.ets_params(bool(spec.antecedent)), "normalise": config.normalise},
+        "ets": {**config.ets_params(bool(spec.antecedent), len(spec.antecedent_names or [])),
+                "normalise": config.normalise},
         "skipped": reg.skipped,
         "warnings": list(table.attrs.get("warnings") or []),
     }

@@ -1,8 +1,9 @@
 """Numba kernel of the free-run simulation (:func:`etsid.ident.simulate.free_run`).
 
-The model is a frozen rule base packed for :func:`etsid.ets.kernels.predict_row`; a linear
-ARX model is packed as one rule with no antecedent (:func:`pack_linear`), whose firing is
-exactly 1. A per-output fall-back (:mod:`etsid.ident.fallback`: ARX or no-change, both
+The model is a frozen rule base packed for :func:`etsid.ets.kernels.predict_row` (its
+output blended by the firing, or interpolated between rules: ``ETS(blend="interpolate")``);
+a linear ARX model is packed as one rule with no antecedent (:func:`pack_linear`), whose
+firing is exactly 1. A per-output fall-back (:mod:`etsid.ident.fallback`: ARX or no-change, both
 linear in the regressors) replaces the chosen outputs of the rule base's prediction by
 ``θ₀ + xᵀ θ₁…`` of the same fed-back regressors (``fb_mask``, ``fb_theta``). The kernel
 does, row by row and in the same order, what the plain loop

@@ -87,7 +87,8 @@ def candidate(name: str, spec: RegressorSpec, config: IdentConfig
     if name == "scheduled":
         return spec, config
     lean = replace(spec, antecedent=())
-    loose = replace(config, antecedent="none", unscheduled="none")
+    loose = replace(config, antecedent="none", unscheduled="none",
+                    blend=None if config.blend == "interpolate" else config.blend)
     return lean, (replace(loose, max_rules=1, omega=ARX_OMEGA) if name == "arx" else loose)
 
 
@@ -103,7 +104,8 @@ def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) 
     ranges of those rows (indistinguishable rules merged at the end, as identify does)."""
     scheduled = bool(spec.antecedent)
     x_range, y_range = fixed_ranges(reg, spec, upto, config.normalise)
-    model = ETS(**config.ets_params(scheduled), input_names=spec.input_names,
+    params = config.ets_params(scheduled, len(spec.antecedent_names or []))
+    model = ETS(**params, input_names=spec.input_names,
                 output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
                 s_range=schedule_range(reg, spec, upto, config.normalise)
                 if scheduled else None,

@@ -124,6 +124,26 @@ def _fallback(spec: RegressorSpec, arx: ARX, replace: dict[str, str]):  # type: 
     return Fallback(mask, theta, dict(replace))
 
 
+def test_kernel_interpolates_a_model_with_an_interpolated_blend() -> None:
+    """``blend="interpolate"``: the kernel equals the plain loop, and its first step (fed
+    measured history) is the batch prediction, which interpolates (not the firing blend)."""
+    spec = RegressorSpec.parse(SPEC, OUTPUTS, "inv_alt[k-1]")
+    reg = build(_flight(), spec)
+    models = {}
+    for blend in ("firing", "interpolate"):
+        models[blend] = ETS(radius=0.3, blend=blend, input_names=spec.input_names,
+                            output_names=list(spec.outputs))
+        models[blend].run(reg.X[:250], reg.Y[:250], reg.S[:250])
+    model = models["interpolate"]
+    assert model.n_rules >= 2
+    fast, slow, _, _ = _both(model, reg, spec, 250, None, lambda x, s: model.predict_one(x, s))
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+    first = model.predict(reg.X[250:251], reg.S[250:251])[0]
+    np.testing.assert_allclose(fast[0], first, rtol=0, atol=1e-12)
+    fired = models["firing"].predict(reg.X[250:251], reg.S[250:251])[0]
+    assert np.abs(first - fired).max() > 1e-6
+
+
 @pytest.mark.parametrize("antecedent", [None, "inv_alt[k-1]"])
 def test_kernel_equals_the_plain_loop_for_a_mixed_model(antecedent: str | None) -> None:
     """eTS on p and r, its fall-back on q (ARX, then no-change): the kernel's mixed model

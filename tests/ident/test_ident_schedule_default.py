@@ -38,6 +38,8 @@ def test_auto_schedules_on_inv_alt_only_with_altitude() -> None:
     assert sched.rules["regressors"]["antecedent"] == "inv_alt[k-1]"
     assert sched.config["ets"]["radius"] == IDENT_SCHEDULED_ETS.radius
     assert sched.config["ets"]["clustering"] == "evq"
+    assert sched.rules["params"]["blend"] == "interpolate"
+    assert flat.rules["params"]["blend"] == "firing"
     assert sched.rules["params"]["s_range"] == [[0.0, 5.0]]
     assert any("rules fire on inv_alt[k-1]" in n for n in sched.config["model"]["notes"])
     # one height: one rule, and the same model as the unscheduled one
@@ -48,6 +50,27 @@ def test_auto_schedules_on_inv_alt_only_with_altitude() -> None:
         a = sched.metrics["outputs"][y]["validation"]["free_run"]["fit"]
         b = none.metrics["outputs"][y]["validation"]["free_run"]["fit"]
         assert a == pytest.approx(b, abs=0.05)
+
+
+def test_interpolated_blend_only_where_it_is_defined() -> None:
+    """Between regimes the default scheduled model interpolates its rules' outputs; with
+    several antecedent inputs (no order to interpolate along) and without a schedule the
+    output is the firing blend; an explicit ``blend`` is kept."""
+    cfg = IdentConfig()
+    assert IDENT_SCHEDULED_ETS.blend == "interpolate"
+    assert cfg.ets_params(True, 1)["blend"] == "interpolate"
+    assert cfg.ets_params(True, 2)["blend"] == "firing"
+    assert cfg.ets_params(False, 0)["blend"] == "firing"
+    assert IdentConfig(blend="firing").ets_params(True, 1)["blend"] == "firing"
+    table = rate_table(3000, seed=3)
+    table["alt"] = 1.0 + 0.5 * np.sin(np.arange(len(table)) / 400.0)
+    two = identify(table, IdentConfig(ident_rate=0, antecedent="alt[k-1],u_thrust[k-1]"))
+    assert two.rules["params"]["blend"] == "firing"
+    # an explicit interpolation is for the scheduled candidate; the others fire as usual
+    table["alt"] = np.where(np.arange(len(table)) % 1000 < 500, 0.3, 2.0)
+    auto = identify(table, IdentConfig(ident_rate=0, blend="interpolate"))
+    assert set(auto.metrics["structure"]["inner_free_run_fit"]) == {"arx", "unscheduled",
+                                                                    "scheduled"}
 
 
 def _fits(run) -> tuple[list[float], list[float]]:
