@@ -31,6 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from etsid.ets.kernel_steps import gain_by_columns
+
 RIDGE = 1e-6
 """Ridge weight of the batch fit, per sample and standardised regressor."""
 
@@ -107,14 +109,7 @@ def _rls_kernel(X: np.ndarray, Y: np.ndarray, omega: float) -> np.ndarray:  # pr
                 acc += xe[a] * theta[a, o]
             out[k, o] = acc
             err[o] = Y[k, o] - acc
-        # px = P x_e as a sum of columns (P is exactly symmetric: each px[a] is summed in
-        # the row dot product's order), so the inner loop runs along a row and vectorises
-        for a in range(n):
-            px[a] = 0.0
-        for b in range(n):
-            xb = xe[b]
-            for a in range(n):
-                px[a] += P[b, a] * xb
+        gain_by_columns(P, xe, px)  # P x_e (P is exactly symmetric: same bits as by rows)
         den = 0.0
         for a in range(n):
             den += xe[a] * px[a]
