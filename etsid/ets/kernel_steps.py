@@ -72,23 +72,6 @@ def interp_pair(s0, f, R):
     return lo, hi, (s0 - f[lo]) / (f[hi] - f[lo])
 
 
-@njit(cache=True, boundscheck=False)
-def gain_by_columns(C, xe, g) -> None:
-    """g = C x_e summed by columns, for a covariance C that is exactly symmetric: column b
-    is row b, so every g[a] adds the row dot product's terms in its order (the same bits),
-    and the inner loop runs along a contiguous row and vectorises. A call of its own (not
-    inlined): the local RLS calls it only from :data:`~etsid.ets.layout.COLUMN_SUMS`
-    regressors on, so that the small rule bases' loop is compiled as before; the shared
-    and global RLS and identify's online ARX always."""
-    n1 = xe.shape[0]
-    for a in range(n1):
-        g[a] = 0.0
-    for b in range(n1):
-        xb = xe[b]
-        for a in range(n1):
-            g[a] += C[b, a] * xb
-
-
 @njit(inline="always")
 def add_event(ev, nev, k, kind, rid) -> None:
     """Append the event (step ``k``, ``kind``, rule id ``rid``) at row ``nev[0]``."""
@@ -111,7 +94,14 @@ def global_gain(R, n1, lam, xe, z, na, yh, err, g, phi, Cg, forget, omega):
             phi[i * n1 + a] = lam[i] * xe[a]
     for o in range(err.shape[0]):
         err[o] = z[na + o] - yh[o]
-    gain_by_columns(Cg[:p, :p], phi[:p], g)
+    # g = Cg phi as a sum of columns; Cg is exactly symmetric, so column b equals
+    # row b and every g[a] is summed in the same order as the row dot product
+    for a in range(p):
+        g[a] = 0.0
+    for b in range(p):
+        pb = phi[b]
+        for a in range(p):
+            g[a] += Cg[b, a] * pb
     # wind-up guard (trace-bounded forgetting): forget only while trace(C) <= omega p
     fg = forget
     if forget != 1.0:
@@ -145,7 +135,16 @@ def shared_rls(xe, z, na, sh, p0, Cs, gs, ths, forget, cbound) -> None:
     column (read only here): the new consequent into ``ths`` (columns with ``sh[o] = 1``),
     ``Cs`` updated in place with the rules' forgetting and wind-up guard."""
     n1 = xe.shape[0]
-    gain_by_columns(Cs, xe, gs)
+    # gs = Cs x_e as a sum of columns (Cs is exactly symmetric: the row dot product's order).
+    # Written out here and in global_gain as they were timed; sharing kernels._gain_by_columns
+    # (inlined or called) was tried, and this VM's per-process spread (up to 1.6x between
+    # runs of one code) could not show it cost nothing (docs/performance.md, session 6)
+    for a in range(n1):
+        gs[a] = 0.0
+    for b in range(n1):
+        xb = xe[b]
+        for a in range(n1):
+            gs[a] += Cs[b, a] * xb
     fs = forget
     if forget != 1.0:
         tr = 0.0

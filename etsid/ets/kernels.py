@@ -12,7 +12,6 @@ from numba import njit
 
 from etsid.ets.kernel_steps import (
     add_event,
-    gain_by_columns,
     global_gain,
     interp_pair,
     read_parameters,
@@ -168,6 +167,22 @@ def _rule_outputs(xe, Pi, R, yr) -> None:
             for a in range(n1):
                 acc += xe[a] * Pi[i, a, o]
             yr[i, o] = acc
+
+
+@njit(cache=True, boundscheck=False)
+def _gain_by_columns(C, xe, g) -> None:
+    """g = C x_e summed by columns, for a covariance C that is exactly symmetric: column b
+    is row b, so every g[a] adds the row dot product's terms in its order (the same bits),
+    and the inner loop runs along a contiguous row and vectorises. A call of its own (not
+    inlined), made only from :data:`~etsid.ets.layout.COLUMN_SUMS` regressors on, so that
+    the small rule bases' loop is compiled as before."""
+    n1 = xe.shape[0]
+    for a in range(n1):
+        g[a] = 0.0
+    for b in range(n1):
+        xb = xe[b]
+        for a in range(n1):
+            g[a] += C[b, a] * xb
 
 
 @njit(cache=True, boundscheck=False)
@@ -659,7 +674,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                     if tr1 > cbound:
                         f1 = 1.0
                 # g = C_i x_e, then x_e^T g. Few regressors: row dot products (the sum
-                # stays in a register); many: by columns (gain_by_columns, COLUMN_SUMS)
+                # stays in a register); many: by columns (_gain_by_columns, COLUMN_SUMS)
                 if n1 < COLUMN_SUMS:
                     for a in range(n1):
                         acc0 = 0.0
@@ -671,8 +686,8 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         g[a] = acc0
                         g2[a] = acc1
                 else:
-                    gain_by_columns(Cl[i0], xe, g)
-                    gain_by_columns(Cl[i1], xe, g2)
+                    _gain_by_columns(Cl[i0], xe, g)
+                    _gain_by_columns(Cl[i1], xe, g2)
                 cw0 = 0.0
                 cw1 = 0.0
                 for a in range(n1):
@@ -729,7 +744,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                             acc += Cl[i, a, b] * xe[b]
                         g[a] = acc
                 else:
-                    gain_by_columns(Cl[i], xe, g)
+                    _gain_by_columns(Cl[i], xe, g)
                 cwi = 0.0
                 for a in range(n1):
                     cwi += xe[a] * g[a]

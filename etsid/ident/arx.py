@@ -31,8 +31,6 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from etsid.ets.kernel_steps import gain_by_columns
-
 RIDGE = 1e-6
 """Ridge weight of the batch fit, per sample and standardised regressor."""
 
@@ -109,7 +107,15 @@ def _rls_kernel(X: np.ndarray, Y: np.ndarray, omega: float) -> np.ndarray:  # pr
                 acc += xe[a] * theta[a, o]
             out[k, o] = acc
             err[o] = Y[k, o] - acc
-        gain_by_columns(P, xe, px)  # P x_e (P is exactly symmetric: same bits as by rows)
+        # px = P x_e as a sum of columns, as etsid.ets.kernels._gain_by_columns does (P is
+        # exactly symmetric: each px[a] is summed in the row dot product's order), so the
+        # inner loop runs along a row and vectorises
+        for a in range(n):
+            px[a] = 0.0
+        for b in range(n):
+            xb = xe[b]
+            for a in range(n):
+                px[a] += P[b, a] * xb
         den = 0.0
         for a in range(n):
             den += xe[a] * px[a]
