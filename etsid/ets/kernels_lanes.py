@@ -14,19 +14,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from etsid.ets.kernel_steps import (
-    add_event,
-    global_gain,
-    interp_pair,
-    read_parameters,
-    shared_rls,
-)
+from etsid.ets.kernel_steps import add_event, global_gain, read_parameters, shared_rls
 from etsid.ets.kernels import _add_rule, _refresh_scales, remove_rule
 from etsid.ets.layout import (
     EV_BIRTH,
     EV_REMOVAL,
     EV_REPLACE,
-    IP_BLEND,
     IP_SCHEDULED,
     RADIUS_FLOOR,
     SQRT8,
@@ -143,7 +136,6 @@ def learn_lanes(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_lo
     d = lo.shape[0]
     n1 = n + 1
     scheduled = ip[IP_SCHEDULED] == 1
-    interp = ip[IP_BLEND] == 1  # the output interpolated (learning still uses lam)
     xo = na + m if scheduled else 0  # offset of x in z
     dp = na if scheduled else na + m  # dimensions of the potential space
     (variant, is_global, rmax, min_support, prune_after, adaptive, omega, forget, umin,
@@ -244,10 +236,6 @@ def learn_lanes(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_lo
                     acc += lam[i] * yrT[o, i]
                 Yhat[t, o] = acc
                 yh[o] = acc
-            if interp:
-                i0, i1, w = interp_pair(z[0], czT[0], R)
-                for o in range(m):
-                    Yhat[t, o] = (1.0 - w) * yrT[o, i0] + w * yrT[o, i1]
         else:
             for o in range(m):
                 Yhat[t, o] = np.nan

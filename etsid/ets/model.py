@@ -404,9 +404,12 @@ class ETS:
         while start < N:
             k0 = int(st["si"][0])
             counts[:] = 0
-            lanes = int(st["si"][1]) > _RULE_MAJOR_MAX
-            kernel, bound = (learn_lanes, _LANES_MIN) if lanes else (learn_kernel,
-                                                                      _RULE_MAJOR_MAX)
+            # blend="interpolate" stays in learn_kernel (the lanes kernel has no
+            # interpolation: with it, its global RLS ran 1.5x slower, docs/performance.md)
+            interp = self.blend == "interpolate"
+            lanes = not interp and int(st["si"][1]) > _RULE_MAJOR_MAX
+            kernel, bound = ((learn_lanes, _LANES_MIN) if lanes else
+                             (learn_kernel, rmax if interp else _RULE_MAJOR_MAX))
             done = kernel(
                 Xa[start:], Sa[start:], Ya[start:], Yhat[start:], hist[start:], ev,
                 counts[0:1], snap_k, snap_ids, snap_pi, snap_lo, snap_s, counts[1:2], every,

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import etsid.ets.model as model_module
 from etsid.ets import ETS
 
 
@@ -77,9 +78,14 @@ def test_learning_is_the_same_and_every_prediction_path_agrees() -> None:
     np.testing.assert_array_equal(interp.run(x, y, s), want)
 
 
-def test_interpolation_with_many_rules_runs_in_the_lanes_kernel() -> None:
-    """More than six rules: learning switches to the lane kernel, whose one-step output
-    must be interpolated as well."""
+def test_interpolation_with_many_rules_stays_in_the_rule_major_kernel(monkeypatch) -> None:
+    """More than six rules: an interpolating model still learns in ``learn_kernel`` (the
+    lane kernel has no interpolation), and its one-step output is interpolated."""
+
+    def no_lanes(*args: object) -> int:
+        raise AssertionError("learn_lanes called for an interpolating model")
+
+    monkeypatch.setattr(model_module, "learn_lanes", no_lanes)
     rng = np.random.default_rng(1)
     n = 2000
     s = rng.uniform(0.0, 1.0, size=(n, 1))
