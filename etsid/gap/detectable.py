@@ -62,7 +62,7 @@ def _theta(cand: Candidate, j: int, value: float) -> np.ndarray:
 def _excess(scorer: Scorer, mods: Mods, base: dict[str, np.ndarray], chans: tuple[str, ...],
             masks: list[np.ndarray]) -> float:
     """Largest ``mean(Δ_c²)/σ_c²`` over the effect's channels and the evidence masks."""
-    pred = scorer.ctx.nominal.predict(scorer.ctx.flight, mods, chans)
+    pred = scorer.prediction(mods, chans)
     worst = 0.0
     for c in chans:
         if c not in pred or c not in base or c not in scorer.sigma:
@@ -136,7 +136,7 @@ def detectable_sizes(scorer: Scorer, masks: list[np.ndarray], threshold: float
     """
     need = max(threshold - 1.0, 1e-6)
     ctx: Context = scorer.ctx
-    base = ctx.nominal.predict(ctx.flight)
+    base = scorer.prediction()
     out: dict[str, dict[str, Any]] = {}
     for name, cand in BY_NAME.items():
         if not cand.available(ctx):

@@ -79,10 +79,16 @@ class Scorer:
         self.measured = measured
         self.sigma = sigma
 
+    def prediction(self, mods: Mods | None = None,
+                   channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+        """The model's prediction per channel (full length), in the space the residuals
+        are taken in."""
+        return self.ctx.nominal.predict(self.ctx.flight, mods, channels)
+
     def residuals(self, mods: Mods | None = None,
                   channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
         """Measured minus predicted, per channel (full length)."""
-        pred = self.ctx.nominal.predict(self.ctx.flight, mods, channels)
+        pred = self.prediction(mods, channels)
         return {c: self.measured[c] - pred[c] for c in pred if c in self.measured}
 
     def zscores(self, mods: Mods | None, mask: np.ndarray,

@@ -32,6 +32,7 @@ from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.floors import sensor_noise
 from etsid.gap.noise import fit_noise
 from etsid.gap.nominal import CUTOFF_HZ, LABELS, UNITS, NominalModel, measured
+from etsid.gap.pem import PredictionErrorScorer, with_innovation_channels
 from etsid.gap.signals import Flight
 from etsid.gap.summary import NICE, effect_params, summary_sentence
 from etsid.gap.verdict import at_bound, worsened
@@ -142,7 +143,11 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     noise = fit_noise(res_sim, sim.airborne, own or sigma, sim.fs, CUTOFF_HZ, sensor_noise(real),
                       res_real, real.airborne)
     folds = make_folds(real.airborne, real.fs)
+    if isinstance(scorer, PredictionErrorScorer):
+        noise = with_innovation_channels(noise, scorer)
     ls = LikelihoodScorer(scorer, noise, folds)
+    # the report's residuals in the channels' own units, not as innovations
+    shown = scorer.base if isinstance(scorer, PredictionErrorScorer) else scorer
     library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
     say(f"gap: {len(library)} candidate effects, each fitted on one half of "
         f"{real.name}'s {folds.n_blocks} blocks and scored on the other")
@@ -150,14 +155,14 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     hold = np.zeros(real.n, dtype=bool)
     for s in folds.score:
         hold |= s
-    res0 = scorer.residuals()
+    res0 = shown.residuals()
     mismatch = mismatched(crit.ratio, crit.offset, cal)
     chosen = crit.chosen
     final: Fit | None = None
     if chosen is not None:
         x0 = np.mean([f.theta for f in chosen.fits], axis=0)
         final = fit_candidates(chosen.candidates, scorer, real.airborne, x0=x0)
-    res1 = scorer.residuals(final.mods) if final is not None else res0
+    res1 = shown.residuals(final.mods) if final is not None else res0
     ratio_after = ls.ratio(final.mods) if final is not None else crit.ratio
     offset_after = ls.offsets(final.mods) if final is not None else crit.offset
     left = {c: {"z": ratio_after[c], "rmse": float(np.sqrt(np.mean(res1[c][hold] ** 2))),
@@ -225,7 +230,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                             "score": round(m.per_sample, 5)} for m in crit.models]}
     data["nominal"] = {**data.get("nominal", {}), "z_all": crit.ratio, "z_held_out": crit.ratio}
     series = {"res_before": res0, "res_after": res1, "fit": folds.score[0],
-              "hold": folds.score[-1], "scorer": scorer, "z_all": crit.ratio,
+              "hold": folds.score[-1], "scorer": shown, "z_all": crit.ratio,
               "mods": final.mods if final is not None else None}
     if airframe:
         data.update(verdict="different-vehicle", reason="; ".join(airframe), mismatch=None,

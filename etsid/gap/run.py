@@ -670,7 +670,9 @@ def _analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str,
     if method == "likelihood":
         notes.extend(excerpts)
         from etsid.gap.likelihood import explain_by_likelihood
+        from etsid.gap.pem import prediction_error_scorer
 
+        scorer = prediction_error_scorer(sim, scorer)  # roll and pitch: prediction errors
         say("gap: what this pair could have seen (detectable size of every effect)")
         base = {"detectable": detectable_sizes(scorer, [real.airborne], Z_MISMATCH),
                 "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
