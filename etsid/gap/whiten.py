@@ -65,15 +65,16 @@ def measured_rates(flight: Flight) -> dict[str, np.ndarray]:
     return {c: acc[:, j] for j, c in enumerate(("p", "q", "r")) if c in CHANNELS}
 
 
-def fit_whitened(sim: Flight, nominal: NominalModel) -> WhitenedModel:
+def fit_whitened(sim: Flight, nominal: NominalModel,
+                 taus: tuple[float, ...] = SIM_TAUS_S) -> WhitenedModel:
     """SIM's roll/pitch laws by generalised least squares on its airborne samples, for each
-    command delay and motor lag of :data:`SIM_DELAYS_S` × :data:`SIM_TAUS_S`; the pair
-    with the smallest whitened error is kept."""
+    command delay and motor lag of :data:`SIM_DELAYS_S` × ``taus`` (s); the pair with the
+    smallest whitened error is kept."""
     y = measured_rates(sim)
     mask = sim.airborne
     best: tuple[float, float, float, dict] | None = None
     for delay in SIM_DELAYS_S:
-        for tau in SIM_TAUS_S:
+        for tau in taus:
             feats = features(sim, nominal.k, tau, Mods(), CHANNELS, delay, nominal.v_ref)
             fits = {}
             for c in CHANNELS:
