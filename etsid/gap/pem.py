@@ -19,6 +19,8 @@ decimated noise model of :mod:`etsid.gap.noise`.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy.signal import lfilter
 
@@ -27,13 +29,16 @@ from etsid.gap.noise import ChannelNoise, NoiseModel
 from etsid.gap.nominal import Mods
 from etsid.gap.signals import Flight, lowpass_series
 from etsid.gap.whiten import (
-    CHANNELS,
     CUTOFF_HZ,
     SIM_TAUS_S,
     WhitenedModel,
     fit_whitened,
     measured_rates,
 )
+
+LOOP_CHANNELS = ("p", "q")
+"""Channels read as prediction errors. Yaw was tried the same way on PyFlyt's yaw pairs
+(rotor inertia, yaw torque scale, no effect): no answer changed (docs/gap_results.md)."""
 
 
 class PredictionErrorScorer(Scorer):
@@ -44,8 +49,8 @@ class PredictionErrorScorer(Scorer):
     scorer's."""
 
     def __init__(self, base: Scorer, model: WhitenedModel) -> None:
-        rates = measured_rates(base.ctx.flight)
-        white = {c: lfilter(model.filters[c], [1.0], rates[c]) for c in CHANNELS
+        rates = measured_rates(base.ctx.flight, tuple(model.filters))
+        white = {c: lfilter(model.filters[c], [1.0], rates[c]) for c in model.filters
                  if c in rates and c in base.measured}
         sigma = {**base.sigma, **{c: float(np.sqrt(model.innovation[c])) for c in white}}
         super().__init__(base.ctx, {**base.measured, **white}, sigma)
@@ -62,6 +67,8 @@ class PredictionErrorScorer(Scorer):
         out = super().prediction(mods, rest) if rest else {}
         if loop:
             mods = mods or Mods()
+            if mods.tau is not None:  # a motor lag scales SIM's own, as these laws have it
+                mods = replace(mods, tau=mods.tau * self.model.nominal.tau / self.ctx.nominal.tau)
             flight = self.ctx.flight
             raw = self.model.nominal.predict_unfiltered(flight, mods, loop)
             have = [c for c in loop if c in raw]
@@ -81,12 +88,14 @@ def prediction_error_scorer(sim: Flight, base: Scorer) -> PredictionErrorScorer:
     # SIM's own lag as the nominal fit found it besides the short lags of the grid: a
     # heavy airframe's motors are far slower than the grid's 12 ms
     taus = tuple(sorted({*SIM_TAUS_S, float(nominal.tau)}))
-    return PredictionErrorScorer(base, fit_whitened(sim, nominal, taus))
+    chans = tuple(c for c in LOOP_CHANNELS if c in base.measured and c in nominal.channels)
+    return PredictionErrorScorer(base, fit_whitened(sim, nominal, taus, chans))
+
 
 
 def with_innovation_channels(noise: NoiseModel, scorer: PredictionErrorScorer) -> NoiseModel:
     """``noise`` with roll and pitch white (their residuals are already innovations) at
     SIM's innovation deviation."""
-    own = {c: ChannelNoise(np.empty(0), scorer.sigma[c], 1) for c in CHANNELS
+    own = {c: ChannelNoise(np.empty(0), scorer.sigma[c], 1) for c in scorer.white
            if c in noise.channels}
     return NoiseModel({**noise.channels, **own})

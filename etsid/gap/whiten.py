@@ -60,24 +60,25 @@ def whiten(filt: np.ndarray, x: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return lfilter(filt, [1.0], x, axis=0)[mask]
 
 
-def measured_rates(flight: Flight) -> dict[str, np.ndarray]:
+def measured_rates(flight: Flight, channels: tuple[str, ...] = CHANNELS
+                   ) -> dict[str, np.ndarray]:
     acc = derivative(lowpass(flight.rates, flight.fs, CUTOFF_HZ), flight.fs)
-    return {c: acc[:, j] for j, c in enumerate(("p", "q", "r")) if c in CHANNELS}
+    return {c: acc[:, j] for j, c in enumerate(("p", "q", "r")) if c in channels}
 
 
-def fit_whitened(sim: Flight, nominal: NominalModel,
-                 taus: tuple[float, ...] = SIM_TAUS_S) -> WhitenedModel:
-    """SIM's roll/pitch laws by generalised least squares on its airborne samples, for each
-    command delay and motor lag of :data:`SIM_DELAYS_S` × ``taus`` (s); the pair with the
-    smallest whitened error is kept."""
-    y = measured_rates(sim)
+def fit_whitened(sim: Flight, nominal: NominalModel, taus: tuple[float, ...] = SIM_TAUS_S,
+                 channels: tuple[str, ...] = CHANNELS) -> WhitenedModel:
+    """SIM's laws of ``channels`` (default roll and pitch) by generalised least squares on
+    its airborne samples, for each command delay and motor lag of :data:`SIM_DELAYS_S` ×
+    ``taus`` (s); the pair with the smallest whitened error is kept."""
+    y = measured_rates(sim, channels)
     mask = sim.airborne
     best: tuple[float, float, float, dict] | None = None
     for delay in SIM_DELAYS_S:
         for tau in taus:
-            feats = features(sim, nominal.k, tau, Mods(), CHANNELS, delay, nominal.v_ref)
+            feats = features(sim, nominal.k, tau, Mods(), channels, delay, nominal.v_ref)
             fits = {}
-            for c in CHANNELS:
+            for c in channels:
                 x = lowpass(feats[c], sim.fs, CUTOFF_HZ)
                 filt = np.array([1.0])
                 for _ in range(GLS_ITERATIONS):
@@ -92,10 +93,10 @@ def fit_whitened(sim: Flight, nominal: NominalModel,
     assert best is not None
     _, delay, tau, fits = best
     model = copy.copy(nominal)
-    model.coef = {**nominal.coef, **{c: fits[c][0] for c in CHANNELS}}
+    model.coef = {**nominal.coef, **{c: fits[c][0] for c in channels}}
     model.delay, model.tau = delay, tau
-    return WhitenedModel(model, {c: fits[c][1] for c in CHANNELS},
-                         {c: fits[c][2] for c in CHANNELS})
+    return WhitenedModel(model, {c: fits[c][1] for c in channels},
+                         {c: fits[c][2] for c in channels})
 
 
 def innovation_ratio(model: WhitenedModel, flight: Flight, mods: Mods, mask: np.ndarray,
