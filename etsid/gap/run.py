@@ -672,7 +672,9 @@ def _analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str,
         from etsid.gap.likelihood import explain_by_likelihood
         from etsid.gap.pem import prediction_error_scorer
 
-        scorer = prediction_error_scorer(sim, scorer)  # roll and pitch: prediction errors
+        if floors.loop is not None and floors.loop.noise_driven:
+            # SIM's loop answers noise its log does not hold: the direct fit is biased
+            scorer = prediction_error_scorer(sim, scorer)  # roll and pitch: prediction errors
         say("gap: what this pair could have seen (detectable size of every effect)")
         base = {"detectable": detectable_sizes(scorer, [real.airborne], Z_MISMATCH),
                 "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
