@@ -44,6 +44,7 @@ from __future__ import annotations
 import argparse
 import pickle
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -267,7 +268,8 @@ def main() -> None:
     ap.add_argument("--unscheduled", choices=("identify", "r", "none"), default="identify",
                     help="outputs given the shared part only: those identify's eTS leaves "
                     "unscheduled (default; r, and q on seed 1), r, or none")
-    ap.add_argument("--cache", default="/tmp/study_shared_consequents")
+    ap.add_argument("--cache",
+                    default=str(Path(tempfile.gettempdir()) / "study_shared_consequents"))
     args = ap.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
     if set(seeds) & {51, 52, 53}:

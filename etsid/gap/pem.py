@@ -15,6 +15,11 @@ filter at the log's rate. Each channel's innovations are white under SIM's own n
 the criterion's Gaussian likelihood of them is a likelihood, not a sum over correlated
 samples. Yaw, the forces and the sensor-consistency channels keep the nominal model and the
 decimated noise model of :mod:`etsid.gap.noise`.
+
+:mod:`etsid.gap.run` uses this scorer only where SIM's loop answers unlogged noise
+(:attr:`etsid.gap.loop.BandResponse.noise_driven`): on a loop that follows its references
+the direct fit is unbiased, and the whitened fit's lag and delay hide the timing laws
+(docs/gap_results.md, round 4).
 """
 
 from __future__ import annotations
@@ -90,7 +95,6 @@ def prediction_error_scorer(sim: Flight, base: Scorer) -> PredictionErrorScorer:
     taus = tuple(sorted({*SIM_TAUS_S, float(nominal.tau)}))
     chans = tuple(c for c in LOOP_CHANNELS if c in base.measured and c in nominal.channels)
     return PredictionErrorScorer(base, fit_whitened(sim, nominal, taus, chans))
-
 
 
 def with_innovation_channels(noise: NoiseModel, scorer: PredictionErrorScorer) -> NoiseModel:
