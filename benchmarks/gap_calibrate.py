@@ -71,6 +71,66 @@ CONFIDENT = 0.9
 
 
 # ---------------------------------------------------------------- record
+def truth_sizes(expected: str, truth: dict[str, Any]) -> dict[str, list[list[Any]]]:
+    """Per expected effect, the true size of each parameter it changes as ``[parameter,
+    direction, size]`` in the units of gap.json's ``detectable`` (scales as |s − 1|), from
+    a generator's truth (the third-party sets' ``labels.json`` or etsid's ``make_pair``).
+    An effect whose truth does not map onto its parameters is left out: only a
+    ``detectable`` status of ``insufficient`` can then call it below detectable."""
+    out: dict[str, list[list[Any]]] = {}
+
+    def scale(effect: str, key: str, param: str = "scale") -> None:
+        if key in truth:
+            v = float(truth[key])
+            out[effect] = [[param, "up" if v >= 1.0 else "down", abs(v - 1.0)]]
+
+    def components(effect: str, key: str, names: tuple[str, ...]) -> None:
+        if key in truth:
+            vals = np.ravel(np.asarray(truth[key], dtype=float))[:len(names)]
+            out[effect] = [[n, "up" if v >= 0 else "down", abs(float(v))]
+                           for n, v in zip(names, vals, strict=False) if v != 0.0]
+
+    for effect in expected.split("+"):
+        if effect == "thrust_scale":
+            scale(effect, "scale")
+        elif effect == "inertia_scale":
+            scale(effect, "inertia")
+        elif effect == "yaw_torque_scale":
+            scale(effect, "yaw_scale")
+        elif effect == "mass":
+            scale(effect, "mass_scale", "ratio")
+        elif effect == "time_delay" and "delay" in truth:
+            out[effect] = [["delay", "up", float(truth["delay"])]]
+        elif effect == "rate_damping" and "rate_damping" in truth:  # on all three axes
+            d = float(truth["rate_damping"])
+            out[effect] = [["damping", "up", d], ["yaw", "up", d]]
+        elif effect in ("gyro_bias", "accel_bias"):
+            components(effect, "bias_frd" if "bias_frd" in truth else "bias",
+                       ("bx", "by", "bz"))
+    return out
+
+
+def below_detectable(effect: str, row: dict[str, Any]) -> bool:
+    """Whether the pair's ``detectable`` says it could not have seen ``effect`` at its true
+    size: the effect is ``insufficient`` at any size, or every parameter it changes is
+    below the stated size in its direction (None there: not within the parameter's
+    range)."""
+    entry = (row.get("detectable") or {}).get(effect)
+    if not entry:
+        return False
+    if entry.get("status") == "insufficient":
+        return True
+    sizes = (row.get("truth_sizes") or {}).get(effect)
+    if not sizes:
+        return False
+    per = entry.get("per_parameter") or {}
+    for param, way, size in sizes:
+        limit = (per.get(param) or {}).get(way)
+        if limit is not None and size >= float(limit):
+            return False
+    return True
+
+
 def _answer(data: dict[str, Any]) -> str:
     named = sorted(e["name"] for e in data.get("effects", []) if e["name"] != "unexplained")
     return "+".join(named) if named else str(data.get("verdict"))
@@ -84,7 +144,7 @@ def _etsid_pairs(seeds: list[int], labels: list[str] | None):
                 continue
             sim, real, truth = make_pair(effect, s * 100 + j)
             expected = "+".join(sorted(truth["effects"])) or "consistent"
-            yield f"etsid-{s * 100 + j}", effect, expected, False, sim, real
+            yield f"etsid-{s * 100 + j}", effect, expected, False, sim, real, truth
 
 
 def _dir_pairs(folder: Path, labels: list[str] | None):
@@ -95,7 +155,8 @@ def _dir_pairs(folder: Path, labels: list[str] | None):
             continue
         sim = read_log(folder / e["sim_log"])
         real = read_log(folder / e["real_log"])
-        yield e["id"], e["label"], e["expected"], e["out_of_vocabulary"], sim, real
+        yield (e["id"], e["label"], e["expected"], e["out_of_vocabulary"], sim, real,
+               e.get("truth", {}))
 
 
 def record(args: argparse.Namespace) -> None:
@@ -109,10 +170,11 @@ def record(args: argparse.Namespace) -> None:
     labels = args.only.split(",") if args.only else None
     pairs = (_etsid_pairs([int(s) for s in args.etsid_seeds.split(",")], labels)
              if args.etsid_seeds else _dir_pairs(Path(args.dir), labels))
-    for pid, label, expected, oov, sim, real in pairs:
+    for pid, label, expected, oov, sim, real, truth in pairs:
         gen = pid.split("-")[0]
         row: dict[str, Any] = {"id": pid, "generator": gen, "label": label,
-                               "expected": expected, "oov": oov}
+                               "expected": expected, "oov": oov,
+                               "truth_sizes": truth_sizes(expected, truth)}
         os.environ[CALIBRATION_ENV] = str(rec_file)
         t0 = time.process_time()
         data = analyse(sim, real, "SIM", "REAL", method="likelihood").data
@@ -120,6 +182,7 @@ def record(args: argparse.Namespace) -> None:
         row["verdict"] = data["verdict"]
         row["criterion"] = data.get("criterion")
         row["effect_confidence"] = {e["name"]: e["confidence"] for e in data["effects"]}
+        row["detectable"] = data.get("detectable")
         if args.old:
             t0 = time.process_time()
             old = analyse(sim, real, "SIM", "REAL", method="tiers").data
@@ -273,14 +336,32 @@ def fit(args: argparse.Namespace) -> None:
 
 
 # ---------------------------------------------------------------- score
+ANSWERS = ("consistent", "mismatch", "insufficient", "different-vehicle")
+
+
+def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any]) -> bool:
+    """A pair not named right but answered honestly (issue 38's rule): nothing named that
+    the truth lacks, not called another vehicle, and every expected effect left unnamed
+    below the pair's stated detectable size (:func:`below_detectable`)."""
+    if decided["verdict"] == "different-vehicle":
+        return False
+    named = [] if decided["answer"] in ANSWERS else decided["answer"].split("+")
+    want = expected.split("+")
+    if any(not any(_same(w, n) for w in want) for n in named):
+        return False
+    missing = [w for w in want if not any(_same(w, n) for n in named)]
+    return bool(missing) and all(below_detectable(w, row) for w in missing)
+
+
 def score(args: argparse.Namespace) -> None:
     cal = load_calibration(args.calibration)
     rows = [r for r in load(args.records) if r["generator"] in args.generator.split(",")]
-    right = total = fp = n_none = conf_n = conf_ok = oov_bad = 0
+    right = total = fp = n_none = conf_n = conf_ok = oov_bad = n_honest = 0
     old_right = old_total = both = only_new = only_old = 0
     for r in rows:
         d = decide(r, cal)
         exp = r["expected"]
+        honest = False
         if r.get("oov"):
             bad = any(c >= 0.5 for c in d["confidence"].values())
             oov_bad += bad
@@ -289,6 +370,8 @@ def score(args: argparse.Namespace) -> None:
             ok = _same(exp, d["answer"])
             total += 1
             right += ok
+            honest = not ok and r["label"] != "none" and honest_miss(exp, d, r)
+            n_honest += honest
         if r["label"] == "none":
             n_none += 1
             fp += d["verdict"] != "consistent"
@@ -307,11 +390,12 @@ def score(args: argparse.Namespace) -> None:
             only_old += old_ok and not ok
         mark = "" if old_ok is None else ("ok" if old_ok else "NO")
         print(f"{r['id']:18s} {r['label']:24s} expected {exp:24s} new {d['answer']:26s} "
-              f"{'ok ' if ok else 'NO '}"
+              f"{'ok ' if ok else ('HON' if honest else 'NO ')}"
               + (f" old {old['answer']:24s} {mark}" if old else "")
               + "  " + ", ".join(f"{k} {v:.2f}" for k, v in d["confidence"].items()))
     print(f"\n{args.generator} under {args.calibration or 'the package calibration'}: "
-          f"named right {right}/{total}; false positives {fp}/{n_none}; out-of-vocabulary "
+          f"named right {right}/{total}; below the detectable size and said so (honest) "
+          f"{n_honest}; false positives {fp}/{n_none}; out-of-vocabulary "
           f"named at confidence >= 0.5: {oov_bad}; confidence >= {CONFIDENT}: "
           f"{conf_ok}/{conf_n} right")
     if any(r.get("old") for r in rows):
