@@ -238,6 +238,10 @@ def _dc_gain(theta: np.ndarray, names: list[str], u: str, o: int) -> float:
     return float(b / (1.0 - a))
 
 
+MIN_REGIME_ROWS = 2
+"""Least learning rows per regressor (+ constant) of each regime for the oracle switch."""
+
+
 @dataclass(frozen=True)
 class OracleRegimes:
     """How the oracle diagnosis splits a flight into regimes and schedules its LPV ARX."""
@@ -279,7 +283,9 @@ def oracle_fits(raw: pd.DataFrame, regimes: OracleRegimes = ETSID_REGIMES) -> di
     better of switch and LPV minus global; ``ige`` the in-ground-effect share of the
     learning / validation rows; ``ratios`` the steady-state input-gain ratios in / out;
     ``bands`` per model, identify's ``regimes.per_regime`` scores of the model (``free_run``)
-    against global ARX (``arx_free_run``) when the table knows its rotor radius."""
+    against global ARX (``arx_free_run``) when the table knows its rotor radius. Without
+    :data:`MIN_REGIME_ROWS` per regressor on either side of the split there is no switch
+    (its fits and ratios NaN, no ``bands["switch"]``; the ceiling is LPV's)."""
     from etsid.ident.arx import ARX
     from etsid.ident.metrics import fit_percent
     from etsid.ident.regimes import bands_for, regime_metrics, rotor_radius
@@ -292,8 +298,11 @@ def oracle_fits(raw: pd.DataFrame, regimes: OracleRegimes = ETSID_REGIMES) -> di
     X, Y, n_table = reg.X, reg.Y, len(table)
     bounds = envelope(Y)
     glob = ARX.fit(X[:split], Y[:split])
-    a_in = ARX.fit(X[:split][ige[:split]], Y[:split][ige[:split]])
-    a_out = ARX.fit(X[:split][~ige[:split]], Y[:split][~ige[:split]])
+    n_in = int(np.count_nonzero(ige[:split]))
+    switch = min(n_in, split - n_in) >= MIN_REGIME_ROWS * (X.shape[1] + 1)
+    if switch:
+        a_in = ARX.fit(X[:split][ige[:split]], Y[:split][ige[:split]])
+        a_out = ARX.fit(X[:split][~ige[:split]], Y[:split][~ige[:split]])
 
     def lpv_x(x: np.ndarray, z: np.ndarray) -> np.ndarray:
         """x and x·(scale/alt)^k for each k of ``regimes.powers`` (rows of x, alt z)."""
@@ -303,12 +312,11 @@ def oracle_fits(raw: pd.DataFrame, regimes: OracleRegimes = ETSID_REGIMES) -> di
 
     lpv = ARX.fit(lpv_x(X, alt)[:split], Y[:split])
     reg.S = alt[:, None]
-    models = {
-        "global": lambda x, s: glob.predict_one(x),
-        "switch": lambda x, s: (a_in if s[0] < cut else a_out).predict_one(x),
-        "lpv": lambda x, s: lpv.predict_one(lpv_x(x, s[0])[0]),
-    }
-    sims, fits = {}, {}
+    models = {"global": lambda x, s: glob.predict_one(x),
+              "lpv": lambda x, s: lpv.predict_one(lpv_x(x, s[0])[0])}
+    if switch:
+        models["switch"] = lambda x, s: (a_in if s[0] < cut else a_out).predict_one(x)
+    sims, fits = {}, {"switch": [float("nan")] * 3}
     for key, model in models.items():
         sims[key] = np.full(Y.shape, np.nan)
         sims[key][split:] = free_run(model, reg, spec, split, n_table, bounds)
@@ -321,17 +329,18 @@ def oracle_fits(raw: pd.DataFrame, regimes: OracleRegimes = ETSID_REGIMES) -> di
                             {"y_val": sims[key], "y_sim": sims[key],
                              "y_arx_val": sims["global"], "y_arx_sim": sims["global"]},
                             split, reg.t)
-        for key in ("switch", "lpv")}
+        for key in models if key != "global"}
     return {"ige": (float(ige[:split].mean()), float(ige[split:].mean())),
             "ratios": [_dc_gain(a_in.theta, names, u, o) / _dc_gain(a_out.theta, names, u, o)
+                       if switch else float("nan")
                        for o, u in enumerate(("u_roll", "u_pitch", "u_yaw"))],
             **fits, "bands": bands,
-            "ceiling": [max(fits["switch"][o], fits["lpv"][o]) - fits["global"][o]
+            "ceiling": [np.nanmax([fits["switch"][o], fits["lpv"][o]]) - fits["global"][o]
                         for o in range(3)]}
 
 
 def _triple(v: list[float], sign: str = "") -> str:
-    return " / ".join(f"{x:{sign}.1f}" for x in v)
+    return " / ".join("n.a." if np.isnan(x) else f"{x:{sign}.1f}" for x in v)
 
 
 def _oracle(raw: pd.DataFrame) -> str:
@@ -484,19 +493,23 @@ def oracle(duration: float) -> None:
 
 def _band_cells(bands: dict[str, list[dict[str, Any]]], b: int) -> list[str]:
     """Cells of band ``b``: global ARX, switch, LPV free-run fit % p/q/r and the ceiling Δ
-    (``n.i.`` where identify calls the band not informative)."""
+    (``n.i.`` where identify calls the band not informative, ``n.a.`` without a switch)."""
     def fit(key: str, y: str, field: str) -> float | None:
+        if key not in bands:
+            return float("nan")
         return bands[key][b]["outputs"].get(y, {}).get(field, {}).get("fit")
 
-    cells = []
-    for key, field in (("switch", "arx_free_run"), ("switch", "free_run"), ("lpv", "free_run")):
-        cells.append(" / ".join("n.i." if (v := fit(key, y, field)) is None else f"{v:.1f}"
-                                for y in "pqr"))
+    def cell(v: float | None, sign: str = "") -> str:
+        return "n.i." if v is None else "n.a." if np.isnan(v) else f"{v:{sign}.1f}"
+
+    cells = [" / ".join(cell(fit(key, y, field)) for y in "pqr")
+             for key, field in (("lpv", "arx_free_run"), ("switch", "free_run"),
+                                ("lpv", "free_run"))]
     deltas = []
     for y in "pqr":
-        g, sw, lp = fit("switch", y, "arx_free_run"), fit("switch", y, "free_run"), \
+        g, sw, lp = fit("lpv", y, "arx_free_run"), fit("switch", y, "free_run"), \
             fit("lpv", y, "free_run")
-        deltas.append("n.i." if None in (g, sw, lp) else f"{max(sw, lp) - g:+.1f}")
+        deltas.append(cell(None if None in (g, sw, lp) else np.nanmax([sw, lp]) - g, "+"))
     return [*cells, " / ".join(deltas)]
 
 
@@ -533,7 +546,7 @@ def gen2_oracle(airframe: str, seeds: list[int], with_ets: bool,
         print(rows[-1], flush=True)
         per_band += [f"| {seed} | {band['name']} | {band['n_validation']} | "
                      + " | ".join(_band_cells(f["bands"], b)) + " |"
-                     for b, band in enumerate(f["bands"]["switch"])]
+                     for b, band in enumerate(f["bands"]["lpv"])]
     print(f"\noracle ceiling: gen2 {airframe} regime flights (180 s), seeds {seeds}; in ground "
           f"effect = {regimes.label}; LPV on x and x·(2R/alt)^k, k = "
           f"{', '.join(map(str, powers))}; free-run fit % on identify's "
