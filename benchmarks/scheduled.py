@@ -8,6 +8,11 @@ Three parts, each printing the tables recorded in docs/identify.md:
     fit of the "oracle" regime-switched ARX (the measured altitude picks the model) and of
     an LPV ARX (regressors x and x·(0.25/alt)²) against global ARX on the validation part.
     That gain is the ceiling for any scheduled model with these regressors.
+``--oracle --generator gen2`` (diagnosis, issue 41; ``--airframe hexa15``, ``--seeds 41,42,43``)
+    The same on the second generator's regime flights (``benchmarks/regime_bands.py``): in
+    ground effect below z/R = 2 (identify's band edge; ``--split-zr``), LPV on x·(2R/alt)^k
+    (``--lpv-powers``, default 2), per seed and per identify band; ``--ets`` also runs
+    ``identify`` (``IdentConfig()``) and prints the scheduled eTS Δ over ARX beside it.
 ``--oracle --integrators`` (diagnosis, seeds 1–3)
     Would a state for the rate PID's integrator raise the ceiling? The same global and
     switched ARX with the running integrals of the sticks and the angles as extra
@@ -34,6 +39,7 @@ default (benchmark, seeds never used for any choice)
 
     python benchmarks/scheduled.py [--seeds 3] [--duration 300 --ige-oge-only]
     python benchmarks/scheduled.py --oracle [--duration 300] [--integrators]
+    python benchmarks/scheduled.py --oracle --generator gen2 --airframe hexa15 --seeds 41,42,43
     python benchmarks/scheduled.py --study
     python benchmarks/scheduled.py --sample
 """
@@ -41,6 +47,7 @@ default (benchmark, seeds never used for any choice)
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -115,19 +122,33 @@ def benchmark(n_seeds: int, duration: float = 150.0, single: bool = True) -> Non
 
 def _prepared(raw: pd.DataFrame) -> tuple[pd.DataFrame, Any, Any, int]:
     """identify's table, regressor spec, regression and learning/validation split of the
-    default rate model of ``raw`` (the split depends on the excitation, not the model)."""
+    default rate model of ``raw`` (the split depends on the excitation, not the model): the
+    attitude states kept or left out as ``identify`` decides on its inner split."""
+    from etsid.ident.attitude_check import check_attitude_states
     from etsid.ident.checks import split_excited
     from etsid.ident.flight import apply_selection, excited_mask, select_flight
     from etsid.ident.model_choice import choose_model
+    from etsid.ident.motors import add_motor_commands
     from etsid.ident.regressors import build
     from etsid.ident.resample import decimate
 
     config = IdentConfig(antecedent="none")
-    spec = choose_model(raw, config).spec
+    raw = add_motor_commands(raw)
+    chosen = choose_model(raw, config)
+    spec = chosen.spec
     table = decimate(apply_selection(raw, select_flight(raw, config.segments)),
                      config.rate_for(True))
     reg = build(table, spec)
     split = split_excited(excited_mask(table, spec.outputs)[reg.rows], config.validate)
+    if chosen.attitude and config.attitude == "auto":
+        check = check_attitude_states(reg, spec, split,
+                                      excited_mask(table, spec.outputs)[reg.rows],
+                                      len(table), config.validate)
+        if not check.keep:
+            spec = check.spec
+            reg = build(table, spec)
+            split = split_excited(excited_mask(table, spec.outputs)[reg.rows],
+                                  config.validate)
     return table, spec, reg, split
 
 
@@ -217,52 +238,118 @@ def _dc_gain(theta: np.ndarray, names: list[str], u: str, o: int) -> float:
     return float(b / (1.0 - a))
 
 
+MIN_REGIME_ROWS = 2
+"""Least learning rows per regressor (+ constant) of each regime for the oracle switch."""
+
+
+@dataclass(frozen=True)
+class OracleRegimes:
+    """How the oracle diagnosis splits a flight into regimes and schedules its LPV ARX."""
+
+    split_m: float  # in ground effect below this altitude, m
+    scale_m: float  # the LPV ARX's extra regressors are x·(scale_m / alt)^k, k in powers
+    floor_m: float  # altitude floor of that schedule, m
+    label: str
+    powers: tuple[int, ...] = (2,)
+
+
+ETSID_REGIMES = OracleRegimes(GE_SPLIT_M, 0.25, 0.2, f"alt < {GE_SPLIT_M} m")
+"""etsid's ige-oge: the Tarot's ground-effect ratio is below 1.03 above 0.6 m."""
+
+
+def rotor_regimes(radius_m: float, split_zr: float | None = None,
+                  powers: tuple[int, ...] = (2,)) -> OracleRegimes:
+    """Regimes of a rotor of radius ``radius_m`` (m): in ground effect below z/R =
+    ``split_zr`` (default identify's band edge :data:`etsid.ident.regimes.IGE_BELOW_ZR`);
+    LPV on Hayden's coordinate, x·(2R/alt)^k for each k of ``powers``."""
+    from etsid.ident.regimes import IGE_BELOW_ZR
+
+    zr = IGE_BELOW_ZR if split_zr is None else split_zr
+    split = zr * radius_m
+    return OracleRegimes(split, 2.0 * radius_m, 0.3 * radius_m,
+                         f"z/R < {zr:g} (alt < {split:.3f} m)", powers)
+
+
 def _oracle_row(seed: int, duration: float) -> None:
     print(f"| {seed} | " + _oracle(simulate("ige-oge", duration=duration, seed=seed).table)
           + " |", flush=True)
 
 
-def _oracle(raw: pd.DataFrame) -> str:
-    """The oracle diagnosis of one flight as table cells (IGE shares, gain ratios, global
-    / switched / LPV ARX fits, ceiling)."""
+def oracle_fits(raw: pd.DataFrame, regimes: OracleRegimes = ETSID_REGIMES) -> dict[str, Any]:
+    """The oracle diagnosis of one flight: ARX fitted on the learning rows in ground effect
+    (alt < ``regimes.split_m``) and out of it; free-run fit % (p q r) on identify's
+    validation part of the global ARX (``global``), the oracle switch (``switch``: the
+    measured altitude picks the regime's ARX) and the LPV ARX (``lpv``); ``ceiling`` = the
+    better of switch and LPV minus global; ``ige`` the in-ground-effect share of the
+    learning / validation rows; ``ratios`` the steady-state input-gain ratios in / out;
+    ``bands`` per model, identify's ``regimes.per_regime`` scores of the model (``free_run``)
+    against global ARX (``arx_free_run``) when the table knows its rotor radius. Without
+    :data:`MIN_REGIME_ROWS` per regressor on either side of the split there is no switch
+    (its fits and ratios NaN, no ``bands["switch"]``; the ceiling is LPV's)."""
     from etsid.ident.arx import ARX
     from etsid.ident.metrics import fit_percent
+    from etsid.ident.regimes import bands_for, regime_metrics, rotor_radius
     from etsid.ident.simulate import envelope, free_run
 
     table, spec, reg, split = _prepared(raw)
     alt = table["alt"].to_numpy()[reg.rows - 1]
-    ige = alt < GE_SPLIT_M
+    cut = regimes.split_m
+    ige = alt < cut
     X, Y, n_table = reg.X, reg.Y, len(table)
     bounds = envelope(Y)
     glob = ARX.fit(X[:split], Y[:split])
-    a_in = ARX.fit(X[:split][ige[:split]], Y[:split][ige[:split]])
-    a_out = ARX.fit(X[:split][~ige[:split]], Y[:split][~ige[:split]])
+    n_in = int(np.count_nonzero(ige[:split]))
+    switch = min(n_in, split - n_in) >= MIN_REGIME_ROWS * (X.shape[1] + 1)
+    if switch:
+        a_in = ARX.fit(X[:split][ige[:split]], Y[:split][ige[:split]])
+        a_out = ARX.fit(X[:split][~ige[:split]], Y[:split][~ige[:split]])
 
-    def g(z: np.ndarray) -> np.ndarray:
-        return (0.25 / np.maximum(z, 0.2)) ** 2
+    def lpv_x(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """x and x·(scale/alt)^k for each k of ``regimes.powers`` (rows of x, alt z)."""
+        h = np.atleast_1d(regimes.scale_m / np.maximum(z, regimes.floor_m))[:, None]
+        x = np.atleast_2d(x)
+        return np.column_stack([x, *(x * h ** k for k in regimes.powers)])
 
-    lpv = ARX.fit(np.column_stack([X, X * g(alt)[:, None]])[:split], Y[:split])
+    lpv = ARX.fit(lpv_x(X, alt)[:split], Y[:split])
     reg.S = alt[:, None]
-    models = {
-        "global": lambda x, s: glob.predict_one(x),
-        "switch": lambda x, s: (a_in if s[0] < GE_SPLIT_M else a_out).predict_one(x),
-        "lpv": lambda x, s: lpv.predict_one(np.r_[x, x * g(s[0])]),
-    }
-    fits = {}
+    models = {"global": lambda x, s: glob.predict_one(x),
+              "lpv": lambda x, s: lpv.predict_one(lpv_x(x, s[0])[0])}
+    if switch:
+        models["switch"] = lambda x, s: (a_in if s[0] < cut else a_out).predict_one(x)
+    sims, fits = {}, {"switch": [float("nan")] * 3}
     for key, model in models.items():
-        sim = free_run(model, reg, spec, split, n_table, bounds)
-        fits[key] = [fit_percent(Y[split:, o], sim[:, o]) for o in range(3)]
+        sims[key] = np.full(Y.shape, np.nan)
+        sims[key][split:] = free_run(model, reg, spec, split, n_table, bounds)
+        fits[key] = [fit_percent(Y[split:, o], sims[key][split:, o]) for o in range(3)]
     names = [str(t) for t in spec.terms]
-    ratios = [_dc_gain(a_in.theta, names, u, o) / _dc_gain(a_out.theta, names, u, o)
-              for o, u in enumerate(("u_roll", "u_pitch", "u_yaw"))]
-    ceiling = [max(fits["switch"][o], fits["lpv"][o]) - fits["global"][o] for o in range(3)]
+    radius = rotor_radius(table.attrs)
+    bands = {} if radius is None else {
+        key: regime_metrics(table["alt"].to_numpy()[reg.rows], bands_for(radius), Y,
+                            list(spec.outputs),
+                            {"y_val": sims[key], "y_sim": sims[key],
+                             "y_arx_val": sims["global"], "y_arx_sim": sims["global"]},
+                            split, reg.t)
+        for key in models if key != "global"}
+    return {"ige": (float(ige[:split].mean()), float(ige[split:].mean())),
+            "ratios": [_dc_gain(a_in.theta, names, u, o) / _dc_gain(a_out.theta, names, u, o)
+                       if switch else float("nan")
+                       for o, u in enumerate(("u_roll", "u_pitch", "u_yaw"))],
+            **fits, "bands": bands,
+            "ceiling": [np.nanmax([fits["switch"][o], fits["lpv"][o]]) - fits["global"][o]
+                        for o in range(3)]}
 
-    def fmt(v: list[float], sign: str = "") -> str:
-        return " / ".join(f"{x:{sign}.1f}" for x in v)
 
-    return (f"{ige[:split].mean():.2f} / {ige[split:].mean():.2f} | "
-            f"{', '.join(f'{r:.2f}' for r in ratios)} | {fmt(fits['global'])} | "
-            f"{fmt(fits['switch'])} | {fmt(fits['lpv'])} | {fmt(ceiling, '+')}")
+def _triple(v: list[float], sign: str = "") -> str:
+    return " / ".join("n.a." if np.isnan(x) else f"{x:{sign}.1f}" for x in v)
+
+
+def _oracle(raw: pd.DataFrame) -> str:
+    """The oracle diagnosis of one flight as table cells (IGE shares, gain ratios, global
+    / switched / LPV ARX fits, ceiling)."""
+    f = oracle_fits(raw)
+    return (f"{f['ige'][0]:.2f} / {f['ige'][1]:.2f} | "
+            f"{', '.join(f'{r:.2f}' for r in f['ratios'])} | {_triple(f['global'])} | "
+            f"{_triple(f['switch'])} | {_triple(f['lpv'])} | {_triple(f['ceiling'], '+')}")
 
 
 INTEGRAL_COLUMNS = ("u_roll", "u_pitch", "roll", "pitch")
@@ -404,9 +491,86 @@ def oracle(duration: float) -> None:
         _oracle_row(seed, duration)
 
 
+def _band_cells(bands: dict[str, list[dict[str, Any]]], b: int) -> list[str]:
+    """Cells of band ``b``: global ARX, switch, LPV free-run fit % p/q/r and the ceiling Δ
+    (``n.i.`` where identify calls the band not informative, ``n.a.`` without a switch)."""
+    def fit(key: str, y: str, field: str) -> float | None:
+        if key not in bands:
+            return float("nan")
+        return bands[key][b]["outputs"].get(y, {}).get(field, {}).get("fit")
+
+    def cell(v: float | None, sign: str = "") -> str:
+        return "n.i." if v is None else "n.a." if np.isnan(v) else f"{v:{sign}.1f}"
+
+    cells = [" / ".join(cell(fit(key, y, field)) for y in "pqr")
+             for key, field in (("lpv", "arx_free_run"), ("switch", "free_run"),
+                                ("lpv", "free_run"))]
+    deltas = []
+    for y in "pqr":
+        g, sw, lp = fit("lpv", y, "arx_free_run"), fit("switch", y, "free_run"), \
+            fit("lpv", y, "free_run")
+        deltas.append(cell(None if None in (g, sw, lp) else np.nanmax([sw, lp]) - g, "+"))
+    return [*cells, " / ".join(deltas)]
+
+
+def gen2_oracle(airframe: str, seeds: list[int], with_ets: bool,
+                split_zr: float | None = None, powers: tuple[int, ...] = (2,)) -> None:
+    """The oracle diagnosis on the second generator's regime flights
+    (``benchmarks/regime_bands.py --generator gen2``), per seed and per identify band; with
+    ``with_ets`` also the scheduled eTS Δ of ``identify`` with ``IdentConfig()``."""
+    from regime_bands import flight
+
+    from etsid.ident.regimes import rotor_radius
+
+    rows: list[str] = []
+    per_band: list[str] = []
+    ceil, ets_d = [], []
+    for seed in seeds:
+        raw = flight("gen2", seed, airframe)
+        radius = rotor_radius(raw.attrs)
+        assert radius is not None
+        regimes = rotor_regimes(radius, split_zr, powers)
+        f = oracle_fits(raw, regimes)
+        ceil.append(f["ceiling"])
+        cells = [f"{f['ige'][0]:.2f} / {f['ige'][1]:.2f}", _triple(f["global"]),
+                 _triple(f["switch"]), _triple(f["lpv"]), _triple(f["ceiling"], "+")]
+        if with_ets:
+            out = identify(raw, IdentConfig()).metrics["outputs"]
+            arx = [out[y]["arx"]["validation"]["free_run"]["fit"] for y in "pqr"]
+            if max(abs(a - b) for a, b in zip(arx, f["global"], strict=True)) > 0.05:
+                cells[1] += f" (identify's ARX {_triple(arx)})"
+            ets_d.append([out[y]["validation"]["free_run"]["fit"] - a
+                          for y, a in zip("pqr", arx, strict=True)])
+            cells.append(_triple(ets_d[-1], "+"))
+        rows.append(f"| {seed} | " + " | ".join(cells) + " |")
+        print(rows[-1], flush=True)
+        per_band += [f"| {seed} | {band['name']} | {band['n_validation']} | "
+                     + " | ".join(_band_cells(f["bands"], b)) + " |"
+                     for b, band in enumerate(f["bands"]["lpv"])]
+    print(f"\noracle ceiling: gen2 {airframe} regime flights (180 s), seeds {seeds}; in ground "
+          f"effect = {regimes.label}; LPV on x and x·(2R/alt)^k, k = "
+          f"{', '.join(map(str, powers))}; free-run fit % on identify's "
+          "validation part")
+    print("| seed | IGE share learn / val | global ARX p/q/r | oracle switch p/q/r | LPV p/q/r | "
+          "ceiling Δ p/q/r" + (" | scheduled eTS Δ p/q/r |" if with_ets else " |"))
+    print("|---|---|---|---|---|---|" + ("---|" if with_ets else ""))
+    print("\n".join(rows))
+    print("mean ceiling Δ p / q / r: " + " / ".join(f"{v:+.2f}" for v in np.mean(ceil, 0)))
+    if with_ets:
+        print("mean scheduled eTS Δ p / q / r: "
+              + " / ".join(f"{v:+.2f}" for v in np.mean(ets_d, axis=0)))
+    print("\nper identify band (free-run fit % on the band's validation rows)")
+    print("| seed | band | val rows | global ARX p/q/r | oracle switch p/q/r | LPV p/q/r | "
+          "ceiling Δ p/q/r |")
+    print("|---|---|---|---|---|---|---|")
+    print("\n".join(per_band))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--seeds", default=None,
+                    help="benchmark: the number of seeds (3); --oracle --generator gen2: the "
+                         "seeds, comma-separated (41,42,43)")
     ap.add_argument("--study", action="store_true", help="the inner-split selection study")
     ap.add_argument("--oracle", action="store_true", help="the oracle-ceiling diagnosis")
     ap.add_argument("--integrators", action="store_true",
@@ -417,8 +581,26 @@ def main() -> None:
                     help="ige-oge flight length, s (--oracle and the benchmark)")
     ap.add_argument("--ige-oge-only", action="store_true",
                     help="benchmark: skip the single-regime flights")
+    ap.add_argument("--generator", choices=("etsid", "gen2"), default="etsid",
+                    help="with --oracle: etsid's ige-oge or the second generator's regime "
+                         "flights (benchmarks/regime_bands.py)")
+    ap.add_argument("--airframe", choices=("quad10", "hexa15"), default="hexa15",
+                    help="with --oracle --generator gen2: gen2's airframe")
+    ap.add_argument("--ets", action="store_true",
+                    help="with --oracle --generator gen2: also identify (IdentConfig()) and "
+                         "print the scheduled eTS Δ over ARX")
+    ap.add_argument("--split-zr", type=float, default=None,
+                    help="with --oracle --generator gen2: the oracle's regime edge in z/R "
+                         "(default 2, identify's ground-effect band)")
+    ap.add_argument("--lpv-powers", default="2",
+                    help="with --oracle --generator gen2: the LPV ARX's x·(2R/alt)^k, k "
+                         "comma-separated")
     args = ap.parse_args()
-    if args.oracle and args.integrators:
+    if args.oracle and args.generator == "gen2":
+        gen2_oracle(args.airframe, [int(s) for s in (args.seeds or "41,42,43").split(",")],
+                    args.ets, args.split_zr,
+                    tuple(int(k) for k in args.lpv_powers.split(",")))
+    elif args.oracle and args.integrators:
         integrator_diagnosis(args.duration)
     elif args.oracle:
         oracle(args.duration)
@@ -427,7 +609,7 @@ def main() -> None:
     elif args.study:
         study()
     else:
-        benchmark(args.seeds, args.duration, not args.ige_oge_only)
+        benchmark(int(args.seeds or 3), args.duration, not args.ige_oge_only)
 
 
 if __name__ == "__main__":
