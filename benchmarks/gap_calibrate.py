@@ -19,7 +19,8 @@ the best single's pairs over it. This script
     effect is named only when its gain is also significant at the rate among the singles
     tried, ``criterion.significant``),
   - ``pair_gain_per_sample``: the best second effect's gain over a correctly named first
-    effect on the single-effect pairs;
+    effect on the single-effect pairs, and never below ``gain_per_sample`` (a second
+    effect's extra gain comes from the same model errors as a first effect's);
   each the largest recorded value: a new exchangeable pair exceeds the largest of n with
   probability 1/(n + 1), the rate the records can show (printed, and written to the file
   as ``supported_rate``); no tail model extrapolates below it;
@@ -310,7 +311,7 @@ def fit(args: argparse.Namespace) -> None:
         extras.append(max(ex) if ex else 0.0)
     cal = Calibration(
         mismatch_ratio=mismatch_ratio, gain_per_sample=_largest(gains),
-        pair_gain_per_sample=_largest(extras) if extras else _largest(gains),
+        pair_gain_per_sample=max(_largest(extras), _largest(gains)),
         false_positive_rate=alpha,
         source={"generators": args.generators.split(","),
                 "records": [Path(r).name for r in args.records],
@@ -318,7 +319,9 @@ def fit(args: argparse.Namespace) -> None:
                 "rule": "largest recorded value of the no-effect pairs' largest dynamic "
                         "channel ratio and best significant single gain, and of the "
                         "single-effect pairs' best significant second-effect gain where a "
-                        "channel is still mismatched after the first (a new pair exceeds "
+                        "channel is still mismatched after the first, and no lower than "
+                        "the single's threshold: a second effect's extra gain has the same "
+                        "sources of model error as a first's (a new pair exceeds "
                         "the largest of n with probability 1/(n + 1)); every gain must also "
                         "be significant at the rate among the models tried (Bonferroni)",
                 "supported_rate": round(1.0 / (len(none) + 1), 4),
