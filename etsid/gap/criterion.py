@@ -398,10 +398,12 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     if after_lead and after_lead.get("name") == best and not mismatched(
             after_lead["ratio"], after_lead.get("offset", {}), cal):
         return best
+    base_of = {str(get(m, "name")): m for m in singles}
     pairs = [m for m in models if "+" in str(get(m, "name"))
-             and str(get(m, "name")).split("+")[0] == best and not get(m, "refused")]
-    for m in pairs:
-        extra = float(get(m, "gain")) - float(get(lead, "gain"))
+             and str(get(m, "name")).split("+")[0] in base_of and not get(m, "refused")]
+    for m in pairs:  # each pair over the single it was built on (the lead or one tied to it)
+        extra = float(get(m, "gain")) - float(get(base_of[str(get(m, "name")).split("+")[0]],
+                                                   "gain"))
         if (extra / max(get(m, "n_scored"), 1) > cal.pair_gain_per_sample
                 and significant(extra, get(m, "extra_se") or None, len(pairs),
                                 cal.false_positive_rate)
@@ -410,9 +412,27 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     return best
 
 
+def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> list[Evaluated]:
+    """The best admissible single and every other the held-out blocks cannot put behind it:
+    gain per scored sample above the threshold, and its gain below the best's by less than
+    :func:`significant` asks of the paired block differences. Second effects are sought on
+    each, so that two look-alike leads (a motor lag and a delay) both get their pairs."""
+    lead = usable[0]
+    out = [lead]
+    for m in usable[1:]:
+        if m.per_sample <= cal.gain_per_sample or m.gain_blocks.size != lead.gain_blocks.size:
+            continue
+        diff = lead.gain_blocks - m.gain_blocks
+        se = float(np.sqrt(diff.size) * np.std(diff, ddof=1)) if diff.size > 1 else None
+        if not significant(float(diff.sum()), se, n_singles, cal.false_positive_rate):
+            out.append(m)
+    return out
+
+
 def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
                   admissible) -> Criterion:
-    """Every single, greedy pairs on the best single, the weights and the chosen model.
+    """Every single, greedy pairs on the best single and on the singles tied with it
+    (:func:`tied_leads`), the weights and the chosen model.
 
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
     a bound, a channel made worse), "" when it may.
@@ -435,12 +455,18 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
         ratio, offset = ls.held_out(lead)
         crit.after_lead = {"name": lead.name, "ratio": ratio, "offset": offset}
         left = mismatched(ratio, offset, cal)  # nothing left: no second effect to seek
-        for other in usable[1:1 + PAIR_POOL] if left else ():
-            x0 = np.concatenate([lead.fits[0].theta, other.fits[0].theta])
-            pair = evaluate(lead.candidates + other.candidates, ls, cal.pair_gain_per_sample,
-                            x0=x0, base=lead)
-            pair.refused = admissible(pair)
-            models.append(pair)
+        tried: set[frozenset[str]] = set()
+        for base in tied_leads(usable, cal, len(ranked)) if left else ():
+            for other in [m for m in usable if m is not base][:PAIR_POOL]:
+                key = frozenset((base.name, other.name))
+                if key in tried:
+                    continue
+                tried.add(key)
+                x0 = np.concatenate([base.fits[0].theta, other.fits[0].theta])
+                pair = evaluate(base.candidates + other.candidates, ls,
+                                cal.pair_gain_per_sample, x0=x0, base=base)
+                pair.refused = admissible(pair)
+                models.append(pair)
     # weights over the models that may be named: one refused by a verdict rule (a
     # parameter at its bound, a channel made worse) is not an explanation of REAL
     admitted = [m for m in models if not m.refused]

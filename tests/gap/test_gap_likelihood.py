@@ -183,6 +183,27 @@ def test_a_second_effect_is_sought_only_while_a_channel_is_left():
     assert choose([row, {**noisy, "extra_se": 20.0}], cal, left) == "thrust_scale+gyro_bias"
 
 
+def test_pairs_are_sought_on_every_single_tied_with_the_lead():
+    """Two singles the blocks cannot order (a motor lag and a delay 7 nats apart over
+    blocks that spread by tens) both lead pairs; one clearly behind does not. The pair
+    built on the second lead is named when it explains most."""
+    from etsid.gap.criterion import tied_leads
+
+    cal = Calibration(2.0, 0.01, 0.05, 0.01, {})
+    lag = _ev("motor_lag", [1400.0, 1300.0, 1500.0, 1318.0], n=1000)
+    delay = _ev("time_delay", [1380.0, 1350.0, 1450.0, 1331.0], n=1000)
+    far = _ev("inertia_scale", [100.0, 90.0, 110.0, 95.0], n=1000)
+    leads = tied_leads([lag, delay, far], cal, 3)
+    assert [m.name for m in leads] == ["motor_lag", "time_delay"]
+    left = {"name": "motor_lag", "ratio": {"az": 40.0}, "offset": {}}
+    lag_pair = _ev("motor_lag+mass", [2450.0] * 4, n=1000)
+    delay_pair = _ev("time_delay+thrust_scale", [3400.0] * 4, n=1000)
+    for m in (lag_pair, delay_pair):
+        m.extra_se = 10.0
+    assert choose([lag, delay, far, lag_pair, delay_pair], cal, left) == \
+        "time_delay+thrust_scale"
+
+
 def test_calibration_file_round_trip_and_bad_file(tmp_path):
     cal = Calibration(5.5, 0.012, 0.04, 0.01, {"generators": ["a", "b"]})
     path = tmp_path / "cal.json"
