@@ -93,6 +93,14 @@ def make_folds(mask: np.ndarray, fs: float, n_folds: int = N_FOLDS,
     return Folds(score, fit, block, k)
 
 
+def block_se(per_block: np.ndarray) -> float:
+    """Standard error of a sum over blocks from the blocks' spread, in its unit (inf with
+    fewer than two blocks)."""
+    if per_block.size < 2:
+        return float(np.inf)
+    return float(np.sqrt(per_block.size) * np.std(per_block, ddof=1))
+
+
 @dataclass
 class Evaluated:
     """One candidate model scored by the criterion.
@@ -140,8 +148,7 @@ class Evaluated:
     @property
     def gain_se(self) -> float:
         """Standard error of the gain from its block-to-block spread, nats."""
-        g = self.gain_blocks
-        return float(np.sqrt(g.size) * np.std(g, ddof=1)) if g.size > 1 else np.inf
+        return block_se(self.gain_blocks)
 
 
 @dataclass
@@ -332,7 +339,7 @@ def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: floa
     name = "+".join(c.name for c in cands)
     extra_se = None
     if base is not None and g.size > 1:
-        extra_se = float(np.sqrt(g.size) * np.std(g - base.gain_blocks, ddof=1))
+        extra_se = block_se(g - base.gain_blocks)
     return Evaluated(name, cands, [f for f in fits if f is not None], g, n, extrapolated,
                      extra_se=extra_se, by_channel=by_channel)
 
@@ -402,8 +409,8 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     pairs = [m for m in models if "+" in str(get(m, "name"))
              and str(get(m, "name")).split("+")[0] in base_of and not get(m, "refused")]
     for m in pairs:  # each pair over the single it was built on (the lead or one tied to it)
-        extra = float(get(m, "gain")) - float(get(base_of[str(get(m, "name")).split("+")[0]],
-                                                   "gain"))
+        base = base_of[str(get(m, "name")).split("+")[0]]
+        extra = float(get(m, "gain")) - float(get(base, "gain"))
         if (extra / max(get(m, "n_scored"), 1) > cal.pair_gain_per_sample
                 and significant(extra, get(m, "extra_se") or None, len(pairs),
                                 cal.false_positive_rate)
@@ -423,8 +430,8 @@ def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> lis
         if m.per_sample <= cal.gain_per_sample or m.gain_blocks.size != lead.gain_blocks.size:
             continue
         diff = lead.gain_blocks - m.gain_blocks
-        se = float(np.sqrt(diff.size) * np.std(diff, ddof=1)) if diff.size > 1 else None
-        if not significant(float(diff.sum()), se, n_singles, cal.false_positive_rate):
+        if not significant(float(diff.sum()), block_se(diff), n_singles,
+                           cal.false_positive_rate):
             out.append(m)
     return out
 
