@@ -282,3 +282,19 @@ def test_likelihood_method_names_a_known_thrust_loss_and_writes_valid_gap_json(t
     best = max(crit["models"], key=lambda m: m["gain"])
     assert best["per_sample"] > crit["thresholds"]["gain_per_sample"]
     write_gap_json(data, tmp_path)  # validates against the schema
+
+
+def test_reals_sensor_noise_series_carry_no_offset():
+    """The sensor-noise series (white noise at REAL's measured densities through each
+    channel's processing) are noise alone: zero mean on every channel, kin_z included,
+    where the still synthetic flight's kinematics would otherwise leave gravity."""
+    from etsid.gap.floors import sensor_noise
+    from etsid.gap.signals import prepare
+    from etsid.sim import simulate
+
+    table = simulate(scenario="hover-oge", duration=20.0, seed=3).table
+    series = sensor_noise(prepare(table, "real"))
+    assert {"kin_z", "gyro_p", "p"} <= set(series)
+    for c, y in series.items():
+        assert abs(float(np.mean(y))) <= 1e-9 + 1e-6 * float(np.std(y)), c
+    assert float(np.std(series["kin_z"])) < 1.0  # m/s²: sensor noise, not gravity

@@ -83,12 +83,13 @@ def test_real_noise_floor_follows_the_recordings_sensors() -> None:
 
 # --- the pairs of issue 21 ----------------------------------------------------------------
 
-def _gap(real_settings: dict | None = None, sim_vehicle=None, real_vehicle=None) -> dict:
+def _gap(real_settings: dict | None = None, sim_vehicle=None, real_vehicle=None,
+         method: str | None = None) -> dict:
     sim = simulate(**HOVER, vehicle=sim_vehicle, seed=1).table
     real = simulate(**dict(HOVER, duration=40.0), vehicle=real_vehicle, seed=2,
                     settings={f"vehicle.{k}": v for k, v in (real_settings or {}).items()}
                     ).table
-    return analyse(sim, real, "sim", "real").data
+    return analyse(sim, real, "sim", "real", method=method).data
 
 
 def _general_rules_hold(data: dict) -> None:
@@ -105,8 +106,12 @@ def _general_rules_hold(data: dict) -> None:
         assert after - before <= sigma, (c, data["summary"])
 
 
-def test_accelerometer_bias_is_named_as_such_not_thrust() -> None:
-    data = _gap({"accel_bias": [0.0, 0.0, 0.6]})
+@pytest.mark.parametrize("method", ["tiers", "likelihood"])
+def test_accelerometer_bias_is_named_as_such_not_thrust(method: str) -> None:
+    """A z accelerometer bias of 0.6 m/s²: the accelerometer-vs-velocity channel tells it
+    from a mass or a thrust scale (under the likelihood, before REAL's sensor-noise series
+    was centred, gravity left on that channel's noise blinded it: a mass at 0.45)."""
+    data = _gap({"accel_bias": [0.0, 0.0, 0.6]}, method=method)
     _general_rules_hold(data)
     named = {e["name"]: e for e in data["effects"]}
     assert "accel_bias" in named, data["summary"]
