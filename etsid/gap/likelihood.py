@@ -22,6 +22,7 @@ from etsid.gap.criterion import (
     Evaluated,
     LikelihoodScorer,
     effect_weight,
+    evaluate,
     make_folds,
     mismatched,
     run_criterion,
@@ -110,6 +111,28 @@ def _airframe_evidence(name: str, value: float, how: str) -> str | None:
     return f"{name} {value:.3g} {how}, beyond a fault of one airframe ({lo:.3g}–{hi:.3g})"
 
 
+def cap_unseen(effects: list[dict[str, Any]], hidden: list[Evaluated], cal: Calibration,
+               missing: Callable[[str], str]) -> None:
+    """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every named
+    effect that shares a channel with a candidate the logs cannot name whole (REAL lacks a
+    signal that tells it apart, :meth:`~etsid.gap.candidates.Candidate.partly_seen`) when
+    that candidate, fitted on the channels REAL has, passes the naming threshold itself: an
+    accelerometer bias on a log without velocity acts on the vertical force as a thrust
+    scale or a mass does, and what is left between them is the nominal model's own misfit,
+    not evidence (identifiability, not a statistical tie)."""
+    for h in hidden:
+        if h.per_sample <= cal.gain_per_sample:
+            continue
+        seen = set(h.by_channel)
+        note = (f"look-alike: {h.name.replace('_', ' ')} explains the same channels "
+                f"({h.per_sample:.3f} nats per sample) and the logs lack {missing(h.name)} "
+                "to tell them apart")
+        for e in effects:
+            if e["name"] != h.name and seen & set(e["channels"]):
+                e["confidence"] = min(float(e["confidence"]), BELOW_CONFIDENCE)
+                e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
+
+
 def cap_partial(effects: list[dict[str, Any]], left: dict[str, Any]) -> None:
     """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every named
     effect when a channel is still mismatched on held-out data after them: the weights are
@@ -152,6 +175,9 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     say(f"gap: {len(library)} candidate effects, each fitted on one half of "
         f"{real.name}'s {folds.n_blocks} blocks and scored on the other")
     crit = run_criterion(ls, library, cal, _admissible(scorer, ls))
+    unseen = {c.name: c for e in REGISTRY for c in e.forms if c.partly_seen(scorer.ctx)
+              and any(s not in real.have for s in c.needs)}  # a signal missing, not a law
+    hidden = [evaluate((c,), ls, cal.gain_per_sample) for c in unseen.values()]
     hold = np.zeros(real.n, dtype=bool)
     for s in folds.score:
         hold |= s
@@ -184,6 +210,8 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                     radius = float(theta[0])
     cap_below_detectable(effects, base.get("detectable") or {})
     cap_partial(effects, left)
+    cap_unseen(effects, hidden, cal, lambda name: ", ".join(
+        s for s in unseen[name].needs if s not in real.have))
     for m in crit.models:
         if m.refused and m.per_sample > cal.gain_per_sample and (
                 chosen is None or m.gain > chosen.gain):

@@ -5,6 +5,7 @@ airframe."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from etsid.gap.detectable import BELOW_CONFIDENCE
@@ -57,3 +58,40 @@ def test_another_quad_whose_inertia_scale_sits_at_its_bound_is_another_vehicle()
     data = analyse(sim, real, "sim", "real", method="likelihood").data
     assert data["verdict"] == "different-vehicle"
     assert "inertia_scale" in data["reason"] and "search bound" in data["reason"]
+
+
+def test_a_look_alike_the_logs_cannot_name_caps_what_shares_its_channels():
+    """Logs without velocity and a +1.2 m/s² z accelerometer bias on REAL: the vertical
+    force alone cannot tell the bias from a thrust scale or a mass (the channel that would,
+    accelerometer against velocity, is missing), so nothing is named at ≥ 0.5 and the
+    caveat names the accelerometer bias and the missing signal."""
+    hover = dict(scenario="hover-oge", duration=40.0, alt_wander=0.3)
+    sim = simulate(**hover, seed=1).table.drop(columns=["vx", "vy", "vz"])
+    real = simulate(**hover, seed=2, settings={"vehicle.accel_bias": [0.0, 0.0, 1.2]}
+                    ).table.drop(columns=["vx", "vy", "vz"])
+    data = analyse(sim, real, "sim", "real", method="likelihood").data
+    assert data["verdict"] == "mismatch", data["summary"]
+    az_named = [e for e in data["effects"] if "az" in e["channels"]]
+    assert az_named, data["summary"]
+    for e in az_named:
+        assert e["confidence"] <= BELOW_CONFIDENCE, e
+        assert "look-alike: accel bias" in e["caveat"] and "vel" in e["caveat"], e["caveat"]
+
+
+def test_an_unseen_look_alike_below_the_threshold_caps_nothing():
+    from etsid.gap.calibration import Calibration
+    from etsid.gap.criterion import Evaluated
+    from etsid.gap.likelihood import cap_unseen
+
+    def hidden(per_sample: float) -> Evaluated:
+        g = np.full(10, per_sample * 100.0)
+        return Evaluated("accel_bias", (), [], g, 1000, False, by_channel={"az": (1.0, 1000)})
+
+    cal = Calibration(2.0, 0.05, 0.05, 0.01, {})
+    effects = [{"name": "mass", "channels": ["az"], "confidence": 1.0},
+               {"name": "inertia_scale", "channels": ["p", "q", "r"], "confidence": 1.0}]
+    cap_unseen(effects, [hidden(0.01)], cal, lambda n: "vel")
+    assert [e["confidence"] for e in effects] == [1.0, 1.0]
+    cap_unseen(effects, [hidden(0.2)], cal, lambda n: "vel")
+    assert [e["confidence"] for e in effects] == [BELOW_CONFIDENCE, 1.0]
+    assert "lack vel" in effects[0]["caveat"] and "caveat" not in effects[1]
