@@ -157,10 +157,9 @@ def _gather_grouped_kernel(buf, offset, length, slot, sizes, bases, out
         row[g] += 1
         start = offset[i]
         n = min(np.int64(length[i]), size)
-        for k in range(n):
-            out[dest + k] = buf[start + k]
-        for k in range(n, size):
-            out[dest + k] = 0
+        out[dest:dest + n] = buf[start:start + n]  # a slice copy: about 2x a byte loop
+        if n < size:
+            out[dest + n:dest + size] = 0
 
 
 @numba.njit(cache=True, nogil=True)
