@@ -144,6 +144,9 @@ def autopilot_clock(gcs_s: np.ndarray, value_s: np.ndarray, kind: np.ndarray) ->
     cont[:first] = cont[first]  # frames before the first clock take its value
     nseg = int(seg.max()) + 1
     epoch = gcs_s - cont
+    if nseg == 1:  # no reboot: the loop below with one segment and no offset, unmasked
+        return Clock(cont + 0.0, float(np.min(epoch[clocked])), 0, 0, int(ms_wraps),
+                     int(us_wraps), True)
     t = cont.copy()
     offsets = np.zeros(nseg)
     epoch0 = float(np.min(epoch[clocked & (seg == 0)]))
