@@ -155,7 +155,7 @@ def decimate(table: pd.DataFrame, rate_hz: float | None) -> pd.DataFrame:
         if not np.issubdtype(values.dtype, np.number):
             data[column] = values[starts]
             continue
-        block = values.astype(float)[rows]
+        block = np.asarray(values, dtype=float)[rows]  # (no copy of a float column)
         spec = COLUMNS.get(column)
         if spec is not None and spec.interp == "angle":
             data[column] = np.arctan2(np.sin(block).mean(axis=1), np.cos(block).mean(axis=1))
