@@ -27,31 +27,44 @@ def _pair(y: np.ndarray, yhat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def rmse(y: np.ndarray, yhat: np.ndarray) -> float:
     """Root-mean-square error, in the unit of ``y`` (NaN when no pair is finite)."""
-    y, yhat = _pair(y, yhat)
-    return float(np.sqrt(np.mean((y - yhat) ** 2))) if y.size else float("nan")
+    return _rmse(*_pair(y, yhat))
 
 
 def ndei(y: np.ndarray, yhat: np.ndarray) -> float:
     """Non-dimensional error index: RMSE divided by the standard deviation of ``y``."""
-    y, yhat = _pair(y, yhat)
+    return _ndei(*_pair(y, yhat))
+
+
+def vaf(y: np.ndarray, yhat: np.ndarray) -> float:
+    """Variance accounted for, %: ``100 (1 − var(y − ŷ) / var(y))``."""
+    return _vaf(*_pair(y, yhat))
+
+
+def fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
+    """Normalised fit, % (MATLAB ``compare``): ``100 (1 − ‖y − ŷ‖ / ‖y − mean(y)‖)``."""
+    return _fit(*_pair(y, yhat))
+
+
+# the metrics of finite pairs (what _pair returns), so that scores pairs once
+def _rmse(y: np.ndarray, yhat: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((y - yhat) ** 2))) if y.size else float("nan")
+
+
+def _ndei(y: np.ndarray, yhat: np.ndarray) -> float:
     if y.size == 0:
         return float("nan")
     std = float(np.std(y))
     return float(np.sqrt(np.mean((y - yhat) ** 2)) / std) if std > 0 else float("nan")
 
 
-def vaf(y: np.ndarray, yhat: np.ndarray) -> float:
-    """Variance accounted for, %: ``100 (1 − var(y − ŷ) / var(y))``."""
-    y, yhat = _pair(y, yhat)
+def _vaf(y: np.ndarray, yhat: np.ndarray) -> float:
     if y.size == 0:
         return float("nan")
     var = float(np.var(y))
     return float(100.0 * (1.0 - np.var(y - yhat) / var)) if var > 0 else float("nan")
 
 
-def fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
-    """Normalised fit, % (MATLAB ``compare``): ``100 (1 − ‖y − ŷ‖ / ‖y − mean(y)‖)``."""
-    y, yhat = _pair(y, yhat)
+def _fit(y: np.ndarray, yhat: np.ndarray) -> float:
     if y.size == 0:
         return float("nan")
     den = float(np.linalg.norm(y - y.mean()))
@@ -61,11 +74,10 @@ def fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
 def scores(y: np.ndarray, yhat: np.ndarray) -> dict[str, float | int | None]:
     """All metrics as a JSON-ready dict: ``rmse`` (unit of y), ``ndei``, ``vaf`` (%),
     ``fit`` (%) and ``n`` (pairs used). NaN becomes ``None``."""
-    pairs = _pair(y, yhat)[0].size
+    pair = _pair(y, yhat)
     out: dict[str, float | int | None] = {
-        "rmse": rmse(y, yhat), "ndei": ndei(y, yhat), "vaf": vaf(y, yhat),
-        "fit": fit_percent(y, yhat),
+        "rmse": _rmse(*pair), "ndei": _ndei(*pair), "vaf": _vaf(*pair), "fit": _fit(*pair),
     }
     out = {k: (None if v is None or not np.isfinite(v) else float(v)) for k, v in out.items()}
-    out["n"] = int(pairs)
+    out["n"] = int(pair[0].size)
     return out
