@@ -124,14 +124,17 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
     wanted_ids = np.fromiter(wanted, dtype=np.int32)
     size = path.stat().st_size
     carry = np.empty(0, np.uint8)
+    store = np.empty(0, np.uint8)  # one buffer for every chunk: the carry, then the read
     base = 0
     with open_binary(path, "log", IngestError) as handle, \
             progress(size, f"reading {path.name}", show) as bar:
         while True:
-            block = handle.read(CHUNK)
-            final = handle.tell() >= size or not block
-            buf = np.concatenate((carry, np.frombuffer(block, np.uint8))) if carry.size else \
-                np.frombuffer(block, np.uint8)
+            if store.size < carry.size + CHUNK:
+                store = np.empty(carry.size + CHUNK, np.uint8)
+            store[:carry.size] = carry
+            got = handle.readinto(memoryview(store)[carry.size:carry.size + CHUNK]) or 0
+            final = handle.tell() >= size or not got
+            buf = store[:carry.size + got]  # (nothing kept refers to it: payloads are copied)
             res = scan_frames(buf, table, final)
             fast = use_kernels(buf.size)
             stats.skipped += res.skipped
@@ -162,7 +165,7 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
                     "compid": res.compid[sel],
                 })
             base += res.offset.size
-            bar.update(len(block))
+            bar.update(got)
             carry = buf[res.consumed:].copy()
             if final:
                 stats.truncated = int(carry.size)
