@@ -27,44 +27,31 @@ def _pair(y: np.ndarray, yhat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def rmse(y: np.ndarray, yhat: np.ndarray) -> float:
     """Root-mean-square error, in the unit of ``y`` (NaN when no pair is finite)."""
-    return _rmse(*_pair(y, yhat))
+    y, yhat = _pair(y, yhat)
+    return float(np.sqrt(np.mean((y - yhat) ** 2))) if y.size else float("nan")
 
 
 def ndei(y: np.ndarray, yhat: np.ndarray) -> float:
     """Non-dimensional error index: RMSE divided by the standard deviation of ``y``."""
-    return _ndei(*_pair(y, yhat))
-
-
-def vaf(y: np.ndarray, yhat: np.ndarray) -> float:
-    """Variance accounted for, %: ``100 (1 − var(y − ŷ) / var(y))``."""
-    return _vaf(*_pair(y, yhat))
-
-
-def fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
-    """Normalised fit, % (MATLAB ``compare``): ``100 (1 − ‖y − ŷ‖ / ‖y − mean(y)‖)``."""
-    return _fit(*_pair(y, yhat))
-
-
-# the metrics of finite pairs (what _pair returns), so that scores pairs once
-def _rmse(y: np.ndarray, yhat: np.ndarray) -> float:
-    return float(np.sqrt(np.mean((y - yhat) ** 2))) if y.size else float("nan")
-
-
-def _ndei(y: np.ndarray, yhat: np.ndarray) -> float:
+    y, yhat = _pair(y, yhat)
     if y.size == 0:
         return float("nan")
     std = float(np.std(y))
     return float(np.sqrt(np.mean((y - yhat) ** 2)) / std) if std > 0 else float("nan")
 
 
-def _vaf(y: np.ndarray, yhat: np.ndarray) -> float:
+def vaf(y: np.ndarray, yhat: np.ndarray) -> float:
+    """Variance accounted for, %: ``100 (1 − var(y − ŷ) / var(y))``."""
+    y, yhat = _pair(y, yhat)
     if y.size == 0:
         return float("nan")
     var = float(np.var(y))
     return float(100.0 * (1.0 - np.var(y - yhat) / var)) if var > 0 else float("nan")
 
 
-def _fit(y: np.ndarray, yhat: np.ndarray) -> float:
+def fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
+    """Normalised fit, % (MATLAB ``compare``): ``100 (1 − ‖y − ŷ‖ / ‖y − mean(y)‖)``."""
+    y, yhat = _pair(y, yhat)
     if y.size == 0:
         return float("nan")
     den = float(np.linalg.norm(y - y.mean()))
