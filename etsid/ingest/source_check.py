@@ -81,16 +81,18 @@ def coverage(sig: Signal, t0: float, t1: float) -> float:
     to the next one when that gap is at most :data:`MAX_GAP_S` or five sample periods."""
     if not t1 > t0:
         return 1.0
-    t = np.asarray(sig.t, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(np.asarray(sig.values, dtype=float))
-    t = _sorted(t[ok])
+    every = np.asarray(sig.t, dtype=float)
+    ok = np.isfinite(every) & np.isfinite(np.asarray(sig.values, dtype=float))
+    whole = bool(ok.all())  # (then the valid times are all times: one sort, one diff)
+    t = _sorted(every if whole else every[ok])
     if t.size < 2:
         return 0.0
-    period = float(np.median(np.diff(_sorted(np.asarray(sig.t, dtype=float)))))
+    step = np.diff(t)
+    period = float(np.median(step if whole else np.diff(_sorted(every))))
     limit = max(MAX_GAP_S, 5.0 * period)
     a, b = np.clip(t[:-1], t0, t1), np.clip(t[1:], t0, t1)
     span = b - a
-    return float(np.sum(span[(t[1:] - t[:-1]) <= limit]) / (t1 - t0))
+    return float(np.sum(span[step <= limit]) / (t1 - t0))
 
 
 def stuck_value(sig: Signal, t0: float, t1: float) -> float | None:
