@@ -1,7 +1,7 @@
 """Identification: throughput of a full identify run, and the quality table.
 
 Run:  python benchmarks/identify.py [--duration 600] [--seeds 21,22,23]
-      python benchmarks/identify.py --phases [--duration 600]   # where the CPU goes
+      python benchmarks/identify.py --phases [--duration 600] [--keep-logs DIR]  # CPU
 
 1. Throughput: ``etsid.ident.identify`` (defaults: 50 Hz, lags 4/6 and the roll/pitch
    states with their inner-split check, rules scheduled on ``inv_alt[k-1]`` (radius 0.3,
@@ -74,8 +74,9 @@ PHASES = {
 }
 
 
-def phases(duration: float) -> None:
-    """CPU seconds per identify phase on a ``duration`` s 250 Hz log (see the docstring)."""
+def phases(duration: float, keep: str | None = None) -> None:
+    """CPU seconds per identify phase on a ``duration`` s 250 Hz log (see the docstring);
+    with ``keep`` (a directory) the two tlogs are written there once and reused."""
     import tempfile
     from pathlib import Path
 
@@ -110,11 +111,16 @@ def phases(duration: float) -> None:
     # every stream at the 250 Hz of the simulation (status and heartbeat at their own rates)
     rates = {name: (rate if rate < 10.0 else 250.0) for name, rate in RATES.items()}
     with tempfile.TemporaryDirectory() as tmp:
-        warm = Path(tmp) / "warm.tlog"
-        write_tlog(simulate("hover-ige", duration=20.0, seed=99).table, warm, rates=rates)
+        logs = Path(keep) if keep else Path(tmp)
+        logs.mkdir(parents=True, exist_ok=True)
+        warm = logs / "warm.tlog"
+        if not (keep and warm.exists()):
+            write_tlog(simulate("hover-ige", duration=20.0, seed=99).table, warm, rates=rates)
         write_run(identify(load_for_ident(warm)), Path(tmp) / "warm_run")  # warm-up
-        log = Path(tmp) / "flight.tlog"
-        write_tlog(simulate("hover-ige", duration=duration, seed=5).table, log, rates=rates)
+        log = logs / f"flight_{duration:g}s.tlog"
+        if not (keep and log.exists()):
+            write_tlog(simulate("hover-ige", duration=duration, seed=5).table, log,
+                       rates=rates)
         load_for_ident(log)  # warm-up of the tlog kernels (a 20 s log is read without them)
         spent.clear()
         by_name.clear()
@@ -250,9 +256,12 @@ def main() -> None:
                         help="only the --normalise / radius study on --seeds")
     parser.add_argument("--phases", action="store_true",
                         help="only the CPU time per identify phase on a --duration s tlog")
+    parser.add_argument("--keep-logs", metavar="DIR",
+                        help="with --phases: write the tlogs to DIR once and reuse them "
+                             "(runs without the minute of simulation)")
     args = parser.parse_args()
     if args.phases:
-        phases(args.duration)
+        phases(args.duration, args.keep_logs)
         return
     if args.lag_study:
         lag_study([1, 2, 3])

@@ -98,6 +98,9 @@ def test_resample_with_the_callers_period_and_hold_index_is_unchanged() -> None:
         given = resample(s, grid, native_period(t), held)
         assert np.isnan(own).any() and np.isfinite(own).any()
         np.testing.assert_array_equal(given, own)
+        gaps = find_gaps(t, native_period(t))
+        assert gaps  # the 1–2 s hole: its grid points are NaN either way
+        np.testing.assert_array_equal(resample(s, grid, native_period(t), held, gaps), own)
     assert interpolation("u_roll") == "hold" and interpolation("p") == "linear"
 
 

@@ -60,10 +60,17 @@ class ARX:
         docstring); ``ridge=0`` is plain least squares."""
         X = np.asarray(X, dtype=float)
         Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
-        mean, std = X.mean(axis=0), X.std(axis=0)
+        mean = X.mean(axis=0)
+        centred = X - mean
+        # X.std(axis=0) from the centred columns it would compute again (numpy's _var:
+        # Σ d² / N, then √; the same bits, tests/ident/test_ident_arx.py)
+        std = np.sqrt((centred * centred).sum(axis=0) / len(X))
         live = std > 0
-        Z = np.zeros_like(X)
-        Z[:, live] = (X[:, live] - mean[live]) / std[live]
+        if live.all():  # the same numbers without the column selection's copies
+            Z = centred / std
+        else:
+            Z = np.zeros_like(X)
+            Z[:, live] = (X[:, live] - mean[live]) / std[live]
         y_mean = Y.mean(axis=0)
         gram = Z.T @ Z + ridge * len(X) * np.eye(X.shape[1])
         gram[~live, ~live] = 1.0

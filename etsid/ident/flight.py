@@ -434,7 +434,7 @@ def apply_selection(table: pd.DataFrame, selection: FlightSelection) -> pd.DataF
            else np.zeros(len(table), dtype=np.int64))
     start = np.r_[True, (seg[1:] != seg[:-1]) | (keep[1:] & ~keep[:-1])]
     new_seg = np.cumsum(start & keep)
-    out = table.loc[keep].copy()
+    out = table.loc[keep]  # (a new frame already: a boolean selection copies)
     out[SEGMENT] = new_seg[keep] - 1
     out.attrs = dict(table.attrs)
     return out

@@ -80,32 +80,54 @@ def history_frames(model: ETS, reg: Regression) -> tuple[pd.DataFrame, pd.DataFr
     frame.insert(1, "t", reg.t[pos])
     kinds = {"birth": "births", "replace": "replacements", "removal": "removals",
              "merge": "merges"}
-    for col in kinds.values():
-        frame[col] = np.zeros(len(frame), dtype=np.int64)
+    counts = {col: np.zeros(len(frame), dtype=np.int64) for col in kinds.values()}
     text = [""] * len(frame)
-    for event in hist.events:
+    for event in hist.events:  # counted in arrays: a .loc assignment per event cost 1 ms
         i = int(event["step"]) - first_step - 1
         if 0 <= i < len(frame):
-            frame.loc[i, kinds[event["kind"]]] += 1
+            counts[kinds[event["kind"]]][i] += 1
             text[i] = (text[i] + "; " if text[i] else "") + f"{event['kind']} {event['rule_id']}"
+    for col, values in counts.items():
+        frame[col] = values
     frame["events"] = text
     if len(frame) and frame["merges"].iloc[-1] > 0:  # merged after the last sample learnt
         frame.loc[len(frame) - 1, "n_rules"] = model.n_rules
-    rows = []
     inputs, outputs = model.names()
-    terms = ["1", *inputs]
-    for snap in hist.snapshots:
-        i = int(snap["step"]) - first_step - 1
-        if not 0 <= i < len(reg.t):
-            continue
-        cons = np.asarray(snap["consequents"])
-        for r, rid in enumerate(np.asarray(snap["rule_ids"])):
-            for j, term in enumerate(terms):
-                for o, out in enumerate(outputs):
-                    rows.append((int(snap["step"]), float(reg.t[i]), int(rid), out, term,
-                                 float(cons[r, j, o])))
-    cons_frame = pd.DataFrame(rows, columns=["step", "t", "rule_id", "output", "term", "value"])
+    cons_frame = _consequents_frame(hist.snapshots, reg.t, first_step, ["1", *inputs],
+                                    list(outputs))
     return frame, cons_frame
+
+
+def _consequents_frame(snapshots: list[dict[str, Any]], t: np.ndarray, first_step: int,
+                       terms: list[str], outputs: list[str]) -> pd.DataFrame:
+    """consequents.parquet: one row per snapshot, rule, term and output (in that nesting
+    order) of the snapshots taken within the last ``len(t)`` samples (``t`` in s)."""
+    steps, times, ids, values = [], [], [], []
+    for snap in snapshots:
+        i = int(snap["step"]) - first_step - 1
+        if not 0 <= i < len(t):
+            continue
+        rids = np.asarray(snap["rule_ids"]).astype(np.int64)
+        cons = np.asarray(snap["consequents"], dtype=np.float64)
+        cons = cons[:rids.size, :len(terms), :len(outputs)]  # rules × terms × outputs
+        n = cons.size
+        steps.append(np.full(n, int(snap["step"]), np.int64))
+        times.append(np.full(n, float(t[i])))
+        ids.append(np.repeat(rids, len(terms) * len(outputs)))
+        values.append(cons.ravel())
+    columns = ["step", "t", "rule_id", "output", "term", "value"]
+    if not values:
+        return pd.DataFrame([], columns=columns)
+    value = np.concatenate(values)
+    per_rule = len(terms) * len(outputs)
+    reps = value.size // per_rule if per_rule else 0
+    output = np.array(outputs, dtype=object)[np.tile(np.arange(len(outputs)),
+                                                     len(terms) * reps)]
+    term = np.array(terms, dtype=object)[np.tile(np.repeat(np.arange(len(terms)),
+                                                           len(outputs)), reps)]
+    return pd.DataFrame({"step": np.concatenate(steps), "t": np.concatenate(times),
+                         "rule_id": np.concatenate(ids), "output": output, "term": term,
+                         "value": value})
 
 
 def empty_history() -> tuple[pd.DataFrame, pd.DataFrame]:

@@ -60,12 +60,27 @@ def fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
 
 def scores(y: np.ndarray, yhat: np.ndarray) -> dict[str, float | int | None]:
     """All metrics as a JSON-ready dict: ``rmse`` (unit of y), ``ndei``, ``vaf`` (%),
-    ``fit`` (%) and ``n`` (pairs used). NaN becomes ``None``."""
-    pairs = _pair(y, yhat)[0].size
-    out: dict[str, float | int | None] = {
-        "rmse": rmse(y, yhat), "ndei": ndei(y, yhat), "vaf": vaf(y, yhat),
-        "fit": fit_percent(y, yhat),
-    }
-    out = {k: (None if v is None or not np.isfinite(v) else float(v)) for k, v in out.items()}
-    out["n"] = int(pairs)
+    ``fit`` (%) and ``n`` (pairs used). NaN becomes ``None``.
+
+    The four metrics of :func:`rmse` … :func:`fit_percent` with their shared terms (the
+    finite pairs, the error, its mean square, var(y)) computed once: the same operations
+    on the same arrays, so the same numbers."""
+    y, yhat = _pair(y, yhat)
+    out: dict[str, float | int | None]
+    if y.size == 0:
+        out = {"rmse": None, "ndei": None, "vaf": None, "fit": None}
+    else:
+        e = y - yhat
+        ms = np.mean(e ** 2)
+        var_y = np.var(y)  # np.std(y) is its square root
+        std = float(np.sqrt(var_y))
+        var = float(var_y)
+        den = float(np.linalg.norm(y - y.mean()))
+        values = {"rmse": float(np.sqrt(ms)),
+                  "ndei": float(np.sqrt(ms) / std) if std > 0 else float("nan"),
+                  "vaf": float(100.0 * (1.0 - np.var(e) / var)) if var > 0 else float("nan"),
+                  "fit": float(100.0 * (1.0 - np.linalg.norm(e) / den)) if den > 0
+                  else float("nan")}
+        out = {k: (None if not np.isfinite(v) else float(v)) for k, v in values.items()}
+    out["n"] = int(y.size)
     return out

@@ -34,6 +34,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from etsid.ident.bare import bare
+
 MOTORS = tuple(f"m{i}" for i in range(1, 9))
 """FlightTable motor-output columns, 0…1."""
 
@@ -44,8 +46,9 @@ MOTOR_COMMANDS = ("mot_roll", "mot_pitch", "mot_yaw", "mot_thrust")
 def motor_columns(table: pd.DataFrame) -> list[str]:
     """``m1 … mN``: the table's motor columns with data, from m1 without a hole."""
     out = []
+    cols = bare(table)
     for name in MOTORS:
-        if name not in table.columns or not table[name].notna().any():
+        if name not in cols.columns or not cols[name].notna().any():
             break
         out.append(name)
     return out
@@ -83,8 +86,8 @@ def add_motor_commands(table: pd.DataFrame) -> pd.DataFrame:
     if layout is None:
         return table
     motors = motor_columns(table)
-    commands = table[motors].to_numpy(dtype=float) @ np.linalg.pinv(mixer(layout)).T
-    out = table.copy()
+    commands = bare(table)[motors].to_numpy(dtype=float) @ np.linalg.pinv(mixer(layout)).T
+    out = table.copy(deep=False)  # new columns only: the table's own stay shared
     for j, name in enumerate(("mot_thrust", "mot_roll", "mot_pitch", "mot_yaw")):
         out[name] = commands[:, j]
     out.attrs = dict(table.attrs)

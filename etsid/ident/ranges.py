@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from etsid.errors import IdentError
+from etsid.ident.column_bounds import column_bounds
 from etsid.ident.regressors import Regression, RegressorSpec
 
 NORMALISE_MODES = ("learn", "running", "apriori")
@@ -68,9 +69,11 @@ def fixed_ranges(reg: Regression, spec: RegressorSpec, split: int,
 def _columns_range(A: np.ndarray) -> np.ndarray:
     """:func:`learn_range` of each column of ``A``, shape (n_columns, 2); min and max over
     the whole array at once when every value is finite (the same numbers, faster)."""
-    if len(A) and np.isfinite(A).all():
-        return np.array([_widened(lo, hi) for lo, hi in
-                         zip(A.min(axis=0).tolist(), A.max(axis=0).tolist(), strict=True)])
+    if len(A) and A.ndim == 2:
+        lo, hi, finite = column_bounds(A)
+        if finite:
+            return np.array([_widened(a, b) for a, b in
+                             zip(lo.tolist(), hi.tolist(), strict=True)])
     return np.array([learn_range(A[:, j]) for j in range(A.shape[1])])
 
 

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from etsid.ident.bare import bare
 from etsid.ident.gain_ci import coefficient_se, ratio_interval, sign_interval
 from etsid.ident.metrics import scores
 
@@ -168,12 +169,12 @@ def regime_metrics(alt: np.ndarray, bands: Bands, Y: np.ndarray, outputs: list[s
     learn = np.zeros(n, dtype=bool)
     learn[:split] = True
     out = []
+    dt = float(np.median(np.diff(t))) if t is not None and len(t) > 1 else 0.0
     for b, name in enumerate(bands.names):
         rows = (band == b) & ~learn
         entry: dict[str, Any] = {"name": name, "label": bands.labels[b],
                                  "n_learn": int(np.count_nonzero((band == b) & learn)),
                                  "n_validation": int(np.count_nonzero(rows)), "outputs": {}}
-        dt = float(np.median(np.diff(t))) if t is not None and len(t) > 1 else 0.0
         if rows.any():
             for o, y in enumerate(outputs):
                 block: dict[str, Any] = {
@@ -466,9 +467,11 @@ def regime_summary_of(rules: dict[str, Any] | None, table: Any, reg: Any, output
     taken from ``table`` (the identification table) at the rows of ``reg`` (its
     :class:`etsid.ident.regressors.Regression`); ``rotor_radius_m`` (m) stands in for the
     table's own when given."""
+    columns = bare(table)  # (no copy of the attrs per column read)
+
     def at_rows(column: str) -> np.ndarray | None:
-        return (table[column].to_numpy(dtype=float)[reg.rows] if column in table.columns
-                else None)
+        return (columns[column].to_numpy(dtype=float)[reg.rows]
+                if column in columns.columns else None)
 
     attrs = table.attrs if rotor_radius_m is None else {**table.attrs,
                                                         "rotor_radius_m": rotor_radius_m}

@@ -14,6 +14,7 @@ expands to three lags. Lag 0 (``u_roll[k]``) is allowed for inputs, never for ou
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -270,6 +271,19 @@ def segments_of(table: pd.DataFrame) -> np.ndarray:
     return np.zeros(len(table), dtype=np.int64)
 
 
+def _lag_matrix(values: dict[str, np.ndarray], terms: Sequence[Term], n: int) -> np.ndarray:
+    """The (n, len(terms)) matrix whose column j is ``lagged(values[name_j], lag_j)``,
+    written in place (no column array per term, no stacking copy)."""
+    out = np.full((n, len(terms)), np.nan)
+    for j, term in enumerate(terms):
+        v = values[term.name]
+        if term.lag == 0:
+            out[:, j] = v
+        elif term.lag < n:
+            out[term.lag:, j] = v[:-term.lag]
+    return out
+
+
 def lagged(values: np.ndarray, lag: int) -> np.ndarray:
     """``values`` shifted so that row k holds ``values[k - lag]`` (NaN where k < lag)."""
     out = np.full(values.shape, np.nan)
@@ -302,10 +316,9 @@ def build(table: pd.DataFrame, spec: RegressorSpec) -> Regression:
     for t in (*spec.terms, *spec.antecedent):
         if t.name not in values:
             values[t.name] = column_values(table, t.name)
-    X = np.column_stack([lagged(values[t.name], t.lag) for t in spec.terms])
+    X = _lag_matrix(values, spec.terms, n)
     Y = table[list(spec.outputs)].to_numpy(dtype=float)
-    S = (np.column_stack([lagged(values[t.name], t.lag) for t in spec.antecedent])
-         if spec.antecedent else None)
+    S = _lag_matrix(values, spec.antecedent, n) if spec.antecedent else None
     finite = np.isfinite(X).all(axis=1) & np.isfinite(Y).all(axis=1)
     if S is not None:
         finite &= np.isfinite(S).all(axis=1)

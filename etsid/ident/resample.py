@@ -111,6 +111,28 @@ def block_starts(segments: np.ndarray, k: int) -> np.ndarray:
     return np.concatenate(starts)
 
 
+SEQUENTIAL_MAX = 7
+"""Longest block whose mean :func:`block_mean` sums column by column: numpy's
+``mean(axis=1)`` adds fewer than 8 values one after the other (pairwise from 8 on), so the
+column sums give the same bits (tests/ident/test_ident_resample.py checks it)."""
+
+
+def block_mean(values: np.ndarray, starts: np.ndarray, k: int,
+               fn: Any = None) -> np.ndarray:
+    """Mean of ``fn(values)`` (``values`` when None) over the ``k`` rows from each start:
+    ``fn(values)[starts[:, None] + arange(k)].mean(axis=1)`` with the same bits, summed as
+    k column vectors for short blocks (an (N, k) row reduction is one short numpy loop per
+    row: 1 ms per column of 30,000 blocks)."""
+    if k > SEQUENTIAL_MAX:
+        block = values[starts[:, None] + np.arange(k)[None, :]]
+        return (block if fn is None else fn(block)).mean(axis=1)
+    total = values[starts] if fn is None else fn(values[starts])
+    for j in range(1, k):
+        part = values[starts + j]
+        total = total + (part if fn is None else fn(part))
+    return total / k
+
+
 def decimate(table: pd.DataFrame, rate_hz: float | None) -> pd.DataFrame:
     """Block-mean decimation of ``table`` to the integer fraction of its rate nearest
     ``rate_hz`` (Hz); the table itself when no decimation is needed.
@@ -143,8 +165,7 @@ def decimate(table: pd.DataFrame, rate_hz: float | None) -> pd.DataFrame:
     if starts.size == 0:
         raise IdentError(f"the table is too short to decimate by {k} "
                          f"({native:.1f} Hz → {native / k:.1f} Hz)")
-    rows = starts[:, None] + np.arange(k)[None, :]
-    t = np.asarray(table.index, dtype=float)[rows].mean(axis=1)
+    t = block_mean(np.asarray(table.index, dtype=float), starts, k)
     data: dict[str, np.ndarray] = {}
     cols = bare(table)
     for column in table.columns:
@@ -155,12 +176,13 @@ def decimate(table: pd.DataFrame, rate_hz: float | None) -> pd.DataFrame:
         if not np.issubdtype(values.dtype, np.number):
             data[column] = values[starts]
             continue
-        block = values.astype(float)[rows]
+        values = np.asarray(values, dtype=float)  # (no copy of a float column)
         spec = COLUMNS.get(column)
         if spec is not None and spec.interp == "angle":
-            data[column] = np.arctan2(np.sin(block).mean(axis=1), np.cos(block).mean(axis=1))
+            data[column] = np.arctan2(block_mean(values, starts, k, np.sin),
+                                      block_mean(values, starts, k, np.cos))
         else:
-            data[column] = block.mean(axis=1)
+            data[column] = block_mean(values, starts, k)
     out = pd.DataFrame(data, index=pd.Index(t, name=table.index.name or "t"))
     attrs = copy.deepcopy(dict(table.attrs))
     attrs["rate_hz"] = native / k

@@ -172,7 +172,14 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
         refuse_coarse(float(table.attrs["decimation"]["rate_hz"]),
                       str((table.attrs.get("mapping") or {}).get("p", "p")))
     reg = build(table, spec)
-    excited = (excited_mask(table, spec.outputs)[reg.rows] if rate_model
+    masks: dict[tuple[str, ...], np.ndarray] = {}  # excited_mask of this table per outputs
+
+    def excited_of(outputs: tuple[str, ...]) -> np.ndarray:
+        if outputs not in masks:
+            masks[outputs] = excited_mask(table, outputs)
+        return masks[outputs]
+
+    excited = (excited_of(spec.outputs)[reg.rows] if rate_model
                else np.ones(len(reg.X), dtype=bool))
     attitude = None
     if chosen.attitude and config.attitude == "auto":
@@ -184,7 +191,7 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
         if not attitude.keep:
             spec = attitude.spec
             reg = build(table, spec)
-            excited = excited_mask(table, spec.outputs)[reg.rows]
+            excited = excited_of(spec.outputs)[reg.rows]
     choice = None
     requested_spec, requested_config = spec, config
     if rate_model:
@@ -193,7 +200,7 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
         if choice.spec != spec:
             spec, config = choice.spec, choice.config
             reg = build(table, spec)
-            excited = excited_mask(table, spec.outputs)[reg.rows]
+            excited = excited_of(spec.outputs)[reg.rows]
             chosen.notes = [n for n in chosen.notes if not n.startswith("rules fire on")]
         elif choice.chosen == "scheduled":
             config = choice.config  # it may leave outputs unscheduled (structure.py)

@@ -158,10 +158,17 @@ def _dump(data: dict[str, Any], path: Path) -> None:
     path.write_text(json.dumps(jsonable(data), indent=2) + "\n")
 
 
+def _parquet(frame: pd.DataFrame, path: Path) -> None:
+    """``frame`` as parquet without dictionary encoding: measured floats and step counters
+    rarely repeat, so the dictionary pyarrow builds by default is dropped again (the
+    predictions file took 2–3× as long to write, and was larger)."""
+    frame.to_parquet(path, index=False, use_dictionary=False)
+
+
 def _write_files(run: Run, out: Path) -> None:
-    run.predictions.to_parquet(out / "predictions.parquet", index=False)
-    run.history.to_parquet(out / "history.parquet", index=False)
-    run.consequents.to_parquet(out / "consequents.parquet", index=False)
+    _parquet(run.predictions, out / "predictions.parquet")
+    _parquet(run.history, out / "history.parquet")
+    _parquet(run.consequents, out / "consequents.parquet")
     # rules.json is written with plain json (not jsonable) so floats round-trip exactly
     (out / "rules.json").write_text(json.dumps(run.rules, indent=1) + "\n")
     if run.rules_final is not None:

@@ -41,6 +41,7 @@ import numpy as np
 
 from etsid.ets import ETS
 from etsid.ident.arx import ARX
+from etsid.ident.column_bounds import column_bounds
 from etsid.ident.fallback import Fallback
 from etsid.ident.regressors import Regression, RegressorSpec, attitude_map, feedback_map
 from etsid.ident.simulate_kernel import free_run_kernel, pack_linear
@@ -117,7 +118,8 @@ def linear_stability(predict_one: Callable[[np.ndarray], np.ndarray], spec: Regr
 def envelope(Y: np.ndarray, factor: float = DIVERGE_FACTOR) -> np.ndarray:
     """Bounds (2, m) outside which a simulated output counts as diverged."""
     Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
-    lo, hi = np.nanmin(Y, axis=0), np.nanmax(Y, axis=0)
+    lo, hi, _ = column_bounds(Y) if len(Y) else (np.nanmin(Y, axis=0), np.nanmax(Y, axis=0),
+                                                 True)
     width = np.where(hi > lo, hi - lo, np.maximum(np.abs(hi), 1e-6))
     return np.vstack([lo - factor * width, hi + factor * width])
 
@@ -312,9 +314,10 @@ def _bias_terms(kin: np.ndarray) -> tuple[np.ndarray, ...]:
     that the terms of ``kin[:upto]`` are the first ``upto - 1`` of these. Kept for arrays
     that cannot change (read-only, owning their data)."""
     fixed = not kin.flags.writeable and kin.base is None
-    if fixed:
+    if fixed:  # the same array, or the same values (each build of one table makes its own)
         for known, terms in _BIAS_TERMS:
-            if known is kin:
+            if known is kin or (known.shape == kin.shape
+                                and np.array_equal(known, kin, equal_nan=True)):
                 return terms
     dt = np.diff(kin[:, 0])
     roll, pitch = kin[:, 1], kin[:, 2]

@@ -99,12 +99,14 @@ def hold_index(t: np.ndarray, grid: np.ndarray) -> np.ndarray:
 
 
 def resample(sig: Signal, grid: np.ndarray, period: float | None = None,
-             held: np.ndarray | None = None) -> np.ndarray:
+             held: np.ndarray | None = None,
+             gaps: list[tuple[float, float]] | None = None) -> np.ndarray:
     """Values of ``sig`` on ``grid`` following its column's interpolation rule.
 
-    ``period`` (s, :func:`native_period` of ``sig.t``) and ``held`` (:func:`hold_index` of
-    ``sig.t`` on ``grid``, held columns only) may be passed when the caller has them already
-    (the fields of one message share their time array).
+    ``period`` (s, :func:`native_period` of ``sig.t``), ``held`` (:func:`hold_index` of
+    ``sig.t`` on ``grid``, held columns only) and ``gaps`` (:func:`find_gaps` of ``sig.t``
+    with that period) may be passed when the caller has them already (the fields of one
+    message share their time array).
     """
     t, v = sig.t, sig.values
     if t.size == 0:
@@ -125,7 +127,7 @@ def resample(sig: Signal, grid: np.ndarray, period: float | None = None,
         if interp == "angle":
             out = np.angle(np.exp(1j * out))
             out[out == -np.pi] = np.pi
-    for start, end in find_gaps(t, period):
+    for start, end in find_gaps(t, period) if gaps is None else gaps:
         inside = (grid > start) & (grid < end)
         out[inside] = np.nan
     return out
@@ -175,6 +177,10 @@ def build_table(
         if id(sig.t) not in by_array:
             by_array[id(sig.t)] = native_period(sig.t)
         period[column] = by_array[id(sig.t)]
+    gaps_of: dict[int, list[tuple[float, float]]] = {}  # find_gaps, once per time array
+    for column, sig in cleaned.items():
+        if id(sig.t) not in gaps_of:
+            gaps_of[id(sig.t)] = find_gaps(sig.t, period[column])
     ref_column = next(c for c, s in cleaned.items() if s is ref)
     rate = float(rate_hz) if rate_hz else 1.0 / period[ref_column]
     if not np.isfinite(rate) or rate <= 0:
@@ -200,10 +206,10 @@ def build_table(
     grid = lo + np.arange(n_grid) / rate
     keep = np.ones(grid.size, dtype=bool)
     gaps = []
-    for gap_start, gap_end in find_gaps(ref.t, period[ref_column]):
+    for gap_start, gap_end in gaps_of[id(ref.t)]:
         keep &= ~((grid > gap_start) & (grid < gap_end))
     for column, sig in cleaned.items():
-        for gap_start, gap_end in find_gaps(sig.t, period[column]):
+        for gap_start, gap_end in gaps_of[id(sig.t)]:
             gaps.append({"start": gap_start - t0, "end": gap_end - t0, "signal": sig.source,
                          "column": column})
     grid = grid[keep]
@@ -215,7 +221,8 @@ def build_table(
         sig = cleaned[column]
         if interpolation(column) == "hold" and id(sig.t) not in held:
             held[id(sig.t)] = hold_index(sig.t, grid)
-        data[column] = resample(sig, grid, period[column], held.get(id(sig.t)))
+        data[column] = resample(sig, grid, period[column], held.get(id(sig.t)),
+                                gaps_of[id(sig.t)])
     # segment counts up after every dropped stretch of the grid
     jumps = np.diff(grid) > 1.5 / rate
     data[SEGMENT] = np.concatenate(([0], np.cumsum(jumps))).astype(np.int64)

@@ -99,7 +99,7 @@ def implausible_mask(column: str, values: np.ndarray) -> np.ndarray:
 def log_span(signals: list[Signal]) -> tuple[float, float] | None:
     """(start, end) of the bulk of the log's samples, s on the native clock; None if empty."""
     times = [np.asarray(s.t, dtype=float) for s in signals]
-    times = [t[np.isfinite(t)] for t in times]
+    times = [t if np.isfinite(t).all() else t[np.isfinite(t)] for t in times]  # (no copy)
     if not times or not sum(t.size for t in times):
         return None
     pooled = np.concatenate(times)

@@ -42,7 +42,7 @@ more than half of the flight describes the flight less well than a complete one.
 
 STUCK_SHARE = 0.95
 """Share of samples at one value from which a measured signal counts as constant (a real
-sensor's noise moves at least its last digit)."""
+sensor's noise moves at least its last digit). Above 0.5, which :func:`stuck_value` uses."""
 
 MAX_GAP_S = 0.5
 """A gap between two valid samples longer than this, s (and than five of the signal's own
@@ -81,16 +81,18 @@ def coverage(sig: Signal, t0: float, t1: float) -> float:
     to the next one when that gap is at most :data:`MAX_GAP_S` or five sample periods."""
     if not t1 > t0:
         return 1.0
-    t = np.asarray(sig.t, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(np.asarray(sig.values, dtype=float))
-    t = np.sort(t[ok])
+    every = np.asarray(sig.t, dtype=float)
+    ok = np.isfinite(every) & np.isfinite(np.asarray(sig.values, dtype=float))
+    whole = bool(ok.all())  # (then the valid times are all times: one sort, one diff)
+    t = _sorted(every if whole else every[ok])
     if t.size < 2:
         return 0.0
-    period = float(np.median(np.diff(np.sort(np.asarray(sig.t, dtype=float)))))
+    step = np.diff(t)
+    period = float(np.median(step if whole else np.diff(_sorted(every))))
     limit = max(MAX_GAP_S, 5.0 * period)
     a, b = np.clip(t[:-1], t0, t1), np.clip(t[1:], t0, t1)
     span = b - a
-    return float(np.sum(span[(t[1:] - t[:-1]) <= limit]) / (t1 - t0))
+    return float(np.sum(span[step <= limit]) / (t1 - t0))
 
 
 def stuck_value(sig: Signal, t0: float, t1: float) -> float | None:
@@ -101,9 +103,16 @@ def stuck_value(sig: Signal, t0: float, t1: float) -> float | None:
     v = v[np.isfinite(v)]
     if v.size < 3:
         return None
-    values, counts = np.unique(v, return_counts=True)
-    k = int(np.argmax(counts))
-    return float(values[k]) if counts[k] >= STUCK_SHARE * v.size else None
+    # a value held by more than half of the samples is the middle one in sorted order, so
+    # only that one is counted (STUCK_SHARE > 0.5; the same as counting every value)
+    middle = np.partition(v, v.size // 2)[v.size // 2]
+    held = int(np.count_nonzero(v == middle))
+    return float(middle) if held >= STUCK_SHARE * v.size else None
+
+
+def _sorted(t: np.ndarray) -> np.ndarray:
+    """``np.sort(t)``, without the sort when ``t`` is already in order (the usual case)."""
+    return t if t.size < 2 or bool(np.all(t[1:] >= t[:-1])) else np.sort(t)
 
 
 def flaw(sig: Signal, t0: float, t1: float, what: str) -> str | None:

@@ -64,3 +64,32 @@ def test_online_rls_does_not_blow_up_on_still_data() -> None:
     X = np.column_stack([np.r_[0, y[:-1]], np.r_[0, u[:-1]]])
     online = rls_online(X, y[:, None])[:, 0]
     assert np.nanmax(np.abs(online)) < 2 * np.abs(y).max()
+
+
+def _fit_as_before(X: np.ndarray, Y: np.ndarray, ridge: float) -> np.ndarray:
+    """ARX.fit's least squares written with numpy's own std and column selection."""
+    mean, std = X.mean(axis=0), X.std(axis=0)
+    live = std > 0
+    Z = np.zeros_like(X)
+    Z[:, live] = (X[:, live] - mean[live]) / std[live]
+    y_mean = Y.mean(axis=0)
+    gram = Z.T @ Z + ridge * len(X) * np.eye(X.shape[1])
+    gram[~live, ~live] = 1.0
+    beta = np.linalg.lstsq(gram, Z.T @ (Y - y_mean), rcond=None)[0]
+    beta[~live] = 0.0
+    coef = np.zeros_like(beta)
+    coef[live] = beta[live] / std[live, None]
+    return np.vstack([y_mean - mean @ coef, coef])
+
+
+def test_fit_has_the_bits_of_numpys_std() -> None:
+    from etsid.ident.arx import RIDGE
+
+    rng = np.random.default_rng(8)
+    for trial in range(40):
+        n, m = int(rng.integers(50, 2000)), int(rng.integers(1, 40))
+        X = rng.normal(size=(n, m)) * 10.0 ** rng.integers(-4, 4, size=m) + rng.normal(size=m)
+        if trial % 4 == 0:
+            X[:, 0] = 2.5  # a constant column: not live
+        Y = X[:, :1] * 0.3 + rng.normal(size=(n, 2))
+        np.testing.assert_array_equal(ARX.fit(X, Y).theta, _fit_as_before(X, Y, RIDGE))

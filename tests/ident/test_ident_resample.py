@@ -63,3 +63,17 @@ def test_identify_reports_rate_and_refuses_negative(tmp_path: object) -> None:
         identify(frame, IdentConfig(ident_rate=-1.0))
     with pytest.raises(IdentError, match="too short to decimate"):
         decimate(frame.iloc[:3], 50.0)
+
+
+def test_block_mean_has_the_bits_of_numpys_row_mean() -> None:
+    from etsid.ident.resample import SEQUENTIAL_MAX, block_mean
+
+    rng = np.random.default_rng(3)
+    for k in range(1, SEQUENTIAL_MAX + 4):  # column sums up to SEQUENTIAL_MAX, then numpy's
+        v = rng.normal(size=20000) * 10.0 ** rng.integers(-8, 8, size=20000)
+        v[rng.random(v.size) < 0.01] = np.nan
+        starts = np.sort(rng.choice(v.size - k, 3000, replace=False))
+        rows = starts[:, None] + np.arange(k)
+        for fn in (None, np.sin, np.cos):
+            want = (v[rows] if fn is None else fn(v[rows])).mean(axis=1)
+            np.testing.assert_array_equal(block_mean(v, starts, k, fn), want)

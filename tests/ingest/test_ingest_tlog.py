@@ -20,10 +20,13 @@ from etsid.ingest.base import Override, ReadOptions
 from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, autopilot_clock
 from etsid.ingest.mavlink.dtypes import crc_extra_table
 from etsid.ingest.mavlink.scan import (
+    KEYS_MAX,
     crc_x25,
     gather_grouped,
     gather_payloads,
     gather_payloads_reference,
+    group_frames,
+    key_stats,
     scan_frames,
     scan_frames_reference,
     use_kernels,
@@ -151,6 +154,42 @@ def test_scan_kernel_matches_reference(tlog: Path) -> None:
         np.testing.assert_array_equal(grouped[g], gather_payloads_reference(
             buf, fast.offset[sel], fast.length[sel], size))
     assert gather_grouped(buf, fast.offset, fast.length, slot, []) == []
+
+
+def test_sliced_crc_matches_the_bitwise_crc() -> None:
+    from etsid.ingest.mavlink.scan_kernels import _crc
+
+    rng = np.random.default_rng(11)
+    for size in [*range(0, 40), 255, 263]:  # every tail after the 8- and 4-byte steps
+        data = rng.integers(0, 256, size, dtype=np.uint8)
+        extra = int(rng.integers(0, 256))
+        assert _crc(data, 0, size, extra) == crc_x25(data.tobytes(), extra), size
+        if size > 3:  # from an offset into the buffer
+            assert _crc(data, 3, size, extra) == crc_x25(data[3:].tobytes(), extra), size
+
+
+def test_frame_groups_and_key_counts_match_their_reference(tlog: Path) -> None:
+    import etsid.ingest.mavlink.scan_kernels  # noqa: F401  (loads numba: the kernels run)
+
+    data = bytearray(tlog.read_bytes()[:30000])
+    data[7000] ^= 0xFF  # a bad CRC: that frame is in no group
+    buf = np.frombuffer(bytes(data), np.uint8)
+    res = scan_frames(buf, crc_extra_table(), final=True)
+    assert res.bad_crc >= 1
+    present = np.unique(res.msgid)
+    for wanted in (present, present[::2], np.array([present[0], 99999]), np.empty(0, int)):
+        fast = group_frames(res.msgid, res.status, wanted, fast=True)
+        slow = group_frames(res.msgid, res.status, wanted, fast=False)
+        assert fast[0] == slow[0] and len(fast[2]) == len(slow[2]) == len(fast[0])
+        np.testing.assert_array_equal(fast[1], slow[1])
+        for a, b in zip(fast[2], slow[2], strict=True):
+            np.testing.assert_array_equal(a, b)
+    assert len(group_frames(res.msgid, res.status, present, fast=True)[0]) > 2
+    key = (res.sysid.astype(np.int64) << 32) | res.msgid
+    assert key_stats(key, res.stamp_us, True) == key_stats(key, res.stamp_us, False)
+    many = np.arange(KEYS_MAX + 5, dtype=np.int64)[::-1]  # more keys than the kernel holds
+    assert key_stats(many, many * 2, True) == key_stats(many, many * 2, False)
+    assert key_stats(many, many * 2, True)[0] == sorted(many.tolist())
 
 
 def test_small_chunks_give_the_same_table(tlog: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -137,13 +137,19 @@ def autopilot_clock(gcs_s: np.ndarray, value_s: np.ndarray, kind: np.ndarray) ->
     walk = _walk
     if "numba" in sys.modules or n > SMALL_FRAMES:
         from etsid.ingest.mavlink.clock_kernel import walk
+    kind = np.asarray(kind)
     cont, seg, ms_wraps, us_wraps = walk(gcs_s, np.asarray(value_s, dtype=float),
+                                         kind if kind.dtype == np.int8 else
                                          np.asarray(kind, dtype=np.int64), STEP_S,
                                          REBOOT_LAG_S, MS_WRAP_S, US_WRAP_S)
     first = int(np.argmax(clocked))
     cont[:first] = cont[first]  # frames before the first clock take its value
     nseg = int(seg.max()) + 1
     epoch = gcs_s - cont
+    if nseg == 1:  # no reboot: the loop below with one segment and no offset, unmasked
+        epoch0 = float(np.min(epoch if first == 0 and clocked.all() else epoch[clocked]))
+        return Clock(np.add(cont, 0.0, out=cont), epoch0, 0, 0, int(ms_wraps),
+                     int(us_wraps), True)
     t = cont.copy()
     offsets = np.zeros(nseg)
     epoch0 = float(np.min(epoch[clocked & (seg == 0)]))

@@ -179,6 +179,63 @@ def gather_grouped(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
                                      strict=True)]
 
 
+def key_stats(key: np.ndarray, stamp: np.ndarray, fast: bool
+              ) -> tuple[list[int], list[int], list[int], list[int]]:
+    """The distinct values of ``key`` (int64) in increasing order, each with its count and
+    its least and greatest ``stamp`` (int64). ``fast``: one numba pass (else a stable sort,
+    the reference; same result)."""
+    if fast and key.size:
+        from etsid.ingest.mavlink.scan_kernels import _key_stats_kernel
+
+        keys, counts, lo, hi = (np.empty(KEYS_MAX, np.int64) for _ in range(4))
+        n = _key_stats_kernel(key, stamp, keys, counts, lo, hi)
+        if n >= 0:
+            order = np.argsort(keys[:n])
+            return tuple(a[:n][order].tolist() for a in (keys, counts, lo, hi))  # type: ignore
+    order = np.argsort(key, kind="stable")
+    k, s = key[order], stamp[order]
+    starts = np.flatnonzero(np.concatenate(([True], k[1:] != k[:-1])))
+    counts = np.diff(np.append(starts, k.size))
+    return (k[starts].tolist(), counts.tolist(), np.minimum.reduceat(s, starts).tolist(),
+            np.maximum.reduceat(s, starts).tolist())
+
+
+KEYS_MAX = 4096
+"""Most distinct keys :func:`key_stats` counts in its numba pass (more: the sort)."""
+
+
+def group_frames(msgid: np.ndarray, status: np.ndarray, wanted_ids: np.ndarray, fast: bool
+                 ) -> tuple[list[int], np.ndarray, list[np.ndarray]]:
+    """The frames of the ``wanted_ids`` whose status is OK, grouped by message id.
+
+    Returns the ids present (increasing), each frame's group (its index in those ids, −1
+    for none) and each group's frame indices (increasing). ``fast``: two numba passes
+    (else numpy masks per id, the reference; same result)."""
+    wanted_ids = np.asarray(wanted_ids, dtype=np.int64)
+    if fast and msgid.size and wanted_ids.size and wanted_ids.min() >= 0:
+        from etsid.ingest.mavlink.scan_kernels import _group_kernel
+
+        wanted = np.zeros(int(wanted_ids.max()) + 1, np.bool_)
+        wanted[wanted_ids] = True
+        slot = np.empty(msgid.size, np.int64)
+        order = np.empty(msgid.size, np.int64)
+        count = np.empty(wanted.size, np.int64)
+        ids = np.empty(wanted.size, np.int64)
+        n = _group_kernel(msgid, status, wanted, OK, slot, order, count, ids)
+        ends = np.cumsum(count[:n])
+        return (ids[:n].tolist(), slot,
+                [order[a:b] for a, b in zip((ends - count[:n]).tolist(), ends.tolist(),
+                                            strict=True)])
+    take = np.isin(msgid, wanted_ids) & (status == OK)
+    mids = np.unique(msgid[take]).tolist()
+    slot = np.full(msgid.size, -1, np.int64)
+    sels = []
+    for g, mid in enumerate(mids):
+        sels.append(np.flatnonzero(take & (msgid == mid)))
+        slot[sels[-1]] = g
+    return mids, slot, sels
+
+
 def gather_payloads_reference(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
                               size: int) -> np.ndarray:
     """Plain-numpy version of :func:`gather_payloads`."""

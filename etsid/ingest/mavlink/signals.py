@@ -65,7 +65,14 @@ CLOCK_FIELDS: dict[str, tuple[str, str]] = {
 
 
 def _f(a: np.ndarray, name: str, scale: float = 1.0) -> np.ndarray:
-    return a[name].astype(np.float64) * scale
+    values = a[name].astype(np.float64)
+    return values * scale if scale != 1.0 else values  # (x · 1 is x: one pass less)
+
+
+def _where(keep: np.ndarray, a: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The records ``a`` and times ``t`` where ``keep``; the arrays themselves when that is
+    every record (numpy copies packed records field by field: 10 ms for 150,000)."""
+    return (a, t) if keep.all() else (a[keep], t[keep])
 
 
 def _sig(column: str, t: np.ndarray, values: np.ndarray, source: str, prio: int) -> Signal:
@@ -117,8 +124,7 @@ def _rc(msg: str, nchan: int, prio: int) -> Decoder:
 
 def servo_output_raw(a: np.ndarray, t: np.ndarray, o: ReadOptions,
                      repaired: list[Issue]) -> list[Signal]:
-    port0 = a["port"] == 0
-    a, t = a[port0], t[port0]
+    a, t = _where(a["port"] == 0, a, t)
     out = []
     for i in range(1, 9):
         name = f"servo{i}_raw"
@@ -155,7 +161,7 @@ def distance_sensor(a: np.ndarray, t: np.ndarray, o: ReadOptions,
     down = a["orientation"] == 25
     if not down.any():
         return []
-    a, t = a[down], t[down]
+    a, t = _where(down, a, t)
     v = _f(a, "current_distance", 0.01)
     bad = (a["current_distance"] < a["min_distance"]) | (a["current_distance"] > a["max_distance"])
     v[bad & (a["max_distance"] > 0)] = np.nan
@@ -188,7 +194,7 @@ def sys_status(a: np.ndarray, t: np.ndarray, o: ReadOptions,
 def battery_status(a: np.ndarray, t: np.ndarray, o: ReadOptions,
         repaired: list[Issue]) -> list[Signal]:
     first = a["id"] == a["id"].min() if a.size else a["id"] == 0
-    a, t = a[first], t[first]
+    a, t = _where(first, a, t)
     cells = a["voltages"].astype(np.float64)
     cells[a["voltages"] == 65535] = np.nan
     total = np.nansum(cells, axis=1) * 1e-3
