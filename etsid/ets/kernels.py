@@ -339,6 +339,13 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     per pass (half the loop entries, two independent chains; each rule's arithmetic and
     every sum's order unchanged), and one pass over z copies the outputs, widens the
     ranges and runs Welford and the sample's potential sums.
+    Local RLS with few regressors and no shared output (``pk``): the covariances and
+    consequents of each pair live side by side in W and P2 while the rule base does not
+    change (the pair's arithmetic then compiles to two-lane vector operations, with
+    :func:`slp_vectorised`), and each pair's next gain C x_e is summed from the rows as
+    the covariance update writes them, with the next sample's x_e computed ahead (used
+    unless the pairs were unpacked in between). Both give the same bits as the plain
+    loops (docs/performance.md, "Issue 44, session 9").
     """
     N, n = X.shape
     na = S.shape[1]
@@ -392,7 +399,13 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     n_pk = rmax // 2 if pk else 0
     W = np.empty((n_pk, n1, n1, 2))
     P2 = np.empty((n_pk, n1, m, 2))
-    G2 = np.empty((n1, 2))
+    # the pairs' gains C x_e, in two buffers: GG[gi] this sample's, GG[1 - gi] the next
+    # sample's, summed in the covariance update from the updated rows (g_ok: valid, as
+    # long as the pairs stay packed and x_e is the one computed ahead in XN)
+    GG = np.empty((2, n_pk, n1, 2))
+    gi = 0
+    g_ok = False
+    XN = np.empty(n1)
     E2 = np.empty((m, 2))
     n_packed = -1  # pairs held in W and P2 (-1: Cl and Pi hold every rule)
 
@@ -562,6 +575,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if n_packed >= 0:
                 _unpack_pairs(Cl, Pi, W, P2, n_packed)
                 n_packed = -1
+                g_ok = False
             reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
                           is_global)
             if n_shared > 0:
@@ -624,6 +638,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                 if n_packed >= 0:
                     _unpack_pairs(Cl, Pi, W, P2, n_packed)
                     n_packed = -1
+                    g_ok = False
                 dmin = np.inf
                 inear = 0
                 dcov = np.inf
@@ -690,6 +705,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if n_packed >= 0:
                 _unpack_pairs(Cl, Pi, W, P2, n_packed)
                 n_packed = -1
+                g_ok = False
             _fire(z, cz, ac, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
@@ -740,6 +756,15 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if pk and n_packed < 0:
                 n_packed = R // 2
                 _pack_pairs(Cl, Pi, W, P2, n_packed)
+            if pk:
+                # the next sample's x_e as its prediction will compute it (the ranges only
+                # change through steps that unpack)
+                tn = t + 1 if t + 1 < N else t
+                XN[0] = 1.0
+                for j in range(n):
+                    xj = X[tn, j] if scheduled else S[tn, j]
+                    XN[j + 1] = (xj - lox[j]) * isx[j]
+            gn = 1 - gi
             for i0 in range(0, R - 1 if pk else 0, 2):
                 # the pair layout: the arithmetic of the loop below, in the same order, on
                 # W, P2; each pair's two loads come before its stores (vector operations)
@@ -759,23 +784,24 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         f0 = 1.0
                     if tr1 > cbound:
                         f1 = 1.0
-                for a in range(n1):
-                    acc0 = 0.0
-                    acc1 = 0.0
-                    for b in range(n1):
-                        xb = xe[b]
-                        q0 = W[p, a, b, 0]
-                        q1 = W[p, a, b, 1]
-                        acc0 += q0 * xb
-                        acc1 += q1 * xb
-                    G2[a, 0] = acc0
-                    G2[a, 1] = acc1
+                if not g_ok:
+                    for a in range(n1):
+                        acc0 = 0.0
+                        acc1 = 0.0
+                        for b in range(n1):
+                            xb = xe[b]
+                            q0 = W[p, a, b, 0]
+                            q1 = W[p, a, b, 1]
+                            acc0 += q0 * xb
+                            acc1 += q1 * xb
+                        GG[gi, p, a, 0] = acc0
+                        GG[gi, p, a, 1] = acc1
                 cw0 = 0.0
                 cw1 = 0.0
                 for a in range(n1):
                     xa = xe[a]
-                    h0 = G2[a, 0]
-                    h1 = G2[a, 1]
+                    h0 = GG[gi, p, a, 0]
+                    h1 = GG[gi, p, a, 1]
                     cw0 += xa * h0
                     cw1 += xa * h1
                 c0 = w0 / (f0 + w0 * cw0)
@@ -786,19 +812,30 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                     u1 = yr[i1, o]
                     E2[o, 0] = yo - u0
                     E2[o, 1] = yo - u1
+                # row a of C_i, the next sample's gain row a from it (the row dot product's
+                # sum, in its order), then row a of Pi_i; dividing by f_i = 1 is skipped
                 if f0 != 1.0 or f1 != 1.0:
                     if0 = 1.0 / f0
                     if1 = 1.0 / f1
                     for a in range(n1):
-                        ga0 = G2[a, 0]
-                        ga1 = G2[a, 1]
+                        ga0 = GG[gi, p, a, 0]
+                        ga1 = GG[gi, p, a, 1]
+                        acc0 = 0.0
+                        acc1 = 0.0
                         for b in range(n1):
-                            h0 = G2[b, 0]
-                            h1 = G2[b, 1]
+                            h0 = GG[gi, p, b, 0]
+                            h1 = GG[gi, p, b, 1]
                             q0 = W[p, a, b, 0]
                             q1 = W[p, a, b, 1]
-                            W[p, a, b, 0] = (q0 - c0 * (ga0 * h0)) * if0
-                            W[p, a, b, 1] = (q1 - c1 * (ga1 * h1)) * if1
+                            xb = XN[b]
+                            v0 = (q0 - c0 * (ga0 * h0)) * if0
+                            v1 = (q1 - c1 * (ga1 * h1)) * if1
+                            W[p, a, b, 0] = v0
+                            W[p, a, b, 1] = v1
+                            acc0 += v0 * xb
+                            acc1 += v1 * xb
+                        GG[gn, p, a, 0] = acc0
+                        GG[gn, p, a, 1] = acc1
                         gc0 = ga0 * c0
                         gc1 = ga1 * c1
                         for o in range(m):
@@ -810,15 +847,24 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                             P2[p, a, o, 1] = q1 + gc1 * e1
                 else:
                     for a in range(n1):
-                        ga0 = G2[a, 0]
-                        ga1 = G2[a, 1]
+                        ga0 = GG[gi, p, a, 0]
+                        ga1 = GG[gi, p, a, 1]
+                        acc0 = 0.0
+                        acc1 = 0.0
                         for b in range(n1):
-                            h0 = G2[b, 0]
-                            h1 = G2[b, 1]
+                            h0 = GG[gi, p, b, 0]
+                            h1 = GG[gi, p, b, 1]
                             q0 = W[p, a, b, 0]
                             q1 = W[p, a, b, 1]
-                            W[p, a, b, 0] = q0 - c0 * (ga0 * h0)
-                            W[p, a, b, 1] = q1 - c1 * (ga1 * h1)
+                            xb = XN[b]
+                            v0 = q0 - c0 * (ga0 * h0)
+                            v1 = q1 - c1 * (ga1 * h1)
+                            W[p, a, b, 0] = v0
+                            W[p, a, b, 1] = v1
+                            acc0 += v0 * xb
+                            acc1 += v1 * xb
+                        GG[gn, p, a, 0] = acc0
+                        GG[gn, p, a, 1] = acc1
                         gc0 = ga0 * c0
                         gc1 = ga1 * c1
                         for o in range(m):
@@ -828,6 +874,9 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                             q1 = P2[p, a, o, 1]
                             P2[p, a, o, 0] = q0 + gc0 * e0
                             P2[p, a, o, 1] = q1 + gc1 * e1
+            if pk:
+                gi = gn
+                g_ok = t + 1 < N
             for i0 in range(0, 0 if pk else R - 1, 2):
                 i1 = i0 + 1
                 w0 = lam[i0]
@@ -957,6 +1006,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                         if n_packed >= 0:
                             _unpack_pairs(Cl, Pi, W, P2, n_packed)
                             n_packed = -1
+                            g_ok = False
                         add_event(ev, nev, k, EV_REMOVAL, ids[i])
                         remove_rule(i, R, ids, cz, rad, scat, pot, birth, support, lamsum, tsum,
                                     Pi, Cl, Cg, is_global)
@@ -984,6 +1034,7 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if n_packed >= 0:
                 _unpack_pairs(Cl, Pi, W, P2, n_packed)
                 n_packed = -1
+                g_ok = False
             next_snap += every
             q = nsnap[0]
             snap_k[q] = k
