@@ -417,8 +417,10 @@ class ETS:
             lanes = not interp and int(st["si"][1]) > _RULE_MAJOR_MAX
             kernel, bound = ((learn_lanes, _LANES_MIN) if lanes else
                              (learn_kernel, rmax if interp else _RULE_MAJOR_MAX))
-            # learn_kernel is compiled (on first use) with the SLP vectoriser on
-            with slp_vectorised() if kernel is learn_kernel else nullcontext():
+            # learn_kernel is compiled with the SLP vectoriser on; once compiled (or loaded
+            # from numba's cache) it needs no switch (8 µs a call)
+            slp = kernel is learn_kernel and not learn_kernel.overloads
+            with slp_vectorised() if slp else nullcontext():
                 done = kernel(
                     Xa[start:], Sa[start:], Ya[start:], Yhat[start:], hist[start:], ev,
                     counts[0:1], snap_k, snap_ids, snap_pi, snap_lo, snap_s, counts[1:2],
