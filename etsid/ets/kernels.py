@@ -7,8 +7,13 @@ See ``layout.py`` for the state layout, ``docs/ets.md`` for every formula and ch
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 from numba import njit
+from numba.core import config as numba_config
 
 from etsid.ets.kernel_steps import (
     add_event,
@@ -29,6 +34,29 @@ from etsid.ets.layout import (
     TIE,
 )
 from etsid.ets.normalisation import reparametrise
+
+
+@contextmanager
+def slp_vectorised() -> Iterator[None]:
+    """Compile whatever is compiled inside with LLVM's SLP vectoriser on (numba's
+    ``NUMBA_SLP_VECTORIZE``, off by default), for :func:`learn_kernel`: its pair layout
+    relies on it to run the two rules of a pair as two-lane vector operations. The
+    vectoriser does not reorder floating-point operations, so results are unchanged.
+    The setting is read when a function is compiled; a kernel loaded from numba's cache
+    keeps the code it was compiled with. Both the environment variable and numba's config
+    are set (numba re-reads its config from the environment when that changes)."""
+    old_env = os.environ.get("NUMBA_SLP_VECTORIZE")
+    old = numba_config.SLP_VECTORIZE
+    os.environ["NUMBA_SLP_VECTORIZE"] = "1"
+    numba_config.SLP_VECTORIZE = 1
+    try:
+        yield
+    finally:
+        if old_env is None:
+            del os.environ["NUMBA_SLP_VECTORIZE"]
+        else:
+            os.environ["NUMBA_SLP_VECTORIZE"] = old_env
+        numba_config.SLP_VECTORIZE = old
 
 
 @njit(cache=True)
@@ -186,6 +214,26 @@ def _gain_by_columns(C, xe, g) -> None:
 
 
 @njit(cache=True, boundscheck=False)
+def _pack_pairs(Cl, Pi, W, P2, n_pairs) -> None:
+    """Copy the covariances and consequents of rules 0 .. 2 n_pairs − 1 into the pair
+    layout of ``learn_kernel``: ``W[p, a, b, h] = Cl[2p + h, a, b]``,
+    ``P2[p, a, o, h] = Pi[2p + h, a, o]`` (the two rules of a pair side by side)."""
+    for p in range(n_pairs):
+        for h in range(2):
+            W[p, :, :, h] = Cl[2 * p + h]
+            P2[p, :, :, h] = Pi[2 * p + h]
+
+
+@njit(cache=True, boundscheck=False)
+def _unpack_pairs(Cl, Pi, W, P2, n_pairs) -> None:
+    """The inverse of :func:`_pack_pairs`: the pairs' values back into ``Cl`` and ``Pi``."""
+    for p in range(n_pairs):
+        for h in range(2):
+            Cl[2 * p + h] = W[p, :, :, h]
+            Pi[2 * p + h] = P2[p, :, :, h]
+
+
+@njit(cache=True, boundscheck=False)
 def predict_kernel(X, S, Yhat, n_rules, lo, hi, cz, rad, Pi, xo, interp) -> None:
     """Batch prediction with frozen rules; NaN rows when the model has no rule.
 
@@ -291,6 +339,13 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     per pass (half the loop entries, two independent chains; each rule's arithmetic and
     every sum's order unchanged), and one pass over z copies the outputs, widens the
     ranges and runs Welford and the sample's potential sums.
+    Local RLS with few regressors and no shared output (``pk``): the covariances and
+    consequents of each pair live side by side in W and P2 while the rule base does not
+    change (the pair's arithmetic then compiles to two-lane vector operations, with
+    :func:`slp_vectorised`), and each pair's next gain C x_e is summed from the rows as
+    the covariance update writes them, with the next sample's x_e computed ahead (used
+    unless the pairs were unpacked in between). Both give the same bits as the plain
+    loops (docs/performance.md, "Issue 44, session 9").
     """
     N, n = X.shape
     na = S.shape[1]
@@ -335,6 +390,24 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     ths = np.empty((n1, m))
     p_none = np.zeros((1, n1, 0))
     cs3 = Cs.reshape((1, n1, n1)) if n_shared > 0 else np.zeros((1, 1, 1))
+    # pair layout (local RLS, no shared output, few regressors): while ``packed``, the
+    # covariances and consequents of rules 0 .. 2 (R // 2) − 1 live in W and P2, the two
+    # rules of a pair side by side (_pack_pairs), so that the pair's arithmetic runs as
+    # two-lane vector operations; Cl and Pi hold them again (_unpack_pairs) before any
+    # step that reads or changes the rule base, and when the kernel returns
+    pk = not is_global and n_shared == 0 and n1 < COLUMN_SUMS
+    n_pk = rmax // 2 if pk else 0
+    W = np.empty((n_pk, n1, n1, 2))
+    P2 = np.empty((n_pk, n1, m, 2))
+    # the pairs' gains C x_e, in two buffers: GG[gi] this sample's, GG[1 - gi] the next
+    # sample's, summed in the covariance update from the updated rows (g_ok: valid, as
+    # long as the pairs stay packed and x_e is the one computed ahead in XN)
+    GG = np.empty((2, n_pk, n1, 2))
+    gi = 0
+    g_ok = False
+    XN = np.empty(n1)
+    E2 = np.empty((m, 2))
+    n_packed = -1  # pairs held in W and P2 (-1: Cl and Pi hold every rule)
 
     _refresh_scales(lo, hi, s, w2, isx, n, xo)
     for i in range(si[1]):
@@ -348,6 +421,9 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
     for t in range(N):
         k = si[0]
         R = si[1]
+        if pk and n_packed < 0:
+            n_packed = R // 2
+            _pack_pairs(Cl, Pi, W, P2, n_packed)
         # the outputs zy are copied in by the pass of steps 2-4 (the prediction uses none)
         for j in range(na):
             z[j] = S[t, j]
@@ -405,10 +481,20 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                 for o in range(m):
                     acc0 = 0.0
                     acc1 = 0.0
-                    for a in range(n1):
-                        xa = xe[a]
-                        acc0 += xa * Pi[i0, a, o]
-                        acc1 += xa * Pi[i1, a, o]
+                    if n_packed >= 0:
+                        # both loads before the sums: the pair is one vector
+                        p = i0 // 2
+                        for a in range(n1):
+                            xa = xe[a]
+                            q0 = P2[p, a, o, 0]
+                            q1 = P2[p, a, o, 1]
+                            acc0 += xa * q0
+                            acc1 += xa * q1
+                    else:
+                        for a in range(n1):
+                            xa = xe[a]
+                            acc0 += xa * Pi[i0, a, o]
+                            acc1 += xa * Pi[i1, a, o]
                     yr[i0, o] = acc0
                     yr[i1, o] = acc1
                     yh[o] = (yh[o] + l0 * acc0) + l1 * acc1
@@ -486,6 +572,10 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             for i in range(R):
                 _sync_rule(i, rad, s, ac)
         if changed_x and R > 0:
+            if n_packed >= 0:
+                _unpack_pairs(Cl, Pi, W, P2, n_packed)
+                n_packed = -1
+                g_ok = False
             reparametrise(lo_old, hi_old, lo[xo : xo + n], s[xo : xo + n], R, Pi, Cl, Cg,
                           is_global)
             if n_shared > 0:
@@ -545,6 +635,10 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             high = pmax * (1.0 + TIE) < P
             low = variant == 1 and (pmin * (1.0 - TIE) > P or coverage)
             if evq or high or low:
+                if n_packed >= 0:
+                    _unpack_pairs(Cl, Pi, W, P2, n_packed)
+                    n_packed = -1
+                    g_ok = False
                 dmin = np.inf
                 inear = 0
                 dcov = np.inf
@@ -608,6 +702,10 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         R = si[1]
         # 6. firing with the updated rule base; support, age, spreads, utility
         if changed:
+            if n_packed >= 0:
+                _unpack_pairs(Cl, Pi, W, P2, n_packed)
+                n_packed = -1
+                g_ok = False
             _fire(z, cz, ac, R, ex, lam)
             xe[0] = 1.0
             for j in range(n):
@@ -655,7 +753,131 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             # two independent chains), the last one alone when R is odd; each on its own
             # covariance and consequent in place. A rule with lambda = 0 gets f_i = 1 and
             # c = 0: its update is exactly no change (alone it is skipped)
-            for i0 in range(0, R - 1, 2):
+            if pk and n_packed < 0:
+                n_packed = R // 2
+                _pack_pairs(Cl, Pi, W, P2, n_packed)
+            if pk:
+                # the next sample's x_e as its prediction will compute it (the ranges only
+                # change through steps that unpack)
+                tn = t + 1 if t + 1 < N else t
+                XN[0] = 1.0
+                for j in range(n):
+                    xj = X[tn, j] if scheduled else S[tn, j]
+                    XN[j + 1] = (xj - lox[j]) * isx[j]
+            gn = 1 - gi
+            for i0 in range(0, R - 1 if pk else 0, 2):
+                # the pair layout: the arithmetic of the loop below, in the same order, on
+                # W, P2; each pair's two loads come before its stores (vector operations)
+                i1 = i0 + 1
+                p = i0 // 2
+                w0 = lam[i0]
+                w1 = lam[i1]
+                f0 = 1.0 - w0 * omf
+                f1 = 1.0 - w1 * omf
+                if forget != 1.0:
+                    tr0 = 0.0
+                    tr1 = 0.0
+                    for a in range(n1):
+                        tr0 += W[p, a, a, 0]
+                        tr1 += W[p, a, a, 1]
+                    if tr0 > cbound:
+                        f0 = 1.0
+                    if tr1 > cbound:
+                        f1 = 1.0
+                if not g_ok:
+                    for a in range(n1):
+                        acc0 = 0.0
+                        acc1 = 0.0
+                        for b in range(n1):
+                            xb = xe[b]
+                            q0 = W[p, a, b, 0]
+                            q1 = W[p, a, b, 1]
+                            acc0 += q0 * xb
+                            acc1 += q1 * xb
+                        GG[gi, p, a, 0] = acc0
+                        GG[gi, p, a, 1] = acc1
+                cw0 = 0.0
+                cw1 = 0.0
+                for a in range(n1):
+                    xa = xe[a]
+                    h0 = GG[gi, p, a, 0]
+                    h1 = GG[gi, p, a, 1]
+                    cw0 += xa * h0
+                    cw1 += xa * h1
+                c0 = w0 / (f0 + w0 * cw0)
+                c1 = w1 / (f1 + w1 * cw1)
+                for o in range(m):
+                    yo = zy[o]
+                    u0 = yr[i0, o]
+                    u1 = yr[i1, o]
+                    E2[o, 0] = yo - u0
+                    E2[o, 1] = yo - u1
+                # row a of C_i, the next sample's gain row a from it (the row dot product's
+                # sum, in its order), then row a of Pi_i; dividing by f_i = 1 is skipped
+                if f0 != 1.0 or f1 != 1.0:
+                    if0 = 1.0 / f0
+                    if1 = 1.0 / f1
+                    for a in range(n1):
+                        ga0 = GG[gi, p, a, 0]
+                        ga1 = GG[gi, p, a, 1]
+                        acc0 = 0.0
+                        acc1 = 0.0
+                        for b in range(n1):
+                            h0 = GG[gi, p, b, 0]
+                            h1 = GG[gi, p, b, 1]
+                            q0 = W[p, a, b, 0]
+                            q1 = W[p, a, b, 1]
+                            xb = XN[b]
+                            v0 = (q0 - c0 * (ga0 * h0)) * if0
+                            v1 = (q1 - c1 * (ga1 * h1)) * if1
+                            W[p, a, b, 0] = v0
+                            W[p, a, b, 1] = v1
+                            acc0 += v0 * xb
+                            acc1 += v1 * xb
+                        GG[gn, p, a, 0] = acc0
+                        GG[gn, p, a, 1] = acc1
+                        gc0 = ga0 * c0
+                        gc1 = ga1 * c1
+                        for o in range(m):
+                            e0 = E2[o, 0]
+                            e1 = E2[o, 1]
+                            q0 = P2[p, a, o, 0]
+                            q1 = P2[p, a, o, 1]
+                            P2[p, a, o, 0] = q0 + gc0 * e0
+                            P2[p, a, o, 1] = q1 + gc1 * e1
+                else:
+                    for a in range(n1):
+                        ga0 = GG[gi, p, a, 0]
+                        ga1 = GG[gi, p, a, 1]
+                        acc0 = 0.0
+                        acc1 = 0.0
+                        for b in range(n1):
+                            h0 = GG[gi, p, b, 0]
+                            h1 = GG[gi, p, b, 1]
+                            q0 = W[p, a, b, 0]
+                            q1 = W[p, a, b, 1]
+                            xb = XN[b]
+                            v0 = q0 - c0 * (ga0 * h0)
+                            v1 = q1 - c1 * (ga1 * h1)
+                            W[p, a, b, 0] = v0
+                            W[p, a, b, 1] = v1
+                            acc0 += v0 * xb
+                            acc1 += v1 * xb
+                        GG[gn, p, a, 0] = acc0
+                        GG[gn, p, a, 1] = acc1
+                        gc0 = ga0 * c0
+                        gc1 = ga1 * c1
+                        for o in range(m):
+                            e0 = E2[o, 0]
+                            e1 = E2[o, 1]
+                            q0 = P2[p, a, o, 0]
+                            q1 = P2[p, a, o, 1]
+                            P2[p, a, o, 0] = q0 + gc0 * e0
+                            P2[p, a, o, 1] = q1 + gc1 * e1
+            if pk:
+                gi = gn
+                g_ok = t + 1 < N
+            for i0 in range(0, 0 if pk else R - 1, 2):
                 i1 = i0 + 1
                 w0 = lam[i0]
                 w1 = lam[i1]
@@ -781,6 +1003,10 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                                             lamsum[i] < umin * (life + 1.0) * (1.0 + 1e-12)):
                     u = lamsum[i] / (life + 1.0)
                     if u < umin or support[i] < min_support:
+                        if n_packed >= 0:
+                            _unpack_pairs(Cl, Pi, W, P2, n_packed)
+                            n_packed = -1
+                            g_ok = False
                         add_event(ev, nev, k, EV_REMOVAL, ids[i])
                         remove_rule(i, R, ids, cz, rad, scat, pot, birth, support, lamsum, tsum,
                                     Pi, Cl, Cg, is_global)
@@ -805,6 +1031,10 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
         hist[t, 2] = fmax
         hist[t, 3] = fmin
         if k == next_snap:
+            if n_packed >= 0:
+                _unpack_pairs(Cl, Pi, W, P2, n_packed)
+                n_packed = -1
+                g_ok = False
             next_snap += every
             q = nsnap[0]
             snap_k[q] = k
@@ -821,7 +1051,11 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
             if q + 1 >= snap_cap:
                 return t + 1
         if nev[0] > ev_cap or max_rules_here < R:
+            if n_packed >= 0:
+                _unpack_pairs(Cl, Pi, W, P2, n_packed)
             return t + 1
+    if n_packed >= 0:
+        _unpack_pairs(Cl, Pi, W, P2, n_packed)
     return N
 
 

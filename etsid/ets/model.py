@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Sequence
+from contextlib import nullcontext
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -11,7 +12,13 @@ import numpy as np
 
 from etsid.ets import layout as L
 from etsid.ets.history import History, HistoryRecorder, raw_consequents
-from etsid.ets.kernels import learn_kernel, predict_kernel, predict_row, predict_setup
+from etsid.ets.kernels import (
+    learn_kernel,
+    predict_kernel,
+    predict_row,
+    predict_setup,
+    slp_vectorised,
+)
 from etsid.ets.kernels_lanes import learn_lanes
 from etsid.ets.normalisation import scales
 from etsid.ets.params import BLENDS, CLUSTERINGS, DEFAULTS, RLS_KINDS, VARIANTS
@@ -410,11 +417,16 @@ class ETS:
             lanes = not interp and int(st["si"][1]) > _RULE_MAJOR_MAX
             kernel, bound = ((learn_lanes, _LANES_MIN) if lanes else
                              (learn_kernel, rmax if interp else _RULE_MAJOR_MAX))
-            done = kernel(
-                Xa[start:], Sa[start:], Ya[start:], Yhat[start:], hist[start:], ev,
-                counts[0:1], snap_k, snap_ids, snap_pi, snap_lo, snap_s, counts[1:2], every,
-                bound, *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp, ip,
-            )  # fmt: skip
+            # learn_kernel is compiled with the SLP vectoriser on; once compiled (or loaded
+            # from numba's cache) it needs no switch (8 µs a call)
+            slp = kernel is learn_kernel and not learn_kernel.overloads
+            with slp_vectorised() if slp else nullcontext():
+                done = kernel(
+                    Xa[start:], Sa[start:], Ya[start:], Yhat[start:], hist[start:], ev,
+                    counts[0:1], snap_k, snap_ids, snap_pi, snap_lo, snap_s, counts[1:2],
+                    every, bound, *(st[name] for name in L.STATE_ARRAYS), self.radius_, fp,
+                    ip,
+                )  # fmt: skip
             rec.add(k0 + 1, hist[start : start + done])
             # kept as the kernel wrote them; dicts and original units when history is read
             rec.add_events(ev[: counts[0]])
