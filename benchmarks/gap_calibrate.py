@@ -265,10 +265,15 @@ def _largest(values: list[float]) -> float:
 
 
 def load(paths: list[str]) -> list[dict[str, Any]]:
-    rows = []
+    """Every record of ``paths``, in order; a pair recorded again in a later file replaces
+    its earlier record (a set's no-effect pairs re-recorded after a fix, say)."""
+    rows: dict[str, dict[str, Any]] = {}
     for p in paths:
-        rows += [json.loads(line) for line in Path(p).read_text().splitlines() if line.strip()]
-    return rows
+        for line in Path(p).read_text().splitlines():
+            if line.strip():
+                row = json.loads(line)
+                rows[str(row.get("id", len(rows)))] = row
+    return list(rows.values())
 
 
 def fit(args: argparse.Namespace) -> None:
