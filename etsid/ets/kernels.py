@@ -813,67 +813,37 @@ def learn_kernel(X, S, Y, Yhat, hist, ev, nev, snap_k, snap_ids, snap_pi, snap_l
                     E2[o, 0] = yo - u0
                     E2[o, 1] = yo - u1
                 # row a of C_i, the next sample's gain row a from it (the row dot product's
-                # sum, in its order), then row a of Pi_i; dividing by f_i = 1 is skipped
-                if f0 != 1.0 or f1 != 1.0:
-                    if0 = 1.0 / f0
-                    if1 = 1.0 / f1
-                    for a in range(n1):
-                        ga0 = GG[gi, p, a, 0]
-                        ga1 = GG[gi, p, a, 1]
-                        acc0 = 0.0
-                        acc1 = 0.0
-                        for b in range(n1):
-                            h0 = GG[gi, p, b, 0]
-                            h1 = GG[gi, p, b, 1]
-                            q0 = W[p, a, b, 0]
-                            q1 = W[p, a, b, 1]
-                            xb = XN[b]
-                            v0 = (q0 - c0 * (ga0 * h0)) * if0
-                            v1 = (q1 - c1 * (ga1 * h1)) * if1
-                            W[p, a, b, 0] = v0
-                            W[p, a, b, 1] = v1
-                            acc0 += v0 * xb
-                            acc1 += v1 * xb
-                        GG[gn, p, a, 0] = acc0
-                        GG[gn, p, a, 1] = acc1
-                        gc0 = ga0 * c0
-                        gc1 = ga1 * c1
-                        for o in range(m):
-                            e0 = E2[o, 0]
-                            e1 = E2[o, 1]
-                            q0 = P2[p, a, o, 0]
-                            q1 = P2[p, a, o, 1]
-                            P2[p, a, o, 0] = q0 + gc0 * e0
-                            P2[p, a, o, 1] = q1 + gc1 * e1
-                else:
-                    for a in range(n1):
-                        ga0 = GG[gi, p, a, 0]
-                        ga1 = GG[gi, p, a, 1]
-                        acc0 = 0.0
-                        acc1 = 0.0
-                        for b in range(n1):
-                            h0 = GG[gi, p, b, 0]
-                            h1 = GG[gi, p, b, 1]
-                            q0 = W[p, a, b, 0]
-                            q1 = W[p, a, b, 1]
-                            xb = XN[b]
-                            v0 = q0 - c0 * (ga0 * h0)
-                            v1 = q1 - c1 * (ga1 * h1)
-                            W[p, a, b, 0] = v0
-                            W[p, a, b, 1] = v1
-                            acc0 += v0 * xb
-                            acc1 += v1 * xb
-                        GG[gn, p, a, 0] = acc0
-                        GG[gn, p, a, 1] = acc1
-                        gc0 = ga0 * c0
-                        gc1 = ga1 * c1
-                        for o in range(m):
-                            e0 = E2[o, 0]
-                            e1 = E2[o, 1]
-                            q0 = P2[p, a, o, 0]
-                            q1 = P2[p, a, o, 1]
-                            P2[p, a, o, 0] = q0 + gc0 * e0
-                            P2[p, a, o, 1] = q1 + gc1 * e1
+                # sum, in its order), then row a of Pi_i; a factor 1/f_i = 1 leaves the bits
+                if0 = 1.0 / f0
+                if1 = 1.0 / f1
+                for a in range(n1):
+                    ga0 = GG[gi, p, a, 0]
+                    ga1 = GG[gi, p, a, 1]
+                    acc0 = 0.0
+                    acc1 = 0.0
+                    for b in range(n1):
+                        h0 = GG[gi, p, b, 0]
+                        h1 = GG[gi, p, b, 1]
+                        q0 = W[p, a, b, 0]
+                        q1 = W[p, a, b, 1]
+                        xb = XN[b]
+                        v0 = (q0 - c0 * (ga0 * h0)) * if0
+                        v1 = (q1 - c1 * (ga1 * h1)) * if1
+                        W[p, a, b, 0] = v0
+                        W[p, a, b, 1] = v1
+                        acc0 += v0 * xb
+                        acc1 += v1 * xb
+                    GG[gn, p, a, 0] = acc0
+                    GG[gn, p, a, 1] = acc1
+                    gc0 = ga0 * c0
+                    gc1 = ga1 * c1
+                    for o in range(m):
+                        e0 = E2[o, 0]
+                        e1 = E2[o, 1]
+                        q0 = P2[p, a, o, 0]
+                        q1 = P2[p, a, o, 1]
+                        P2[p, a, o, 0] = q0 + gc0 * e0
+                        P2[p, a, o, 1] = q1 + gc1 * e1
             if pk:
                 gi = gn
                 g_ok = t + 1 < N
