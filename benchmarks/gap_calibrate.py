@@ -5,10 +5,10 @@ depend on any threshold: REAL's innovation-variance ratio per channel under the 
 model, every candidate's held-out log-likelihood gain per scored sample, and the gain of
 the best single's pairs over it. This script
 
-* ``record``: runs ``etsid gap`` (method ``likelihood``, with low recording thresholds so
-  that every model a calibration could name is evaluated) on pairs of a generator and
-  appends one JSON line per pair (the criterion's numbers, the label; with ``--old`` also
-  the answer of the round-4 tiers method, for the comparison);
+* ``record``: runs ``etsid gap`` (with low recording thresholds so that every model a
+  calibration could name is evaluated) on pairs of a generator and appends one JSON line
+  per pair (the criterion's numbers, the label; records made before the tiers method was
+  deleted also hold its answer under ``old``, for the comparison);
 * ``fit``: sets the thresholds from the records of the generators named, at a stated
   false-positive rate, and writes the calibration file (by default the package's
   ``etsid/gap/calibration.json``):
@@ -26,12 +26,12 @@ the best single's pairs over it. This script
   as ``supported_rate``); no tail model extrapolates below it;
 * ``score``: decides the recorded pairs of a generator again under a calibration file and
   prints named-right, false positives, out-of-vocabulary answers, the reliability of
-  confidence ≥ 0.9 and, where recorded, the old method pair by pair.
+  confidence ≥ 0.9 and, where recorded, the old (tiers) method pair by pair.
 
 Leave-one-generator-out::
 
-    python benchmarks/gap_calibrate.py record --etsid-seeds 700,701 --out rec.jsonl --old
-    python benchmarks/gap_calibrate.py record --dir SETDIR --out rec.jsonl --old
+    python benchmarks/gap_calibrate.py record --etsid-seeds 700,701 --out rec.jsonl
+    python benchmarks/gap_calibrate.py record --dir SETDIR --out rec.jsonl
     python benchmarks/gap_calibrate.py fit rec.jsonl --generators pyflyt,multirotor \\
         --out cal_etsid.json
     python benchmarks/gap_calibrate.py score rec.jsonl --generator etsid --calibration \\
@@ -178,23 +178,15 @@ def record(args: argparse.Namespace) -> None:
                                "truth_sizes": truth_sizes(expected, truth)}
         os.environ[CALIBRATION_ENV] = str(rec_file)
         t0 = time.process_time()
-        data = analyse(sim, real, "SIM", "REAL", method="likelihood").data
+        data = analyse(sim, real, "SIM", "REAL").data
         row["seconds_new"] = round(time.process_time() - t0, 1)
         row["verdict"] = data["verdict"]
         row["criterion"] = data.get("criterion")
         row["effect_confidence"] = {e["name"]: e["confidence"] for e in data["effects"]}
         row["detectable"] = data.get("detectable")
-        if args.old:
-            t0 = time.process_time()
-            old = analyse(sim, real, "SIM", "REAL", method="tiers").data
-            row["seconds_old"] = round(time.process_time() - t0, 1)
-            row["old"] = {"answer": _answer(old), "verdict": old["verdict"],
-                          "confidence": {e["name"]: e["confidence"] for e in old["effects"]},
-                          "caveat": any(e.get("caveat") for e in old["effects"])}
         with open(args.out, "a", encoding="utf-8") as out:
             out.write(json.dumps(row) + "\n")
-        print(f"{pid:18s} {label:24s} new {row['seconds_new']:5.1f} s "
-              f"{('old ' + row['old']['answer']) if args.old else ''}", flush=True)
+        print(f"{pid:18s} {label:24s} {row['seconds_new']:5.1f} s", flush=True)
 
 
 # ---------------------------------------------------------------- decide
@@ -420,7 +412,6 @@ def main() -> None:
     r.add_argument("--dir", default=None, help="a third-party set (gap_thirdparty --generate)")
     r.add_argument("--only", default=None, help="comma-separated labels")
     r.add_argument("--out", required=True, help="JSON-lines file to append to")
-    r.add_argument("--old", action="store_true", help="also run the tiers method")
     f = sub.add_parser("fit", help="thresholds from records, written to a calibration file")
     f.add_argument("records", nargs="+")
     f.add_argument("--generators", required=True, help="e.g. pyflyt,multirotor")

@@ -214,8 +214,7 @@ class Case:
     seconds: float = 0.0
     skipped: str = ""
     limit: float = 1.0
-    """The worst channel a copy may show: 1× the floor (tiers), √ of the calibrated
-    innovation-variance ratio (likelihood)."""
+    """The worst channel a copy may show: √ of the calibrated innovation-variance ratio."""
 
     def expected(self) -> str | None:
         """The effect gap should name (None: identical, parquet, or out of vocabulary)."""
@@ -286,8 +285,7 @@ def run_case(sim: pd.DataFrame, real: pd.DataFrame, log: str, change: str, size:
     z = [v for d in (data.get("nominal", {}).get("z_all", {}),
                      data.get("nominal", {}).get("z_held_out", {})) for v in d.values()]
     case.worst_ratio = float(np.sqrt(max(z))) if z else 0.0
-    # the likelihood criterion's own bar (innovation variance ratio): a copy is right when
-    # within it; the tiers' z is against 1× the floor
+    # the criterion's own bar (innovation variance ratio): a copy is right when within it
     thresholds = (data.get("criterion") or {}).get("thresholds") or {}
     case.limit = float(np.sqrt(thresholds.get("mismatch_ratio", 1.0)))
     return case

@@ -8,8 +8,8 @@ it (the two input tables of an hour at 250 Hz hold ≈ 190 MB each).
 
 Run::
 
-    python benchmarks/gap_speed.py                     # likelihood criterion
-    python benchmarks/gap_speed.py --method tiers      # the round-4 selection
+    python benchmarks/gap_speed.py
+    python benchmarks/gap_speed.py --hours 0.05        # a shorter long pair, for repeats
 """
 
 from __future__ import annotations
@@ -48,28 +48,27 @@ def peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def run(sim: pd.DataFrame, real: pd.DataFrame, method: str, label: str) -> None:
+def run(sim: pd.DataFrame, real: pd.DataFrame, label: str) -> None:
     before = peak_mb()
     t0 = time.process_time()
-    data = analyse(sim, real, "SIM", "REAL", method=method).data
+    data = analyse(sim, real, "SIM", "REAL").data
     cpu = time.process_time() - t0
     named = [e["name"] for e in data["effects"]]
-    print(f"{label:28s} {method:10s} CPU {cpu:6.1f} s  peak RSS {peak_mb():6.0f} MB "
+    print(f"{label:28s} CPU {cpu:6.1f} s  peak RSS {peak_mb():6.0f} MB "
           f"(before the analysis {before:4.0f} MB)  {data['verdict']} {named}", flush=True)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--method", default="likelihood", choices=["likelihood", "tiers"])
     ap.add_argument("--hours", type=float, default=1.0)
     args = ap.parse_args()
     kw = {"alt_wander": 0.3, "amplitude": 0.4}
     sim = simulate("hover-oge", "quad250", duration=90.0, seed=1, **kw).table
     real = simulate("hover-oge", "quad250", duration=90.0, seed=2,
                     settings={"vehicle.thrust_scale": 0.9}, **kw).table
-    run(sim, real, args.method, "two 90 s flights")
+    run(sim, real, "two 90 s flights")
     hours = 3600.0 * args.hours
-    run(tiled(sim, hours), tiled(real, hours), args.method,
+    run(tiled(sim, hours), tiled(real, hours),
         f"two {args.hours:g}-hour flights")
 
 

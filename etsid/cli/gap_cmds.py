@@ -23,13 +23,11 @@ from etsid.report.gap import make_gap_report
               help="Vehicle TOML file or packaged name; sharpens the rotor-speed law and the "
                    "ground-effect geometry (optional).")
 @click.option("--json", "as_json", is_flag=True, help="Print gap.json instead of the summary.")
-@click.option("--method", type=click.Choice(["tiers", "likelihood"]), default=None, hidden=True,
-              help="How effects are chosen (the likelihood criterion is on trial).")
 def gap(sim_log: Path, real_log: Path, out_dir: Path, vehicle: str | None,
-        as_json: bool, method: str | None) -> None:
+        as_json: bool) -> None:
     """Locate where SIM_LOG and REAL_LOG disagree and name the physics SIM left out."""
     try:
-        result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say, method=method)
+        result = run_gap(sim_log, real_log, out_dir, vehicle, progress=say)
         report = make_gap_report(out_dir, say=say)
     finally:
         done()

@@ -3,8 +3,8 @@
 Each :class:`Candidate` has a ``name`` from the gap vocabulary, its parameters with units
 and bounds, the channels it acts on, a one-line physical signature and its equation, and
 ``mods(theta, ctx)``: the change it makes to the nominal model (:class:`~etsid.gap.nominal.Mods`).
-Fitting, scoring and selection are generic (:mod:`etsid.gap.select`), so adding a
-candidate is adding one object to :data:`LIBRARY`. None of these laws is the one the
+Fitting and scoring are generic (:mod:`etsid.gap.fitting`, :mod:`etsid.gap.criterion`), so
+adding a candidate is adding one object to :data:`LIBRARY`. None of these laws is the one the
 simulator uses to generate data (see docs/gap.md).
 """
 

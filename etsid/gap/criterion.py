@@ -28,7 +28,7 @@ import numpy as np
 from scipy import stats
 
 from etsid.gap.calibration import Calibration
-from etsid.gap.candidates import Candidate, merge
+from etsid.gap.candidates import Candidate
 from etsid.gap.fitting import Fit, Scorer, SharedMasks, channels_of, fit_candidates
 from etsid.gap.noise import NoiseModel, offset_z2
 from etsid.gap.signals import true_runs
@@ -359,12 +359,6 @@ def pseudo_bma(models: list[Evaluated], seed: int = BOOTSTRAP_SEED) -> np.ndarra
     w = np.exp(elpd)
     w /= w.sum(axis=1, keepdims=True)
     return w.mean(axis=0)
-
-
-def combined(fit_a: Fit, fit_b: Fit) -> Fit:
-    """Two fits as one (the pair's concatenated parameters)."""
-    return Fit(fit_a.candidates + fit_b.candidates, np.concatenate([fit_a.theta, fit_b.theta]),
-               np.concatenate([fit_a.stderr, fit_b.stderr]), merge(fit_a.mods, fit_b.mods))
 
 
 def significant(gain: float, se: float | None, n_tested: int, rate: float) -> bool:

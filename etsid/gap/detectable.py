@@ -15,8 +15,9 @@ every bound (the plausible range of the vocabulary), or whose signals a log lack
 
 What this does not do: it assumes the effect's change adds to a residual of SIM's size
 (a REAL noisier than SIM needs more), reads one parameter at a time (an effect that only
-shows in a combination is not covered) and does not model the quieter tiers, which can
-name an effect below this size (such a name is capped, :func:`below_detectable`).
+shows in a combination is not covered) and uses the fixed threshold :data:`Z_MISMATCH`
+on the floors, not the likelihood criterion, which can name an effect below this size
+(such a name is capped, :func:`cap_below_detectable`).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ SKIP = {("wind", "lift"), ("ground_effect", "exponent")}
 """Parameters that do nothing alone (lift needs a wind; the exponent needs a radius)."""
 BELOW_CONFIDENCE = 0.45
 """Highest confidence of an effect named at a size below what the pair can detect at the
-mismatch threshold (a quieter tier can name it; at that size it is a hint, not a finding)."""
+mismatch threshold (the criterion can name it; at that size it is a hint, not a finding)."""
 
 
 def _null(cand: Candidate, j: int, scorer: Scorer) -> float | None:

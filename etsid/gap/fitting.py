@@ -15,7 +15,6 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from etsid.gap.candidates import Candidate, Context, merge
-from etsid.gap.floors import response_gains
 from etsid.gap.nominal import CUTOFF_HZ, Mods
 
 
@@ -117,38 +116,6 @@ class Scorer:
         fs = self.ctx.flight.fs
         n_eff = max(float(np.sum(mask)) * 2.0 * min(CUTOFF_HZ.values()) / fs, 1.0)
         return float(np.sqrt(2.0 * max(objective, 1e-12) / (n_eff * curvature)))
-
-
-class ResponseScorer(Scorer):
-    """A :class:`Scorer` whose objective is the broadband response mismatch
-    ``χ² = Σ_c t_c²`` over the angular-acceleration ``channels``, ``t_c`` the distance of
-    REAL's gain from 1 in standard errors (:func:`etsid.gap.floors.response_gains`): the
-    response tier fits its candidates in the band it detects in. Held-out z scores stay
-    those of the analysis band."""
-
-    def __init__(self, base: Scorer, channels: tuple[str, ...]) -> None:
-        super().__init__(base.ctx, base.measured, base.sigma)
-        self.response_channels = channels
-
-    def mismatch(self, mods: Mods | None, mask: np.ndarray) -> float:
-        """χ² of the response gains under ``mods`` over ``mask``."""
-        gains = response_gains(self.ctx.flight, self.ctx.nominal, self.response_channels,
-                               mods, mask)
-        return float(sum(t * t for _, t in gains.values()))
-
-    def objective(self, mods: Mods, mask: np.ndarray, channels: tuple[str, ...]) -> float:
-        """:meth:`mismatch` (``channels`` is ignored: every response channel counts, so an
-        effect that removes one shift by making another is fitted against)."""
-        return self.mismatch(mods, mask)
-
-    def objectives(self, mods: Mods, masks: list[np.ndarray], channels: tuple[str, ...]
-                   ) -> list[float]:
-        """:meth:`objective` over each of ``masks``."""
-        return [self.objective(mods, mask, channels) for mask in masks]
-
-    def stderr(self, objective: float, curvature: float, mask: np.ndarray) -> float:
-        """From the χ² curvature: Δχ² = 1 at one standard error."""
-        return float(np.sqrt(2.0 / curvature))
 
 
 @dataclass

@@ -18,13 +18,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import welch
 
-from etsid.gap.nominal import RATE_CHANNELS, Mods, NominalModel, fit_nominal, measured
-from etsid.gap.signals import ANTIALIAS_SHARE, Flight, derivative, true_runs
+from etsid.gap.nominal import NominalModel, measured
+from etsid.gap.signals import ANTIALIAS_SHARE, Flight, true_runs
 
-RATE_INDEX = {c: j for j, c in enumerate(RATE_CHANNELS)}
-MIN_REFERENCE_T = 10.0
-"""A response gain needs SIM's own broadband slope this many standard errors above zero
-(a channel whose commands barely drive it has no gain to compare)."""
 NOISE_BAND_HZ = 12.0
 """Lower edge of the band read for sensor noise, Hz (above the 8 Hz analysis band and
 the airframe's rigid-body response); the upper edge is 90 % of the anti-alias cut-off."""
@@ -33,7 +29,8 @@ SEGMENT_S = 2.0
 GYRO_FLOOR = 0.009
 """rad/s: the flight-to-flight difference of a calibrated MEMS gyro's bias (≈0.3 °/s =
 0.005 rad/s per flight, two flights compared: 0.007 rad/s) is not evidence of missing
-physics; 0.009 keeps the dev seeds' no-effect pairs below the threshold."""
+physics; 0.009 adds a margin of about 30 %, and was checked against etsid's own
+no-effect pairs (partly set on seen pairs, then)."""
 KINEMATIC_FLOOR = 0.1
 """m/s²: the accelerometer is compared with the velocity through the estimated attitude; a
 good estimator's tilt error of about 0.5° alone gives g·sin(0.5°) ≈ 0.09 m/s² in x and y,
@@ -165,124 +162,3 @@ def channel_floors(sim_error: dict[str, float], real: Flight) -> tuple[dict[str,
         key = max(terms, key=terms.get)
         sigma[c], source[c] = max(terms[key], 1e-12), key
     return sigma, source
-
-
-def own_predictability(real: Flight, nominal: NominalModel, channels: list[str],
-                       fit: np.ndarray, hold: np.ndarray) -> dict[str, tuple[float, float]]:
-    """Channel → (held-out RMSE of SIM's nominal model on REAL, held-out RMSE of the same
-    model structure refitted on REAL's ``fit`` part), both in the channel's units.
-
-    Where a refit on REAL itself predicts REAL's held-out part no better than SIM's model,
-    the excess is not a law SIM lacks (a refit would have taken that up, as it does an
-    inertia, a lag or a delay) but REAL's own unpredictability at that structure: more
-    noise, turbulence or vibration, or dynamics faster than its log resolves."""
-    own = fit_nominal(real, fit, law=(nominal.k, nominal.v_ref))
-    y = measured(real)
-    pred_sim, pred_own = nominal.predict(real), own.predict(real)
-    return {c: (float(np.sqrt(np.mean((y[c] - pred_sim[c])[hold] ** 2))),
-                float(np.sqrt(np.mean((y[c] - pred_own[c])[hold] ** 2))))
-            for c in channels if c in pred_sim and c in pred_own}
-
-
-def broadband_slopes(flight: Flight, nominal: NominalModel, channels: tuple[str, ...],
-                     mods: Mods | None = None, mask: np.ndarray | None = None
-                     ) -> dict[str, tuple[float, float]]:
-    """Channel → (slope, standard error): the least-squares slope of ``flight``'s measured
-    angular acceleration (the gyro's unfiltered derivative) on the model's broadband
-    prediction (:meth:`~etsid.gap.nominal.NominalModel.predict_broadband` under ``mods``)
-    over ``mask`` (default: the airborne samples), both demeaned.
-
-    SIM's own rotor spin-up part of yaw
-    (:meth:`~etsid.gap.nominal.NominalModel.broadband_spin`) is a second regressor with a
-    slope of its own: its coefficient is fitted on SIM's motor noise wherever SIM has no
-    rotor inertia, and how much of it a flight carries depends on how its motors jitter,
-    not on its response to the commands. (An effect's spin-up torque stays in the first.)
-
-    The standard error is the larger of the regression's (one effective sample per log
-    sample) and the spread of the slope over :data:`BLOCKS` contiguous blocks of ``mask``
-    over √BLOCKS: the regression's assumes independent samples, while how a rate loop
-    answers depends on what it flew (on etsid's own simulator SIM's blocks spread by
-    0.1-0.3 in roll and pitch and more in yaw, against 0.02-0.05 on the third-party ones)."""
-    pred = nominal.predict_broadband(flight, mods, channels)
-    spin = nominal.broadband_spin(flight) if "r" in pred else None
-    mask = flight.airborne if mask is None else mask
-    acc = _angular_acceleration(flight)
-    out: dict[str, tuple[float, float]] = {}
-    for c, x_all in pred.items():
-        cols = [x_all] if c != "r" or spin is None else [x_all - spin, spin]
-        x = np.column_stack(cols)
-        yc = acc[:, RATE_INDEX[c]]
-        ok = mask & np.isfinite(yc) & np.all(np.isfinite(x), axis=1)
-        whole = _slope(x[ok], yc[ok])
-        if whole is None:
-            continue
-        parts = [_slope(x[b], yc[b]) for b in np.array_split(np.flatnonzero(ok), BLOCKS)]
-        slopes = [p[0] for p in parts if p is not None]
-        spread = float(np.std(slopes, ddof=1) / np.sqrt(len(slopes))) if len(slopes) > 1 \
-            else 0.0
-        out[c] = (whole[0], max(whole[1], spread))
-    return out
-
-
-def _angular_acceleration(flight: Flight) -> np.ndarray:
-    """The gyro's unfiltered derivative (n, 3), rad/s², kept on the flight (a fit reads it
-    hundreds of times)."""
-    hit = flight.__dict__.get("_angular_acceleration")
-    if hit is not None and hit[0] is flight.rates:
-        return hit[1]
-    acc = derivative(flight.rates, flight.fs)
-    flight.__dict__["_angular_acceleration"] = (flight.rates, acc)
-    return acc
-
-
-BLOCKS = 4
-"""Contiguous blocks over which a broadband slope's spread is read
-(:func:`broadband_slopes`)."""
-
-
-def _slope(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
-    """(slope, standard error) of ``y`` on the first column of ``x``, the other columns
-    fitted alongside, all demeaned; None when under-determined."""
-    if y.size < 10:
-        return None
-    x = x - x.mean(axis=0)
-    y = y - y.mean()
-    power = np.sum(x**2, axis=0)
-    x = x[:, [0] + [j for j in range(1, x.shape[1]) if power[j] > 1e-12 * power[0]]]
-    sxx = x.T @ x
-    if sxx[0, 0] <= 0.0 or np.linalg.cond(sxx) > 1e12:
-        return None
-    inv = np.linalg.inv(sxx)
-    beta = inv @ (x.T @ y)
-    var = float(np.var(y - x @ beta))
-    return float(beta[0]), float(np.sqrt(var * inv[0, 0]))
-
-
-def response_gains(real: Flight, nominal: NominalModel, channels: tuple[str, ...],
-                   mods: Mods | None = None, mask: np.ndarray | None = None
-                   ) -> dict[str, tuple[float, float]]:
-    """Channel → (gain, t): REAL's broadband slope (:func:`broadband_slopes`, under effects
-    ``mods``, over ``mask``) over SIM's own (``nominal.reference``), and its distance from 1
-    in standard errors of the ratio. Channels whose SIM slope is not
-    :data:`MIN_REFERENCE_T` standard errors above zero are left out.
-
-    A response changed by an inertia, a rate damping or a yaw-torque change moves this
-    gain while the RMSE may stay within the floor: where actuator noise dominates the model
-    error (a 27 g quadrotor whose motors jitter by 2 % each physics step) the noise
-    shrinks with the response. The gain is read over the whole band, not the 8 Hz analysis
-    band: a rate loop answers its own disturbances within its bandwidth, so there the
-    commands are partly a reaction to the very noise they are fitted against (closed-loop
-    bias that differs from flight to flight), while above it the commands lead the response
-    and SIM's slope and REAL's carry the same bias, which their ratio cancels. On the
-    third-party sets' no-effect Crazyflie pairs the 8 Hz gain of yaw spread over 0.79-1.25,
-    this ratio over 0.89-1.08."""
-    mine = broadband_slopes(real, nominal, channels, mods, mask)
-    out: dict[str, tuple[float, float]] = {}
-    for c, (slope, se) in mine.items():
-        ref = nominal.reference.get(c)
-        if ref is None or ref[1] <= 0.0 or ref[0] < MIN_REFERENCE_T * ref[1] or slope == 0.0:
-            continue
-        gain = slope / ref[0]
-        se_gain = abs(gain) * float(np.hypot(se / slope, ref[1] / ref[0]))
-        out[c] = (gain, (gain - 1.0) / se_gain if se_gain > 0 else 0.0)
-    return out

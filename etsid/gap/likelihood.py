@@ -31,9 +31,12 @@ from etsid.gap.detectable import BELOW_CONFIDENCE, cap_below_detectable
 from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.floors import sensor_noise
+from etsid.gap.locate import locate_channel, scheduling_variables
 from etsid.gap.noise import fit_noise
-from etsid.gap.nominal import CUTOFF_HZ, LABELS, UNITS, NominalModel, measured
+from etsid.gap.nominal import CUTOFF_HZ, LABELS, NominalModel, measured
 from etsid.gap.pem import PredictionErrorScorer, with_innovation_channels
+from etsid.gap.regime import locate, located_by_driver
+from etsid.gap.residual_model import ResidualModel, fit_residual_model
 from etsid.gap.signals import Flight
 from etsid.gap.summary import NICE, effect_params, summary_sentence
 from etsid.gap.verdict import at_bound, worsened
@@ -111,6 +114,47 @@ def _airframe_evidence(name: str, value: float, how: str) -> str | None:
     return f"{name} {value:.3g} {how}, beyond a fault of one airframe ({lo:.3g}–{hi:.3g})"
 
 
+def _candidate_row(m: Evaluated) -> dict[str, Any]:
+    """gap.json ``candidates`` row of one model: its weight (``share``), its held-out gain
+    per sample (``score``, nats) and its parameters averaged over the folds (a per-motor
+    law's motor as m1 … m8; a pair's prefixed by the effect)."""
+    params: dict[str, Any] = {}
+    if m.fits:
+        theta = np.mean([f.theta for f in m.fits], axis=0)
+        k = 0
+        for cand in m.candidates:
+            prefix = f"{cand.name}." if len(m.candidates) > 1 else ""
+            if cand.motor is not None:
+                params[f"{prefix}motor"] = f"m{cand.motor + 1}"
+            for p in cand.params:
+                params[f"{prefix}{p.name}"] = {"value": float(f"{theta[k]:.4g}"), "unit": p.unit}
+                k += 1
+    return {"name": m.name, "share": round(m.weight, 4), "score": round(m.per_sample, 5),
+            "params": params}
+
+
+def _unexplained_entry(channel: str, weight: float, model: ResidualModel | None,
+                       sim_name: str, data: dict[str, Any]) -> dict[str, Any]:
+    """gap.json's ``unexplained`` entry for ``channel``: with the eTS residual model and its
+    held-out RMSE where one predicts the channel's held-out blocks."""
+    before = data["rmse_before"][channel]
+    entry = {"name": "unexplained", "channels": [channel], "parameters": {},
+             "confidence": float(np.clip(weight, 0.0, 1.0)),
+             "evidence": f"{LABELS[channel]} departs from {sim_name}'s model and no named "
+                         "effect predicts its held-out blocks",
+             "rmse_before": {channel: before}, "rmse_after": {channel: before}}
+    if model is not None:
+        entry["parameters"] = {"model": {"value": f"eTS, {model.n_rules} rules", "unit": ""},
+                               "inputs": {"value": model.variables, "unit": ""}}
+        entry["evidence"] = (f"{LABELS[channel]} keeps structure no named effect explains; an "
+                             f"eTS model on {', '.join(model.variables)}, learnt on one fold "
+                             f"of blocks, takes its RMSE on the other from "
+                             f"{model.rmse_before:.3g} to {model.rmse_after:.3g}")
+        entry["rmse_before"] = {channel: model.rmse_before}
+        entry["rmse_after"] = {channel: model.rmse_after}
+    return entry
+
+
 def cap_unseen(effects: list[dict[str, Any]], hidden: list[Evaluated], cal: Calibration,
                missing: Callable[[str], str]) -> None:
     """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every named
@@ -156,8 +200,6 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     """gap.json's content and the report's series, decided by the likelihood criterion
     (``own``: SIM's own held-out error per channel, the noise model's scale-up; default
     the floors ``sigma``)."""
-    from etsid.gap.run import locate, located_by_driver
-
     cal = cal or load_calibration()
     ys = measured(sim)
     pred = nominal.predict(sim, None, scorer_channels(scorer))
@@ -254,8 +296,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     data = {**base, "effects": effects, "leftover": left, "beyond_range": beyond,
             "notes": notes, "criterion": criterion,
             "rmse_before": _rmse(res0, hold), "rmse_after": _rmse(res1, hold),
-            "candidates": [{"name": m.name, "share": round(m.weight, 4),
-                            "score": round(m.per_sample, 5)} for m in crit.models]}
+            "candidates": [_candidate_row(m) for m in crit.models]}
     data["nominal"] = {**data.get("nominal", {}), "z_all": crit.ratio, "z_held_out": crit.ratio}
     series = {"res_before": res0, "res_after": res1, "fit": folds.score[0],
               "hold": folds.score[-1], "scorer": shown, "z_all": crit.ratio,
@@ -276,14 +317,22 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
         return data, series
     channels = mismatch or sorted({c for e in effects for c in e["channels"]},
                                   key=lambda c: -crit.ratio.get(c, 0.0))
-    if not named:
+    worst = max(left, key=lambda c: left[c]["ratio"]) if left else (
+        None if named else channels[0])
+    model = None
+    if worst is not None:
+        reg = locate_channel(worst, res1[worst], sigma[worst], real, radius)
+        names = [reg.variable] if reg.variable != "none" else ["thrust", "command_rate"]
+        var = scheduling_variables(real)
+        model = fit_residual_model(worst, res1[worst], {n: var[n] for n in names if n in var},
+                                   folds.fit[0], folds.score[0])
+    if model is not None:
+        series["res_after"] = {**res1, worst: res1[worst] - model.correction}
+        if worst in left:
+            left[worst]["modelled_by_ets"] = True
+    if not named or model is not None:
         weight = 1.0 - max((m.weight for m in crit.models), default=0.0)
-        effects.append({"name": "unexplained", "channels": channels[:1], "parameters": {},
-                        "confidence": float(np.clip(weight, 0.0, 1.0)),
-                        "evidence": f"{LABELS[channels[0]]} departs from {sim.name}'s model "
-                                    "and no named effect predicts its held-out blocks",
-                        "rmse_before": {channels[0]: data["rmse_before"][channels[0]]},
-                        "rmse_after": {channels[0]: data["rmse_before"][channels[0]]}})
+        effects.append(_unexplained_entry(worst or channels[0], weight, model, sim.name, data))
     main = channels[0]
     regime = locate(real, main, res0, sigma[main], radius, info.get("radius") is None,
                     ground_law)
@@ -304,8 +353,3 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
 def scorer_channels(scorer: Scorer) -> tuple[str, ...]:
     """The channels the scorer compares (those both logs have)."""
     return tuple(c for c in scorer.ctx.nominal.channels if c in scorer.measured)
-
-
-def units_of(channels: list[str]) -> dict[str, str]:
-    """Channel → unit."""
-    return {c: UNITS[c] for c in channels}

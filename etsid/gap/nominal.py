@@ -436,20 +436,9 @@ class NominalModel:
     channels: tuple[str, ...]
     delay: float = 0.0
     speed: float = np.inf
-    reference: dict[str, tuple[float, float]] = field(default_factory=dict)
     drag_law: str = ""
     v_ref: float | None = None
     drag_quadratic: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def beyond_speed(self, flight: Flight, wind: tuple[float, float], mask: np.ndarray
-                     ) -> tuple[float, float]:
-        """(share of ``mask`` beyond :attr:`speed_limit`, 99th-percentile speed in m/s) of
-        ``flight``'s horizontal air speed under ``wind``."""
-        va = air_velocity(flight, wind)[mask]
-        if not va.size:
-            return 0.0, 0.0
-        air = np.hypot(va[:, 0], va[:, 1])
-        return float(np.mean(air > self.speed_limit)), float(np.quantile(air, 0.99))
 
     @property
     def speed_law(self) -> str:
@@ -495,36 +484,6 @@ class NominalModel:
         own lag and delay (those of ``mods`` added), for a fit in another band."""
         chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
         return self._unfiltered(flight, mods or Mods(), chans, self.tau, self.delay)
-
-    def predict_broadband(self, flight: Flight, mods: Mods | None = None,
-                          channels: tuple[str, ...] = RATE_CHANNELS) -> dict[str, np.ndarray]:
-        """Unfiltered prediction of the angular accelerations (rad/s²) with the rotors acting
-        on the logged command at once: no nominal lag or delay (those of ``mods`` still act).
-
-        Above the 8 Hz analysis band a lag or a delay fitted within it is a phase guess (a
-        10 ms error is half a period at 50 Hz); the instantaneous command is the same guess
-        for SIM and REAL, and the response statistics compare the two."""
-        chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
-        return self._unfiltered(flight, mods or Mods(), chans, BROADBAND_TAU, 0.0)
-
-    def broadband_spin(self, flight: Flight) -> np.ndarray | None:
-        """SIM's own rotor spin-up reaction within :meth:`predict_broadband`'s yaw channel
-        (rad/s², no effect applied), or None without one: kept apart when the yaw response
-        is compared, since a simulation without rotor inertia still fits a (noise-driven)
-        spin-up coefficient. An effect's own spin-up torque stays in the response."""
-        if "r" not in self.channels:
-            return None
-        # the same for every effect a fit tries: kept on the flight for this model
-        cache = flight.__dict__.setdefault("_broadband_spin", {})
-        hit = cache.get(id(self))
-        if hit is not None and hit[0] is self and hit[1] is flight.motors:
-            return hit[2]
-        feats = features(flight, self.k, BROADBAND_TAU, Mods(), ("r",), v_ref=self.v_ref)
-        n_spin = feats["spin"].shape[1]
-        first = feats["r"].shape[1] - 3 - n_spin  # yaw: [torques, spin-ups, pq, r, 1]
-        spin = feats["r"][:, first:first + n_spin] @ self.coef["r"][first:first + n_spin]
-        cache[id(self)] = (self, flight.motors, spin)
-        return spin
 
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
                     delay: float) -> dict[str, np.ndarray]:
@@ -577,10 +536,6 @@ def _regression(model: NominalModel, c: str, x: np.ndarray, coef: np.ndarray) ->
     return y
 
 
-BROADBAND_TAU = 1e-6
-"""s: the motor lag of :meth:`NominalModel.predict_broadband` (none: the command acts at
-once)."""
-
 ENVELOPE_FACTOR = 1.2
 SPEED_MARGIN = 0.5
 """m/s: the nominal model is trusted up to ENVELOPE_FACTOR × the fastest (99th percentile)
@@ -588,8 +543,7 @@ horizontal speed the simulation flew, plus this margin; beyond it, it extrapolat
 
 QUADRATIC_SPEED = 2.0
 """m/s: a simulation flown slower than this leaves its translational-lift term unfitted
-(coefficient 0), and a drag term beside a wind is not judged
-(:func:`etsid.gap.select._drag_not_judged`): the drag law's shape is poorly determined."""
+(coefficient 0): the drag law's shape is poorly determined."""
 
 RIDGE = 1e-3
 """Ridge weight on the normalised regressors (× sample count). A mixer drives the motors

@@ -29,7 +29,8 @@ ANALYSIS_CUTOFF_HZ = 8.0
 EDGE_S = 1.0
 """Seconds dropped at both ends of every airborne stretch (take-off/landing transients)."""
 MIN_AIRBORNE_S = 12.0
-"""Least airborne time a verdict needs, s."""
+"""Least airborne time a verdict needs, s: three of the criterion's 4 s blocks, the fewest
+that give both folds a block with one to spare for the edges."""
 REQUIRED = ("p", "q", "r", "az")
 
 

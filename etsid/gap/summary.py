@@ -1,4 +1,4 @@
-"""Words for gap.json: one entry per named effect and the summary sentence."""
+"""Words for gap.json: a named effect's parameters and the summary sentence."""
 
 from __future__ import annotations
 
@@ -8,8 +8,6 @@ import numpy as np
 
 from etsid.gap.candidates import BY_NAME, Candidate
 from etsid.gap.detectable import words
-from etsid.gap.fitting import Scorer
-from etsid.gap.loop import either
 from etsid.gap.nominal import LABELS, UNITS
 
 NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
@@ -23,30 +21,6 @@ NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
 LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
 
 
-def _confidence(name: str, sel: Any) -> float:
-    """How far the effect's held-out score stands above its best alternative (plus half its
-    own share; in the response tier the score is its share of the response mismatch,
-    :attr:`~etsid.gap.select.Selection.response`). The second effect of a pair is judged
-    on top of the first: the share of what the first left mismatched that it removes
-    (``sel.companion_share``), and no more than the first's own confidence, on which its
-    fit rests (a different airframe's thrust-to-weight read as a payload at 0.46 must not
-    carry a rotor inertia at 0.97)."""
-    chosen = sel.chosen
-    parts = chosen.fit.name.split("+")
-    if len(parts) == 2 and name == parts[1] and sel.companion_share is not None:
-        return float(np.clip(min(sel.companion_share, _confidence(parts[0], sel)), 0.0, 1.0))
-    if sel.response:  # the response tier: by the share of the response mismatch removed
-        own = sel.response.get(name, 0.0)
-        best_alt = max((v for k, v in sel.response.items() if k != name), default=0.0)
-    else:
-        alts = [s for s in sel.ranked if name not in s.fit.name.split("+")]
-        best_alt = max((s.score for s in alts), default=0.0)
-        own = next((s.score for s in sel.ranked if s.fit.name == name), chosen.score)
-    if own <= 0:
-        return 0.0
-    return float(np.clip((own - max(best_alt, 0.0)) / own + 0.5 * min(own, 1.0), 0.0, 1.0))
-
-
 def effect_params(cand: Candidate, theta: np.ndarray, err: np.ndarray) -> dict[str, Any]:
     """gap.json ``parameters`` of a fitted effect: each value with its unit and standard
     error (None where not finite), and the motor (numbered from 1) of a per-motor effect."""
@@ -56,28 +30,6 @@ def effect_params(cand: Candidate, theta: np.ndarray, err: np.ndarray) -> dict[s
     if cand.motor is not None:
         params["motor"] = {"value": cand.motor + 1, "unit": ""}
     return params
-
-
-def effect_entry(cand: Candidate, theta: np.ndarray, err: np.ndarray, single: Any, sel: Any,
-                 scorer: Scorer, hold: np.ndarray, res0: dict[str, np.ndarray]
-                 ) -> dict[str, Any]:
-    """gap.json entry of one selected effect."""
-    chans = [c for c in cand.channels if c in res0]
-    params = effect_params(cand, theta, err)
-    mods = single.fit.mods if single is not None else sel.chosen.fit.mods
-    res1 = scorer.residuals(mods)
-    before = {c: float(np.sqrt(np.mean(res0[c][hold] ** 2))) for c in chans}
-    after = {c: float(np.sqrt(np.mean(res1[c][hold] ** 2))) for c in chans}
-    gains = {c: 1 - after[c] / before[c] for c in chans if before[c] > 0}
-    top = max(gains, key=gains.get) if gains else chans[0]
-    share = single.share if single is not None else sel.chosen.share
-    evidence = (f"{cand.signature[0].upper()}{cand.signature[1:]}; fitted on the first part "
-                f"of the recording it explains {100 * min(share, 1):.0f} % of the excess "
-                f"error on the held-out part ({LABELS[top]} RMSE {before[top]:.3g} → "
-                f"{after[top]:.3g} {UNITS[top]})")
-    return {"name": cand.name, "channels": chans, "parameters": params,
-            "confidence": _confidence(cand.name, sel), "evidence": evidence,
-            "rmse_before": before, "rmse_after": after}
 
 
 def _words(effect: dict[str, Any], sim: str, real: str) -> str:
@@ -156,42 +108,14 @@ def _size(data: dict[str, Any], channel: str) -> float:
 def summary_sentence(data: dict[str, Any]) -> str:
     """The short summary printed on stdout: the verdict, where, what (in each effect's own
     terms, with its confidence), what is left, and the held-out proof."""
-    hide = data.get("could_hide")
-    laws = either(hide["laws"]) if hide else ""
     if data["verdict"] != "mismatch":
-        return f"{data['verdict'].capitalize()}: {data['reason']}." + (
-            f" Could hide here: a change of {laws}, since {hide['why']}, and such a change "
-            "alters how the loop answers that noise rather than showing its own law."
-            if hide else "") + _blind_spots(data) + _twin(data)
+        return (f"{data['verdict'].capitalize()}: {data['reason']}." + _blind_spots(data)
+                + _twin(data))
     sim, real = data["sim"]["file"], data["real"]["file"]
     mis = data["mismatch"]
     regime = mis["regime"]
     sizes = ", ".join(f"{LABELS[c]} {_size(data, c):.1f}×" for c in mis["channels"])
     parts = [f"Mismatch: {sizes} its floor."]
-    quiet = "every channel within its floor"
-    if mis.get("less_predictable"):
-        quiet += (f" but {', '.join(LABELS[c] for c in mis['less_predictable'])}, above it only "
-                  f"as {real} is less predictable")
-    if mis.get("response"):
-        gains = ", ".join(f"{LABELS[c]} {v['gain']:.2f}× ({v['t']:+.0f} SE)"
-                          for c, v in mis["response"].items())
-        parts = [f"Mismatch in response, {quiet}: {gains} {sim}'s "
-                 "prediction."]
-    if mis.get("innovation_ratio") is not None:
-        parts = [f"Mismatch in prediction errors, {quiet}: roll and "
-                 f"pitch innovations {mis['innovation_ratio']:.2f}× {sim}'s under its noise "
-                 "model."]
-    if mis.get("low_band") is not None:
-        low = mis["low_band"]
-        parts = [f"Mismatch in the low band, {quiet}: roll and pitch "
-                 f"damping {low['held_out']['extra_damping_per_s']:+.2g} /s against {sim}'s "
-                 f"({low['z_held_out']:+.1f} SE held out, {low['z_pooled']:+.1f} with the fit "
-                 "part)."]
-    if mis.get("yaw_command_power") is not None:
-        yaw = mis["yaw_command_power"]
-        parts = [f"Mismatch in yaw noise, {quiet}: {real}'s yaw loop "
-                 f"commands {yaw['ratio_held_out']:.2f}× {sim}'s power held out "
-                 f"({yaw['ratio_fit']:.2f}× on the fit part)."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]
@@ -200,9 +124,7 @@ def summary_sentence(data: dict[str, Any]) -> str:
             f"{_words(e, sim, real)}, confidence {e['confidence']:.2f}"
             + (f" ({e['caveat']})" if e.get("caveat") else "") for e in names) + ".")
     else:
-        parts.append("No named effect explains it on held-out data." + (
-            f" A change of {laws} may be the cause, not told apart here: {hide['why']}."
-            if hide else ""))
+        parts.append("No named effect explains it on held-out data.")
     for text in data.get("beyond_range", []):
         parts.append(f"Not a finding: {text} — the difference exceeds the vocabulary's range "
                      "(another airframe, or a larger effect than modelled).")
@@ -220,12 +142,7 @@ def summary_sentence(data: dict[str, Any]) -> str:
                      f"{'it' if len(alone) == 1 else 'them'}.")
     main = mis["channels"][0]
     b, a = data["rmse_before"].get(main), data["rmse_after"].get(main)
-    loop = data.get("loop_fit")
-    if names and loop:
-        parts.append(f"Held-out prediction errors under {sim}'s noise model "
-                     f"{loop['innovation_ratio_before']:.2f} → "
-                     f"{loop['innovation_ratio_after']:.2f} of {sim}'s own.")
-    elif names and b and a is not None:  # every mismatched channel: what became of it
+    if names and b and a is not None:  # every mismatched channel: what became of it
         moved = [f"{LABELS[c]} {data['rmse_before'][c]:.3g} → {data['rmse_after'][c]:.3g} "
                  f"{UNITS[c]} ({100 * (data['rmse_after'][c] / data['rmse_before'][c] - 1):+.0f} %)"
                  for c in mis["channels"]

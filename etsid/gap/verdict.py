@@ -1,20 +1,21 @@
 """The verdict rules of ``etsid gap``, in one place (docs/gap.md, "Verdict rules").
 
-Every rule is a small function with a test of its own (tests/gap/test_gap_verdict.py):
-
-1. :func:`mismatched` — a channel is mismatched when its mean squared error on REAL is more
-   than :data:`Z_MISMATCH` times its floor (RMSE above twice the floor).
-2. :func:`can_be_consistent` — ``consistent`` only while *every* channel is within that
-   threshold with nothing fitted, on all of REAL's evidence and on its held-out part.
-3. :func:`worsened` — an effect is not kept if it raises any channel's held-out RMSE by
+1. A channel is mismatched when its held-out innovations or its offset exceed the calibrated
+   thresholds (:func:`etsid.gap.criterion.mismatched`, :mod:`etsid.gap.calibration`);
+   ``consistent`` only when none is and no effect is named.
+2. :func:`worsened` — an effect is not kept if it raises any channel's held-out RMSE by
    more than that channel's floor (``√z_after − √z_before > WORSEN_Z``).
-4. :func:`at_bound` — a fitted parameter at, or within :data:`BOUND_SHARE` of, a search
+3. :func:`at_bound` — a fitted parameter at, or within :data:`BOUND_SHARE` of, a search
    bound that is not the law's "no effect" value is not a finding: the difference exceeds
    the vocabulary's range (another airframe, or a larger effect than modelled).
-5. :func:`leftover` — after the named effects, every channel still mismatched on held-out
-   data is reported with its size.
-6. :func:`decide` — the verdict from the above: ``different-vehicle`` (evidence from
-   :mod:`etsid.gap.vehicle_check`), ``consistent``, or ``mismatch``.
+4. A thrust or inertia scale beyond one airframe's faults, fitted or at its bound, says
+   another vehicle (:data:`etsid.gap.likelihood.AIRFRAME_SCALES`), as does the airframe
+   check of :mod:`etsid.gap.vehicle_check`.
+5. After the named effects, every channel still mismatched on held-out data is reported
+   with its size, and caps the named effects' confidence (a partial explanation).
+
+:data:`Z_MISMATCH` remains the size at which the pair's detectable sizes are stated
+(:mod:`etsid.gap.detectable`).
 """
 
 from __future__ import annotations
@@ -26,11 +27,9 @@ import numpy as np
 from etsid.gap.candidates import Candidate
 
 Z_MISMATCH = 4.0
-"""A channel is mismatched when REAL's mean squared error is this many times its floor
-(RMSE twice the floor)."""
-Z_SMALL = 2.5
-"""Small but structured tier: with no channel above :data:`Z_MISMATCH`, channels above this
-are offered to the library, and only an effect that removes half their excess is kept."""
+"""The mismatch size the pair's detectable sizes are stated at (:mod:`etsid.gap.detectable`):
+an effect is detectable from the size at which it raises a channel's RMSE to twice its
+floor (the criterion's own threshold is calibrated, ``mismatch_ratio``)."""
 WORSEN_Z = 1.0
 """Largest rise of any channel's held-out RMSE, in units of its floor, an effect may cause:
 its noise."""
@@ -41,19 +40,6 @@ for a range spanning more than :data:`GEOMETRIC_RATIO` times (a time constant fr
 0.5 s) within that share of the bound's own value."""
 
 VERDICTS = ("consistent", "mismatch", "insufficient", "different-vehicle")
-
-
-def mismatched(z: dict[str, float], threshold: float = Z_MISMATCH,
-               exclude: tuple[str, ...] = ()) -> list[str]:
-    """Channels whose z exceeds ``threshold``, largest first (``exclude``: never these)."""
-    return [c for c, v in sorted(z.items(), key=lambda kv: -kv[1])
-            if v > threshold and c not in exclude]
-
-
-def can_be_consistent(z_all: dict[str, float], z_hold: dict[str, float]) -> bool:
-    """Rule 2: nothing fitted, every channel within the threshold on all evidence and on
-    the held-out part."""
-    return not mismatched(z_all) and not mismatched(z_hold)
 
 
 def worsened(z_before: dict[str, float], z_after: dict[str, float]) -> dict[str, float]:
@@ -94,23 +80,3 @@ def at_bound(cand: Candidate, theta: np.ndarray) -> list[BoundHit]:
             if abs(v - b) <= tol:
                 hits.append(BoundHit(cand.name, p.name, float(v), float(b), p.unit))
     return hits
-
-
-def leftover(z_after: dict[str, float], channels: list[str] | tuple[str, ...]
-             ) -> dict[str, float]:
-    """Rule 5: channel → held-out z, for the ``channels`` still above the threshold."""
-    return {c: z_after[c] for c in channels if z_after.get(c, 0.0) > Z_MISMATCH}
-
-
-def decide(different: list[str], consistent_ok: bool, named: list[str]) -> str:
-    """Rule 6: the verdict.
-
-    ``different`` is the different-airframe evidence; ``consistent_ok`` rule 2's answer;
-    ``named`` the kept effects. A mismatch stays a mismatch whether or not anything
-    explains it (its leftovers are said, rule 5).
-    """
-    if different:
-        return "different-vehicle"
-    if consistent_ok and not named:
-        return "consistent"
-    return "mismatch"

@@ -7,7 +7,8 @@ to it (generalised least squares, iterated), and SIM's command delay and motor l
 searched on that whitened error. The direct prediction-error method is consistent in a
 closed loop when its noise model is right (Ljung, *System Identification*, 2nd ed., 1999,
 ch. 13); an autoregressive filter of order :data:`AR_ORDER` at the log's rate is that
-model here. :mod:`etsid.gap.loop_fit` and :mod:`etsid.gap.damping` read REAL with it.
+model here. :mod:`etsid.gap.pem` scores REAL's roll and pitch
+with it.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import copy
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter, welch
+from scipy.signal import lfilter
 
 from etsid.gap.nominal import Mods, NominalModel, features
 from etsid.gap.signals import Flight, derivative, lowpass
@@ -26,15 +27,15 @@ AR_ORDER = 6
 CUTOFF_HZ = 20.0
 """Low-pass of both the measured and the predicted angular accelerations, Hz: above the
 8 Hz band, where a loop's answer to its noise lives, below the derivative's noise."""
-SPECTRUM_SEGMENT = 256
-"""Welch segment of :func:`band_power`, samples."""
 GLS_ITERATIONS = 3
 """Whitening filter and law coefficients refitted in turn this many times."""
 SIM_DELAYS_S = (0.0, 0.005, 0.01)
 SIM_TAUS_S = (0.004, 0.007, 0.012)
 """SIM's command delay and motor lag searched on the whitened error, s."""
 CHANNELS = ("p", "q")
-"""Roll and pitch: yaw's laws (torque scale, rotor inertia) stay with the response tier."""
+"""Roll and pitch (yaw keeps its filtered residual: :data:`etsid.gap.pem.LOOP_CHANNELS`)."""
+
+
 @dataclass
 class WhitenedModel:
     """SIM's roll/pitch laws refitted on whitened errors, with each channel's noise model."""
@@ -97,36 +98,3 @@ def fit_whitened(sim: Flight, nominal: NominalModel, taus: tuple[float, ...] = S
     model.delay, model.tau = delay, tau
     return WhitenedModel(model, {c: fits[c][1] for c in channels},
                          {c: fits[c][2] for c in channels})
-
-
-def innovation_ratio(model: WhitenedModel, flight: Flight, mods: Mods, mask: np.ndarray,
-                     y: dict[str, np.ndarray] | None = None) -> float:
-    """Mean over roll and pitch of ``flight``'s whitened error variance under ``mods`` over
-    ``mask``, each over SIM's own (1 for a flight like SIM's). The error's mean over
-    ``mask`` is taken out first: a constant angular acceleration (a torque offset, a weak
-    motor's trim) is no loop law."""
-    y = y or measured_rates(flight)
-    raw = model.nominal.predict_unfiltered(flight, mods, CHANNELS)
-    ratios = []
-    for c in CHANNELS:
-        res = y[c] - lowpass(raw[c], flight.fs, CUTOFF_HZ)
-        w = whiten(model.filters[c], res - np.mean(res[mask]), mask)
-        ratios.append(float(np.var(w)) / model.innovation[c])
-    return float(np.mean(ratios))
-
-
-def band_power(model: WhitenedModel, flight: Flight, mods: Mods, mask: np.ndarray,
-               band: tuple[float, float]) -> float:
-    """Mean power of ``flight``'s whitened roll/pitch prediction error (under ``mods``, its
-    mean over ``mask`` taken out) in ``band`` (Hz), summed over roll and pitch,
-    (rad/s²)²/Hz (Welch, 256-sample segments)."""
-    y = measured_rates(flight)
-    raw = model.nominal.predict_unfiltered(flight, mods, CHANNELS)
-    total = 0.0
-    for c in CHANNELS:
-        res = y[c] - lowpass(raw[c], flight.fs, CUTOFF_HZ)
-        w = whiten(model.filters[c], res - np.mean(res[mask]), mask)[AR_ORDER:]
-        freq, power = welch(w, flight.fs, nperseg=min(SPECTRUM_SEGMENT, w.size))
-        inside = (freq >= band[0]) & (freq < band[1])
-        total += float(np.mean(power[inside]))
-    return total

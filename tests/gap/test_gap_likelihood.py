@@ -270,7 +270,7 @@ def test_likelihood_method_names_a_known_thrust_loss_and_writes_valid_gap_json(t
     sim = simulate("hover-oge", "quad250", duration=35.0, seed=11, **kw).table
     real = simulate("hover-oge", "quad250", duration=35.0, seed=12,
                     settings={"vehicle.thrust_scale": 0.85}, **kw).table
-    data = analyse(sim, real, "sim", "real", method="likelihood").data
+    data = analyse(sim, real, "sim", "real").data
     assert data["verdict"] == "mismatch"
     named = {e["name"]: e for e in data["effects"]}
     assert "thrust_scale" in named or "mass" in named  # one thrust-to-weight from accelerations

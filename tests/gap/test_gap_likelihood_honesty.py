@@ -55,7 +55,7 @@ def test_another_quad_whose_inertia_scale_sits_at_its_bound_is_another_vehicle()
     hover = dict(scenario="hover-oge", duration=40.0, alt_wander=0.3)
     sim = simulate(**hover, vehicle=quad, seed=1).table
     real = simulate(**hover, vehicle=s500, seed=2).table
-    data = analyse(sim, real, "sim", "real", method="likelihood").data
+    data = analyse(sim, real, "sim", "real").data
     assert data["verdict"] == "different-vehicle"
     assert "inertia_scale" in data["reason"] and "search bound" in data["reason"]
 
@@ -69,7 +69,7 @@ def test_a_look_alike_the_logs_cannot_name_caps_what_shares_its_channels():
     sim = simulate(**hover, seed=1).table.drop(columns=["vx", "vy", "vz"])
     real = simulate(**hover, seed=2, settings={"vehicle.accel_bias": [0.0, 0.0, 1.2]}
                     ).table.drop(columns=["vx", "vy", "vz"])
-    data = analyse(sim, real, "sim", "real", method="likelihood").data
+    data = analyse(sim, real, "sim", "real").data
     assert data["verdict"] == "mismatch", data["summary"]
     az_named = [e for e in data["effects"] if "az" in e["channels"]]
     assert az_named, data["summary"]

@@ -42,8 +42,7 @@ def test_its_look_alike_a_thrust_scale_is_not_named_mass() -> None:
 
 
 def test_a_weak_motor_is_named_with_its_motor() -> None:
-    """Named first, with its motor and thrust factor (a torque offset is still added as a
-    second effect for what the law leaves on roll: docs/gap_tiers.md, Limits)."""
+    """Named first, with its motor and thrust factor."""
     data = _gap({"vehicle.weak_motor": [3, 0.8]})
     assert data["effects"][0]["name"] == "weak_motor", data["summary"]
     p = data["effects"][0]["parameters"]
@@ -57,21 +56,3 @@ def test_its_look_alike_a_torque_offset_is_not_a_weak_motor() -> None:
     data = _gap({"vehicle.torque_offset": [0.4, -0.3, 0.0]})
     assert "weak_motor" not in _named(data), data["summary"]
     assert "torque_offset" in _named(data), data["summary"]
-
-
-def test_an_angular_acceleration_effect_is_caveated_while_the_gyro_disagrees() -> None:
-    """A gyro scale-factor error (outside the vocabulary) reads every angular acceleration
-    high by one factor, as an inertia scale would; the gyro-vs-attitude channels left
-    mismatched are what tells the user the sensor is suspect."""
-    from etsid.gap.run import SUSPECT_CONFIDENCE, suspect_gyro
-
-    effects = [{"name": "inertia_scale", "channels": ["p", "q", "r"], "confidence": 1.0},
-               {"name": "gyro_bias", "channels": ["gyro_p", "gyro_q", "gyro_r"],
-                "confidence": 0.9}]
-    suspect_gyro(effects, {"gyro_p": {"ratio": 3.4}, "az": {"ratio": 2.0}})
-    assert effects[0]["confidence"] == SUSPECT_CONFIDENCE
-    assert "gyro_p" in effects[0]["caveat"]
-    assert "caveat" not in effects[1] and effects[1]["confidence"] == 0.9
-    clean = [{"name": "inertia_scale", "channels": ["p", "q", "r"], "confidence": 1.0}]
-    suspect_gyro(clean, {"az": {"ratio": 2.0}})
-    assert clean[0]["confidence"] == 1.0 and "caveat" not in clean[0]

@@ -1,6 +1,6 @@
 """SIM's band-by-band response (etsid.gap.loop): a rate loop that answers its own motor
-noise is told from one that follows its references, and the laws such a loop hides are
-said with that caveat.
+noise is told from one that follows its references (over such a loop, roll and pitch are
+scored as prediction errors).
 
 The loop here is a discrete one-axis rate loop: a P controller on the rate, a first-order
 motor lag, and the motor's noise added inside the lag state (as PyFlyt's motors add theirs).
@@ -16,14 +16,7 @@ import numpy as np
 import pytest
 from scipy.signal import butter, lfilter
 
-from etsid.gap.loop import (
-    LOOP_CONFIDENCE,
-    LOOP_TILT,
-    BandResponse,
-    band_response,
-    caveat_loop_laws,
-    could_hide,
-)
+from etsid.gap.loop import LOOP_TILT, BandResponse, band_response
 
 FS_SIM, FS_LOG = 400, 100
 
@@ -93,33 +86,6 @@ def test_a_band_the_commands_do_not_explain_gives_no_reading() -> None:
     assert resp.gains == {} and np.isnan(resp.tilt) and not resp.noise_driven
     short = SimpleNamespace(fs=float(FS_LOG), airborne=np.arange(pred.size) < 600)
     assert band_response(short, model, {"p": pred}).gains == {}
-
-
-def _noisy() -> BandResponse:
-    return BandResponse({"q": (0.72, 1.55)}, 1.55 / 0.72, "q")
-
-
-def test_a_loop_law_named_over_a_noise_driven_loop_is_caveated() -> None:
-    """An inertia scale named at 1.0 over such a loop (PyFlyt set 321: a 17 ms delay) keeps
-    its name but is said with the loop's reading, at most LOOP_CONFIDENCE; a thrust scale,
-    read from the hover command, is left alone."""
-    effects = [{"name": "inertia_scale", "confidence": 1.0},
-               {"name": "thrust_scale", "confidence": 0.95}]
-    caveat_loop_laws(effects, _noisy(), "sim.mcap")
-    assert effects[0]["confidence"] == LOOP_CONFIDENCE
-    assert "0.72×" in effects[0]["caveat"] and "time delay" in effects[0]["caveat"]
-    assert effects[1] == {"name": "thrust_scale", "confidence": 0.95}
-    quiet = [{"name": "inertia_scale", "confidence": 1.0}]
-    caveat_loop_laws(quiet, BandResponse({"q": (1.0, 1.02)}, 1.02, "q"), "sim.mcap")
-    assert quiet == [{"name": "inertia_scale", "confidence": 1.0}]
-
-
-def test_what_could_hide_is_said_unless_one_of_those_laws_is_named() -> None:
-    hidden = could_hide(_noisy(), "sim.mcap", [])
-    assert hidden is not None and "motor_lag" in hidden["laws"]
-    assert "1.55×" in hidden["why"]
-    assert could_hide(_noisy(), "sim.mcap", ["motor_lag"]) is None
-    assert could_hide(BandResponse({}, float("nan"), None), "sim.mcap", []) is None
 
 
 def test_the_whitening_filter_of_an_autoregressive_noise_is_its_own() -> None:

@@ -42,7 +42,7 @@ def test_a_down_velocity_the_height_does_not_follow_still_drifts():
 
 def test_rotor_drag_in_forward_flight_is_named_by_the_default_method():
     """A held-out concealed pair (forward flight at 4–7 m/s, rotor drag added): with the
-    body-z climb check the velocity was dropped and the tiers named a torque offset (0/6
+    body-z climb check the velocity was dropped and a torque offset was named (0/6
     of the held-out seeds); with the earth-frame one, rotor drag."""
     import sys
     from pathlib import Path

@@ -44,14 +44,17 @@ def _worst(data: dict) -> float:
 @pytest.mark.parametrize("name", gap_real.LOGS)
 def test_a_real_flight_against_its_table_copy_is_consistent(name: str, tmp_path: Path) -> None:
     """Each shared real flight against itself re-encoded through a Parquet table: the copy is
-    the same data (checked), and the verdict is consistent with every channel within 1× its
-    floor, and says what the pair could not have seen."""
+    the same data (checked), and the verdict is consistent with every channel's held-out
+    innovations within the calibrated mismatch ratio, and says what the pair could not have
+    seen. (A copy's ratio is not 1: REAL's whole flight is scored against the noise model
+    scaled to SIM's held-out error; the coaxial octocopter's roll reaches 1.45 in RMS.)"""
     table = _real(name)
     copy = gap_real.reencode(table, tmp_path)
     pd.testing.assert_frame_equal(copy, table, check_freq=False)
     data = analyse(table, copy, "sim.ulg", "real.ulg").data
     assert data["verdict"] == "consistent", data["summary"]
-    assert _worst(data) <= 1.0, data["nominal"]
+    limit = np.sqrt(data["criterion"]["thresholds"]["mismatch_ratio"])
+    assert _worst(data) <= limit, data["nominal"]
     assert set(data["detectable"]) >= {"gyro_bias", "time_delay", "thrust_scale"}
     assert "could not have seen" in data["summary"]
     validate(clean(data))
