@@ -8,17 +8,12 @@ import numpy as np
 
 from etsid.gap.candidates import BY_NAME, Candidate
 from etsid.gap.detectable import words
+from etsid.gap.effects import REGISTRY, effect
 from etsid.gap.nominal import LABELS, UNITS
 
-NICE = {"ground_effect": "ground effect", "rotor_drag": "rotor drag",
-        "motor_lag": "motor lag", "time_delay": "time delay", "battery_sag": "battery sag",
-        "thrust_scale": "thrust scale", "inertia_scale": "inertia scale",
-        "torque_offset": "torque offset", "gyro_bias": "gyro bias",
-        "accel_bias": "accelerometer bias", "yaw_torque_scale": "yaw torque scale",
-        "rotor_inertia": "rotor inertia", "rate_damping": "rate damping",
-        "wind": "wind", "weak_motor": "weak motor", "mass": "mass (payload)",
+NICE = {**{e.name: e.words for e in REGISTRY},
         "unexplained": "unexplained structure (eTS residual model)"}
-LAW = {"ground_effect": "generalised Cheeseman–Bennett"}
+"""Name → the words a flight engineer uses (the effect registry's)."""
 
 
 def effect_params(cand: Candidate, theta: np.ndarray, err: np.ndarray) -> dict[str, Any]:
@@ -32,70 +27,14 @@ def effect_params(cand: Candidate, theta: np.ndarray, err: np.ndarray) -> dict[s
     return params
 
 
-def _words(effect: dict[str, Any], sim: str, real: str) -> str:
-    """An effect in its own terms (a delay as a later response, a scale as a factor)."""
-    p = {k: v["value"] for k, v in effect["parameters"].items()}
-    name = effect["name"]
-    if name == "time_delay":
-        return f"{real} responds {1000 * p['delay']:.0f} ms later than {sim} (time delay)"
-    if name == "motor_lag":
-        return (f"the motors follow their commands with a first-order lag of "
-                f"τ = {1000 * p['tau']:.0f} ms (motor lag)")
-    if name == "inertia_scale":
-        return f"×{p['scale']:.3g} inertia (angular accelerations ÷{p['scale']:.3g}; inertia scale)"
-    if name == "battery_sag":
-        return (f"thrust and torque follow the measured pack voltage as (V/V_sim)^"
-                f"{p['exponent']:.2g} (battery sag)")
-    if name == "torque_offset":
-        return (f"a constant angular acceleration of ({p['p_offset']:+.2f}, "
-                f"{p['q_offset']:+.2f}, {p['r_offset']:+.2f}) rad/s² about roll, pitch, yaw "
-                "(torque offset)")
-    if name == "gyro_bias":
-        tilt = 1000 * p.get("lean", 0.0) * float(np.hypot(p["bx"], p["by"]))
-        lean = (f", and the attitude estimate leans {tilt:.0f} mrad with it (gravity correction "
-                f"time {p['lean']:.2g} s; the accelerometer shows it against the velocity)"
-                if tilt >= 1.0 else "")
-        return (f"the gyro reads ({1000 * p['bx']:+.0f}, {1000 * p['by']:+.0f}, "
-                f"{1000 * p['bz']:+.0f}) mrad/s the attitude does not follow{lean} (gyro bias)")
-    if name == "accel_bias":
-        return (f"the accelerometer reads ({p['bx']:+.2f}, {p['by']:+.2f}, {p['bz']:+.2f}) "
-                "m/s² the velocity does not follow (accelerometer bias)")
-    if name == "weak_motor":
-        return (f"motor {p['motor']:.0f} gives ×{p['scale']:.3g} the thrust of the others at "
-                "the same command (weak motor)")
-    if name == "wind":
-        speed = float(np.hypot(p["north"], p["east"]))
-        towards = float(np.degrees(np.arctan2(p["east"], p["north"]))) % 360.0
-        return (f"a steady wind of {speed:.1f} m/s blowing towards {towards:.0f}° "
-                "(from north, clockwise; wind)")
-    if name == "thrust_scale":
-        return (f"×{p['scale']:.3g} thrust at the same command (thrust scale; from "
-                f"accelerations alone the same as a {1 / p['scale']:.3g}× heavier vehicle: "
-                "thrust-to-weight ×{0:.3g})".format(p["scale"]))
-    if name == "mass":
-        return (f"×{p['ratio']:.3g} mass at the same thrust (a payload; thrust-to-weight "
-                f"×{1 / p['ratio']:.3g}, roll/pitch authority unchanged; mass)")
-    if name == "yaw_torque_scale":
-        return f"×{p['scale']:.3g} yaw torque at the same command (yaw torque scale)"
-    if name == "rotor_inertia" and "added" in p:
-        return (f"a yaw spin-up torque of {p['added']:+.2g} rad/s² per unit rotor-speed rate "
-                f"that {sim} lacks (rotor inertia)")
-    if name == "rotor_inertia":
-        return (f"×{p['scale']:.3g} the rotors' spin-up torque in yaw (rotor inertia "
-                f"{p['scale']:.3g}× SIM's)")
-    if name == "rate_damping":
-        return (f"roll and pitch rates damped by {p['damping']:+.2g} 1/s, yaw rate by "
-                f"{p['yaw']:+.2g} 1/s more than in {sim} (rate damping)")
-    if name == "rotor_drag":
-        return (f"horizontal drag {p['drag']:.2g} 1/s against the body velocity, with a moment "
-                f"of {p['moment']:+.2g} rad/s² per m/s (rotor drag)")
-    if name == "ground_effect" and "excess" in p:
-        return (f"ground effect (exponential law, ×{1 + p['excess']:.3g} thrust at the ground "
-                f"decaying over {p['decay']:.2g} m)")
-    if name == "ground_effect":
-        return (f"ground effect ({LAW['ground_effect']}, fitted R = {p['R']:.2g} m, exponent "
-                f"= {p['exponent']:.3g})")
-    return NICE.get(name, name)
+def _words(entry: dict[str, Any], sim: str, real: str) -> str:
+    """A named effect in its own terms (a delay as a later response, a scale as a factor):
+    its registry sentence (:attr:`etsid.gap.effects.Effect.said`)."""
+    p = {k: v["value"] for k, v in entry["parameters"].items()}
+    try:
+        return effect(entry["name"]).said(p, sim, real)
+    except KeyError:
+        return NICE.get(entry["name"], entry["name"])
 
 
 def _size(data: dict[str, Any], channel: str) -> float:

@@ -60,9 +60,9 @@ STRUCTURE = {
     "nominal.QUADRATIC_TERMS",
 }
 """Physical constants, indices into the model's terms, cache sizes."""
-VOCABULARY = {"candidates.LIBRARY", "candidates.WIND_PARAMS", "registry.REGISTRY"}
-"""The effects' laws: each parameter's search bounds, no-effect value and prior (a fit at a
-bound gets no weight, verdict rule 3)."""
+VOCABULARY = {"candidates.LIBRARY", "candidates.WIND_PARAMS"}
+"""The effects' laws: each parameter's search bounds and no-effect value (a fit at a bound
+gets no weight, verdict rule 3; the priors are declared with each effect in the registry)."""
 
 
 def _numeric_constants() -> set[str]:

@@ -1,8 +1,9 @@
 """What an effect is: its forms (parametric laws on SIM's nominal prediction), a prior per
-parameter, its words and the look-alikes the logs may not tell it from."""
+parameter, its words, the look-alikes the logs may not tell it from and its sentence."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +38,11 @@ class Prior:
         return float(-0.5 * (x / w) ** 2 - np.log(w * np.sqrt(2 * np.pi)))
 
 
+Sentence = Callable[[dict[str, float], str, str], str]
+"""A fitted instance in the effect's own terms: (parameters by name, SIM's name, REAL's
+name) → words ("REAL responds 77 ms later than SIM (time delay)")."""
+
+
 @dataclass(frozen=True)
 class Effect:
     """One named physical effect.
@@ -55,13 +61,16 @@ class Effect:
     family : tuple of str
         Effects the logs may not tell it from (reported with their weights, never decided
         by a rule).
+    said : Sentence
+        The summary's sentence for a fitted instance.
     """
 
     name: str
     words: str
     forms: tuple[Candidate, ...]
     priors: dict[str, Prior]
-    family: tuple[str, ...] = ()
+    family: tuple[str, ...]
+    said: Sentence
 
     def __post_init__(self) -> None:
         missing = {p.name for c in self.forms for p in c.params} - set(self.priors)
