@@ -4,11 +4,9 @@
 :func:`prepare_pair` (same inputs, same grid), :func:`airborne_problem` (enough flight in
 both?), :func:`nominal_and_floors` (the model fitted on SIM and each channel's floor),
 :func:`restrict_to_envelope` (only what SIM flew), :func:`different_airframe` (one vehicle
-for both?), :func:`mismatch_scores` (which channels differ), :func:`explain` (named
-effects, fitted on the first part of REAL and kept only if they predict the later part),
-:func:`leftovers` (what is still mismatched, and an eTS residual model of it),
-:func:`locate` (where) and :func:`assemble` (gap.json). The verdict rules themselves live
-in :mod:`etsid.gap.verdict`.
+for both?), then :func:`etsid.gap.likelihood.explain_by_likelihood`: the held-out
+likelihood criterion on REAL's blocked folds names the effects, says what is left and
+where (gap.json). The verdict rules live in :mod:`etsid.gap.verdict`.
 """
 
 from __future__ import annotations
