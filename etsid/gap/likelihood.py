@@ -1,4 +1,4 @@
-"""``etsid gap`` decided by the likelihood criterion (``method="likelihood"``).
+"""How ``etsid gap`` decides: the held-out likelihood criterion and the verdict.
 
 The stages after the nominal model and the airframe check: the noise model on SIM
 (:mod:`etsid.gap.noise`), the held-out log-likelihood of every candidate on REAL's blocked
