@@ -102,9 +102,64 @@ def log_span(signals: list[Signal]) -> tuple[float, float] | None:
     times = [t if np.isfinite(t).all() else t[np.isfinite(t)] for t in times]  # (no copy)
     if not times or not sum(t.size for t in times):
         return None
-    pooled = np.concatenate(times)
-    lo, hi = np.quantile(pooled, [SPAN_QUANTILE, 1.0 - SPAN_QUANTILE])
+    lo, hi = pooled_quantiles(times, (SPAN_QUANTILE, 1.0 - SPAN_QUANTILE))
     return float(lo), float(hi)
+
+
+def pooled_quantiles(arrays: list[np.ndarray], qs: tuple[float, ...]) -> list[float]:
+    """``np.quantile(np.concatenate(arrays), qs)`` (linear method) of finite arrays.
+
+    When every array is in order, the order statistics are found by bisection on the
+    arrays themselves, counting with ``searchsorted`` (an array shared by several signals
+    counts once per signal), and interpolated with numpy's own arithmetic: the same
+    numbers without pooling and partitioning millions of samples. Otherwise numpy's."""
+    weight: dict[int, int] = {}
+    unique: list[np.ndarray] = []
+    for a in arrays:
+        if a.size == 0:
+            continue
+        if id(a) not in weight:
+            weight[id(a)] = 0
+            unique.append(a)
+        weight[id(a)] += 1
+    n = sum(a.size for a in arrays)
+    if len(unique) > 64 or not all(a.size < 2 or bool(np.all(a[1:] >= a[:-1]))
+                                   for a in unique):
+        return [float(v) for v in np.quantile(np.concatenate(arrays), list(qs))]
+    w = np.array([weight[id(a)] for a in unique], dtype=np.int64)
+    out = []
+    for q in qs:
+        virtual = (n - 1) * np.float64(q)  # numpy's linear method (_quantile, _lerp)
+        if virtual >= n - 1:
+            out.append(_order_statistic(unique, w, n - 1))
+            continue
+        prev = np.floor(virtual)
+        a = _order_statistic(unique, w, int(prev))
+        b = _order_statistic(unique, w, int(prev) + 1)
+        gamma = virtual - prev
+        diff = b - a
+        out.append(float(b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma))
+    return out
+
+
+def _order_statistic(arrays: list[np.ndarray], weight: np.ndarray, k: int) -> float:
+    """The ``k``-th smallest (from 0) of the ordered ``arrays`` pooled, each counted
+    ``weight`` times: in each array, bisection for the first value with more than ``k``
+    pooled values at or below it; the least of those."""
+    sizes = np.array([a.size for a in arrays], dtype=np.int64)
+    lo = np.zeros(len(arrays), dtype=np.int64)
+    hi = sizes.copy()
+    while np.any(lo < hi):
+        mid = (lo + hi) // 2
+        x = np.array([a[min(i, a.size - 1)] for a, i in zip(arrays, mid, strict=True)])
+        below = np.zeros(len(arrays), dtype=np.int64)
+        for a, w in zip(arrays, weight, strict=True):
+            below += w * np.searchsorted(a, x, side="right")
+        more = below > k
+        active = lo < hi
+        hi = np.where(active & more, mid, hi)
+        lo = np.where(active & ~more, mid + 1, lo)
+    return float(min(a[i] for a, i in zip(arrays, lo, strict=True) if i < a.size))
 
 
 def check_signal(sig: Signal, span: tuple[float, float] | None,
