@@ -316,8 +316,12 @@ def _bias_terms(kin: np.ndarray) -> tuple[np.ndarray, ...]:
     fixed = not kin.flags.writeable and kin.base is None
     if fixed:  # the same array, or the same values (each build of one table makes its own)
         for known, terms in _BIAS_TERMS:
-            if known is kin or (known.shape == kin.shape
-                                and np.array_equal(known, kin, equal_nan=True)):
+            if known is kin:
+                return terms
+        for known, terms in _BIAS_TERMS:
+            if known.shape == kin.shape and np.array_equal(known, kin, equal_nan=True):
+                _BIAS_TERMS.insert(0, (kin, terms))  # found by identity next time
+                del _BIAS_TERMS[BIAS_TERMS_KEPT:]
                 return terms
     dt = np.diff(kin[:, 0])
     roll, pitch = kin[:, 1], kin[:, 2]
