@@ -162,18 +162,27 @@ def _order_statistic(arrays: list[np.ndarray], weight: np.ndarray, k: int) -> fl
     return float(min(a[i] for a, i in zip(arrays, lo, strict=True) if i < a.size))
 
 
+def stray_times(t: np.ndarray, span: tuple[float, float] | None) -> np.ndarray:
+    """True where a finite time ``t`` lies outside ``span`` (:func:`log_span`) by more than
+    the margin."""
+    t = np.asarray(t, dtype=float)
+    if span is None:
+        return np.zeros(t.shape, dtype=bool)
+    lo, hi = span
+    margin = max(SPAN_MARGIN * (hi - lo), SPAN_MARGIN_MIN_S)
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(t) & ((t < lo - margin) | (t > hi + margin))
+
+
 def check_signal(sig: Signal, span: tuple[float, float] | None,
-                 dropped: list[Issue]) -> Signal:
-    """``sig`` without implausible values and stray timestamps; counts go to ``dropped``."""
+                 dropped: list[Issue], stray: np.ndarray | None = None) -> Signal:
+    """``sig`` without implausible values and stray timestamps; counts go to ``dropped``.
+    ``stray`` is :func:`stray_times` of ``sig.t`` when the caller has it (it is not
+    changed)."""
     t = np.asarray(sig.t, dtype=float)
     v = np.asarray(sig.values, dtype=float)
     bad_value = implausible_mask(sig.column, v)
-    bad_time = np.zeros(t.shape, dtype=bool)
-    if span is not None:
-        lo, hi = span
-        margin = max(SPAN_MARGIN * (hi - lo), SPAN_MARGIN_MIN_S)
-        with np.errstate(invalid="ignore"):
-            bad_time = np.isfinite(t) & ((t < lo - margin) | (t > hi + margin))
+    bad_time = stray_times(t, span) if stray is None else stray.copy()
     if bad_value.any():
         dropped.append(Issue(f"implausible value ({limits_text(sig.column)})",
                              int(bad_value.sum()), sig.source))
@@ -201,7 +210,11 @@ def check_signals(chosen: dict[str, Signal], dropped: list[Issue]) -> tuple[dict
     span = log_span(list(chosen.values()))
     before = len(dropped)
     chosen = _check_specific_force_norm(chosen, dropped)
-    out = {c: check_signal(s, span, dropped) for c, s in chosen.items()}
+    strays: dict[int, np.ndarray] = {}  # once per time array (a message's fields share it)
+    for s in chosen.values():
+        if id(s.t) not in strays:
+            strays[id(s.t)] = stray_times(s.t, span)
+    out = {c: check_signal(s, span, dropped, strays[id(s.t)]) for c, s in chosen.items()}
     issues = dropped[before:]
     if not issues:
         return out, None
