@@ -26,8 +26,6 @@ stick of 1.2 is written as 2100 µs, so a log can carry out-of-range PWM on purp
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 DEFAULT_RC_MAP: dict[str, int] = {"u_roll": 1, "u_pitch": 2, "u_thrust": 3, "u_yaw": 4}
@@ -46,38 +44,8 @@ def is_centred(column: str) -> bool:
 
 
 def _to_unit(pwm: np.ndarray, centred: bool, rc_range_us: RcRange) -> tuple[np.ndarray, int]:
+    lo, centre, hi = rc_range_us
     raw = np.asarray(pwm)
-    if raw.dtype in (np.uint16, np.uint8) and raw.size > LOOKUP_MIN:
-        values, outside = _lookup(centred, tuple(float(x) for x in rc_range_us))
-        return values[raw], int(np.count_nonzero(outside[raw]))
-    return _convert(raw, centred, rc_range_us)
-
-
-LOOKUP_MIN = 4096
-"""Fewest uint8/uint16 samples converted through :func:`_lookup`'s tables."""
-
-
-@functools.lru_cache(maxsize=8)
-def _lookup(centred: bool, rc_range_us: RcRange) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_convert` of every uint16 value (the value, clipped, and whether it was
-    clipped), read-only: a log's 150,000 samples are then two look-ups, not eight passes,
-    with the same numbers (each entry is the same arithmetic on the same value)."""
-    every = np.arange(65536, dtype=np.uint16)
-    lo, centre, hi = rc_range_us
-    v = every.astype(np.float64)
-    v[~np.isfinite(v) | (v <= 0) | (v == UNUSED)] = np.nan
-    v = (v - centre) / (0.5 * (hi - lo)) if centred else (v - lo) / (hi - lo)
-    bounds = (-1.0, 1.0) if centred else (0.0, 1.0)
-    with np.errstate(invalid="ignore"):
-        outside = (v < bounds[0]) | (v > bounds[1])
-    values = np.clip(v, *bounds)
-    values.flags.writeable = False
-    outside.flags.writeable = False
-    return values, outside
-
-
-def _convert(raw: np.ndarray, centred: bool, rc_range_us: RcRange) -> tuple[np.ndarray, int]:
-    lo, centre, hi = rc_range_us
     v = raw.astype(np.float64)
     v[~np.isfinite(v) | (v <= 0) | (v == UNUSED)] = np.nan
     if centred:
