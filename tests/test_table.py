@@ -186,3 +186,27 @@ def test_default_rate_is_the_mean_rate_of_a_bursty_stream() -> None:
     table = build_table(raw, {"p": sig("p", t, np.sin(t), "rates.x")})
     assert table.attrs["rate_hz"] == pytest.approx(2 / 0.007, rel=5e-3)
     assert table["segment"].nunique() == 1 and not table.attrs["gaps"]
+
+
+def test_hold_index_merge_walk_equals_searchsorted() -> None:
+    """The merge walk (numba loaded, ordered float arrays) gives searchsorted's indices;
+    a NaN or an unordered time array falls back to searchsorted itself."""
+    import numba  # noqa: F401  (the walk runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN, hold_index
+
+    rng = np.random.default_rng(5)
+    for case in range(60):
+        t = np.sort(rng.normal(size=int(rng.integers(0, 2000))) * 10)
+        if case % 3 == 0:
+            t = np.round(t)  # repeated times
+        if case % 7 == 0 and t.size:
+            t[int(rng.integers(0, t.size))] = np.nan
+        if case % 11 == 0:
+            t = rng.normal(size=t.size)
+        grid = np.sort(rng.normal(size=HOLD_MERGE_MIN + int(rng.integers(1, 2000))) * 12)
+        if case % 5 == 0:
+            grid = np.round(grid)
+        want = np.searchsorted(t, grid, side="right") - 1
+        got = hold_index(t, grid)
+        assert got.dtype == want.dtype and np.array_equal(got, want)

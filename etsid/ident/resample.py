@@ -126,9 +126,17 @@ def block_mean(values: np.ndarray, starts: np.ndarray, k: int,
     if k > SEQUENTIAL_MAX:
         block = values[starts[:, None] + np.arange(k)[None, :]]
         return (block if fn is None else fn(block)).mean(axis=1)
-    total = values[starts] if fn is None else fn(values[starts])
+    first = int(starts[0]) if starts.size else 0
+    if starts.size > 1 and values.ndim == 1 and bool(np.all(np.diff(starts) == k)):
+        # one run of adjacent blocks: row j of every block is a strided slice, not a gather
+        def rows(j: int) -> np.ndarray:
+            return values[first + j:first + j + k * (starts.size - 1) + 1:k]
+    else:
+        def rows(j: int) -> np.ndarray:
+            return values[starts + j]
+    total = rows(0) if fn is None else fn(rows(0))
     for j in range(1, k):
-        part = values[starts + j]
+        part = rows(j)
         total = total + (part if fn is None else fn(part))
     return total / k
 

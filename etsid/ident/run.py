@@ -193,7 +193,7 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
             reg = build(table, spec)
             excited = excited_of(spec.outputs)[reg.rows]
     choice = None
-    requested_spec, requested_config = spec, config
+    requested_spec, requested_config, requested_reg = spec, config, reg
     if rate_model:
         say("identify: choosing the structure on an inner split of the learning part")
         choice = _structure(reg, spec, config, excited, table)
@@ -259,7 +259,8 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
     chosen.notes.extend(motion_warnings(metrics["outputs"], EXCITE_STD))
     if choice is not None and frozen is not None and split < n:
         metrics["structure"] = {**choice.to_dict(), "validation": validation_table(
-            table, reg, requested_spec, requested_config, choice.chosen, split, cols)}
+            table, reg, requested_spec, requested_config, choice.chosen, split, cols,
+            requested_reg)}
         chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
                                          float(np.count_nonzero(excited[:split]) * dt),
                                          1.0 / dt, reg.X.shape[1] + 1))

@@ -316,8 +316,12 @@ def _bias_terms(kin: np.ndarray) -> tuple[np.ndarray, ...]:
     fixed = not kin.flags.writeable and kin.base is None
     if fixed:  # the same array, or the same values (each build of one table makes its own)
         for known, terms in _BIAS_TERMS:
-            if known is kin or (known.shape == kin.shape
-                                and np.array_equal(known, kin, equal_nan=True)):
+            if known is kin:
+                return terms
+        for known, terms in _BIAS_TERMS:
+            if known.shape == kin.shape and np.array_equal(known, kin, equal_nan=True):
+                _BIAS_TERMS.insert(0, (kin, terms))  # found by identity next time
+                del _BIAS_TERMS[BIAS_TERMS_KEPT:]
                 return terms
     dt = np.diff(kin[:, 0])
     roll, pitch = kin[:, 1], kin[:, 2]
@@ -336,6 +340,11 @@ def _bias_terms(kin: np.ndarray) -> tuple[np.ndarray, ...]:
     return terms
 
 
+_BIASES: dict[tuple[int, int], tuple[tuple[np.ndarray, ...], np.ndarray]] = {}
+"""Biases already computed from the kept terms of :data:`_BIAS_TERMS`, by (id of the
+terms, rows): identify asks for the same start up to three times (eTS, ARX, candidates)."""
+
+
 def kinematic_bias(kin: np.ndarray, upto: int) -> np.ndarray:
     """Mean (rad/s) of the Euler-kinematic angle rates computed from the gyro minus the
     measured angles' rate of change, for roll and pitch, over table rows before ``upto``.
@@ -347,7 +356,24 @@ def kinematic_bias(kin: np.ndarray, upto: int) -> np.ndarray:
     n = min(max(int(upto), 0), len(kin))
     if n <= MIN_BIAS_PAIRS:
         return np.zeros(2)
-    dt, *res = (a[:n - 1] for a in _bias_terms(kin))
+    terms = _bias_terms(kin)
+    kept = any(known is terms for _, known in _BIAS_TERMS)  # the terms cannot change
+    if kept and (id(terms), n) in _BIASES:
+        held, bias = _BIASES[(id(terms), n)]
+        if held is terms:
+            return bias.copy()
+    out = _bias_of(terms, n)
+    if kept:  # (biases of terms no longer kept are dropped)
+        live = {id(known) for _, known in _BIAS_TERMS}
+        for key in [key for key in _BIASES if key[0] not in live]:
+            del _BIASES[key]
+        _BIASES[(id(terms), n)] = (terms, out.copy())
+    return out
+
+
+def _bias_of(terms: tuple[np.ndarray, ...], n: int) -> np.ndarray:
+    """:func:`kinematic_bias` of the first ``n`` rows from their :func:`_bias_terms`."""
+    dt, *res = (a[:n - 1] for a in terms)
     out = np.zeros(2)
     step = np.nanmedian(dt) if np.any(np.isfinite(dt)) else np.nan
     for j, r in enumerate(res):

@@ -187,16 +187,20 @@ def unpaid_outputs(fits: dict[str, dict[str, float]], outputs: tuple[str, ...],
 
 
 def validation_table(table: Any, reg: Regression, spec: RegressorSpec, config: IdentConfig,
-                     chosen: str, split: int, cols: dict[str, np.ndarray]
+                     chosen: str, split: int, cols: dict[str, np.ndarray],
+                     requested: Regression | None = None
                      ) -> dict[str, dict[str, dict[str, float | None]]]:
     """Validation one-step RMSE and free-run fit % per output of every candidate (the
     chosen one from ``cols``), ARX (batch LS) and persistence: ``{model: {y: {...}}}``.
 
     ``spec`` and ``config`` are the requested ones (before the choice), ``reg`` and
     ``split`` the chosen model's regression and first validation row; each other candidate
-    learns on its own rows before the same validation start time."""
+    learns on its own rows before the same validation start time. ``requested`` is
+    ``build(table, spec)`` when the caller has it (it is not built again)."""
     out: dict[str, dict[str, dict[str, float | None]]] = {}
     built = [(candidate(chosen, spec, config)[0], reg)]  # arx and unscheduled share a spec
+    if requested is not None:
+        built.append((spec, requested))
     for name in (n for n in ORDER if n != "scheduled" or spec.antecedent):
         label = "eTS one rule" if name == "arx" else f"eTS {name}"
         if name == chosen:

@@ -19,6 +19,7 @@ Rules (docs/ingest.md):
 
 from __future__ import annotations
 
+import sys
 from dataclasses import asdict
 from typing import TYPE_CHECKING
 
@@ -34,6 +35,8 @@ from etsid.table import COLUMNS, GAP_PERIODS, SEGMENT, ordered_columns, validate
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
+HOLD_MERGE_MIN = 1000
+"""Fewest grid points for which :func:`hold_index` tries the merge walk."""
 MAX_GRID_POINTS = 50_000_000
 """Refuse grids larger than this (a typo in ``--rate`` would otherwise exhaust memory)."""
 
@@ -94,7 +97,17 @@ def interpolation(column: str) -> str:
 
 
 def hold_index(t: np.ndarray, grid: np.ndarray) -> np.ndarray:
-    """Index of the last sample of ``t`` at or before each grid point (−1 before the first)."""
+    """Index of the last sample of ``t`` at or before each grid point (−1 before the first).
+
+    Once numba is loaded, ordered float arrays take one merge walk
+    (:mod:`etsid.ingest.align_kernels`) instead of a bisection per grid point."""
+    if ("numba" in sys.modules and grid.size > HOLD_MERGE_MIN and t.dtype == np.float64
+            and grid.dtype == np.float64 and t.ndim == grid.ndim == 1):
+        from etsid.ingest.align_kernels import hold_merge
+
+        out = np.empty(grid.size, dtype=np.intp)
+        if hold_merge(t, grid, out):
+            return out
     return np.searchsorted(t, grid, side="right") - 1
 
 

@@ -201,3 +201,26 @@ def test_predict_on_another_flight_integrates_the_angles(hover, tmp_path) -> Non
     np.testing.assert_allclose(misled.predictions[["p_sim", "q_sim"]].to_numpy(), sim,
                                atol=1e-12, equal_nan=True)
     assert clean.metrics["outputs"]["p"]["validation"]["free_run"]["fit"] > 80.0
+
+
+def test_kept_kinematic_biases_equal_a_fresh_computation() -> None:
+    """The biases kept per (terms, rows) and the terms found again for an equal copy of the
+    kinematics give the numbers computed afresh, and a changed array is not mistaken."""
+    from etsid.ident import simulate as sim_module
+
+    reg = build(_truth(n=600, seed=4), RegressorSpec.parse(SPEC, ["p", "q", "r"]))
+    kin = reg.kinematics
+    assert kin is not None and not kin.flags.writeable
+    copy = kin.copy()
+    copy.flags.writeable = False
+    other = kin.copy()
+    other[:, 3] += 0.01
+    other.flags.writeable = False
+    for upto in (MIN_BIAS_PAIRS + 1, 200, 200, 451, len(kin)):
+        for array in (kin, copy, other, kin):
+            fresh = sim_module._bias_of(sim_module._bias_terms(array.copy()), upto)
+            got = kinematic_bias(array, upto)
+            assert got.tobytes() == fresh.tobytes()
+            got[:] = 9.0  # the caller's copy: the kept one is not changed
+    assert sim_module._bias_terms(copy) is sim_module._bias_terms(kin)
+    assert not np.array_equal(kinematic_bias(other, 451), kinematic_bias(kin, 451))

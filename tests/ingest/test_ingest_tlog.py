@@ -394,3 +394,19 @@ def test_cli_ingest_truncated_warns(tlog: Path, tmp_path: Path) -> None:
     result = CliRunner().invoke(cli, ["ingest", str(cut), "-o", str(tmp_path / "o.parquet")])
     assert result.exit_code == 0, result.output
     assert "truncated" in result.output
+
+
+def test_logged_order_is_the_argsort_of_the_frame_numbers() -> None:
+    """Placing each decoded frame at its number gives ``np.argsort`` of the numbers, for
+    every frame decoded (the inverse permutation) and for some of them."""
+    from etsid.ingest.mavlink.tlog import _logged_order
+
+    rng = np.random.default_rng(11)
+    for case in range(60):
+        nframes = int(rng.integers(0, 500))
+        index = rng.permutation(nframes)
+        if case % 2:
+            index = index[: int(rng.integers(0, nframes + 1))]
+        got = _logged_order(index.astype(np.int64), nframes)
+        assert got.dtype == np.int64
+        assert np.array_equal(got, np.argsort(index, kind="stable"))
