@@ -52,3 +52,9 @@ def test_inspect_imports_no_table_or_plot_stack(log: str, absent: set[str]) -> N
     loaded = _modules_after(["inspect", "--quiet", log])
     assert "numpy" in loaded  # the log was read
     assert not loaded & absent
+
+
+def test_gap_help_imports_no_science_stack() -> None:
+    """``etsid gap --help`` lists the vocabulary from the shipped schema, not by importing
+    the analysis (it took 4 s when the help imported the effect registry)."""
+    assert _modules_after(["gap", "--help"]) == set()
