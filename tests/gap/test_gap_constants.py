@@ -82,14 +82,16 @@ def _numeric_constants() -> set[str]:
 
 
 def _docstring(qualified: str) -> str:
+    """The docstring after a constant, or after the group of constants declared on
+    consecutive lines with it (``BOUND_SHARE`` and ``GEOMETRIC_RATIO`` share one)."""
     module, name = qualified.split(".")
     body = ast.parse((GAP / f"{module}.py").read_text(encoding="utf-8")).body
-    for i, node in enumerate(body[:-1]):
+    for i, node in enumerate(body):
         target = getattr(node, "target", None) or (getattr(node, "targets", None) or [None])[0]
         if isinstance(target, ast.Name) and target.id == name:
-            nxt = body[i + 1]
-            if isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant):
-                return str(nxt.value.value)
+            for nxt in body[i + 1:i + 4]:
+                if isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant):
+                    return str(nxt.value.value)
     return ""
 
 
@@ -107,22 +109,8 @@ def test_every_decision_constant_says_why_and_docs_count_them() -> None:
     numerics of a rule), and docs/gap.md lists each and states their number."""
     docs = DOCS.read_text(encoding="utf-8")
     for name in DECISION:
-        doc = _docstring(name) or _docstring_of_group(name)
+        doc = _docstring(name)
         assert len(doc) > 40, f"{name}: no reason in its docstring"
         assert f"`{name.split('.')[1]}`" in docs, f"{name} missing from docs/gap.md"
     stated = re.search(r"(\d+) hand-set decision constants", docs)
     assert stated and int(stated.group(1)) == len(DECISION), "docs/gap.md's count is stale"
-
-
-def _docstring_of_group(qualified: str) -> str:
-    """The docstring after a group of constants declared on consecutive lines
-    (``BOUND_SHARE`` and ``GEOMETRIC_RATIO`` share one)."""
-    module, name = qualified.split(".")
-    body = ast.parse((GAP / f"{module}.py").read_text(encoding="utf-8")).body
-    for i, node in enumerate(body):
-        target = getattr(node, "target", None) or (getattr(node, "targets", None) or [None])[0]
-        if isinstance(target, ast.Name) and target.id == name:
-            for nxt in body[i + 1:i + 4]:
-                if isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant):
-                    return str(nxt.value.value)
-    return ""
