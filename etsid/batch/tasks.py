@@ -26,8 +26,11 @@ from etsid.ingest.vehicle import FACTS
 
 GAP_UNAVAILABLE = "gap analysis is not available in this version"
 
-PRELOAD = ("etsid.ingest", "etsid.ident", "etsid.table", "pandas", "pyarrow.parquet")
-"""Modules worker processes import once, before their first log."""
+PRELOAD = ("etsid.ingest", "etsid.ident.defaults", "etsid.ident.metrics",
+           "etsid.ident.regressors", "etsid.ident.rundir", "etsid.table", "pandas",
+           "pyarrow.parquet")
+"""Modules worker processes import once, before their first log (the modules of
+:mod:`etsid.ident`, whose package loads its names lazily, named one by one)."""
 
 
 def gap_available() -> bool:

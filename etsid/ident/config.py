@@ -2,20 +2,19 @@
 
 The eTS parameters start from :data:`IDENT_ETS`: the defaults of :class:`etsid.ets.ETS`
 (:mod:`etsid.ets.params`, the single source of truth) with the few values identification
-deliberately changes, named here and nowhere else.
+deliberately changes, named here and nowhere else. The module imports no numpy (``etsid
+identify --help`` shows these defaults).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numpy as np
-
 from etsid.errors import IdentError
 from etsid.ets.params import DEFAULTS, PARAM_NAMES
-from etsid.ident.defaults import INPUT_LAGS, OUTPUT_LAGS, SCHEDULE
-from etsid.ident.resample import DEFAULT_RATE_HZ
+from etsid.ident.choices import DEFAULT_RATE_HZ, INPUT_LAGS, OUTPUT_LAGS, SCHEDULE
 
 IDENT_ETS = replace(DEFAULTS, radius=2.0, max_rules=30, history_every=250,
                     utility_threshold=0.05, adaptive_spread=False, forgetting=1.0)
@@ -157,7 +156,7 @@ class IdentConfig:
         """The identification rate to aim for, Hz (None: keep the table's rate)."""
         if self.ident_rate is None:
             return DEFAULT_RATE_HZ if default_model else None
-        if not np.isfinite(self.ident_rate) or self.ident_rate < 0:
+        if not math.isfinite(self.ident_rate) or self.ident_rate < 0:
             raise IdentError(f"--ident-rate must be ≥ 0 Hz, got {self.ident_rate}")
         return float(self.ident_rate) or None
 

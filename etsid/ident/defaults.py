@@ -44,33 +44,18 @@ import pandas as pd
 
 from etsid.errors import IdentError
 from etsid.ident.bare import bare
+from etsid.ident.choices import ATTITUDE_MODES as ATTITUDE_MODES
+from etsid.ident.choices import INPUT_LAGS as INPUT_LAGS
+from etsid.ident.choices import OUTPUT_LAGS as OUTPUT_LAGS
+from etsid.ident.choices import SCHEDULE as SCHEDULE
 from etsid.ident.inputs import AXES, MODES, excited, kind_of
 from etsid.ident.motors import MOTOR_COMMANDS, motor_columns
 from etsid.ident.regressors import RegressorSpec
 from etsid.table import RATE_COLUMNS
 
-OUTPUT_LAGS = 4
-"""Autoregressive lags of each rate, samples at the identification rate."""
-
-INPUT_LAGS = 6
-"""Lags of each loop command, samples at the identification rate."""
-
-SCHEDULE = "inv_alt[k-1]"
-"""Default antecedent of the rate model when the table has altitude (``--antecedent
-auto``): the rules fire on 1/altitude (:data:`etsid.ident.regressors.DERIVED`, the
-ground-effect coordinate) and every rule keeps a full local ARX consequent on the
-regressors. Chosen by the scheduling study of docs/identify.md (altitude, 1/altitude,
-1/altitude², with and without ``u_thrust``, on an inner split of the learning part)."""
-
 ATTITUDE_TERMS = "roll[k-1],pitch[k-1]"
 """Attitude states of the rate model when the attitude loop closes around its inputs
 (``attitude="auto"``); chosen by the attitude study of docs/identify.md."""
-
-ATTITUDE_MODES = ("auto", "on", "none")
-"""``attitude`` settings of :func:`default_model` (``--attitude-states``): ``auto`` and ``on``
-add :data:`ATTITUDE_TERMS` where the attitude loop closes around the inputs (``auto`` then
-lets identify's inner split of the learning part keep or drop them,
-:mod:`etsid.ident.attitude_check`), ``none`` never does."""
 
 FAMILIES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("loop commands", ("u_roll", "u_pitch", "u_yaw"), ("u_thrust",)),

@@ -50,22 +50,14 @@ import numpy as np
 import pandas as pd
 
 from etsid.errors import IdentError
+from etsid.ident.choices import MODES as MODES
+from etsid.ident.choices import STICK_RATE_MIN as STICK_RATE_MIN
+from etsid.ident.choices import STICK_STD_MIN as STICK_STD_MIN
 from etsid.table import is_table_path
 
 if TYPE_CHECKING:  # ingest is imported only when a log is read (ident → ingest stays thin)
     from etsid.ingest import ReadOptions
     from etsid.ingest.base import Signal
-
-MODES = ("auto", "sticks", "torque", "setpoints", "attitude", "motors")
-"""Values of ``--inputs``."""
-
-STICK_STD_MIN = 0.02
-"""Least standard deviation of each roll/pitch/yaw stick for ``auto`` to use the sticks,
-normalised units (−1…1): 1 % of the full throw."""
-
-STICK_RATE_MIN = 10.0
-"""Least native rate of the stick signals for ``auto`` to use them, Hz (a 2–5 Hz RC
-stream holds one value for several identification samples)."""
 
 INPUT_RATE_MIN = 20.0
 """Least native rate, Hz, of a controller family (torque commands, rate or attitude

@@ -6,11 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from etsid.errors import IdentError
+from etsid.ident.choices import NORMALISE_MODES as NORMALISE_MODES
 from etsid.ident.column_bounds import column_bounds
 from etsid.ident.regressors import Regression, RegressorSpec
-
-NORMALISE_MODES = ("learn", "running", "apriori")
-"""How eTS normalises its inputs and outputs (``--normalise``, docs/identify.md)."""
 
 RANGE_MARGIN = 0.05
 """Fixed ranges are widened by this fraction of their width on each side."""

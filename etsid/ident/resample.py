@@ -36,10 +36,8 @@ import pandas as pd
 
 from etsid.errors import IdentError
 from etsid.ident.bare import bare
+from etsid.ident.choices import DEFAULT_RATE_HZ as DEFAULT_RATE_HZ
 from etsid.table import COLUMNS, SEGMENT
-
-DEFAULT_RATE_HZ = 50.0
-"""Default identification rate of the rate model, Hz (see docs/identify.md)."""
 
 METHOD = "block mean"
 
