@@ -9,12 +9,34 @@ physical effects (vehicle ``[effects]``), a stepping API and replay of recorded 
 
 from __future__ import annotations
 
-from etsid.sim.flight import SimFlight, simulate
-from etsid.sim.replay import ReplayResult, replay, replay_many
-from etsid.sim.scenarios import SCENARIOS
-from etsid.sim.stepper import SimState, Simulator, StepRecord
-from etsid.sim.trim import HoverTrim, hover_trim
-from etsid.sim.vehicle import Vehicle, list_vehicles, load_vehicle
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from etsid.sim.flight import SimFlight, simulate
+    from etsid.sim.replay import ReplayResult, replay, replay_many
+    from etsid.sim.scenarios import SCENARIOS
+    from etsid.sim.stepper import SimState, Simulator, StepRecord
+    from etsid.sim.trim import HoverTrim, hover_trim
+    from etsid.sim.vehicle import Vehicle, list_vehicles, load_vehicle
+
+_LAZY = {**dict.fromkeys(("SimFlight", "simulate"), "etsid.sim.flight"),
+         **dict.fromkeys(("ReplayResult", "replay", "replay_many"), "etsid.sim.replay"),
+         "SCENARIOS": "etsid.sim.scenarios",
+         **dict.fromkeys(("SimState", "Simulator", "StepRecord"), "etsid.sim.stepper"),
+         **dict.fromkeys(("HoverTrim", "hover_trim"), "etsid.sim.trim"),
+         **dict.fromkeys(("Vehicle", "list_vehicles", "load_vehicle"), "etsid.sim.vehicle")}
+"""Public names → the module that defines them, imported when the name is first used:
+importing the package (or a light module of it such as :mod:`etsid.sim.vehicle_params`, the
+ranges of ``etsid simulate --help``) loads no numpy or scipy."""
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is not None:
+        return getattr(importlib.import_module(module), name)
+    raise AttributeError(f"module 'etsid.sim' has no attribute {name!r}")
+
 
 __all__ = [
     "SCENARIOS",

@@ -15,10 +15,12 @@ directory with MCAP storage), ``mcap``, ``mcap-ros1``, ``mcap-json``, ``parquet`
 from __future__ import annotations
 
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from etsid.errors import SimError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
 
 WRITE_FORMATS = ("tlog", "ros1", "ros2-db3", "ros2-mcap", "mcap", "mcap-ros1", "mcap-json",
                  "parquet", "csv")
