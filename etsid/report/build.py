@@ -17,12 +17,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from etsid.errors import IdentError, ReportError
 from etsid.files import read_bytes
 from etsid.ident.rundir import Run, read_run
+from etsid.report.choices import FORMATS as FORMATS
 from etsid.report.figures import FIGURES, label_of, outputs_of
 from etsid.report.page import HINT, esc, html_page, make_shared_dir, markdown_safe, table_html
 from etsid.report.regimes import regimes_html, regimes_markdown
 from etsid.report.tables import merges_text, metrics_rows, rule_counts, rules_text
-
-FORMATS = ("png", "svg", "pdf")
 
 Say = Callable[[str], None]
 """Where a report says what it is doing (the CLI: a line on stderr)."""
