@@ -30,6 +30,7 @@ from typing import Any
 
 from etsid.batch import tasks
 from etsid.batch.lifeline import PARENT_ENV
+from etsid.batch.limits import RENEW_GROWTH_MB as RENEW_GROWTH_MB
 from etsid.batch.spec import BatchSpec
 from etsid.batch.worker import (
     Item,
@@ -45,15 +46,11 @@ from etsid.blas import BLAS_THREADS, one_blas_thread
 WINDOW = 2
 """Logs submitted per worker at a time (the one running and the next)."""
 
-RENEW_GROWTH_MB = 256.0
 WATCH_S = 5.0
 """s between checks, while no log finishes, that every worker of the pool is still alive: a
 worker killed at the wrong moment can leave the pool waiting on it for ever (seen in CI:
 the batch of tests/batch/test_batch_worker_death.py hung ten minutes with one worker
 gone), so a dead worker breaks the pool here as it would in the executor."""
-"""A worker whose resident memory after a log exceeds its resident memory after its first
-log by more than this (MB) gets the pool renewed: memory one log leaves behind never
-accumulates over the fleet."""
 
 def worker_context(command: str, preload: tuple[str, ...] = ()) -> Any:
     """The forkserver context (spawn where there is none), preloaded with etsid's modules
