@@ -10,26 +10,22 @@ import os
 from collections.abc import Callable
 from dataclasses import fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from etsid.batch import (
-    EXIT_ALL_FAILED,
-    BatchSpec,
-    BatchSummary,
-    find_inputs,
-    read_pairs,
-    run_batch,
-)
 from etsid.batch.fetch import is_url
-from etsid.batch.local import RENEW_GROWTH_MB
+from etsid.batch.limits import RENEW_GROWTH_MB
+from etsid.batch.spec import BatchSpec
 from etsid.cli.ident_cmds import identify_cmd
 from etsid.cli.ingest_cmds import ingest as ingest_cmd
 from etsid.cli.ingest_cmds import inspect as inspect_cmd
 from etsid.cli.options import read_options
 from etsid.errors import BatchError
 from etsid.progress import wanted
+
+if TYPE_CHECKING:  # pragma: no cover
+    from etsid.batch.run import BatchSummary
 
 _NOT_BATCH = {"log", "out", "as_json", "quiet"}
 """Parameters of the single commands a batch sets itself."""
@@ -98,6 +94,8 @@ def _echo_summary(summary: BatchSummary, command: str) -> None:
 
 def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[str]:
     """The logs of LOGS; saved tables met in its directories are not run, and said so."""
+    from etsid.batch.inputs import find_inputs
+
     missing = [item for item in logs if not is_url(item) and not os.path.lexists(item)]
     if missing:
         shown = ", ".join(missing[:5]) + (f" and {len(missing) - 5} more"
@@ -121,6 +119,8 @@ def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[
 def _run(items: list[Any] | None, logs: tuple[str, ...], spec: BatchSpec,
          batch: dict[str, Any]) -> None:
     """Run ``spec`` over ``items`` (or the logs found in ``logs``) with the batch options."""
+    from etsid.batch.run import EXIT_ALL_FAILED, run_batch  # pyarrow: not for --help
+
     spec.protocols = ("file", *batch["protocols"])
     if items is None:
         items = _find(logs, batch["out"], spec.protocols)
@@ -210,6 +210,7 @@ def batch_identify(logs: tuple[str, ...], **kw: Any) -> None:
 def batch_gap(pairs: tuple[Path, ...], vehicle: str | None, **kw: Any) -> None:
     """Sim-vs-real gap analysis of every SIM,REAL pair in the PAIRS CSV files."""
     from etsid.batch import GAP_UNAVAILABLE, gap_available
+    from etsid.batch.inputs import read_pairs
 
     if not gap_available():
         raise BatchError(GAP_UNAVAILABLE)

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
-import numpy as np
 
 from etsid.cli.options import (
     RateHz,
@@ -18,18 +19,22 @@ from etsid.cli.options import (
 from etsid.errors import IdentError, ModelError
 from etsid.ets.params import CLUSTERINGS, RLS_KINDS, VARIANTS
 from etsid.files import read_json
-from etsid.ident import IdentConfig, identify, load_rules, predict, write_run
-from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS
-from etsid.ident.defaults import ATTITUDE_MODES
-from etsid.ident.fallback import read_fallback
-from etsid.ident.inputs import MODES, STICK_RATE_MIN, STICK_STD_MIN, load_for_ident
-from etsid.ident.ranges import NORMALISE_MODES
-from etsid.ident.resample import DEFAULT_RATE_HZ
-from etsid.ident.rundir import Run, jsonable
-from etsid.ingest import read_log
+from etsid.ident.choices import (
+    ATTITUDE_MODES,
+    DEFAULT_RATE_HZ,
+    MODES,
+    NORMALISE_MODES,
+    STICK_RATE_MIN,
+    STICK_STD_MIN,
+)
+from etsid.ident.config import IDENT_ETS, IDENT_SCHEDULED_ETS, IdentConfig
 from etsid.progress import stage, wanted
-from etsid.report.regimes import regime_text
-from etsid.report.tables import merges_text, rules_text, summary_table
+
+if TYPE_CHECKING:  # pragma: no cover
+    from etsid.ident.rundir import Run
+
+# The option choices above come from light modules (no numpy, pandas or numba): the
+# science stack is imported inside the commands, so that `etsid identify --help` is at once.
 
 
 def _outputs(text: str | None) -> list[str] | None:
@@ -47,6 +52,10 @@ def _naming(err: IdentError, *paths: Path) -> IdentError:
 
 
 def _print_run(run: Run, out: Path, as_json: bool) -> None:
+    from etsid.ident.rundir import jsonable
+    from etsid.report.regimes import regime_text
+    from etsid.report.tables import merges_text, summary_table
+
     if as_json:
         click.echo(json.dumps(jsonable(run.metrics), indent=2))
         return
@@ -92,6 +101,8 @@ def _rotor_radius(vehicle: str) -> float:
 
 def _table_rate(table: object) -> float | None:
     """Grid rate of a table, Hz (None when it cannot be told)."""
+    import numpy as np
+
     rate = getattr(table, "attrs", {}).get("rate_hz")
     if rate:
         return float(rate)
@@ -211,6 +222,10 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     (--segments). Writes RUN_DIR/ predictions.parquet,
     history.parquet, rules.json, metrics.json, config.json.
     """
+    from etsid.ident import identify, write_run
+    from etsid.ident.inputs import load_for_ident
+    from etsid.ingest import read_log
+
     check_output_dir(out)
     options = read_options(maps, mapping_file, sysid, quiet)
     with stage(f"identify: reading {log}"):
@@ -270,7 +285,10 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
                 as_json: bool, maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
                 quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
-    if sim_from is not None and not np.isfinite(sim_from):
+    from etsid.ident import predict, write_run
+    from etsid.ingest import read_log
+
+    if sim_from is not None and not math.isfinite(sim_from):
         raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
     check_output_dir(out)
     table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz)
@@ -301,6 +319,10 @@ def rules_cmd(path: Path, full: bool, as_json: bool) -> None:
     By default each rule's focal point in physical units and, per output, the terms that
     dominate its consequent with their share; --full prints every term.
     """
+    from etsid.ident import load_rules
+    from etsid.ident.fallback import read_fallback
+    from etsid.report.tables import rules_text
+
     data = _control_rules(path)  # a control run's rule base has no regressor spec
     spec = None
     if data is None:

@@ -11,9 +11,7 @@ import click
 
 from etsid.cli.options import RateHz, echo_table_notes, log_options, read_options
 from etsid.errors import IngestError
-from etsid.ingest import inspect_log, read_log
-from etsid.ingest.base import printable
-from etsid.table import save_table
+from etsid.escape import printable
 
 
 @click.command()
@@ -23,6 +21,8 @@ from etsid.table import save_table
 def inspect(log: Path, as_json: bool, maps: tuple[str, ...], mapping_file: Path | None,
             sysid: int | None, quiet: bool) -> None:
     """Show what a LOG holds: format, duration, topics/messages and the columns they fill."""
+    from etsid.ingest import inspect_log  # numpy: not for --help
+
     info = inspect_log(log, read_options(maps, mapping_file, sysid, quiet))
     if as_json:
         click.echo(json.dumps(info, indent=2, default=str))
@@ -86,6 +86,9 @@ def ingest(log: Path, out: Path, rate_hz: float | None, start: float | None, end
            maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
            quiet: bool) -> None:
     """Read LOG into a FlightTable (SI units, FRD body / NED world) and save it."""
+    from etsid.ingest import read_log
+    from etsid.table import save_table
+
     if out.suffix.lower() not in (".parquet", ".csv"):
         raise click.BadParameter("must end in .parquet or .csv", param_hint="--out")
     table = read_log(log, read_options(maps, mapping_file, sysid, quiet), rate_hz=rate_hz,

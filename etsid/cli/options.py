@@ -9,12 +9,12 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from etsid.ingest.base import ReadOptions
-from etsid.ingest.mapping import load_mapping_file, parse_override
 from etsid.progress import wanted
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
+
+    from etsid.ingest.base import ReadOptions
 
 MAX_RATE_HZ = 100_000.0
 """Highest grid or identification rate accepted, Hz (no flight log samples faster)."""
@@ -79,7 +79,11 @@ def log_options(func: Callable[..., Any]) -> Callable[..., Any]:
 
 def read_options(maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
                  quiet: bool) -> ReadOptions:
-    """Build :class:`ReadOptions` from the :func:`log_options` values."""
+    """Build :class:`ReadOptions` from the :func:`log_options` values (ingest, which loads
+    numpy, is imported here: not for a command's ``--help``)."""
+    from etsid.ingest.base import ReadOptions
+    from etsid.ingest.mapping import load_mapping_file, parse_override
+
     options = ReadOptions(sysid=sysid, progress=wanted(quiet))
     if mapping_file is not None:
         overrides, rc = load_mapping_file(mapping_file)

@@ -7,8 +7,7 @@ from pathlib import Path
 import click
 
 from etsid.progress import done, say
-from etsid.report import make_report
-from etsid.report.build import FORMATS
+from etsid.report.choices import FORMATS
 
 
 @click.command()
@@ -24,6 +23,7 @@ def report(run_dir: Path, fmt: str) -> None:
     On a directory of `etsid gap` or `etsid control`, their reports.
     """
     from etsid.batch.pool import WarmPool
+    from etsid.report import make_report
 
     try:
         # a fleet report's ranked flights: their reports written by warm worker processes

@@ -12,7 +12,7 @@ from etsid.cli.settings import parse_assignments
 from etsid.errors import SimError
 from etsid.progress import stage
 from etsid.sim.vehicle_params import RUN
-from etsid.sim.writers import WRITE_FORMATS, format_for, write_log
+from etsid.sim.writers import WRITE_FORMATS, format_for
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -156,6 +156,8 @@ def _echo_settings(settings: dict) -> None:
 
 
 def _write(table: pd.DataFrame, truth: pd.DataFrame, out: Path, fmt: str | None) -> Path:
+    from etsid.sim.writers import write_log
+
     if format_for(out, fmt) in ("parquet", "csv"):
         # a saved table also carries the noise-free states (true_* columns) for tests
         attrs = dict(table.attrs)
