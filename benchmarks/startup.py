@@ -1,10 +1,12 @@
-"""Whole-process time of commands that should start at once: ``etsid --help`` and
-``etsid inspect`` on small logs of each format (imports, numba cache loading and the work).
+"""Whole-process time of commands that should start at once: ``etsid --help``, every
+``etsid COMMAND --help`` and ``etsid inspect`` on small logs of each format (imports, numba
+cache loading and the work).
 
 Run from the repository root::
 
     python benchmarks/startup.py                       # this code
     python benchmarks/startup.py --baseline ../old     # and another checkout, alternating
+    python benchmarks/startup.py --only help           # the helps only (or: --only inspect)
 
 Each command runs ``--repeats`` times in a fresh ``python -m etsid`` process (this code and,
 with ``--baseline DIR``, the code in DIR through ``PYTHONPATH``, alternating); printed are
@@ -26,8 +28,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 LOGS = ROOT / "sample_logs"
 DATA = ROOT / "tests" / "data"  # real ULog (1.9 MB) and DataFlash (1.3 MB) logs
+HELPS = ["identify", "predict", "rules", "simulate", "inspect", "ingest", "report", "gap", "fit",
+         "batch", "batch identify", "control"]
+"""Commands whose ``--help`` is timed (``etsid batch identify`` borrows identify's options)."""
+
 COMMANDS = [
     ["--help"],
+    *([*name.split(), "--help"] for name in HELPS),
     ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.tlog")],
     ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.bag")],
     ["inspect", "--quiet", str(LOGS / "hexa_ige_oge.mcap")],
@@ -54,16 +61,20 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--baseline", metavar="DIR", help="another checkout, timed alternately")
+    ap.add_argument("--only", choices=("help", "inspect"), default=None,
+                    help="time only the helps or only the inspects")
     args = ap.parse_args()
+    commands = [c for c in COMMANDS if args.only is None or (c[-1] == "--help") == (
+        args.only == "help")]
     roots = {"this": ROOT}
     if args.baseline:
         roots = {"before": Path(args.baseline).resolve(), "after": ROOT}
     for root in roots.values():  # warm the numba caches and the OS file cache
-        for cmd in COMMANDS:
+        for cmd in commands:
             once(root, cmd)
     print("| command | code | wall best (s) | wall median (s) | CPU best (s) |")
     print("|---|---|---|---|---|")
-    for cmd in COMMANDS:
+    for cmd in commands:
         runs: dict[str, list[tuple[float, float]]] = {tag: [] for tag in roots}
         for _ in range(args.repeats):
             for tag, root in roots.items():
