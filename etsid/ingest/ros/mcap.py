@@ -52,11 +52,11 @@ class _Decoders:
     schemas (fast, and the same code as the bag reader), else the mcap decoder factories."""
 
     def __init__(self) -> None:
-        from mcap_ros1.decoder import DecoderFactory as Ros1Factory
-        from mcap_ros2.decoder import DecoderFactory as Ros2Factory
         from rosbags.typesys import Stores, get_typestore
 
-        self.factories = [Ros2Factory(), Ros1Factory()]
+        self.factories: list[Any] | None = None
+        """The mcap decoder factories (ROS 2, ROS 1), made at the first schema rosbags
+        cannot parse (importing them costs ~0.1 s of a small file's inspect)."""
         self.store = get_typestore(Stores.EMPTY)
         self.made: dict[tuple[str, Any], Callable[[bytes], Any]] = {}
         """Decoders made, per message encoding and schema (many channels share one)."""
@@ -102,6 +102,11 @@ class _Decoders:
         decoder = self._rosbags(encoding, schema)
         if decoder is not None:
             return decoder
+        if self.factories is None:
+            from mcap_ros1.decoder import DecoderFactory as Ros1Factory
+            from mcap_ros2.decoder import DecoderFactory as Ros2Factory
+
+            self.factories = [Ros2Factory(), Ros1Factory()]
         for factory in self.factories:
             decoder = factory.decoder_for(encoding, schema)
             if decoder is not None:
