@@ -12,7 +12,6 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from etsid.batch.spec import COMMANDS, BatchSpec
 from etsid.errors import BatchError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -26,6 +25,7 @@ if TYPE_CHECKING:  # pragma: no cover
         run_batch,
     )
     from etsid.batch.schema import SCHEMA, VOLATILE
+    from etsid.batch.spec import COMMANDS, BatchSpec
     from etsid.batch.tasks import GAP_UNAVAILABLE, gap_available
 
 _LAZY = {**dict.fromkeys(("find_inputs", "read_pairs"), "etsid.batch.inputs"),
@@ -33,10 +33,10 @@ _LAZY = {**dict.fromkeys(("find_inputs", "read_pairs"), "etsid.batch.inputs"),
          **dict.fromkeys(("EXIT_ALL_FAILED", "SCHEDULERS", "BatchSummary", "default_jobs",
                           "run_batch"), "etsid.batch.run"),
          **dict.fromkeys(("SCHEMA", "VOLATILE"), "etsid.batch.schema"),
+         **dict.fromkeys(("COMMANDS", "BatchSpec"), "etsid.batch.spec"),
          **dict.fromkeys(("GAP_UNAVAILABLE", "gap_available"), "etsid.batch.tasks")}
 """Public names → the module that defines them, imported when the name is first used:
-importing the package (or its light modules :mod:`etsid.batch.spec`,
-:mod:`etsid.batch.fetch` and :mod:`etsid.batch.limits`, which ``etsid batch --help`` uses)
+importing the package (or :mod:`etsid.batch.limits`, which ``etsid batch --help`` uses)
 loads no numpy or pyarrow."""
 
 

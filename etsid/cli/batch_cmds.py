@@ -14,9 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from etsid.batch.fetch import is_url
 from etsid.batch.limits import RENEW_GROWTH_MB
-from etsid.batch.spec import BatchSpec
 from etsid.cli.ident_cmds import identify_cmd
 from etsid.cli.ingest_cmds import ingest as ingest_cmd
 from etsid.cli.ingest_cmds import inspect as inspect_cmd
@@ -26,6 +24,7 @@ from etsid.progress import wanted
 
 if TYPE_CHECKING:  # pragma: no cover
     from etsid.batch.run import BatchSummary
+    from etsid.batch.spec import BatchSpec
 
 _NOT_BATCH = {"log", "out", "as_json", "quiet"}
 """Parameters of the single commands a batch sets itself."""
@@ -94,6 +93,7 @@ def _echo_summary(summary: BatchSummary, command: str) -> None:
 
 def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[str]:
     """The logs of LOGS; saved tables met in its directories are not run, and said so."""
+    from etsid.batch.fetch import is_url
     from etsid.batch.inputs import find_inputs
 
     missing = [item for item in logs if not is_url(item) and not os.path.lexists(item)]
@@ -142,6 +142,8 @@ def _split(kw: dict[str, Any]) -> dict[str, Any]:
 
 def _read_spec(command: str, kw: dict[str, Any]) -> BatchSpec:
     """BatchSpec of the single command's options (``--map``, ``--rate``, …)."""
+    from etsid.batch.spec import BatchSpec
+
     options = read_options(kw.pop("maps", ()), kw.pop("mapping_file", None),
                            kw.pop("sysid", None), True)
     return BatchSpec(command, read_options=options)

@@ -18,7 +18,6 @@ from etsid.cli.options import (
 )
 from etsid.errors import IdentError, ModelError
 from etsid.ets.params import CLUSTERINGS, RLS_KINDS, VARIANTS
-from etsid.files import read_json
 from etsid.ident.choices import (
     ATTITUDE_MODES,
     DEFAULT_RATE_HZ,
@@ -343,6 +342,8 @@ def rules_cmd(path: Path, full: bool, as_json: bool) -> None:
 
 def _control_rules(path: Path) -> dict | None:
     """The rules.json of an ``etsid control`` run (checked by the model loader), else None."""
+    from etsid.files import read_json
+
     file = path / "rules.json" if path.is_dir() else path
     config = file.parent / "config.json"
     try:
