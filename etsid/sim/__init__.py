@@ -10,6 +10,8 @@ physical effects (vehicle ``[effects]``), a stepping API and replay of recorded 
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -36,6 +38,20 @@ def __getattr__(name: str) -> Any:
     if module is not None:
         return getattr(importlib.import_module(module), name)
     raise AttributeError(f"module 'etsid.sim' has no attribute {name!r}")
+
+
+class _Package(types.ModuleType):
+    """This package's module type: ``etsid.sim.replay`` stays the function when the
+    submodule of the same name is imported (Python then sets the package attribute to the
+    module), as it was when the package imported the function eagerly."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, types.ModuleType) and _LAZY.get(name) == value.__name__:
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 __all__ = [
