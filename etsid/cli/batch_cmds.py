@@ -20,7 +20,7 @@ from etsid.cli.ingest_cmds import ingest as ingest_cmd
 from etsid.cli.ingest_cmds import inspect as inspect_cmd
 from etsid.cli.options import read_options
 from etsid.errors import BatchError
-from etsid.progress import wanted
+from etsid.progress import stage, wanted
 
 if TYPE_CHECKING:  # pragma: no cover
     from etsid.batch.run import BatchSummary
@@ -119,7 +119,8 @@ def _find(logs: tuple[str, ...], out: Path, protocols: tuple[str, ...]) -> list[
 def _run(items: list[Any] | None, logs: tuple[str, ...], spec: BatchSpec,
          batch: dict[str, Any]) -> None:
     """Run ``spec`` over ``items`` (or the logs found in ``logs``) with the batch options."""
-    from etsid.batch.run import EXIT_ALL_FAILED, run_batch  # pyarrow: not for --help
+    with stage("batch: loading"):  # pyarrow, numpy: not for --help
+        from etsid.batch.run import EXIT_ALL_FAILED, run_batch
 
     spec.protocols = ("file", *batch["protocols"])
     if items is None:
@@ -236,9 +237,10 @@ def batch_fit(root: Path, out: Path, full: bool) -> None:
     its reference (the first flights) at the flight where the change starts."""
     import json
 
-    from etsid.fit.fleet import fit_fleet
-    from etsid.ingest import read_log
-    from etsid.report.fit_fleet import fleet_figure
+    with stage("batch: loading"):
+        from etsid.fit.fleet import fit_fleet
+        from etsid.ingest import read_log
+        from etsid.report.fit_fleet import fleet_figure
 
     def say(line: str) -> None:
         if wanted(False):

@@ -33,7 +33,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from etsid.ident.rundir import Run
 
 # The option choices above come from light modules (no numpy, pandas or numba): the
-# science stack is imported inside the commands, so that `etsid identify --help` is at once.
+# science stack is imported inside the commands (said as "loading", as the group says the
+# import of a command module), so that `etsid identify --help` is at once.
 
 
 def _outputs(text: str | None) -> list[str] | None:
@@ -221,9 +222,10 @@ def identify_cmd(log: Path, out: Path, outputs: str | None, regressors: str | No
     (--segments). Writes RUN_DIR/ predictions.parquet,
     history.parquet, rules.json, metrics.json, config.json.
     """
-    from etsid.ident import identify, write_run
-    from etsid.ident.inputs import load_for_ident
-    from etsid.ingest import read_log
+    with stage("identify: loading"):  # numba, pandas: seconds on a cold start
+        from etsid.ident import identify, write_run
+        from etsid.ident.inputs import load_for_ident
+        from etsid.ingest import read_log
 
     check_output_dir(out)
     options = read_options(maps, mapping_file, sysid, quiet)
@@ -284,8 +286,9 @@ def predict_cmd(log: Path, rules_path: Path, out: Path, learn: bool, sim_from: f
                 as_json: bool, maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
                 quiet: bool) -> None:
     """Apply a saved rule base to LOG: one-step and free-run predictions and metrics."""
-    from etsid.ident import predict, write_run
-    from etsid.ingest import read_log
+    with stage("predict: loading"):  # numba, pandas: seconds on a cold start
+        from etsid.ident import predict, write_run
+        from etsid.ingest import read_log
 
     if sim_from is not None and not math.isfinite(sim_from):
         raise click.BadParameter(f"must be a finite time, got {sim_from}", param_hint="--sim-from")
@@ -318,9 +321,10 @@ def rules_cmd(path: Path, full: bool, as_json: bool) -> None:
     By default each rule's focal point in physical units and, per output, the terms that
     dominate its consequent with their share; --full prints every term.
     """
-    from etsid.ident import load_rules
-    from etsid.ident.fallback import read_fallback
-    from etsid.report.tables import rules_text
+    with stage("rules: loading"):  # numba, pandas: seconds on a cold start
+        from etsid.ident import load_rules
+        from etsid.ident.fallback import read_fallback
+        from etsid.report.tables import rules_text
 
     data = _control_rules(path)  # a control run's rule base has no regressor spec
     spec = None

@@ -12,6 +12,7 @@ import click
 from etsid.cli.options import RateHz, echo_table_notes, log_options, read_options
 from etsid.errors import IngestError
 from etsid.escape import printable
+from etsid.progress import stage
 
 
 @click.command()
@@ -21,7 +22,8 @@ from etsid.escape import printable
 def inspect(log: Path, as_json: bool, maps: tuple[str, ...], mapping_file: Path | None,
             sysid: int | None, quiet: bool) -> None:
     """Show what a LOG holds: format, duration, topics/messages and the columns they fill."""
-    from etsid.ingest import inspect_log  # numpy: not for --help
+    with stage("inspect: loading"):  # numpy: not for --help
+        from etsid.ingest import inspect_log
 
     info = inspect_log(log, read_options(maps, mapping_file, sysid, quiet))
     if as_json:
@@ -86,8 +88,9 @@ def ingest(log: Path, out: Path, rate_hz: float | None, start: float | None, end
            maps: tuple[str, ...], mapping_file: Path | None, sysid: int | None,
            quiet: bool) -> None:
     """Read LOG into a FlightTable (SI units, FRD body / NED world) and save it."""
-    from etsid.ingest import read_log
-    from etsid.table import save_table
+    with stage("ingest: loading"):  # numpy: not for --help
+        from etsid.ingest import read_log
+        from etsid.table import save_table
 
     if out.suffix.lower() not in (".parquet", ".csv"):
         raise click.BadParameter("must end in .parquet or .csv", param_hint="--out")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from etsid.progress import done, say
+from etsid.progress import done, say, stage
 from etsid.report.choices import FORMATS
 
 
@@ -22,8 +22,9 @@ def report(run_dir: Path, fmt: str) -> None:
     key figures, the best and worst flights linked to their own reports, failures by cause.
     On a directory of `etsid gap` or `etsid control`, their reports.
     """
-    from etsid.batch.pool import WarmPool
-    from etsid.report import make_report
+    with stage("report: loading"):  # matplotlib, pandas: not for --help
+        from etsid.batch.pool import WarmPool
+        from etsid.report import make_report
 
     try:
         # a fleet report's ranked flights: their reports written by warm worker processes

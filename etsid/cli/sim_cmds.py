@@ -102,8 +102,9 @@ def simulate(scenario: str | None, out: Path | None, fmt: str | None, vehicle: P
     e.g. --set vehicle.time_delay=0.02 --set vehicle.motor_lag=[0.04,0.08]
     --set scenario.altitude=1.0.
     """
-    from etsid.sim import SCENARIOS
-    from etsid.sim import simulate as run_simulation
+    with stage("simulate: loading"):  # numpy, scipy, numba: not for --help
+        from etsid.sim import SCENARIOS
+        from etsid.sim import simulate as run_simulation
 
     if replay_log is not None:
         if scenario is not None:
@@ -172,9 +173,10 @@ def _write(table: pd.DataFrame, truth: pd.DataFrame, out: Path, fmt: str | None)
 def _replay(log: Path, out: Path, fmt: str | None, vehicle: Path | None, seed: int,
             ground_effect: bool, settings: dict, mode: str, loop_input: str, thrust: str,
             horizon: float, noise: str = "log") -> None:
-    from etsid.ingest import read_log
-    from etsid.sim.flight import refuse_non_finite
-    from etsid.sim.replay import replay
+    with stage("simulate: loading"):
+        from etsid.ingest import read_log
+        from etsid.sim.flight import refuse_non_finite
+        from etsid.sim.replay import replay
 
     scenario_keys = [k for k in settings if not k.startswith("vehicle.")]
     if scenario_keys:
