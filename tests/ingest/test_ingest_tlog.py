@@ -21,16 +21,17 @@ from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, autopilot_clock
 from etsid.ingest.mavlink.dtypes import crc_extra_table
 from etsid.ingest.mavlink.scan import (
     KEYS_MAX,
+    OK,
+    ScanResult,
     crc_x25,
-    gather_grouped,
     gather_payloads,
     gather_payloads_reference,
-    group_frames,
     key_stats,
     scan_frames,
     scan_frames_reference,
     use_kernels,
 )
+from etsid.ingest.mavlink.store import FrameStore
 from etsid.sim.writers.tlog import write_tlog
 
 DATA = Path(__file__).parents[1] / "data"
@@ -143,17 +144,6 @@ def test_scan_kernel_matches_reference(tlog: Path) -> None:
     payload = gather_payloads(buf, fast.offset, fast.length, 40)
     np.testing.assert_array_equal(payload,
                                   gather_payloads_reference(buf, fast.offset, fast.length, 40))
-    # one pass for several groups: each equals the group's own gather (rows zero-padded to
-    # a size above some frames' length, cut below others'; frames of no group skipped)
-    slot = np.where(fast.msgid % 3 == 0, -1, fast.msgid % 2).astype(np.int64)
-    sizes = [40, 9]
-    grouped = gather_grouped(buf, fast.offset, fast.length, slot, sizes)
-    assert len(grouped) == 2 and all(len(g) for g in grouped)
-    for g, size in enumerate(sizes):
-        sel = slot == g
-        np.testing.assert_array_equal(grouped[g], gather_payloads_reference(
-            buf, fast.offset[sel], fast.length[sel], size))
-    assert gather_grouped(buf, fast.offset, fast.length, slot, []) == []
 
 
 def test_sliced_crc_matches_the_bitwise_crc() -> None:
@@ -168,23 +158,81 @@ def test_sliced_crc_matches_the_bitwise_crc() -> None:
             assert _crc(data, 3, size, extra) == crc_x25(data[3:].tobytes(), extra), size
 
 
-def test_frame_groups_and_key_counts_match_their_reference(tlog: Path) -> None:
+def _chunked_scans(data: bytes, size: int) -> list[tuple[np.ndarray, ScanResult, int, float]]:
+    """(buffer, its scan, file frame number of its first frame, share of the file read)
+    per chunk of ``size`` bytes, the partial record carried over as the reader does."""
+    out = []
+    carry, pos, first = b"", 0, 0
+    while True:
+        got = data[pos:pos + size]
+        pos += len(got)
+        final = pos >= len(data)
+        buf = np.frombuffer(carry + got, np.uint8)
+        res = scan_frames(buf, crc_extra_table(), final)
+        out.append((buf, res, first, pos / len(data)))
+        first += res.offset.size
+        carry = bytes(buf[res.consumed:])
+        if final:
+            return out
+
+
+def _joined_gathers(scans: list[tuple[np.ndarray, ScanResult, int, float]], ids: list[int],
+                    sizes: list[int]) -> dict[int, dict[str, np.ndarray]]:
+    """The former computation: each chunk's frames of an id (status OK) gathered by the
+    plain reference, then the chunks' parts joined."""
+    out = {}
+    for mid, size in zip(ids, sizes, strict=True):
+        parts = []
+        for buf, res, first, _ in scans:
+            sel = np.flatnonzero((res.msgid == mid) & (res.status == OK))
+            parts.append({"rec": gather_payloads_reference(buf, res.offset[sel],
+                                                           res.length[sel], size).ravel(),
+                          "index": first + sel, "stamp": res.stamp_us[sel],
+                          "sysid": res.sysid[sel], "compid": res.compid[sel]})
+        if sum(p["index"].size for p in parts):
+            out[mid] = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return out
+
+
+def test_frame_store_equals_the_joined_gathers(tlog: Path) -> None:
+    """The store's arrays, numba and plain, equal the chunks' gathers joined, bit for
+    bit: a bad CRC and garbage between records, several chunk sizes (the regions grow,
+    from estimates that are too small or too large), payloads cut and zero-padded, an id
+    that never comes."""
+    import etsid.ingest.mavlink.scan_kernels  # noqa: F401  (loads numba: the kernels run)
+
+    data = bytearray(tlog.read_bytes()[:40000])
+    data[7000] ^= 0xFF
+    data[15000:15000] = b"\x00\xfe\x12junk"
+    present = sorted(set(scan_frames(np.frombuffer(bytes(data), np.uint8), crc_extra_table(),
+                                     True).msgid.tolist()))
+    ids = [*present[::-1], 99999]
+    sizes = [9 if i % 3 == 0 else 70 for i in range(len(ids))]
+    for size in (997, 4096, 15000, len(data)):
+        scans = _chunked_scans(bytes(data), size)
+        want = _joined_gathers(scans, ids, sizes)
+        for fast, skew in ((True, 1.0), (False, 1.0), (True, 0.3), (True, 3.0)):
+            store = FrameStore(ids, sizes)
+            for buf, res, first, share in scans:
+                store.add(buf, res, first, min(share * skew, 1.0), fast)
+            got = store.parts({mid: np.dtype((np.void, n)) for mid, n in zip(ids, sizes,
+                                                                              strict=True)})
+            assert list(got) == [mid for mid in ids if mid in want]
+            for mid, part in got.items():
+                assert set(part) == set(want[mid])
+                for key, value in part.items():
+                    ref = want[mid][key]
+                    value = value.view(np.uint8) if key == "rec" else value
+                    assert value.dtype == ref.dtype, (size, fast, skew, mid, key)
+                    np.testing.assert_array_equal(value, ref)
+
+
+def test_key_counts_match_their_reference(tlog: Path) -> None:
     import etsid.ingest.mavlink.scan_kernels  # noqa: F401  (loads numba: the kernels run)
 
     data = bytearray(tlog.read_bytes()[:30000])
-    data[7000] ^= 0xFF  # a bad CRC: that frame is in no group
-    buf = np.frombuffer(bytes(data), np.uint8)
-    res = scan_frames(buf, crc_extra_table(), final=True)
-    assert res.bad_crc >= 1
-    present = np.unique(res.msgid)
-    for wanted in (present, present[::2], np.array([present[0], 99999]), np.empty(0, int)):
-        fast = group_frames(res.msgid, res.status, wanted, fast=True)
-        slow = group_frames(res.msgid, res.status, wanted, fast=False)
-        assert fast[0] == slow[0] and len(fast[2]) == len(slow[2]) == len(fast[0])
-        np.testing.assert_array_equal(fast[1], slow[1])
-        for a, b in zip(fast[2], slow[2], strict=True):
-            np.testing.assert_array_equal(a, b)
-    assert len(group_frames(res.msgid, res.status, present, fast=True)[0]) > 2
+    data[7000] ^= 0xFF
+    res = scan_frames(np.frombuffer(bytes(data), np.uint8), crc_extra_table(), final=True)
     key = (res.sysid.astype(np.int64) << 32) | res.msgid
     assert key_stats(key, res.stamp_us, True) == key_stats(key, res.stamp_us, False)
     many = np.arange(KEYS_MAX + 5, dtype=np.int64)[::-1]  # more keys than the kernel holds

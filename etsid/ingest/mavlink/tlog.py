@@ -6,7 +6,8 @@ of :data:`CHUNK` bytes (a partial frame carries over to the next chunk, so memor
 bounded by the decoded output); a numba kernel finds the frames and checks their CRC
 (:mod:`etsid.ingest.mavlink.scan`), and only the messages in
 :data:`~etsid.ingest.mavlink.signals.DECODERS` (plus those named by ``--map``) are
-decoded, in blocks, with numpy dtypes built from pymavlink's own definitions
+gathered, chunk by chunk, into one array per message (:mod:`etsid.ingest.mavlink.store`)
+and decoded with numpy dtypes built from pymavlink's own definitions
 (:mod:`etsid.ingest.mavlink.dtypes`). Columns, units and priorities:
 :mod:`etsid.ingest.mavlink.signals`; time handling: :mod:`etsid.ingest.mavlink.clock`.
 
@@ -39,12 +40,12 @@ from etsid.ingest.mavlink.dtypes import (
 from etsid.ingest.mavlink.scan import (
     UNKNOWN,
     ScanResult,
-    gather_grouped,
-    group_frames,
     key_stats,
+    scan_arrays,
     scan_frames,
 )
 from etsid.ingest.mavlink.signals import CLOCK_FIELDS, DECODERS
+from etsid.ingest.mavlink.store import FrameStore
 from etsid.ingest.vehicle import (
     ardupilot_version,
     autopilot_name,
@@ -116,26 +117,28 @@ def _wanted_ids(overrides: list[Override], path: Path) -> dict[int, str]:
 
 
 def _scan_file(path: Path, wanted: dict[int, str], show: bool
-               ) -> tuple[_Stats, dict[int, list[dict[str, np.ndarray]]], int]:
-    """Read the file chunk by chunk; decode the wanted messages of every system."""
+               ) -> tuple[_Stats, dict[int, dict[str, np.ndarray]], int]:
+    """Read the file chunk by chunk; gather the wanted messages of every system (ids in
+    the order of ``wanted``, those with frames only)."""
     stats = _Stats()
-    blocks: dict[int, list[dict[str, np.ndarray]]] = {mid: [] for mid in wanted}
+    ids = list(wanted)
+    store = FrameStore(ids, [message_dtype(mid).itemsize for mid in ids])
     table = crc_extra_table()
-    wanted_ids = np.fromiter(wanted, dtype=np.int32)
     size = path.stat().st_size
     carry = np.empty(0, np.uint8)
-    store = np.empty(0, np.uint8)  # one buffer for every chunk: the carry, then the read
-    base = 0
+    data = np.empty(0, np.uint8)  # one buffer for every chunk: the carry, then the read
+    found = scan_arrays(CHUNK)  # the frames of a chunk, reused likewise
+    base = done = 0
     with open_binary(path, "log", IngestError) as handle, \
             progress(size, f"reading {path.name}", show) as bar:
         while True:
-            if store.size < carry.size + CHUNK:
-                store = np.empty(carry.size + CHUNK, np.uint8)
-            store[:carry.size] = carry
-            got = handle.readinto(memoryview(store)[carry.size:carry.size + CHUNK]) or 0
+            if data.size < carry.size + CHUNK:
+                data = np.empty(carry.size + CHUNK, np.uint8)
+            data[:carry.size] = carry
+            got = handle.readinto(memoryview(data)[carry.size:carry.size + CHUNK]) or 0
             final = handle.tell() >= size or not got
-            buf = store[:carry.size + got]  # (nothing kept refers to it: payloads are copied)
-            res = scan_frames(buf, table, final)
+            buf = data[:carry.size + got]  # (nothing kept refers to it: payloads are copied)
+            res = scan_frames(buf, table, final, found)
             fast = use_kernels(buf.size)
             stats.skipped += res.skipped
             stats.bad_crc += res.bad_crc
@@ -152,36 +155,15 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
                 for mid, c in zip(*np.unique(res.msgid[unknown], return_counts=True),
                                   strict=True):
                     stats.unknown[int(mid)] = stats.unknown.get(int(mid), 0) + int(c)
-            mids, slot, sels = group_frames(res.msgid, res.status, wanted_ids, fast)
-            payloads = gather_grouped(buf, res.offset, res.length, slot,
-                                      [message_dtype(mid).itemsize for mid in mids])
-            for mid, sel, payload in zip(mids, sels, payloads, strict=True):
-                dtype = message_dtype(mid)
-                blocks[mid].append({
-                    "rec": payload.view(dtype).ravel(),
-                    "index": base + sel.astype(np.int64),
-                    "stamp": res.stamp_us[sel],
-                    "sysid": res.sysid[sel],
-                    "compid": res.compid[sel],
-                })
+            done += got
+            store.add(buf, res, base, 1.0 if final else min(done / max(size, 1), 1.0), fast)
             base += res.offset.size
             bar.update(got)
             carry = buf[res.consumed:].copy()
             if final:
                 stats.truncated = int(carry.size)
                 break
-    return stats, blocks, base
-
-
-def _concatenate(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """The chunks' decoded arrays of one message joined. The packed records are joined as
-    their bytes and viewed back: numpy copies a packed structured array field by field,
-    about 10× slower (0.06 s for the 150,000-row messages of a 10-minute tlog)."""
-    out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "rec"}
-    dtype = parts[0]["rec"].dtype
-    out["rec"] = np.concatenate([np.ascontiguousarray(p["rec"]).view(np.uint8)
-                                 for p in parts]).view(dtype)
-    return out
+    return stats, store.parts({mid: message_dtype(mid) for mid in ids}), base
 
 
 def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int, int, dict]:
@@ -265,14 +247,11 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         raise IngestError(f"{path}: no valid MAVLink packets found "
                           f"({stats.skipped + stats.truncated} bytes scanned)")
     sysid, compid, frames = _choose_system(stats, options, path)
-    meta_blocks = {mid: blocks.pop(mid) for mid in meta}
+    meta_blocks = {mid: blocks.pop(mid) for mid in meta if mid in blocks}
     raw = RawLog(path=path, format="tlog")
     # decoded messages of the chosen component, merged in logged order for the clock
     msgs: dict[int, dict[str, np.ndarray]] = {}
-    for mid, parts in blocks.items():
-        if not parts:
-            continue
-        cat = parts[0] if len(parts) == 1 else _concatenate(parts)
+    for mid, cat in blocks.items():
         mine = (cat["sysid"] == sysid) & (cat["compid"] == compid)
         if mine.all():  # one system: no copy (the values are the same)
             msgs[mid] = cat
@@ -340,19 +319,20 @@ def _meta_ids() -> dict[int, str]:
     return {ids[name]: name for name in META_MESSAGES}
 
 
-def _of_system(parts: list[dict[str, np.ndarray]], sysid: int) -> np.ndarray | None:
-    recs = [p["rec"][p["sysid"] == sysid] for p in parts]
-    recs = [r for r in recs if r.size]
-    return np.concatenate(recs) if recs else None
+def _of_system(part: dict[str, np.ndarray] | None, sysid: int) -> np.ndarray | None:
+    if part is None:
+        return None
+    rec = part["rec"][part["sysid"] == sysid]
+    return rec if rec.size else None
 
 
 def _facts(heartbeat: dict[str, np.ndarray] | None,
-           meta: dict[int, list[dict[str, np.ndarray]]], sysid: int) -> dict[str, str]:
+           meta: dict[int, dict[str, np.ndarray]], sysid: int) -> dict[str, str]:
     """Vehicle and autopilot from the chosen component's HEARTBEATs (the most frequent
     type), firmware from its system's banner STATUSTEXT, else AUTOPILOT_VERSION."""
     facts: dict[str, str] = {}
     ids = message_ids()
-    texts = _of_system(meta.get(ids["STATUSTEXT"], []), sysid)
+    texts = _of_system(meta.get(ids["STATUSTEXT"]), sysid)
     banner, _ = first_banner([decode_text(t) for t in texts["text"]] if texts is not None
                              else [])
     if heartbeat is not None and heartbeat["rec"].size:
@@ -365,7 +345,7 @@ def _facts(heartbeat: dict[str, np.ndarray] | None,
                                          ("autopilot", autopilot_name(pilot))) if v})
     for key, value in banner.items():
         facts.setdefault(key, value)
-    version = _of_system(meta.get(ids["AUTOPILOT_VERSION"], []), sysid)
+    version = _of_system(meta.get(ids["AUTOPILOT_VERSION"]), sysid)
     if "firmware" not in facts and version is not None:
         word = ardupilot_version(int(version["flight_sw_version"][-1]))
         if word:
