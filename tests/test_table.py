@@ -13,8 +13,10 @@ from hypothesis import strategies as st
 from etsid.errors import IngestError, TableError
 from etsid.frames import (
     enu_flu_quat_to_ned_frd_euler,
+    matrix_to_euler,
     ned_frd_euler_to_enu_flu_quat,
     quat_to_euler,
+    quat_to_matrix,
 )
 from etsid.ingest.align import (
     build_table,
@@ -177,6 +179,27 @@ def test_enu_flu_identity_faces_east() -> None:
     assert np.allclose([roll[0], pitch[0], yaw[0]], [0.0, 0.0, np.pi / 2])
     assert np.allclose(np.concatenate(quat_to_euler(*(np.array([v]) for v in (1.0, 0, 0, 0)))),
                        0.0)
+
+
+def test_quat_to_euler_equals_the_angles_of_the_whole_matrix() -> None:
+    """The five matrix entries computed alone give the angles of the whole matrix, bit for
+    bit (sign bits too): random, unnormalised, near-gimbal-lock, zero, huge, infinite and
+    NaN quaternions, as strided rows of one array (as the tlog reader passes them)."""
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(4000, 4)) * rng.choice([1e-3, 1.0, 3.0], size=(4000, 1))
+    q[:50] = [np.cos(0.785398), 0.0, np.sin(0.785398), 0.0]  # pitch ±90°, rounding past 1
+    q[50:60, 2] *= -1
+    q[60] = 0.0
+    q[61] = [1e200, 1e200, 0.0, 0.0]
+    q[62] = [np.inf, 0.0, 0.0, 0.0]
+    q[63] = [np.nan, 0.5, 0.5, 0.5]
+    q[64] = [-1.0, 0.0, 0.0, 0.0]
+    got = quat_to_euler(*q.T)
+    want = matrix_to_euler(quat_to_matrix(*q.T))
+    for a, b in zip(got, want, strict=True):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+        assert np.array_equal(np.signbit(a), np.signbit(b))
 
 
 def test_default_rate_is_the_mean_rate_of_a_bursty_stream() -> None:
