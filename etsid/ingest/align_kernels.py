@@ -35,3 +35,40 @@ def hold_merge(t: np.ndarray, grid: np.ndarray, out: np.ndarray
             j += 1
         out[i] = j - 1
     return True
+
+
+@njit(cache=True, boundscheck=False)
+def unwrap_pi(p: np.ndarray, out: np.ndarray) -> bool:  # pragma: no cover - compiled
+    """``out`` = ``np.unwrap(p)`` (period 2π) of a 1-D float64 array, in one pass with
+    numpy's arithmetic step for step: ``d = p[i] − p[i−1]``; ``m = mod(d + π, 2π) − π``
+    (numpy's float ``mod``: ``fmod``, plus 2π when its sign differs from 2π's, +0 for 0);
+    ``m = π`` where ``m = −π`` and ``d > 0``; the correction ``m − d``, or +0 where
+    ``|d| < π``, summed in order (``cumsum``) and added to ``p[i]``. False (``out``
+    unspecified) when ``p`` holds a NaN or an infinity (numpy's NaNs may then differ in
+    sign)."""
+    for i in range(p.size):
+        if not np.isfinite(p[i]):
+            return False
+    period = 2.0 * np.pi
+    high = period / 2.0
+    low = -high
+    if p.size:
+        out[0] = p[0]
+    total = 0.0
+    for i in range(1, p.size):
+        d = p[i] - p[i - 1]
+        m = np.fmod(d - low, period)
+        if m != 0.0:
+            if (period < 0.0) != (m < 0.0):
+                m += period
+        else:
+            m = 0.0  # copysign(0, period)
+        m = m + low
+        if m == low and d > 0.0:
+            m = high
+        correct = m - d
+        if abs(d) < high:
+            correct = 0.0
+        total += correct
+        out[i] = p[i] + total
+    return True
