@@ -239,6 +239,39 @@ def test_compiled_unwrap_equals_numpys_unwrap() -> None:
         assert np.array_equal(np.signbit(got), np.signbit(want))
 
 
+def test_compiled_interp_equals_numpys_interp() -> None:
+    """The merge walk (numba loaded, ordered float arrays) gives ``np.interp``'s bits, sign
+    bits included: repeated sample times, grid points on samples and outside their span,
+    huge, infinite and NaN values (numpy's retry from the right end of a step); unordered
+    or NaN times go to ``np.interp`` itself."""
+    import numba  # noqa: F401  (the walk runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN, interp_linear
+
+    rng = np.random.default_rng(9)
+    for case in range(150):
+        n = int(rng.integers(2, 3000))
+        xp = np.sort(rng.normal(size=n) * 10)
+        if case % 3 == 0:
+            xp = np.round(xp)  # repeated times
+        fp = rng.normal(size=n) * rng.choice([1.0, 1e300])
+        if case % 5 == 0:
+            fp[rng.integers(0, n, 5)] = rng.choice([np.nan, np.inf, -np.inf], 5)
+        x = np.sort(rng.normal(size=HOLD_MERGE_MIN + int(rng.integers(1, 3000))) * 12)
+        if case % 4 == 0:
+            x = np.round(x)
+        if case % 7 == 0:
+            x = np.sort(np.concatenate([xp[:50], x]))  # on the samples
+        if case % 11 == 0:
+            xp[int(rng.integers(0, n))] = np.nan
+        if case % 13 == 0:
+            xp = rng.normal(size=n)
+        got, want = interp_linear(x, xp, fp), np.interp(x, xp, fp)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
 def test_hold_index_merge_walk_equals_searchsorted() -> None:
     """The merge walk (numba loaded, ordered float arrays) gives searchsorted's indices;
     a NaN or an unordered time array falls back to searchsorted itself."""

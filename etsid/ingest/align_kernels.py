@@ -72,3 +72,45 @@ def unwrap_pi(p: np.ndarray, out: np.ndarray) -> bool:  # pragma: no cover - com
         total += correct
         out[i] = p[i] + total
     return True
+
+
+@njit(cache=True, boundscheck=False)
+def interp_merge(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, out: np.ndarray
+                 ) -> bool:  # pragma: no cover - compiled
+    """``out`` = ``np.interp(x, xp, fp)`` by one merge walk, with numpy's arithmetic: for
+    the last ``xp[j]`` at or before ``x[i]`` (numpy's bisection finds the same ``j``),
+    ``fp[0]`` before ``xp[0]``, ``fp[-1]`` from the last ``xp`` on, ``fp[j]`` where
+    ``xp[j] = x[i]``, else ``s (x − xp[j]) + fp[j]`` with the slope
+    ``s = (fp[j+1] − fp[j]) / (xp[j+1] − xp[j])`` (if that is NaN, ``s (x − xp[j+1]) +
+    fp[j+1]``, and ``fp[j]`` if still NaN and ``fp[j] = fp[j+1]``). False (``out``
+    unspecified) unless ``xp`` (two values at least) and ``x`` are in order without NaN."""
+    n = xp.size
+    if n < 2 or np.isnan(xp[0]):
+        return False
+    for i in range(1, n):
+        if not xp[i] >= xp[i - 1]:
+            return False
+    for i in range(x.size):
+        if np.isnan(x[i]) or (i > 0 and not x[i] >= x[i - 1]):
+            return False
+    j = 0
+    for i in range(x.size):
+        xv = x[i]
+        while j < n and xp[j] <= xv:
+            j += 1
+        k = j - 1
+        if k < 0:
+            out[i] = fp[0]
+        elif k == n - 1:
+            out[i] = fp[n - 1]
+        elif xp[k] == xv:
+            out[i] = fp[k]
+        else:
+            slope = (fp[k + 1] - fp[k]) / (xp[k + 1] - xp[k])
+            r = slope * (xv - xp[k]) + fp[k]
+            if np.isnan(r):
+                r = slope * (xv - xp[k + 1]) + fp[k + 1]
+                if np.isnan(r) and fp[k] == fp[k + 1]:
+                    r = fp[k]
+            out[i] = r
+    return True
