@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 import struct
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -444,17 +445,58 @@ def test_cli_ingest_truncated_warns(tlog: Path, tmp_path: Path) -> None:
     assert "truncated" in result.output
 
 
-def test_logged_order_is_the_argsort_of_the_frame_numbers() -> None:
-    """Placing each decoded frame at its number gives ``np.argsort`` of the numbers, for
-    every frame decoded (the inverse permutation) and for some of them."""
-    from etsid.ingest.mavlink.tlog import _logged_order
+def test_logged_clocks_equal_the_joined_and_sorted_arrays() -> None:
+    """The frames placed at their rank (numba and numpy) give the arrays of the former
+    computation, bit for bit: every message's stamps, clocks and kinds joined, then taken
+    in the order of ``np.argsort`` of the frame numbers; all frames decoded or some, and
+    each kind of clock (ms, µs with some in Unix time, uint32 µs, none)."""
+    import etsid.ingest.mavlink.clock_kernel  # noqa: F401  (loads numba: the kernel runs)
+    import etsid.ingest.mavlink.tlog as reader
 
     rng = np.random.default_rng(11)
-    for case in range(60):
-        nframes = int(rng.integers(0, 500))
-        index = rng.permutation(nframes)
+    kinds = {"ATTITUDE": ("time_boot_ms", np.uint32, BOOT, 1e-3),
+             "HIGHRES_IMU": ("time_usec", np.uint64, BOOT, 1e-6),
+             "SERVO_OUTPUT_RAW": ("time_usec", np.uint32, WRAP32_US, 1e-6),
+             "SYS_STATUS": ("", np.uint16, NONE, 0.0)}
+    for case in range(12):
+        nframes = int(rng.integers(0, 3000))
+        numbers = rng.permutation(nframes)
         if case % 2:
-            index = index[: int(rng.integers(0, nframes + 1))]
-        got = _logged_order(index.astype(np.int64), nframes)
-        assert got.dtype == np.int64
-        assert np.array_equal(got, np.argsort(index, kind="stable"))
+            numbers = numbers[: int(rng.integers(0, nframes + 1))]
+        cuts = np.sort(rng.integers(0, numbers.size + 1, len(kinds) - 1))
+        msgs, names = {}, {}
+        for mid, (name, part) in enumerate(zip(kinds, np.split(numbers, cuts), strict=True)):
+            fld, dtype, _, _ = kinds[name]
+            index = np.sort(part).astype(np.int64)
+            rec = np.zeros(index.size, [("pad", np.uint8), (fld or "x", dtype)])
+            rec[fld or "x"] = rng.integers(0, 2**31, index.size).astype(dtype)
+            if dtype == np.uint64:
+                rec[fld][::3] += np.uint64(1_700_000_000_000_000)  # Unix time
+            msgs[mid] = {"rec": rec, "index": index,
+                         "stamp": rng.integers(1.7e15, 1.8e15, index.size).astype(np.int64)}
+            names[mid] = name
+        index = np.concatenate([m["index"] for m in msgs.values()])
+        order = np.argsort(index, kind="stable")
+        want_gcs = np.concatenate([m["stamp"] * 1e-6 for m in msgs.values()])[order]
+        values, codes = [], []
+        for mid, m in msgs.items():
+            fld, dtype, code, scale = kinds[names[mid]]
+            if not fld:
+                values.append(np.zeros(m["index"].size))
+                codes.append(np.full(m["index"].size, NONE, np.int8))
+                continue
+            raw = m["rec"][fld]
+            values.append(raw.astype(np.float64) * scale)
+            codes.append(np.where(raw > 10**15, NONE, code).astype(np.int8)
+                         if dtype == np.uint64 else np.full(raw.size, code, np.int8))
+        want = (want_gcs, np.concatenate(values)[order], np.concatenate(codes)[order])
+        places = reader._logged_places([m["index"] for m in msgs.values()], nframes)
+        assert np.array_equal(np.concatenate(places), np.argsort(order, kind="stable"))
+        for fast in (True, False):
+            with pytest.MonkeyPatch.context() as patch:
+                if not fast:
+                    patch.delitem(sys.modules, "numba")
+                got = reader._logged_clocks(msgs, names, places)
+            for g, w in zip(got, want, strict=True):
+                assert g.dtype == w.dtype
+                np.testing.assert_array_equal(g, w)

@@ -20,6 +20,7 @@ counted in ``dropped``; a file cut mid-frame gives its valid part and a warning.
 from __future__ import annotations
 
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -197,30 +198,49 @@ def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int
     return sysid, compid, frames
 
 
-def _logged_order(index: np.ndarray, nframes: int) -> np.ndarray:
-    """``np.argsort(index)`` of distinct frame numbers in ``[0, nframes)``, by placing each
-    at its number (linear; the sort of a million frames took 12 ms)."""
-    if index.size == nframes:  # every frame: the order is the inverse permutation
-        order = np.empty(nframes, np.int64)
-        order[index] = np.arange(nframes)
-        return order
-    at = np.full(nframes, -1, np.int64)
-    at[index] = np.arange(index.size)
-    return at[at >= 0]
+def _logged_places(indexes: list[np.ndarray], nframes: int) -> list[np.ndarray]:
+    """Where each message's frames go in logged order: the rank of each frame number among
+    all of ``indexes`` (distinct numbers in ``[0, nframes)``). When every frame of the log
+    is decoded, the rank is the number itself."""
+    if sum(i.size for i in indexes) == nframes:
+        return indexes
+    present = np.zeros(nframes, np.bool_)
+    for i in indexes:
+        present[i] = True
+    rank = np.cumsum(present, dtype=np.int64) - 1
+    return [rank[i] for i in indexes]
 
 
-def _clock_of(name: str, rec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    fld, kind = CLOCK_FIELDS.get(name, ("", ""))
-    n = rec.size
-    if kind == "ms":
-        return rec[fld].astype(np.float64) * 1e-3, np.full(n, BOOT, np.int8)
-    if kind == "us32":
-        return rec[fld].astype(np.float64) * 1e-6, np.full(n, WRAP32_US, np.int8)
-    if kind == "us":
-        raw = rec[fld]
-        kinds = np.where(raw > 10**15, NONE, BOOT).astype(np.int8)  # > 1e15 µs: Unix time
-        return raw.astype(np.float64) * 1e-6, kinds
-    return np.zeros(n), np.full(n, NONE, np.int8)
+_KIND_CODES = {"ms": BOOT, "us32": WRAP32_US, "us": BOOT}
+_SCALES = {"ms": 1e-3, "us32": 1e-6, "us": 1e-6}
+UNIX_US = 10**15
+"""A ``time_usec`` above this (µs, 31 years) is Unix time, not time since boot."""
+
+
+def _logged_clocks(msgs: dict[int, dict[str, np.ndarray]], names: dict[int, str],
+                   places: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ground-station stamps (s), own clocks (s) and clock kinds of every decoded frame, in
+    logged order (see :func:`etsid.ingest.mavlink.clock.autopilot_clock`). Once numba is
+    loaded, one compiled pass per message writes its frames in place (numpy's fancy-index
+    writes are slow); otherwise numpy writes them."""
+    n = sum(p.size for p in places)
+    gcs, value, kind = np.empty(n), np.empty(n), np.empty(n, np.int8)
+    fast = "numba" in sys.modules
+    for (mid, m), at in zip(msgs.items(), places, strict=True):
+        fld, how = CLOCK_FIELDS.get(names[mid], ("", ""))
+        field = m["rec"][fld] if how else m["stamp"]
+        code, scale = _KIND_CODES.get(how, NONE), _SCALES.get(how, 0.0)
+        unix_from = UNIX_US if how == "us" else 0
+        if fast:
+            from etsid.ingest.mavlink.clock_kernel import place_clock
+
+            place_clock(at, m["stamp"], field, scale, code, field.dtype.type(unix_from), gcs,
+                        value, kind)
+            continue
+        gcs[at] = m["stamp"] * 1e-6
+        value[at] = field.astype(np.float64) * scale if how else 0.0
+        kind[at] = np.where(field > unix_from, NONE, code) if unix_from else code
+    return gcs, value, kind
 
 
 def _override_signal(o: Override, rec: np.ndarray, t: np.ndarray, path: Path) -> Signal:
@@ -258,27 +278,15 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         elif mine.any():
             msgs[mid] = {k: v[mine] for k, v in cat.items()}
     names = {mid: wanted[mid] for mid in msgs}
-    index = np.concatenate([m["index"] for m in msgs.values()]) if msgs else np.empty(0, int)
-    order = _logged_order(index, nframes)
-    values, kinds, stamps = [], [], []
-    for mid, m in msgs.items():
-        v, k = _clock_of(names[mid], m["rec"])
-        values.append(v)
-        kinds.append(k)
-        stamps.append(m["stamp"] * 1e-6)
-    clock = autopilot_clock(np.concatenate(stamps)[order] if msgs else np.empty(0),
-                            np.concatenate(values)[order] if msgs else np.empty(0),
-                            np.concatenate(kinds)[order] if msgs else np.empty(0, np.int8))
-    t_all = np.empty(index.size)
-    t_all[order] = clock.t
+    # every decoded frame at its place in logged order (its rank: no sort, no joins)
+    places = _logged_places([m["index"] for m in msgs.values()], nframes)
+    clock = autopilot_clock(*_logged_clocks(msgs, names, places))
     raw.start_time = clock.start_time
     _clock_issues(raw, clock)
     overrides = options.field_requests()
-    pos = 0
     times: dict[int, tuple[float, float]] = {}
-    for mid, m in msgs.items():
-        t = t_all[pos:pos + m["rec"].size]
-        pos += m["rec"].size
+    for (mid, m), at in zip(msgs.items(), places, strict=True):
+        t = clock.t[at]
         rec = m["rec"]
         late = int(np.count_nonzero(t < np.maximum.accumulate(t)))
         if late:
