@@ -7,7 +7,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from etsid.ingest.mavlink.clock import _walk
+from etsid.ingest.mavlink.clock import NONE, _walk
 
 walk = numba.njit(cache=True)(_walk)
 """:func:`etsid.ingest.mavlink.clock._walk`, compiled (same arithmetic)."""
@@ -24,10 +24,10 @@ def place_clock(at, stamp, field, scale, kind_code, unix_from, gcs, value, kind
     for i in range(at.size):
         j = at[i]
         gcs[j] = np.float64(stamp[i]) * 1e-6
-        if kind_code == 0:
+        if kind_code == NONE:
             value[j] = 0.0
-            kind[j] = 0
+            kind[j] = NONE
             continue
         x = field[i]
         value[j] = np.float64(x) * scale
-        kind[j] = 0 if unix_from > 0 and x > unix_from else kind_code
+        kind[j] = NONE if unix_from > 0 and x > unix_from else kind_code
