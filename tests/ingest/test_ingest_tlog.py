@@ -500,3 +500,17 @@ def test_logged_clocks_equal_the_joined_and_sorted_arrays() -> None:
             for g, w in zip(got, want, strict=True):
                 assert g.dtype == w.dtype
                 np.testing.assert_array_equal(g, w)
+
+
+def test_a_messages_signals_share_one_plain_time_array(tlog: Path) -> None:
+    """With the compiled clock, the fields of one message still share one time array that
+    ``np.asarray(t, dtype=float)`` returns as it is (numba's arrays carry float64 as another
+    dtype object; a view per signal would repeat the per-array work of the table build)."""
+    import etsid.ingest.mavlink.clock_kernel  # noqa: F401  (loads numba: the kernels run)
+
+    raw = read_raw(tlog)
+    by_topic: dict[str, set[int]] = {}
+    for sig in raw.signals:
+        by_topic.setdefault(sig.topic, set()).add(id(sig.t))
+        assert np.asarray(sig.t, dtype=float) is sig.t
+    assert len(by_topic["ATTITUDE"]) == 1 and len(by_topic["HIGHRES_IMU"]) == 1

@@ -286,7 +286,10 @@ def read(path: Path, options: ReadOptions) -> RawLog:
     overrides = options.field_requests()
     times: dict[int, tuple[float, float]] = {}
     for (mid, m), at in zip(msgs.items(), places, strict=True):
-        t = clock.t[at]
+        # into a numpy array: numba's arrays carry float64 as another dtype object, and
+        # np.asarray(t, dtype=float) then makes a new view per signal, which defeats the
+        # work kept once per time array downstream (id(t): native period, gaps, strays)
+        t = np.take(clock.t, at, out=np.empty(at.size))
         rec = m["rec"]
         late = int(np.count_nonzero(t < np.maximum.accumulate(t)))
         if late:
