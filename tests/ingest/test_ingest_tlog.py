@@ -25,6 +25,8 @@ from etsid.ingest.mavlink.scan import (
     OK,
     ScanResult,
     crc_x25,
+    frame_key,
+    frame_key_stats,
     gather_payloads,
     gather_payloads_reference,
     key_stats,
@@ -236,6 +238,24 @@ def test_key_counts_match_their_reference(tlog: Path) -> None:
     res = scan_frames(np.frombuffer(bytes(data), np.uint8), crc_extra_table(), final=True)
     key = (res.sysid.astype(np.int64) << 32) | res.msgid
     assert key_stats(key, res.stamp_us, True) == key_stats(key, res.stamp_us, False)
+    # the keys made in the pass: the counts of the keys made by numpy
+    compid = (res.msgid % 3).astype(np.uint8)  # several components too
+    whole = ((res.sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24)
+             | res.msgid)
+    assert np.array_equal(frame_key(res.sysid, compid, res.msgid), whole)
+    want = key_stats(whole, res.stamp_us, False)
+    assert len(want[0]) > 3
+    assert frame_key_stats(res.sysid, compid, res.msgid, res.stamp_us, True) == want
+    assert frame_key_stats(res.sysid, compid, res.msgid, res.stamp_us, False) == want
+    # keys that share a message id's low 16 bits (the pass's hint of the key's slot)
+    rng = np.random.default_rng(4)
+    sysid = rng.integers(0, 3, 5000).astype(np.uint8)
+    compid = rng.integers(0, 2, 5000).astype(np.uint8)
+    msgid = (rng.integers(0, 4, 5000) + (rng.integers(0, 3, 5000) << 16)).astype(np.int32)
+    stamp = rng.integers(0, 10**9, 5000).astype(np.int64)
+    want = key_stats(frame_key(sysid, compid, msgid), stamp, False)
+    assert len(want[0]) > 40
+    assert frame_key_stats(sysid, compid, msgid, stamp, True) == want
     many = np.arange(KEYS_MAX + 5, dtype=np.int64)[::-1]  # more keys than the kernel holds
     assert key_stats(many, many * 2, True) == key_stats(many, many * 2, False)
     assert key_stats(many, many * 2, True)[0] == sorted(many.tolist())

@@ -182,6 +182,28 @@ def key_stats(key: np.ndarray, stamp: np.ndarray, fast: bool
             np.maximum.reduceat(s, starts).tolist())
 
 
+def frame_key(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray) -> np.ndarray:
+    """Each frame's (system, component, message) as one int64:
+    ``(sysid << 32) | (compid << 24) | msgid``."""
+    return (sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24) | msgid
+
+
+def frame_key_stats(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray,
+                    stamp: np.ndarray, fast: bool
+                    ) -> tuple[list[int], list[int], list[int], list[int]]:
+    """``key_stats(frame_key(sysid, compid, msgid), stamp, fast)``; ``fast``: the keys are
+    made in the numba pass (no key array: 3 casts, 2 shifts and 2 ors of every frame)."""
+    if fast and msgid.size:
+        from etsid.ingest.mavlink.scan_kernels import _frame_key_stats_kernel
+
+        keys, counts, lo, hi = (np.empty(KEYS_MAX, np.int64) for _ in range(4))
+        n = _frame_key_stats_kernel(sysid, compid, msgid, stamp, keys, counts, lo, hi)
+        if n >= 0:
+            order = np.argsort(keys[:n])
+            return tuple(a[:n][order].tolist() for a in (keys, counts, lo, hi))  # type: ignore
+    return key_stats(frame_key(sysid, compid, msgid), stamp, fast=False)
+
+
 KEYS_MAX = 4096
 """Most distinct keys :func:`key_stats` counts in its numba pass (more: the sort)."""
 

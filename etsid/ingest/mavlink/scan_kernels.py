@@ -148,22 +148,32 @@ def _key_stats_kernel(key, stamp, keys, counts, lo, hi):  # pragma: no cover - c
     n_keys = 0
     last = -1
     for i in range(key.size):
-        k = key[i]
+        n_keys, last = _tally(key[i], stamp[i], n_keys, last, keys, counts, lo, hi)
+        if n_keys < 0:
+            return -1
+    return n_keys
+
+
+@numba.njit(cache=True, nogil=True)
+def _frame_key_stats_kernel(sysid, compid, msgid, stamp, keys, counts, lo, hi
+                            ):  # pragma: no cover - compiled
+    """:func:`_key_stats_kernel` of the frames' keys ``(sysid << 32) | (compid << 24) |
+    msgid``, each made in the pass. The slot of each key is remembered by its message id's
+    low 16 bits (frames of several messages interleave, so the previous frame's key is
+    rarely the next one's, and a search through the keys per frame took most of the
+    time)."""
+    n_keys = 0
+    hint = np.full(1 << 16, -1, np.int64)
+    for i in range(msgid.size):
+        k = (np.int64(sysid[i]) << 32) | (np.int64(compid[i]) << 24) | np.int64(msgid[i])
+        h = np.int64(msgid[i]) & 0xFFFF
+        last = hint[h]
         if last < 0 or keys[last] != k:
-            last = -1
-            for j in range(n_keys):
-                if keys[j] == k:
-                    last = j
-                    break
-            if last < 0:
-                if n_keys == keys.size:
-                    return -1
-                last = n_keys
-                keys[last] = k
-                counts[last] = 0
-                lo[last] = stamp[i]
-                hi[last] = stamp[i]
-                n_keys += 1
+            n_keys, last = _tally(k, stamp[i], n_keys, -1, keys, counts, lo, hi)
+            if n_keys < 0:
+                return -1
+            hint[h] = last
+            continue
         counts[last] += 1
         s = stamp[i]
         if s < lo[last]:
@@ -171,6 +181,33 @@ def _key_stats_kernel(key, stamp, keys, counts, lo, hi):  # pragma: no cover - c
         if s > hi[last]:
             hi[last] = s
     return n_keys
+
+
+@numba.njit(cache=True, nogil=True)
+def _tally(k, s, n_keys, last, keys, counts, lo, hi):  # pragma: no cover - compiled
+    """Count key ``k`` with stamp ``s``; ``last`` is the slot of the previous key. Returns
+    the number of keys (−1: no room for a new one) and ``k``'s slot."""
+    if last < 0 or keys[last] != k:
+        last = -1
+        for j in range(n_keys):
+            if keys[j] == k:
+                last = j
+                break
+        if last < 0:
+            if n_keys == keys.size:
+                return -1, last
+            last = n_keys
+            keys[last] = k
+            counts[last] = 0
+            lo[last] = s
+            hi[last] = s
+            n_keys += 1
+    counts[last] += 1
+    if s < lo[last]:
+        lo[last] = s
+    if s > hi[last]:
+        hi[last] = s
+    return n_keys, last
 
 
 @numba.njit(cache=True, nogil=True)

@@ -41,7 +41,7 @@ from etsid.ingest.mavlink.dtypes import (
 from etsid.ingest.mavlink.scan import (
     UNKNOWN,
     ScanResult,
-    key_stats,
+    frame_key_stats,
     scan_arrays,
     scan_frames,
 )
@@ -93,17 +93,14 @@ class _Stats:
         self.first_us = int(stamps[0]) if self.first_us is None else self.first_us
         self.last_us = int(stamps[-1])
 
-    def add(self, key: np.ndarray, stamp: np.ndarray, fast: bool) -> None:
-        if not key.size:
+    def add(self, res: ScanResult, fast: bool) -> None:
+        if not res.msgid.size:
             return
-        for kk, c, a, b in zip(*key_stats(key, stamp, fast), strict=True):
+        for kk, c, a, b in zip(*frame_key_stats(res.sysid, res.compid, res.msgid,
+                                                res.stamp_us, fast), strict=True):
             self.count[kk] = self.count.get(kk, 0) + c
             self.first[kk] = min(self.first.get(kk, a), a)
             self.last[kk] = max(self.last.get(kk, b), b)
-
-
-def _key(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray) -> np.ndarray:
-    return (sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24) | msgid
 
 
 def _wanted_ids(overrides: list[Override], path: Path) -> dict[int, str]:
@@ -149,8 +146,7 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
                 stats.first_us = stats.first_us if stats.first_us is not None else \
                     int(res.stamp_us[0])
                 stats.last_us = int(res.stamp_us[-1])
-            key = _key(res.sysid, res.compid, res.msgid)
-            stats.add(key, res.stamp_us, fast)
+            stats.add(res, fast)
             unknown = res.status == UNKNOWN
             if unknown.any():
                 for mid, c in zip(*np.unique(res.msgid[unknown], return_counts=True),
