@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from etsid.ingest.mavlink.scan import MAGIC_V1, MAGIC_V2, OK, STAMP, UNKNOWN
 
@@ -210,6 +213,26 @@ def _tally(k, s, n_keys, last, keys, counts, lo, hi):  # pragma: no cover - comp
     return n_keys, last
 
 
+@intrinsic
+def _copy_bytes(typingctx, dst, dst_at, src, src_at, n):  # type: ignore[no-untyped-def]
+    """``dst[dst_at:dst_at + n] = src[src_at:src_at + n]`` for two distinct contiguous
+    uint8 arrays, as one ``memcpy`` (numba's slice copy of a 30-byte payload took 2.5x as
+    long); the caller checks the bounds."""
+    if not all(isinstance(a, types.Array) and a.layout == "C" and a.dtype == types.uint8
+               for a in (dst, src)):
+        return None  # (a typing error: the copy below needs contiguous bytes)
+    sig = types.void(dst, dst_at, src, src_at, n)
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        d, d_at, s, s_at, count = args
+        d_arr = context.make_array(signature.args[0])(context, builder, d)
+        s_arr = context.make_array(signature.args[2])(context, builder, s)
+        cgutils.raw_memcpy(builder, builder.gep(d_arr.data, [d_at]),
+                           builder.gep(s_arr.data, [s_at]), count, 1)
+
+    return sig, codegen
+
+
 @numba.njit(cache=True, nogil=True)
 def _count_kernel(msgid, status, group, ok, counts):  # pragma: no cover - compiled
     """Frames per group: ``counts[group[msgid]] += 1`` for the frames with status ``ok``
@@ -265,6 +288,8 @@ def _store_payloads(buf, offset, length, msgid, status, group, ok, sizes, rbase,
         dest = rbase[g] + r * size
         start = offset[i]
         n = min(np.int64(length[i]), size)
-        rec[dest:dest + n] = buf[start:start + n]  # a slice copy: about 2x a byte loop
-        if n < size:
-            rec[dest + n:dest + size] = 0
+        if start + n > buf.size or dest + size > rec.size:
+            raise IndexError("frame store: payload out of range")
+        _copy_bytes(rec, dest, buf, start, n)
+        for k in range(n, size):
+            rec[dest + k] = 0
