@@ -130,6 +130,42 @@ def test_dirty_timestamps_are_repaired_and_counted() -> None:
     assert np.allclose(table["p"].to_numpy(), [0, 1, 2, 3, 4, 5, 6])
 
 
+def test_clean_signal_with_known_clean_times_is_unchanged() -> None:
+    """Signals that share time arrays, cleaned with the set of time arrays found clean,
+    give what each gives alone (arrays, issues), and keep a clean time array itself:
+    clean and dirty times (NaN, unordered, repeated), values with NaN."""
+    from etsid.ingest.align import clean_signal
+
+    rng = np.random.default_rng(2)
+    clean = np.sort(rng.uniform(0, 10, 500))
+    unordered = clean.copy()
+    unordered[[3, 7]] = unordered[[7, 3]]
+    repeated = clean.copy()
+    repeated[10] = repeated[9]
+    holed = clean.copy()
+    holed[4] = np.nan
+    times = [clean, unordered, repeated, holed, clean, clean, holed, repeated]
+    signals = []
+    for k, t in enumerate(times):
+        v = rng.normal(size=t.size)
+        if k == 5:
+            v[17] = np.nan
+        signals.append(Signal("p", t, v, f"M{k}.p", 0))
+    known: set[int] = set()
+    d1: list = []
+    r1: list = []
+    got = [clean_signal(s, d1, r1, known) for s in signals]
+    d2: list = []
+    r2: list = []
+    want = [clean_signal(s, d2, r2) for s in signals]
+    assert d1 == d2 and r1 == r2 and len(d1) >= 4 and r1
+    assert known == {id(clean)}
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g.t, w.t)
+        np.testing.assert_array_equal(g.values, w.values)
+    assert got[0].t is clean and got[4].t is clean
+
+
 def test_choose_signals_priority_rate_and_override() -> None:
     t1, t2 = np.arange(0, 1, 0.01), np.arange(0, 1, 0.004)
     fused = sig("p", t1, t1, "/mavros/imu/data.angular_velocity.x", priority=1)

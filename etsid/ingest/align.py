@@ -42,15 +42,25 @@ MAX_GRID_POINTS = 50_000_000
 """Refuse grids larger than this (a typo in ``--rate`` would otherwise exhaust memory)."""
 
 
-def clean_signal(sig: Signal, dropped: list[Issue], repaired: list[Issue]) -> Signal:
-    """Drop non-finite samples, sort by time, merge duplicate timestamps; record counts."""
+def clean_signal(sig: Signal, dropped: list[Issue], repaired: list[Issue],
+                 clean_times: set[int] | None = None) -> Signal:
+    """Drop non-finite samples, sort by time, merge duplicate timestamps; record counts.
+
+    ``clean_times`` holds the ids of time arrays already found finite, in order and without
+    repeats (the fields of one message share theirs): for such a time array only the values
+    are checked. Arrays found clean here are added; the caller keeps them alive meanwhile.
+    """
     t = np.asarray(sig.t, dtype=float)
     v = np.asarray(sig.values, dtype=float)
+    if clean_times is not None and id(t) in clean_times and np.isfinite(v).all():
+        return Signal(sig.column, t, v, sig.source, sig.priority)
     ok = np.isfinite(t) & np.isfinite(v)
-    if not ok.all():
+    clean = bool(ok.all())
+    if not clean:
         dropped.append(Issue("NaN or inf sample", int((~ok).sum()), sig.source))
         t, v = t[ok], v[ok]
     if t.size > 1 and np.any(np.diff(t) < 0):
+        clean = False
         order = np.argsort(t, kind="stable")
         moved = int(np.count_nonzero(order != np.arange(t.size)))
         repaired.append(Issue("out-of-order timestamp, re-sorted", moved, sig.source))
@@ -58,8 +68,11 @@ def clean_signal(sig: Signal, dropped: list[Issue], repaired: list[Issue]) -> Si
     if t.size > 1:
         dup = np.concatenate(([False], np.diff(t) == 0))
         if dup.any():
+            clean = False
             dropped.append(Issue("duplicate timestamp", int(dup.sum()), sig.source))
             t, v = t[~dup], v[~dup]
+    if clean and clean_times is not None:
+        clean_times.add(id(t))
     return Signal(sig.column, t, v, sig.source, sig.priority)
 
 
@@ -201,7 +214,8 @@ def build_table(
         Keep only this window, s from the reference signal's first sample.
     """
     dropped, repaired = list(raw.dropped), list(raw.repaired)
-    cleaned = {c: clean_signal(s, dropped, repaired) for c, s in chosen.items()}
+    clean_times: set[int] = set()  # (the arrays stay alive in ``cleaned``)
+    cleaned = {c: clean_signal(s, dropped, repaired, clean_times) for c, s in chosen.items()}
     cleaned, note = check_signals(cleaned, dropped)
     if note:
         raw.warnings.append(f"{raw.path}: {note}")
