@@ -119,6 +119,25 @@ def test_gaps_split_segments_and_never_interpolate() -> None:
     assert table.attrs["gaps"][0]["signal"] == "IMU.p"
 
 
+def test_no_data_warnings_count_the_columns_missing_values() -> None:
+    """Each column's "grid points have no data" warning counts what ``isna`` counts in the
+    table (counted on the resampled arrays): a gap, a short span, a held command."""
+    t = np.arange(0, 3, 0.01)
+    raw = RawLog(Path("x.log"), "test", signals=[])
+    chosen = {"p": sig("p", t, np.sin(t), "IMU.p"),
+              "q": sig("q", np.concatenate([t[:100], t[150:]]), np.cos(t[:250]), "IMU.q"),
+              "alt": sig("alt", t[50:200], t[50:200], "RNG.alt"),
+              "u_roll": sig("u_roll", np.arange(0.5, 3, 0.02), np.ones(125), "RC.u")}
+    table = build_table(raw, chosen)
+    said = {}
+    for line in raw.warnings:
+        if "grid points have no data" in line:
+            column, rest = line.split(": ", 1)
+            said[column] = int(rest.split(" of ")[0])
+    want = {c: int(table[c].isna().sum()) for c in chosen if table[c].isna().any()}
+    assert said == want and {"q", "alt", "u_roll"} <= set(said)
+
+
 def test_dirty_timestamps_are_repaired_and_counted() -> None:
     t = np.array([0.0, 0.01, 0.02, 0.02, 0.04, 0.03, 0.05, 0.06])
     v = np.array([0.0, 1.0, 2.0, 2.0, 4.0, 3.0, np.nan, 6.0])

@@ -288,7 +288,9 @@ def build_table(
     table = pd.DataFrame(data, index=pd.Index(grid - grid[0], name="t"))
     for column in table.columns:
         if column != SEGMENT:
-            missing = int(table[column].isna().sum())
+            values = data[column]  # (the column's values; pandas' isna per column: 3x)
+            missing = (int(np.count_nonzero(np.isnan(values))) if values.dtype == np.float64
+                       else int(table[column].isna().sum()))
             if missing:
                 raw.warnings.append(
                     f"{column}: {missing} of {len(table)} grid points have no data "
