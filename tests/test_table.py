@@ -327,6 +327,34 @@ def test_compiled_interp_equals_numpys_interp() -> None:
         assert np.array_equal(np.signbit(got), np.signbit(want))
 
 
+def test_compiled_hold_equals_numpys_hold(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A held column resampled in one compiled pass (numba loaded) equals numpy's gather and
+    masks: grid points before the first sample, past the hold of the last one, values with
+    NaN and -0."""
+    import sys
+
+    import numba  # noqa: F401  (the compiled pass runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN
+
+    rng = np.random.default_rng(6)
+    for _case in range(30):
+        n = int(rng.integers(2, 3000))
+        t = np.sort(rng.uniform(0.0, 50.0, n))
+        v = rng.normal(size=n)
+        v[rng.integers(0, n, 3)] = rng.choice([np.nan, -0.0, np.inf], 3)
+        grid = np.sort(rng.uniform(-5.0, 60.0, HOLD_MERGE_MIN + int(rng.integers(1, 3000))))
+        s = Signal("u_roll", t, v, "RC.u", 0)
+        period = float(rng.choice([0.01, 0.5, 3.0]))
+        got = resample(s, grid, period)
+        with monkeypatch.context() as patch:
+            patch.delitem(sys.modules, "numba")
+            want = resample(s, grid, period)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
 def test_hold_index_merge_walk_equals_searchsorted() -> None:
     """The merge walk (numba loaded, ordered float arrays) gives searchsorted's indices;
     a NaN or an unordered time array falls back to searchsorted itself."""

@@ -172,9 +172,18 @@ def resample(sig: Signal, grid: np.ndarray, period: float | None = None,
         period = native_period(t) if t.size > 1 else 0.0
     if interp == "hold":
         idx = hold_index(t, grid) if held is None else held
-        out = v[np.clip(idx, 0, None)].astype(float)
-        out[idx < 0] = np.nan
-        out[grid > t[-1] + GAP_PERIODS * period] = np.nan
+        after = t[-1] + GAP_PERIODS * period
+        if ("numba" in sys.modules and grid.size > HOLD_MERGE_MIN
+                and all(a.dtype == d and a.ndim == 1 and a.flags.c_contiguous
+                        for a, d in ((v, np.float64), (grid, np.float64), (idx, np.intp)))):
+            from etsid.ingest.align_kernels import hold_values
+
+            out = np.empty(grid.size)
+            hold_values(v, idx, grid, float(after), out)
+        else:
+            out = v[np.clip(idx, 0, None)].astype(float)
+            out[idx < 0] = np.nan
+            out[grid > after] = np.nan
     else:
         base = unwrap(v) if interp == "angle" else v
         out = interp_linear(grid, t, base)

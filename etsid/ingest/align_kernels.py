@@ -114,3 +114,13 @@ def interp_merge(x: np.ndarray, xp: np.ndarray, fp: np.ndarray, out: np.ndarray
                     r = fp[k]
             out[i] = r
     return True
+
+
+@njit(cache=True, boundscheck=False)
+def hold_values(v: np.ndarray, idx: np.ndarray, grid: np.ndarray, after: float,
+                out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Zero-order hold in one pass: ``out[i] = v[idx[i]]``, NaN where ``idx[i] < 0`` (before
+    the first sample) or ``grid[i] > after`` (past the last sample's hold)."""
+    for i in range(idx.size):
+        j = idx[i]
+        out[i] = np.nan if j < 0 or grid[i] > after else v[j]
