@@ -33,11 +33,16 @@ def quat_to_matrix(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -
         return _quat_to_matrix(w, x, y, z)
 
 
-def _quat_to_matrix(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+def _normalised(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     n = np.sqrt(w * w + x * x + y * y + z * z)
     n = np.where(n > 0, n, 1.0)
     n = np.where(np.isfinite(n), n, np.nan)  # an overflowing quaternion has no rotation
-    w, x, y, z = w / n, x / n, y / n, z / n
+    return w / n, x / n, y / n, z / n
+
+
+def _quat_to_matrix(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    w, x, y, z = _normalised(w, x, y, z)
     r = np.empty((np.size(w), 3, 3))
     r[:, 0, 0] = 1 - 2 * (y * y + z * z)
     r[:, 0, 1] = 2 * (x * y - w * z)
@@ -53,17 +58,34 @@ def _quat_to_matrix(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) 
 
 def matrix_to_euler(r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ZYX Euler angles (roll, pitch, yaw), rad, of world-from-body matrices (N, 3, 3)."""
-    roll = np.arctan2(r[:, 2, 1], r[:, 2, 2])
-    pitch = -np.arcsin(np.clip(r[:, 2, 0], -1.0, 1.0))
-    yaw = np.arctan2(r[:, 1, 0], r[:, 0, 0])
+    return _euler(r[:, 2, 1], r[:, 2, 2], r[:, 2, 0], r[:, 1, 0], r[:, 0, 0])
+
+
+def _euler(r21: np.ndarray, r22: np.ndarray, r20: np.ndarray, r10: np.ndarray,
+           r00: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`matrix_to_euler` from the five entries it reads."""
+    roll = np.arctan2(r21, r22)
+    pitch = -np.arcsin(np.clip(r20, -1.0, 1.0))
+    yaw = np.arctan2(r10, r00)
     return roll, pitch, yaw
 
 
 def quat_to_euler(
     w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """ZYX Euler angles of a world-from-body quaternion in the same convention (e.g. NED/FRD)."""
-    return matrix_to_euler(quat_to_matrix(w, x, y, z))
+    """ZYX Euler angles of a world-from-body quaternion in the same convention (e.g. NED/FRD).
+
+    ``matrix_to_euler(quat_to_matrix(w, x, y, z))``, computing only the five entries of the
+    matrix it reads, with the same arithmetic (the whole matrices took 26 of 30 ms for
+    150,000 quaternions)."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        w, x, y, z = _normalised(w, x, y, z)
+        r00 = 1 - 2 * (y * y + z * z)
+        r10 = 2 * (x * y + w * z)
+        r20 = 2 * (x * z - w * y)
+        r21 = 2 * (y * z + w * x)
+        r22 = 1 - 2 * (x * x + y * y)
+    return _euler(r21, r22, r20, r10, r00)
 
 
 def enu_flu_quat_to_ned_frd_euler(

@@ -13,8 +13,10 @@ from hypothesis import strategies as st
 from etsid.errors import IngestError, TableError
 from etsid.frames import (
     enu_flu_quat_to_ned_frd_euler,
+    matrix_to_euler,
     ned_frd_euler_to_enu_flu_quat,
     quat_to_euler,
+    quat_to_matrix,
 )
 from etsid.ingest.align import (
     build_table,
@@ -117,6 +119,25 @@ def test_gaps_split_segments_and_never_interpolate() -> None:
     assert table.attrs["gaps"][0]["signal"] == "IMU.p"
 
 
+def test_no_data_warnings_count_the_columns_missing_values() -> None:
+    """Each column's "grid points have no data" warning counts what ``isna`` counts in the
+    table (counted on the resampled arrays): a gap, a short span, a held command."""
+    t = np.arange(0, 3, 0.01)
+    raw = RawLog(Path("x.log"), "test", signals=[])
+    chosen = {"p": sig("p", t, np.sin(t), "IMU.p"),
+              "q": sig("q", np.concatenate([t[:100], t[150:]]), np.cos(t[:250]), "IMU.q"),
+              "alt": sig("alt", t[50:200], t[50:200], "RNG.alt"),
+              "u_roll": sig("u_roll", np.arange(0.5, 3, 0.02), np.ones(125), "RC.u")}
+    table = build_table(raw, chosen)
+    said = {}
+    for line in raw.warnings:
+        if "grid points have no data" in line:
+            column, rest = line.split(": ", 1)
+            said[column] = int(rest.split(" of ")[0])
+    want = {c: int(table[c].isna().sum()) for c in chosen if table[c].isna().any()}
+    assert said == want and {"q", "alt", "u_roll"} <= set(said)
+
+
 def test_dirty_timestamps_are_repaired_and_counted() -> None:
     t = np.array([0.0, 0.01, 0.02, 0.02, 0.04, 0.03, 0.05, 0.06])
     v = np.array([0.0, 1.0, 2.0, 2.0, 4.0, 3.0, np.nan, 6.0])
@@ -126,6 +147,42 @@ def test_dirty_timestamps_are_repaired_and_counted() -> None:
     assert reasons == {"NaN or inf sample": 1, "duplicate timestamp": 1}
     assert table.attrs["repaired"][0]["count"] == 2
     assert np.allclose(table["p"].to_numpy(), [0, 1, 2, 3, 4, 5, 6])
+
+
+def test_clean_signal_with_known_clean_times_is_unchanged() -> None:
+    """Signals that share time arrays, cleaned with the set of time arrays found clean,
+    give what each gives alone (arrays, issues), and keep a clean time array itself:
+    clean and dirty times (NaN, unordered, repeated), values with NaN."""
+    from etsid.ingest.align import clean_signal
+
+    rng = np.random.default_rng(2)
+    clean = np.sort(rng.uniform(0, 10, 500))
+    unordered = clean.copy()
+    unordered[[3, 7]] = unordered[[7, 3]]
+    repeated = clean.copy()
+    repeated[10] = repeated[9]
+    holed = clean.copy()
+    holed[4] = np.nan
+    times = [clean, unordered, repeated, holed, clean, clean, holed, repeated]
+    signals = []
+    for k, t in enumerate(times):
+        v = rng.normal(size=t.size)
+        if k == 5:
+            v[17] = np.nan
+        signals.append(Signal("p", t, v, f"M{k}.p", 0))
+    known: set[int] = set()
+    d1: list = []
+    r1: list = []
+    got = [clean_signal(s, d1, r1, known) for s in signals]
+    d2: list = []
+    r2: list = []
+    want = [clean_signal(s, d2, r2) for s in signals]
+    assert d1 == d2 and r1 == r2 and len(d1) >= 4 and r1
+    assert known == {id(clean)}
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g.t, w.t)
+        np.testing.assert_array_equal(g.values, w.values)
+    assert got[0].t is clean and got[4].t is clean
 
 
 def test_choose_signals_priority_rate_and_override() -> None:
@@ -179,6 +236,27 @@ def test_enu_flu_identity_faces_east() -> None:
                        0.0)
 
 
+def test_quat_to_euler_equals_the_angles_of_the_whole_matrix() -> None:
+    """The five matrix entries computed alone give the angles of the whole matrix, bit for
+    bit (sign bits too): random, unnormalised, near-gimbal-lock, zero, huge, infinite and
+    NaN quaternions, as strided rows of one array (as the tlog reader passes them)."""
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(4000, 4)) * rng.choice([1e-3, 1.0, 3.0], size=(4000, 1))
+    q[:50] = [np.cos(0.785398), 0.0, np.sin(0.785398), 0.0]  # pitch ±90°, rounding past 1
+    q[50:60, 2] *= -1
+    q[60] = 0.0
+    q[61] = [1e200, 1e200, 0.0, 0.0]
+    q[62] = [np.inf, 0.0, 0.0, 0.0]
+    q[63] = [np.nan, 0.5, 0.5, 0.5]
+    q[64] = [-1.0, 0.0, 0.0, 0.0]
+    got = quat_to_euler(*q.T)
+    want = matrix_to_euler(quat_to_matrix(*q.T))
+    for a, b in zip(got, want, strict=True):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+        assert np.array_equal(np.signbit(a), np.signbit(b))
+
+
 def test_default_rate_is_the_mean_rate_of_a_bursty_stream() -> None:
     """Samples arriving in pairs (1 ms, 6 ms apart) run at 2 per 7 ms, not at 1/median."""
     t = np.cumsum(np.tile([0.001, 0.006], 200))
@@ -186,6 +264,95 @@ def test_default_rate_is_the_mean_rate_of_a_bursty_stream() -> None:
     table = build_table(raw, {"p": sig("p", t, np.sin(t), "rates.x")})
     assert table.attrs["rate_hz"] == pytest.approx(2 / 0.007, rel=5e-3)
     assert table["segment"].nunique() == 1 and not table.attrs["gaps"]
+
+
+def test_compiled_unwrap_equals_numpys_unwrap() -> None:
+    """The one-pass unwrap (numba loaded, finite float arrays) gives ``np.unwrap``'s bits,
+    sign bits included: random walks of every step size, wrapped angles, steps of exactly
+    ±π and multiples of it; arrays with a NaN or an infinity go to ``np.unwrap`` itself."""
+    import numba  # noqa: F401  (the compiled pass runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN, unwrap
+
+    rng = np.random.default_rng(3)
+    for case in range(120):
+        n = HOLD_MERGE_MIN + int(rng.integers(1, 3000))
+        x = np.cumsum(rng.normal(0.0, rng.choice([0.01, 1.0, 3.0, 10.0]), n))
+        if case % 3 == 0:
+            x = np.angle(np.exp(1j * x))
+        if case % 5 == 0:
+            x[rng.integers(0, n, 20)] = np.pi * rng.choice([-3, -2, -1, 1, 2, 3], 20)
+        if case % 7 == 0:
+            x[1], x[2], x[3] = x[0] + np.pi, x[0], x[0] - np.pi
+        if case % 11 == 0:
+            x[int(rng.integers(0, n))] = rng.choice([np.nan, np.inf, -np.inf])
+        with np.errstate(invalid="ignore"):
+            want = np.unwrap(x)
+            got = unwrap(x)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def test_compiled_interp_equals_numpys_interp() -> None:
+    """The merge walk (numba loaded, ordered float arrays) gives ``np.interp``'s bits, sign
+    bits included: repeated sample times, grid points on samples and outside their span,
+    huge, infinite and NaN values (numpy's retry from the right end of a step); unordered
+    or NaN times go to ``np.interp`` itself."""
+    import numba  # noqa: F401  (the walk runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN, interp_linear
+
+    rng = np.random.default_rng(9)
+    for case in range(150):
+        n = int(rng.integers(2, 3000))
+        xp = np.sort(rng.normal(size=n) * 10)
+        if case % 3 == 0:
+            xp = np.round(xp)  # repeated times
+        fp = rng.normal(size=n) * rng.choice([1.0, 1e300])
+        if case % 5 == 0:
+            fp[rng.integers(0, n, 5)] = rng.choice([np.nan, np.inf, -np.inf], 5)
+        x = np.sort(rng.normal(size=HOLD_MERGE_MIN + int(rng.integers(1, 3000))) * 12)
+        if case % 4 == 0:
+            x = np.round(x)
+        if case % 7 == 0:
+            x = np.sort(np.concatenate([xp[:50], x]))  # on the samples
+        if case % 11 == 0:
+            xp[int(rng.integers(0, n))] = np.nan
+        if case % 13 == 0:
+            xp = rng.normal(size=n)
+        got, want = interp_linear(x, xp, fp), np.interp(x, xp, fp)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def test_compiled_hold_equals_numpys_hold(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A held column resampled in one compiled pass (numba loaded) equals numpy's gather and
+    masks: grid points before the first sample, past the hold of the last one, values with
+    NaN and -0."""
+    import sys
+
+    import numba  # noqa: F401  (the compiled pass runs once numba is loaded)
+
+    from etsid.ingest.align import HOLD_MERGE_MIN
+
+    rng = np.random.default_rng(6)
+    for _case in range(30):
+        n = int(rng.integers(2, 3000))
+        t = np.sort(rng.uniform(0.0, 50.0, n))
+        v = rng.normal(size=n)
+        v[rng.integers(0, n, 3)] = rng.choice([np.nan, -0.0, np.inf], 3)
+        grid = np.sort(rng.uniform(-5.0, 60.0, HOLD_MERGE_MIN + int(rng.integers(1, 3000))))
+        s = Signal("u_roll", t, v, "RC.u", 0)
+        period = float(rng.choice([0.01, 0.5, 3.0]))
+        got = resample(s, grid, period)
+        with monkeypatch.context() as patch:
+            patch.delitem(sys.modules, "numba")
+            want = resample(s, grid, period)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
 
 
 def test_hold_index_merge_walk_equals_searchsorted() -> None:

@@ -33,6 +33,7 @@ take no part.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -131,15 +132,27 @@ def _usable(sig: Signal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return t, v, np.isfinite(t) & np.isfinite(v) & ~implausible_mask(sig.column, v)
 
 
+BIN_KERNEL_MIN = 1000
+"""Fewest samples that :func:`bin_means` bins in one compiled pass once numba is loaded
+(:mod:`etsid.ingest.bin_kernels`: no masked copies, no index array)."""
+
+
 def bin_means(sig: Signal, edges: np.ndarray) -> np.ndarray:
     """Mean of ``sig``'s usable samples in each bin ``[edges[i], edges[i+1])``; NaN in a bin
     without samples."""
     t, v, ok = _usable(sig)
-    ok &= (t >= edges[0]) & (t < edges[-1])
-    idx = _bin_index(t[ok], edges)
     n = edges.size - 1
-    counts = np.bincount(idx, minlength=n)[:n]
-    sums = np.bincount(idx, weights=v[ok], minlength=n)[:n]
+    if "numba" in sys.modules and t.size > BIN_KERNEL_MIN and n > 0 and all(
+            a.dtype == np.float64 and a.flags.c_contiguous for a in (t, v, edges)):
+        from etsid.ingest.bin_kernels import bin_sums
+
+        counts, sums = np.zeros(n, np.intp), np.zeros(n)
+        bin_sums(t, v, ok, float(edges[0]), float(edges[-1]), 1.0 / BIN_S, counts, sums)
+    else:
+        ok &= (t >= edges[0]) & (t < edges[-1])
+        idx = _bin_index(t[ok], edges)
+        counts = np.bincount(idx, minlength=n)[:n]
+        sums = np.bincount(idx, weights=v[ok], minlength=n)[:n]
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
 

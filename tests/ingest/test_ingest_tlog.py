@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 import struct
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,16 +22,19 @@ from etsid.ingest.mavlink.clock import BOOT, NONE, WRAP32_US, autopilot_clock
 from etsid.ingest.mavlink.dtypes import crc_extra_table
 from etsid.ingest.mavlink.scan import (
     KEYS_MAX,
+    OK,
+    ScanResult,
     crc_x25,
-    gather_grouped,
+    frame_key,
+    frame_key_stats,
     gather_payloads,
     gather_payloads_reference,
-    group_frames,
     key_stats,
     scan_frames,
     scan_frames_reference,
     use_kernels,
 )
+from etsid.ingest.mavlink.store import FrameStore
 from etsid.sim.writers.tlog import write_tlog
 
 DATA = Path(__file__).parents[1] / "data"
@@ -143,17 +147,6 @@ def test_scan_kernel_matches_reference(tlog: Path) -> None:
     payload = gather_payloads(buf, fast.offset, fast.length, 40)
     np.testing.assert_array_equal(payload,
                                   gather_payloads_reference(buf, fast.offset, fast.length, 40))
-    # one pass for several groups: each equals the group's own gather (rows zero-padded to
-    # a size above some frames' length, cut below others'; frames of no group skipped)
-    slot = np.where(fast.msgid % 3 == 0, -1, fast.msgid % 2).astype(np.int64)
-    sizes = [40, 9]
-    grouped = gather_grouped(buf, fast.offset, fast.length, slot, sizes)
-    assert len(grouped) == 2 and all(len(g) for g in grouped)
-    for g, size in enumerate(sizes):
-        sel = slot == g
-        np.testing.assert_array_equal(grouped[g], gather_payloads_reference(
-            buf, fast.offset[sel], fast.length[sel], size))
-    assert gather_grouped(buf, fast.offset, fast.length, slot, []) == []
 
 
 def test_sliced_crc_matches_the_bitwise_crc() -> None:
@@ -168,25 +161,101 @@ def test_sliced_crc_matches_the_bitwise_crc() -> None:
             assert _crc(data, 3, size, extra) == crc_x25(data[3:].tobytes(), extra), size
 
 
-def test_frame_groups_and_key_counts_match_their_reference(tlog: Path) -> None:
+def _chunked_scans(data: bytes, size: int) -> list[tuple[np.ndarray, ScanResult, int, float]]:
+    """(buffer, its scan, file frame number of its first frame, share of the file read)
+    per chunk of ``size`` bytes, the partial record carried over as the reader does."""
+    out = []
+    carry, pos, first = b"", 0, 0
+    while True:
+        got = data[pos:pos + size]
+        pos += len(got)
+        final = pos >= len(data)
+        buf = np.frombuffer(carry + got, np.uint8)
+        res = scan_frames(buf, crc_extra_table(), final)
+        out.append((buf, res, first, pos / len(data)))
+        first += res.offset.size
+        carry = bytes(buf[res.consumed:])
+        if final:
+            return out
+
+
+def _joined_gathers(scans: list[tuple[np.ndarray, ScanResult, int, float]], ids: list[int],
+                    sizes: list[int]) -> dict[int, dict[str, np.ndarray]]:
+    """The former computation: each chunk's frames of an id (status OK) gathered by the
+    plain reference, then the chunks' parts joined."""
+    out = {}
+    for mid, size in zip(ids, sizes, strict=True):
+        parts = []
+        for buf, res, first, _ in scans:
+            sel = np.flatnonzero((res.msgid == mid) & (res.status == OK))
+            parts.append({"rec": gather_payloads_reference(buf, res.offset[sel],
+                                                           res.length[sel], size).ravel(),
+                          "index": first + sel, "stamp": res.stamp_us[sel],
+                          "sysid": res.sysid[sel], "compid": res.compid[sel]})
+        if sum(p["index"].size for p in parts):
+            out[mid] = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return out
+
+
+def test_frame_store_equals_the_joined_gathers(tlog: Path) -> None:
+    """The store's arrays, numba and plain, equal the chunks' gathers joined, bit for
+    bit: a bad CRC and garbage between records, several chunk sizes (the regions grow,
+    from estimates that are too small or too large), payloads cut and zero-padded, an id
+    that never comes."""
+    import etsid.ingest.mavlink.scan_kernels  # noqa: F401  (loads numba: the kernels run)
+
+    data = bytearray(tlog.read_bytes()[:40000])
+    data[7000] ^= 0xFF
+    data[15000:15000] = b"\x00\xfe\x12junk"
+    present = sorted(set(scan_frames(np.frombuffer(bytes(data), np.uint8), crc_extra_table(),
+                                     True).msgid.tolist()))
+    ids = [*present[::-1], 99999]
+    sizes = [9 if i % 3 == 0 else 70 for i in range(len(ids))]
+    for size in (997, 4096, 15000, len(data)):
+        scans = _chunked_scans(bytes(data), size)
+        want = _joined_gathers(scans, ids, sizes)
+        for fast, skew in ((True, 1.0), (False, 1.0), (True, 0.3), (True, 3.0)):
+            store = FrameStore(ids, sizes)
+            for buf, res, first, share in scans:
+                store.add(buf, res, first, min(share * skew, 1.0), fast)
+            got = store.parts({mid: np.dtype((np.void, n)) for mid, n in zip(ids, sizes,
+                                                                              strict=True)})
+            assert list(got) == [mid for mid in ids if mid in want]
+            for mid, part in got.items():
+                assert set(part) == set(want[mid])
+                for key, value in part.items():
+                    ref = want[mid][key]
+                    value = value.view(np.uint8) if key == "rec" else value
+                    assert value.dtype == ref.dtype, (size, fast, skew, mid, key)
+                    np.testing.assert_array_equal(value, ref)
+
+
+def test_key_counts_match_their_reference(tlog: Path) -> None:
     import etsid.ingest.mavlink.scan_kernels  # noqa: F401  (loads numba: the kernels run)
 
     data = bytearray(tlog.read_bytes()[:30000])
-    data[7000] ^= 0xFF  # a bad CRC: that frame is in no group
-    buf = np.frombuffer(bytes(data), np.uint8)
-    res = scan_frames(buf, crc_extra_table(), final=True)
-    assert res.bad_crc >= 1
-    present = np.unique(res.msgid)
-    for wanted in (present, present[::2], np.array([present[0], 99999]), np.empty(0, int)):
-        fast = group_frames(res.msgid, res.status, wanted, fast=True)
-        slow = group_frames(res.msgid, res.status, wanted, fast=False)
-        assert fast[0] == slow[0] and len(fast[2]) == len(slow[2]) == len(fast[0])
-        np.testing.assert_array_equal(fast[1], slow[1])
-        for a, b in zip(fast[2], slow[2], strict=True):
-            np.testing.assert_array_equal(a, b)
-    assert len(group_frames(res.msgid, res.status, present, fast=True)[0]) > 2
+    data[7000] ^= 0xFF
+    res = scan_frames(np.frombuffer(bytes(data), np.uint8), crc_extra_table(), final=True)
     key = (res.sysid.astype(np.int64) << 32) | res.msgid
     assert key_stats(key, res.stamp_us, True) == key_stats(key, res.stamp_us, False)
+    # the keys made in the pass: the counts of the keys made by numpy
+    compid = (res.msgid % 3).astype(np.uint8)  # several components too
+    whole = ((res.sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24)
+             | res.msgid)
+    assert np.array_equal(frame_key(res.sysid, compid, res.msgid), whole)
+    want = key_stats(whole, res.stamp_us, False)
+    assert len(want[0]) > 3
+    assert frame_key_stats(res.sysid, compid, res.msgid, res.stamp_us, True) == want
+    assert frame_key_stats(res.sysid, compid, res.msgid, res.stamp_us, False) == want
+    # keys that share a message id's low 16 bits (the pass's hint of the key's slot)
+    rng = np.random.default_rng(4)
+    sysid = rng.integers(0, 3, 5000).astype(np.uint8)
+    compid = rng.integers(0, 2, 5000).astype(np.uint8)
+    msgid = (rng.integers(0, 4, 5000) + (rng.integers(0, 3, 5000) << 16)).astype(np.int32)
+    stamp = rng.integers(0, 10**9, 5000).astype(np.int64)
+    want = key_stats(frame_key(sysid, compid, msgid), stamp, False)
+    assert len(want[0]) > 40
+    assert frame_key_stats(sysid, compid, msgid, stamp, True) == want
     many = np.arange(KEYS_MAX + 5, dtype=np.int64)[::-1]  # more keys than the kernel holds
     assert key_stats(many, many * 2, True) == key_stats(many, many * 2, False)
     assert key_stats(many, many * 2, True)[0] == sorted(many.tolist())
@@ -396,17 +465,72 @@ def test_cli_ingest_truncated_warns(tlog: Path, tmp_path: Path) -> None:
     assert "truncated" in result.output
 
 
-def test_logged_order_is_the_argsort_of_the_frame_numbers() -> None:
-    """Placing each decoded frame at its number gives ``np.argsort`` of the numbers, for
-    every frame decoded (the inverse permutation) and for some of them."""
-    from etsid.ingest.mavlink.tlog import _logged_order
+def test_logged_clocks_equal_the_joined_and_sorted_arrays() -> None:
+    """The frames placed at their rank (numba and numpy) give the arrays of the former
+    computation, bit for bit: every message's stamps, clocks and kinds joined, then taken
+    in the order of ``np.argsort`` of the frame numbers; all frames decoded or some, and
+    each kind of clock (ms, µs with some in Unix time, uint32 µs, none)."""
+    import etsid.ingest.mavlink.clock_kernel  # noqa: F401  (loads numba: the kernel runs)
+    import etsid.ingest.mavlink.tlog as reader
 
     rng = np.random.default_rng(11)
-    for case in range(60):
-        nframes = int(rng.integers(0, 500))
-        index = rng.permutation(nframes)
+    kinds = {"ATTITUDE": ("time_boot_ms", np.uint32, BOOT, 1e-3),
+             "HIGHRES_IMU": ("time_usec", np.uint64, BOOT, 1e-6),
+             "SERVO_OUTPUT_RAW": ("time_usec", np.uint32, WRAP32_US, 1e-6),
+             "SYS_STATUS": ("", np.uint16, NONE, 0.0)}
+    for case in range(12):
+        nframes = int(rng.integers(0, 3000))
+        numbers = rng.permutation(nframes)
         if case % 2:
-            index = index[: int(rng.integers(0, nframes + 1))]
-        got = _logged_order(index.astype(np.int64), nframes)
-        assert got.dtype == np.int64
-        assert np.array_equal(got, np.argsort(index, kind="stable"))
+            numbers = numbers[: int(rng.integers(0, nframes + 1))]
+        cuts = np.sort(rng.integers(0, numbers.size + 1, len(kinds) - 1))
+        msgs, names = {}, {}
+        for mid, (name, part) in enumerate(zip(kinds, np.split(numbers, cuts), strict=True)):
+            fld, dtype, _, _ = kinds[name]
+            index = np.sort(part).astype(np.int64)
+            rec = np.zeros(index.size, [("pad", np.uint8), (fld or "x", dtype)])
+            rec[fld or "x"] = rng.integers(0, 2**31, index.size).astype(dtype)
+            if dtype == np.uint64:
+                rec[fld][::3] += np.uint64(1_700_000_000_000_000)  # Unix time
+            msgs[mid] = {"rec": rec, "index": index,
+                         "stamp": rng.integers(1.7e15, 1.8e15, index.size).astype(np.int64)}
+            names[mid] = name
+        index = np.concatenate([m["index"] for m in msgs.values()])
+        order = np.argsort(index, kind="stable")
+        want_gcs = np.concatenate([m["stamp"] * 1e-6 for m in msgs.values()])[order]
+        values, codes = [], []
+        for mid, m in msgs.items():
+            fld, dtype, code, scale = kinds[names[mid]]
+            if not fld:
+                values.append(np.zeros(m["index"].size))
+                codes.append(np.full(m["index"].size, NONE, np.int8))
+                continue
+            raw = m["rec"][fld]
+            values.append(raw.astype(np.float64) * scale)
+            codes.append(np.where(raw > 10**15, NONE, code).astype(np.int8)
+                         if dtype == np.uint64 else np.full(raw.size, code, np.int8))
+        want = (want_gcs, np.concatenate(values)[order], np.concatenate(codes)[order])
+        places = reader._logged_places([m["index"] for m in msgs.values()], nframes)
+        assert np.array_equal(np.concatenate(places), np.argsort(order, kind="stable"))
+        for fast in (True, False):
+            with pytest.MonkeyPatch.context() as patch:
+                if not fast:
+                    patch.delitem(sys.modules, "numba")
+                got = reader._logged_clocks(msgs, names, places)
+            for g, w in zip(got, want, strict=True):
+                assert g.dtype == w.dtype
+                np.testing.assert_array_equal(g, w)
+
+
+def test_a_messages_signals_share_one_plain_time_array(tlog: Path) -> None:
+    """With the compiled clock, the fields of one message still share one time array that
+    ``np.asarray(t, dtype=float)`` returns as it is (numba's arrays carry float64 as another
+    dtype object; a view per signal would repeat the per-array work of the table build)."""
+    import etsid.ingest.mavlink.clock_kernel  # noqa: F401  (loads numba: the kernels run)
+
+    raw = read_raw(tlog)
+    by_topic: dict[str, set[int]] = {}
+    for sig in raw.signals:
+        by_topic.setdefault(sig.topic, set()).add(id(sig.t))
+        assert np.asarray(sig.t, dtype=float) is sig.t
+    assert len(by_topic["ATTITUDE"]) == 1 and len(by_topic["HIGHRES_IMU"]) == 1

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from etsid.cli import cli
@@ -342,3 +343,36 @@ def test_damaged_samples_and_clocks_judge_nothing() -> None:
     assert Referee(att, {"p": [stray]}, (0.0, 1e9, "the log")).judge("p", stray) is None
     g = _sig("az", t, np.where(np.arange(t.size) % 100, -G, 1e30), "imu.z")
     assert Referee(att, {"az": [g]}, (0.0, 60.0, "the log")).judge("az", g) is None
+
+
+def test_compiled_bin_means_equal_numpys(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The one-pass binning (numba loaded) gives the bin means of numpy's masks and
+    ``bincount``, bit for bit: NaN and implausible samples, times outside the edges, on an
+    edge and at the last edge, unordered times."""
+    import sys
+
+    import numba  # noqa: F401  (the compiled pass runs once numba is loaded)
+
+    from etsid.ingest.source_consistency import BIN_KERNEL_MIN, bin_means
+
+    rng = np.random.default_rng(8)
+    for case in range(20):
+        n = BIN_KERNEL_MIN + int(rng.integers(1, 20000))
+        t = np.sort(rng.uniform(-5.0, 65.0, n))
+        if case % 3 == 0:
+            t = np.round(t * 2.0) / 2.0  # on the edges
+        if case % 4 == 0:
+            t = rng.permutation(t)
+        v = rng.normal(0.0, 1.0, n) * rng.choice([1e-3, 1.0, 1e3])
+        v[rng.integers(0, n, 30)] = np.nan
+        v[rng.integers(0, n, 30)] = 1e6  # beyond the limits of p
+        t[rng.integers(0, n, 5)] = np.nan
+        sig = Signal("p", t, v, "TEST.p", 0)
+        edges = 0.5 * np.arange(int(rng.integers(2, 120)) + 1)
+        got = bin_means(sig, edges)
+        with monkeypatch.context() as patch:
+            patch.delitem(sys.modules, "numba")
+            want = bin_means(sig, edges)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))

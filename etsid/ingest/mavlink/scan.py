@@ -54,14 +54,17 @@ class ScanResult:
     bad_crc: int  # frames rejected by their CRC
 
 
-def _alloc(n: int) -> tuple[np.ndarray, ...]:
+def scan_arrays(n: int) -> tuple[np.ndarray, ...]:
+    """Room for the frames of ``n`` bytes (every record is at least 16 bytes long), for
+    :func:`scan_frames`."""
     cap = n // (STAMP + 8) + 1
     return (np.empty(cap, np.int64), np.empty(cap, np.int32), np.empty(cap, np.int32),
             np.empty(cap, np.uint8), np.empty(cap, np.uint8), np.empty(cap, np.int64),
             np.empty(cap, np.uint8))
 
 
-def scan_frames(buf: np.ndarray, crc_extra: np.ndarray, final: bool) -> ScanResult:
+def scan_frames(buf: np.ndarray, crc_extra: np.ndarray, final: bool,
+                arrays: tuple[np.ndarray, ...] | None = None) -> ScanResult:
     """Find the tlog records in ``buf`` (uint8).
 
     Parameters
@@ -73,12 +76,16 @@ def scan_frames(buf: np.ndarray, crc_extra: np.ndarray, final: bool) -> ScanResu
     final
         True for the last chunk of the file: a trailing partial record is then not
         waited for (the caller counts it as truncated bytes: ``len(buf) - consumed``).
+    arrays
+        :func:`scan_arrays` to fill (the result's arrays are views of them), reused from
+        chunk to chunk; new ones when None or too small.
     """
     if not use_kernels(buf.size):
         return scan_frames_reference(buf.tobytes(), crc_extra, final)
     from etsid.ingest.mavlink.scan_kernels import _scan_kernel
 
-    arrays = _alloc(buf.size)
+    if arrays is None or arrays[0].size < buf.size // (STAMP + 8) + 1:
+        arrays = scan_arrays(buf.size)
     count, consumed, skipped, bad = _scan_kernel(buf, buf.size, final, crc_extra, *arrays)
     off, ln, mid, sid, cid, ts, st = (a[:count] for a in arrays)
     return ScanResult(off, ln, mid, sid, cid, ts, st, int(consumed), int(skipped), int(bad))
@@ -154,31 +161,6 @@ def gather_payloads(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
     return out
 
 
-def gather_grouped(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,
-                   slot: np.ndarray, sizes: list[int]) -> list[np.ndarray]:
-    """:func:`gather_payloads` of several groups of frames in one pass over ``buf``:
-    group ``g`` holds the frames with ``slot == g`` in their order (``slot`` −1: no group)
-    and gets an (N_g, ``sizes[g]``) uint8 array. One pass instead of one per group: the
-    groups' frames interleave, so a pass per group streams the whole buffer each time."""
-    if not sizes:
-        return []
-    slot = np.asarray(slot, dtype=np.int64)
-    counts = np.bincount(slot[slot >= 0], minlength=len(sizes))[:len(sizes)]
-    if not use_kernels(buf.size):
-        return [gather_payloads_reference(buf, offset[slot == g], length[slot == g], size)
-                for g, size in enumerate(sizes)]
-    from etsid.ingest.mavlink.scan_kernels import _gather_grouped_kernel
-
-    nbytes = counts * np.asarray(sizes, dtype=np.int64)
-    bases = np.concatenate(([0], np.cumsum(nbytes)[:-1])).astype(np.int64)
-    out = np.empty(int(nbytes.sum()), np.uint8)
-    _gather_grouped_kernel(buf, offset, length, slot, np.asarray(sizes, dtype=np.int64),
-                           bases, out)
-    return [out[b:b + n].reshape(int(c), size)
-            for b, n, c, size in zip(bases.tolist(), nbytes.tolist(), counts.tolist(), sizes,
-                                     strict=True)]
-
-
 def key_stats(key: np.ndarray, stamp: np.ndarray, fast: bool
               ) -> tuple[list[int], list[int], list[int], list[int]]:
     """The distinct values of ``key`` (int64) in increasing order, each with its count and
@@ -200,40 +182,30 @@ def key_stats(key: np.ndarray, stamp: np.ndarray, fast: bool
             np.maximum.reduceat(s, starts).tolist())
 
 
+def frame_key(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray) -> np.ndarray:
+    """Each frame's (system, component, message) as one int64:
+    ``(sysid << 32) | (compid << 24) | msgid``."""
+    return (sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24) | msgid
+
+
+def frame_key_stats(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray,
+                    stamp: np.ndarray, fast: bool
+                    ) -> tuple[list[int], list[int], list[int], list[int]]:
+    """``key_stats(frame_key(sysid, compid, msgid), stamp, fast)``; ``fast``: the keys are
+    made in the numba pass (no key array: 3 casts, 2 shifts and 2 ors of every frame)."""
+    if fast and msgid.size:
+        from etsid.ingest.mavlink.scan_kernels import _frame_key_stats_kernel
+
+        keys, counts, lo, hi = (np.empty(KEYS_MAX, np.int64) for _ in range(4))
+        n = _frame_key_stats_kernel(sysid, compid, msgid, stamp, keys, counts, lo, hi)
+        if n >= 0:
+            order = np.argsort(keys[:n])
+            return tuple(a[:n][order].tolist() for a in (keys, counts, lo, hi))  # type: ignore
+    return key_stats(frame_key(sysid, compid, msgid), stamp, fast=False)
+
+
 KEYS_MAX = 4096
 """Most distinct keys :func:`key_stats` counts in its numba pass (more: the sort)."""
-
-
-def group_frames(msgid: np.ndarray, status: np.ndarray, wanted_ids: np.ndarray, fast: bool
-                 ) -> tuple[list[int], np.ndarray, list[np.ndarray]]:
-    """The frames of the ``wanted_ids`` whose status is OK, grouped by message id.
-
-    Returns the ids present (increasing), each frame's group (its index in those ids, −1
-    for none) and each group's frame indices (increasing). ``fast``: two numba passes
-    (else numpy masks per id, the reference; same result)."""
-    wanted_ids = np.asarray(wanted_ids, dtype=np.int64)
-    if fast and msgid.size and wanted_ids.size and wanted_ids.min() >= 0:
-        from etsid.ingest.mavlink.scan_kernels import _group_kernel
-
-        wanted = np.zeros(int(wanted_ids.max()) + 1, np.bool_)
-        wanted[wanted_ids] = True
-        slot = np.empty(msgid.size, np.int64)
-        order = np.empty(msgid.size, np.int64)
-        count = np.empty(wanted.size, np.int64)
-        ids = np.empty(wanted.size, np.int64)
-        n = _group_kernel(msgid, status, wanted, OK, slot, order, count, ids)
-        ends = np.cumsum(count[:n])
-        return (ids[:n].tolist(), slot,
-                [order[a:b] for a, b in zip((ends - count[:n]).tolist(), ends.tolist(),
-                                            strict=True)])
-    take = np.isin(msgid, wanted_ids) & (status == OK)
-    mids = np.unique(msgid[take]).tolist()
-    slot = np.full(msgid.size, -1, np.int64)
-    sels = []
-    for g, mid in enumerate(mids):
-        sels.append(np.flatnonzero(take & (msgid == mid)))
-        slot[sels[-1]] = g
-    return mids, slot, sels
 
 
 def gather_payloads_reference(buf: np.ndarray, offset: np.ndarray, length: np.ndarray,

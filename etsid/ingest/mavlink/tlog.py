@@ -6,7 +6,8 @@ of :data:`CHUNK` bytes (a partial frame carries over to the next chunk, so memor
 bounded by the decoded output); a numba kernel finds the frames and checks their CRC
 (:mod:`etsid.ingest.mavlink.scan`), and only the messages in
 :data:`~etsid.ingest.mavlink.signals.DECODERS` (plus those named by ``--map``) are
-decoded, in blocks, with numpy dtypes built from pymavlink's own definitions
+gathered, chunk by chunk, into one array per message (:mod:`etsid.ingest.mavlink.store`)
+and decoded with numpy dtypes built from pymavlink's own definitions
 (:mod:`etsid.ingest.mavlink.dtypes`). Columns, units and priorities:
 :mod:`etsid.ingest.mavlink.signals`; time handling: :mod:`etsid.ingest.mavlink.clock`.
 
@@ -19,6 +20,7 @@ counted in ``dropped``; a file cut mid-frame gives its valid part and a warning.
 from __future__ import annotations
 
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,12 +41,12 @@ from etsid.ingest.mavlink.dtypes import (
 from etsid.ingest.mavlink.scan import (
     UNKNOWN,
     ScanResult,
-    gather_grouped,
-    group_frames,
-    key_stats,
+    frame_key_stats,
+    scan_arrays,
     scan_frames,
 )
 from etsid.ingest.mavlink.signals import CLOCK_FIELDS, DECODERS
+from etsid.ingest.mavlink.store import FrameStore
 from etsid.ingest.vehicle import (
     ardupilot_version,
     autopilot_name,
@@ -91,17 +93,14 @@ class _Stats:
         self.first_us = int(stamps[0]) if self.first_us is None else self.first_us
         self.last_us = int(stamps[-1])
 
-    def add(self, key: np.ndarray, stamp: np.ndarray, fast: bool) -> None:
-        if not key.size:
+    def add(self, res: ScanResult, fast: bool) -> None:
+        if not res.msgid.size:
             return
-        for kk, c, a, b in zip(*key_stats(key, stamp, fast), strict=True):
+        for kk, c, a, b in zip(*frame_key_stats(res.sysid, res.compid, res.msgid,
+                                                res.stamp_us, fast), strict=True):
             self.count[kk] = self.count.get(kk, 0) + c
             self.first[kk] = min(self.first.get(kk, a), a)
             self.last[kk] = max(self.last.get(kk, b), b)
-
-
-def _key(sysid: np.ndarray, compid: np.ndarray, msgid: np.ndarray) -> np.ndarray:
-    return (sysid.astype(np.int64) << 32) | (compid.astype(np.int64) << 24) | msgid
 
 
 def _wanted_ids(overrides: list[Override], path: Path) -> dict[int, str]:
@@ -116,26 +115,28 @@ def _wanted_ids(overrides: list[Override], path: Path) -> dict[int, str]:
 
 
 def _scan_file(path: Path, wanted: dict[int, str], show: bool
-               ) -> tuple[_Stats, dict[int, list[dict[str, np.ndarray]]], int]:
-    """Read the file chunk by chunk; decode the wanted messages of every system."""
+               ) -> tuple[_Stats, dict[int, dict[str, np.ndarray]], int]:
+    """Read the file chunk by chunk; gather the wanted messages of every system (ids in
+    the order of ``wanted``, those with frames only)."""
     stats = _Stats()
-    blocks: dict[int, list[dict[str, np.ndarray]]] = {mid: [] for mid in wanted}
+    ids = list(wanted)
+    store = FrameStore(ids, [message_dtype(mid).itemsize for mid in ids])
     table = crc_extra_table()
-    wanted_ids = np.fromiter(wanted, dtype=np.int32)
     size = path.stat().st_size
     carry = np.empty(0, np.uint8)
-    store = np.empty(0, np.uint8)  # one buffer for every chunk: the carry, then the read
-    base = 0
+    data = np.empty(0, np.uint8)  # one buffer for every chunk: the carry, then the read
+    found = scan_arrays(CHUNK)  # the frames of a chunk, reused likewise
+    base = done = 0
     with open_binary(path, "log", IngestError) as handle, \
             progress(size, f"reading {path.name}", show) as bar:
         while True:
-            if store.size < carry.size + CHUNK:
-                store = np.empty(carry.size + CHUNK, np.uint8)
-            store[:carry.size] = carry
-            got = handle.readinto(memoryview(store)[carry.size:carry.size + CHUNK]) or 0
+            if data.size < carry.size + CHUNK:
+                data = np.empty(carry.size + CHUNK, np.uint8)
+            data[:carry.size] = carry
+            got = handle.readinto(memoryview(data)[carry.size:carry.size + CHUNK]) or 0
             final = handle.tell() >= size or not got
-            buf = store[:carry.size + got]  # (nothing kept refers to it: payloads are copied)
-            res = scan_frames(buf, table, final)
+            buf = data[:carry.size + got]  # (nothing kept refers to it: payloads are copied)
+            res = scan_frames(buf, table, final, found)
             fast = use_kernels(buf.size)
             stats.skipped += res.skipped
             stats.bad_crc += res.bad_crc
@@ -145,43 +146,21 @@ def _scan_file(path: Path, wanted: dict[int, str], show: bool
                 stats.first_us = stats.first_us if stats.first_us is not None else \
                     int(res.stamp_us[0])
                 stats.last_us = int(res.stamp_us[-1])
-            key = _key(res.sysid, res.compid, res.msgid)
-            stats.add(key, res.stamp_us, fast)
+            stats.add(res, fast)
             unknown = res.status == UNKNOWN
             if unknown.any():
                 for mid, c in zip(*np.unique(res.msgid[unknown], return_counts=True),
                                   strict=True):
                     stats.unknown[int(mid)] = stats.unknown.get(int(mid), 0) + int(c)
-            mids, slot, sels = group_frames(res.msgid, res.status, wanted_ids, fast)
-            payloads = gather_grouped(buf, res.offset, res.length, slot,
-                                      [message_dtype(mid).itemsize for mid in mids])
-            for mid, sel, payload in zip(mids, sels, payloads, strict=True):
-                dtype = message_dtype(mid)
-                blocks[mid].append({
-                    "rec": payload.view(dtype).ravel(),
-                    "index": base + sel.astype(np.int64),
-                    "stamp": res.stamp_us[sel],
-                    "sysid": res.sysid[sel],
-                    "compid": res.compid[sel],
-                })
+            done += got
+            store.add(buf, res, base, 1.0 if final else min(done / max(size, 1), 1.0), fast)
             base += res.offset.size
             bar.update(got)
             carry = buf[res.consumed:].copy()
             if final:
                 stats.truncated = int(carry.size)
                 break
-    return stats, blocks, base
-
-
-def _concatenate(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """The chunks' decoded arrays of one message joined. The packed records are joined as
-    their bytes and viewed back: numpy copies a packed structured array field by field,
-    about 10× slower (0.06 s for the 150,000-row messages of a 10-minute tlog)."""
-    out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "rec"}
-    dtype = parts[0]["rec"].dtype
-    out["rec"] = np.concatenate([np.ascontiguousarray(p["rec"]).view(np.uint8)
-                                 for p in parts]).view(dtype)
-    return out
+    return stats, store.parts({mid: message_dtype(mid) for mid in ids}), base
 
 
 def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int, int, dict]:
@@ -215,30 +194,49 @@ def _choose_system(stats: _Stats, options: ReadOptions, path: Path) -> tuple[int
     return sysid, compid, frames
 
 
-def _logged_order(index: np.ndarray, nframes: int) -> np.ndarray:
-    """``np.argsort(index)`` of distinct frame numbers in ``[0, nframes)``, by placing each
-    at its number (linear; the sort of a million frames took 12 ms)."""
-    if index.size == nframes:  # every frame: the order is the inverse permutation
-        order = np.empty(nframes, np.int64)
-        order[index] = np.arange(nframes)
-        return order
-    at = np.full(nframes, -1, np.int64)
-    at[index] = np.arange(index.size)
-    return at[at >= 0]
+def _logged_places(indexes: list[np.ndarray], nframes: int) -> list[np.ndarray]:
+    """Where each message's frames go in logged order: the rank of each frame number among
+    all of ``indexes`` (distinct numbers in ``[0, nframes)``). When every frame of the log
+    is decoded, the rank is the number itself."""
+    if sum(i.size for i in indexes) == nframes:
+        return indexes
+    present = np.zeros(nframes, np.bool_)
+    for i in indexes:
+        present[i] = True
+    rank = np.cumsum(present, dtype=np.int64) - 1
+    return [rank[i] for i in indexes]
 
 
-def _clock_of(name: str, rec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    fld, kind = CLOCK_FIELDS.get(name, ("", ""))
-    n = rec.size
-    if kind == "ms":
-        return rec[fld].astype(np.float64) * 1e-3, np.full(n, BOOT, np.int8)
-    if kind == "us32":
-        return rec[fld].astype(np.float64) * 1e-6, np.full(n, WRAP32_US, np.int8)
-    if kind == "us":
-        raw = rec[fld]
-        kinds = np.where(raw > 10**15, NONE, BOOT).astype(np.int8)  # > 1e15 µs: Unix time
-        return raw.astype(np.float64) * 1e-6, kinds
-    return np.zeros(n), np.full(n, NONE, np.int8)
+_KIND_CODES = {"ms": BOOT, "us32": WRAP32_US, "us": BOOT}
+_SCALES = {"ms": 1e-3, "us32": 1e-6, "us": 1e-6}
+UNIX_US = 10**15
+"""A ``time_usec`` above this (µs, 31 years) is Unix time, not time since boot."""
+
+
+def _logged_clocks(msgs: dict[int, dict[str, np.ndarray]], names: dict[int, str],
+                   places: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ground-station stamps (s), own clocks (s) and clock kinds of every decoded frame, in
+    logged order (see :func:`etsid.ingest.mavlink.clock.autopilot_clock`). Once numba is
+    loaded, one compiled pass per message writes its frames in place (numpy's fancy-index
+    writes are slow); otherwise numpy writes them."""
+    n = sum(p.size for p in places)
+    gcs, value, kind = np.empty(n), np.empty(n), np.empty(n, np.int8)
+    fast = "numba" in sys.modules
+    for (mid, m), at in zip(msgs.items(), places, strict=True):
+        fld, how = CLOCK_FIELDS.get(names[mid], ("", ""))
+        field = m["rec"][fld] if how else m["stamp"]
+        code, scale = _KIND_CODES.get(how, NONE), _SCALES.get(how, 0.0)
+        unix_from = UNIX_US if how == "us" else 0
+        if fast:
+            from etsid.ingest.mavlink.clock_kernel import place_clock
+
+            place_clock(at, m["stamp"], field, scale, code, field.dtype.type(unix_from), gcs,
+                        value, kind)
+            continue
+        gcs[at] = m["stamp"] * 1e-6
+        value[at] = field.astype(np.float64) * scale if how else 0.0
+        kind[at] = np.where(field > unix_from, NONE, code) if unix_from else code
+    return gcs, value, kind
 
 
 def _override_signal(o: Override, rec: np.ndarray, t: np.ndarray, path: Path) -> Signal:
@@ -265,41 +263,29 @@ def read(path: Path, options: ReadOptions) -> RawLog:
         raise IngestError(f"{path}: no valid MAVLink packets found "
                           f"({stats.skipped + stats.truncated} bytes scanned)")
     sysid, compid, frames = _choose_system(stats, options, path)
-    meta_blocks = {mid: blocks.pop(mid) for mid in meta}
+    meta_blocks = {mid: blocks.pop(mid) for mid in meta if mid in blocks}
     raw = RawLog(path=path, format="tlog")
     # decoded messages of the chosen component, merged in logged order for the clock
     msgs: dict[int, dict[str, np.ndarray]] = {}
-    for mid, parts in blocks.items():
-        if not parts:
-            continue
-        cat = parts[0] if len(parts) == 1 else _concatenate(parts)
+    for mid, cat in blocks.items():
         mine = (cat["sysid"] == sysid) & (cat["compid"] == compid)
         if mine.all():  # one system: no copy (the values are the same)
             msgs[mid] = cat
         elif mine.any():
             msgs[mid] = {k: v[mine] for k, v in cat.items()}
     names = {mid: wanted[mid] for mid in msgs}
-    index = np.concatenate([m["index"] for m in msgs.values()]) if msgs else np.empty(0, int)
-    order = _logged_order(index, nframes)
-    values, kinds, stamps = [], [], []
-    for mid, m in msgs.items():
-        v, k = _clock_of(names[mid], m["rec"])
-        values.append(v)
-        kinds.append(k)
-        stamps.append(m["stamp"] * 1e-6)
-    clock = autopilot_clock(np.concatenate(stamps)[order] if msgs else np.empty(0),
-                            np.concatenate(values)[order] if msgs else np.empty(0),
-                            np.concatenate(kinds)[order] if msgs else np.empty(0, np.int8))
-    t_all = np.empty(index.size)
-    t_all[order] = clock.t
+    # every decoded frame at its place in logged order (its rank: no sort, no joins)
+    places = _logged_places([m["index"] for m in msgs.values()], nframes)
+    clock = autopilot_clock(*_logged_clocks(msgs, names, places))
     raw.start_time = clock.start_time
     _clock_issues(raw, clock)
     overrides = options.field_requests()
-    pos = 0
     times: dict[int, tuple[float, float]] = {}
-    for mid, m in msgs.items():
-        t = t_all[pos:pos + m["rec"].size]
-        pos += m["rec"].size
+    for (mid, m), at in zip(msgs.items(), places, strict=True):
+        # into a numpy array: numba's arrays carry float64 as another dtype object, and
+        # np.asarray(t, dtype=float) then makes a new view per signal, which defeats the
+        # work kept once per time array downstream (id(t): native period, gaps, strays)
+        t = np.take(clock.t, at, out=np.empty(at.size))
         rec = m["rec"]
         late = int(np.count_nonzero(t < np.maximum.accumulate(t)))
         if late:
@@ -340,19 +326,20 @@ def _meta_ids() -> dict[int, str]:
     return {ids[name]: name for name in META_MESSAGES}
 
 
-def _of_system(parts: list[dict[str, np.ndarray]], sysid: int) -> np.ndarray | None:
-    recs = [p["rec"][p["sysid"] == sysid] for p in parts]
-    recs = [r for r in recs if r.size]
-    return np.concatenate(recs) if recs else None
+def _of_system(part: dict[str, np.ndarray] | None, sysid: int) -> np.ndarray | None:
+    if part is None:
+        return None
+    rec = part["rec"][part["sysid"] == sysid]
+    return rec if rec.size else None
 
 
 def _facts(heartbeat: dict[str, np.ndarray] | None,
-           meta: dict[int, list[dict[str, np.ndarray]]], sysid: int) -> dict[str, str]:
+           meta: dict[int, dict[str, np.ndarray]], sysid: int) -> dict[str, str]:
     """Vehicle and autopilot from the chosen component's HEARTBEATs (the most frequent
     type), firmware from its system's banner STATUSTEXT, else AUTOPILOT_VERSION."""
     facts: dict[str, str] = {}
     ids = message_ids()
-    texts = _of_system(meta.get(ids["STATUSTEXT"], []), sysid)
+    texts = _of_system(meta.get(ids["STATUSTEXT"]), sysid)
     banner, _ = first_banner([decode_text(t) for t in texts["text"]] if texts is not None
                              else [])
     if heartbeat is not None and heartbeat["rec"].size:
@@ -365,7 +352,7 @@ def _facts(heartbeat: dict[str, np.ndarray] | None,
                                          ("autopilot", autopilot_name(pilot))) if v})
     for key, value in banner.items():
         facts.setdefault(key, value)
-    version = _of_system(meta.get(ids["AUTOPILOT_VERSION"], []), sysid)
+    version = _of_system(meta.get(ids["AUTOPILOT_VERSION"]), sysid)
     if "firmware" not in facts and version is not None:
         word = ardupilot_version(int(version["flight_sw_version"][-1]))
         if word:
