@@ -61,7 +61,7 @@ from etsid.gap.calibration import (
     load_calibration,
 )
 from etsid.gap.criterion import choose, mismatched, significant
-from etsid.gap.detectable import BELOW_CONFIDENCE
+from etsid.gap.detectable import BELOW_CONFIDENCE, detectable_sizes
 from etsid.gap.likelihood import AIRFRAME_SCALES
 
 RECORDING = {"mismatch_ratio": 1.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
@@ -111,12 +111,21 @@ def truth_sizes(expected: str, truth: dict[str, Any]) -> dict[str, list[list[Any
     return out
 
 
-def below_detectable(effect: str, row: dict[str, Any]) -> bool:
-    """Whether the pair's ``detectable`` says it could not have seen ``effect`` at its true
-    size: the effect is ``insufficient`` at any size, or every parameter it changes is
-    below the stated size in its direction (None there: not within the parameter's
-    range)."""
-    entry = (row.get("detectable") or {}).get(effect)
+def stated_sizes(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
+    """The pair's detectable sizes under ``cal`` (from the threshold-free evidence a record
+    holds; a record made before it was kept: the sizes as recorded)."""
+    evidence = (row.get("criterion") or {}).get("detectable_evidence")
+    if evidence:
+        return detectable_sizes(evidence, cal)
+    return row.get("detectable") or {}
+
+
+def below_detectable(effect: str, row: dict[str, Any], cal: Calibration) -> bool:
+    """Whether the pair's detectable sizes under ``cal`` say it could not have seen
+    ``effect`` at its true size: the effect is ``insufficient`` at any size, or every
+    parameter it changes is below the stated size in its direction (None there: not within
+    the parameter's range)."""
+    entry = stated_sizes(row, cal).get(effect)
     if not entry:
         return False
     if entry.get("status") == "insufficient":
@@ -339,7 +348,8 @@ def fit(args: argparse.Namespace) -> None:
 ANSWERS = ("consistent", "mismatch", "insufficient", "different-vehicle")
 
 
-def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any]) -> bool:
+def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any],
+                cal: Calibration) -> bool:
     """A pair not named right but answered honestly (issue 38's rule): nothing named that
     the truth lacks, not called another vehicle, and every expected effect left unnamed
     below the pair's stated detectable size (:func:`below_detectable`)."""
@@ -350,7 +360,7 @@ def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any]) -> 
     if any(not any(_same(w, n) for w in want) for n in named):
         return False
     missing = [w for w in want if not any(_same(w, n) for n in named)]
-    return bool(missing) and all(below_detectable(w, row) for w in missing)
+    return bool(missing) and all(below_detectable(w, row, cal) for w in missing)
 
 
 def score(args: argparse.Namespace) -> None:
@@ -370,7 +380,7 @@ def score(args: argparse.Namespace) -> None:
             ok = _same(exp, d["answer"])
             total += 1
             right += ok
-            honest = not ok and r["label"] != "none" and honest_miss(exp, d, r)
+            honest = not ok and r["label"] != "none" and honest_miss(exp, d, r, cal)
             n_honest += honest
         if r["label"] == "none":
             n_none += 1
