@@ -32,6 +32,7 @@ Leave-one-generator-out::
 
     python benchmarks/gap_calibrate.py record --etsid-seeds 700,701 --out rec.jsonl
     python benchmarks/gap_calibrate.py record --dir SETDIR --out rec.jsonl
+    python benchmarks/gap_calibrate.py record --again old.jsonl [--dir SETDIR] --out rec.jsonl
     python benchmarks/gap_calibrate.py fit rec.jsonl --generators pyflyt,multirotor \\
         --out cal_etsid.json
     python benchmarks/gap_calibrate.py score rec.jsonl --generator etsid --calibration \\
@@ -146,22 +147,23 @@ def _answer(data: dict[str, Any]) -> str:
     return "+".join(named) if named else str(data.get("verdict"))
 
 
-def _etsid_pairs(seeds: list[int], labels: list[str] | None):
+def _etsid_pairs(seeds: list[int], labels: list[str] | None, wanted: set[str] | None):
     from gap_concealed import EFFECTS, make_pair
     for s in seeds:
         for j, effect in enumerate(EFFECTS):
-            if labels and effect not in labels:
+            pid = f"etsid-{s * 100 + j}"
+            if (labels and effect not in labels) or (wanted and pid not in wanted):
                 continue
             sim, real, truth = make_pair(effect, s * 100 + j)
             expected = "+".join(sorted(truth["effects"])) or "consistent"
             yield f"etsid-{s * 100 + j}", effect, expected, False, sim, real, truth
 
 
-def _dir_pairs(folder: Path, labels: list[str] | None):
+def _dir_pairs(folder: Path, labels: list[str] | None, wanted: set[str] | None):
     from etsid.ingest import read_log
     entries = json.loads((folder / "labels.json").read_text())["pairs"]
     for e in entries:
-        if labels and e["label"] not in labels:
+        if (labels and e["label"] not in labels) or (wanted and e["id"] not in wanted):
             continue
         sim = read_log(folder / e["sim_log"])
         real = read_log(folder / e["real_log"])
@@ -178,8 +180,12 @@ def record(args: argparse.Namespace) -> None:
                                     "thresholds": RECORDING,
                                     "source": {"note": "recording thresholds"}}))
     labels = args.only.split(",") if args.only else None
-    pairs = (_etsid_pairs([int(s) for s in args.etsid_seeds.split(",")], labels)
-             if args.etsid_seeds else _dir_pairs(Path(args.dir), labels))
+    again = {json.loads(line)["id"] for line in Path(args.again).read_text().splitlines()
+             if line.strip()} if args.again else None
+    seeds = ([int(s) for s in args.etsid_seeds.split(",")] if args.etsid_seeds else
+             sorted({int(i.split("-")[1]) // 100 for i in again or () if i.startswith("etsid-")}))
+    pairs = (_etsid_pairs(seeds, labels, again) if seeds
+             else _dir_pairs(Path(args.dir), labels, again))
     for pid, label, expected, oov, sim, real, truth in pairs:
         gen = pid.split("-")[0]
         row: dict[str, Any] = {"id": pid, "generator": gen, "label": label,
@@ -421,6 +427,9 @@ def main() -> None:
     r.add_argument("--etsid-seeds", default=None, help="etsid's own generator: seeds")
     r.add_argument("--dir", default=None, help="a third-party set (gap_thirdparty --generate)")
     r.add_argument("--only", default=None, help="comma-separated labels")
+    r.add_argument("--again", default=None,
+                   help="an earlier record file: record its pairs again (etsid's seeds from "
+                        "its ids; a third-party set's from --dir)")
     r.add_argument("--out", required=True, help="JSON-lines file to append to")
     f = sub.add_parser("fit", help="thresholds from records, written to a calibration file")
     f.add_argument("records", nargs="+")
