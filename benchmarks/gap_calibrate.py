@@ -184,9 +184,18 @@ def record(args: argparse.Namespace) -> None:
              if line.strip()} if args.again else None
     seeds = ([int(s) for s in args.etsid_seeds.split(",")] if args.etsid_seeds else
              sorted({int(i.split("-")[1]) // 100 for i in again or () if i.startswith("etsid-")}))
-    pairs = (_etsid_pairs(seeds, labels, again) if seeds
-             else _dir_pairs(Path(args.dir), labels, again))
+    done = {json.loads(line)["id"] for line in Path(args.out).read_text().splitlines()
+            if line.strip()} if Path(args.out).exists() else set()
+    if done:
+        print(f"{len(done)} pairs already in {args.out}: not recorded again", flush=True)
+    wanted = again - done if again is not None else None
+    if wanted is not None and not wanted:
+        return
+    pairs = (_etsid_pairs(seeds, labels, wanted) if seeds
+             else _dir_pairs(Path(args.dir), labels, wanted))
     for pid, label, expected, oov, sim, real, truth in pairs:
+        if pid in done:
+            continue
         gen = pid.split("-")[0]
         row: dict[str, Any] = {"id": pid, "generator": gen, "label": label,
                                "expected": expected, "oov": oov,
