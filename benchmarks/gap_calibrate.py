@@ -32,6 +32,7 @@ Leave-one-generator-out::
 
     python benchmarks/gap_calibrate.py record --etsid-seeds 700,701 --out rec.jsonl
     python benchmarks/gap_calibrate.py record --dir SETDIR --out rec.jsonl
+    python benchmarks/gap_calibrate.py record --again old.jsonl [--dir SETDIR] --out rec.jsonl
     python benchmarks/gap_calibrate.py fit rec.jsonl --generators pyflyt,multirotor \\
         --out cal_etsid.json
     python benchmarks/gap_calibrate.py score rec.jsonl --generator etsid --calibration \\
@@ -61,7 +62,7 @@ from etsid.gap.calibration import (
     load_calibration,
 )
 from etsid.gap.criterion import choose, mismatched, significant
-from etsid.gap.detectable import BELOW_CONFIDENCE
+from etsid.gap.detectable import BELOW_CONFIDENCE, detectable_sizes
 from etsid.gap.likelihood import AIRFRAME_SCALES
 
 RECORDING = {"mismatch_ratio": 1.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
@@ -111,12 +112,21 @@ def truth_sizes(expected: str, truth: dict[str, Any]) -> dict[str, list[list[Any
     return out
 
 
-def below_detectable(effect: str, row: dict[str, Any]) -> bool:
-    """Whether the pair's ``detectable`` says it could not have seen ``effect`` at its true
-    size: the effect is ``insufficient`` at any size, or every parameter it changes is
-    below the stated size in its direction (None there: not within the parameter's
-    range)."""
-    entry = (row.get("detectable") or {}).get(effect)
+def stated_sizes(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
+    """The pair's detectable sizes under ``cal`` (from the threshold-free evidence a record
+    holds; a record made before it was kept: the sizes as recorded)."""
+    evidence = (row.get("criterion") or {}).get("detectable_evidence")
+    if evidence:
+        return detectable_sizes(evidence, cal)
+    return row.get("detectable") or {}
+
+
+def below_detectable(effect: str, row: dict[str, Any], cal: Calibration) -> bool:
+    """Whether the pair's detectable sizes under ``cal`` say it could not have seen
+    ``effect`` at its true size: the effect is ``insufficient`` at any size, or every
+    parameter it changes is below the stated size in its direction (None there: not within
+    the parameter's range)."""
+    entry = stated_sizes(row, cal).get(effect)
     if not entry:
         return False
     if entry.get("status") == "insufficient":
@@ -137,22 +147,23 @@ def _answer(data: dict[str, Any]) -> str:
     return "+".join(named) if named else str(data.get("verdict"))
 
 
-def _etsid_pairs(seeds: list[int], labels: list[str] | None):
+def _etsid_pairs(seeds: list[int], labels: list[str] | None, wanted: set[str] | None):
     from gap_concealed import EFFECTS, make_pair
     for s in seeds:
         for j, effect in enumerate(EFFECTS):
-            if labels and effect not in labels:
+            pid = f"etsid-{s * 100 + j}"
+            if (labels and effect not in labels) or (wanted and pid not in wanted):
                 continue
             sim, real, truth = make_pair(effect, s * 100 + j)
             expected = "+".join(sorted(truth["effects"])) or "consistent"
             yield f"etsid-{s * 100 + j}", effect, expected, False, sim, real, truth
 
 
-def _dir_pairs(folder: Path, labels: list[str] | None):
+def _dir_pairs(folder: Path, labels: list[str] | None, wanted: set[str] | None):
     from etsid.ingest import read_log
     entries = json.loads((folder / "labels.json").read_text())["pairs"]
     for e in entries:
-        if labels and e["label"] not in labels:
+        if (labels and e["label"] not in labels) or (wanted and e["id"] not in wanted):
             continue
         sim = read_log(folder / e["sim_log"])
         real = read_log(folder / e["real_log"])
@@ -169,9 +180,22 @@ def record(args: argparse.Namespace) -> None:
                                     "thresholds": RECORDING,
                                     "source": {"note": "recording thresholds"}}))
     labels = args.only.split(",") if args.only else None
-    pairs = (_etsid_pairs([int(s) for s in args.etsid_seeds.split(",")], labels)
-             if args.etsid_seeds else _dir_pairs(Path(args.dir), labels))
+    again = {json.loads(line)["id"] for line in Path(args.again).read_text().splitlines()
+             if line.strip()} if args.again else None
+    seeds = ([int(s) for s in args.etsid_seeds.split(",")] if args.etsid_seeds else
+             sorted({int(i.split("-")[1]) // 100 for i in again or () if i.startswith("etsid-")}))
+    done = {json.loads(line)["id"] for line in Path(args.out).read_text().splitlines()
+            if line.strip()} if Path(args.out).exists() else set()
+    if done:
+        print(f"{len(done)} pairs already in {args.out}: not recorded again", flush=True)
+    wanted = again - done if again is not None else None
+    if wanted is not None and not wanted:
+        return
+    pairs = (_etsid_pairs(seeds, labels, wanted) if seeds
+             else _dir_pairs(Path(args.dir), labels, wanted))
     for pid, label, expected, oov, sim, real, truth in pairs:
+        if pid in done:
+            continue
         gen = pid.split("-")[0]
         row: dict[str, Any] = {"id": pid, "generator": gen, "label": label,
                                "expected": expected, "oov": oov,
@@ -339,7 +363,8 @@ def fit(args: argparse.Namespace) -> None:
 ANSWERS = ("consistent", "mismatch", "insufficient", "different-vehicle")
 
 
-def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any]) -> bool:
+def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any],
+                cal: Calibration) -> bool:
     """A pair not named right but answered honestly (issue 38's rule): nothing named that
     the truth lacks, not called another vehicle, and every expected effect left unnamed
     below the pair's stated detectable size (:func:`below_detectable`)."""
@@ -350,7 +375,7 @@ def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any]) -> 
     if any(not any(_same(w, n) for w in want) for n in named):
         return False
     missing = [w for w in want if not any(_same(w, n) for n in named)]
-    return bool(missing) and all(below_detectable(w, row) for w in missing)
+    return bool(missing) and all(below_detectable(w, row, cal) for w in missing)
 
 
 def score(args: argparse.Namespace) -> None:
@@ -370,7 +395,7 @@ def score(args: argparse.Namespace) -> None:
             ok = _same(exp, d["answer"])
             total += 1
             right += ok
-            honest = not ok and r["label"] != "none" and honest_miss(exp, d, r)
+            honest = not ok and r["label"] != "none" and honest_miss(exp, d, r, cal)
             n_honest += honest
         if r["label"] == "none":
             n_none += 1
@@ -411,6 +436,9 @@ def main() -> None:
     r.add_argument("--etsid-seeds", default=None, help="etsid's own generator: seeds")
     r.add_argument("--dir", default=None, help="a third-party set (gap_thirdparty --generate)")
     r.add_argument("--only", default=None, help="comma-separated labels")
+    r.add_argument("--again", default=None,
+                   help="an earlier record file: record its pairs again (etsid's seeds from "
+                        "its ids; a third-party set's from --dir)")
     r.add_argument("--out", required=True, help="JSON-lines file to append to")
     f = sub.add_parser("fit", help="thresholds from records, written to a calibration file")
     f.add_argument("records", nargs="+")

@@ -247,6 +247,22 @@ class LikelihoodScorer:
                     self.noise.channels[c].offset_dof)
                 for c in self.channels if self.noise.channels[c].offset_dof > 0}
 
+    def offset_tests(self) -> dict[str, tuple[float, int]]:
+        """Sensor-consistency channel → (the variance the offset statistic divides a squared
+        offset by, per unit of the channel: ``τ² + s²/(m (1 − Σa)²)`` with ``s`` the
+        channel's innovation floor and ``m`` its scored innovations; the draws k of τ):
+        the mismatch rule's test of a constant offset, for the detectable sizes."""
+        mask = self._scored()
+        out = {}
+        for c in self.channels:
+            ch = self.noise.channels[c]
+            m = int(np.sum(mask & np.isfinite(self.null_innov[c])))
+            if ch.offset_dof <= 0 or m < 2:
+                continue
+            dc2 = max(ch.dc_gain ** 2, 1e-12)
+            out[c] = (ch.offset_sd ** 2 + ch.sigma ** 2 / (m * dc2), ch.offset_dof)
+        return out
+
     def ratio(self, mods=None) -> dict[str, float]:
         """Channel → innovation variance over all evidence ÷ floor variance."""
         return self._ratio_of(self._innovations(mods), self._scored())

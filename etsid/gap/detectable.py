@@ -1,23 +1,28 @@
-"""What the pair could have seen: the smallest size of every vocabulary effect this pair
-of flights would show as a mismatch (a power analysis from the floors and the excitation).
+"""What the pair could have seen: the smallest size of every vocabulary effect at which the
+mismatch rule would fire on this pair (a power analysis from the floors, the noise model
+and REAL's own motion).
 
 For an effect with parameter θ (no effect at ``θ_0``), the nominal model's prediction on
 REAL's own motion changes by ``Δ_c(θ)`` in each channel ``c`` the effect acts on. With
-REAL as predictable as SIM (its residual at its floor, ``z_0 = 1``) and the change
-independent of the residual, the channel's z becomes ``1 + mean(Δ_c²)/σ_c²``; the
-verdict's mismatch rule fires at ``z > Z`` (:data:`etsid.gap.verdict.Z_MISMATCH`, the
-threshold the no-effect pairs set the false-positive rate with). The detectable size is
-the smallest ``|θ − θ_0|`` at which some channel reaches ``mean(Δ_c²) ≥ (Z − 1) σ_c²``, on
-all of REAL's evidence or on its held-out part, searched along each parameter in each
-direction up to the parameter's search bound. An effect whose detectable size lies beyond
-every bound (the plausible range of the vocabulary), or whose signals a log lacks, is
-``insufficient``: the pair cannot say whether it is there.
+REAL as predictable as SIM (its residual at its floor) and the change independent of the
+residual, a dynamic channel's variance ratio becomes ``1 + mean(Δ_c²)/σ_c²``; the mismatch
+rule fires above the calibrated ``mismatch_ratio``. A sensor-consistency channel is judged
+by its offset against the flights' between-flight spread τ, an F(1, k) law at the
+calibration's false-positive rate. The detectable size is the smallest ``|θ − θ_0|`` at
+which some channel fires, on all of REAL's evidence or on its held-out part, searched along
+each parameter in each direction up to its search bound. An effect whose detectable size
+lies beyond every bound (the plausible range of the vocabulary), or whose signals a log
+lacks, is ``insufficient``: the pair cannot say whether it is there.
+
+The evidence (:func:`detectable_evidence`) carries no threshold; the sizes
+(:func:`detectable_sizes`) are stated under a calibration, so a benchmark states them again
+under each leave-one-generator-out calibration.
 
 What this does not do: it assumes the effect's change adds to a residual of SIM's size
-(a REAL noisier than SIM needs more), reads one parameter at a time (an effect that only
-shows in a combination is not covered) and uses the fixed threshold :data:`Z_MISMATCH`
-on the floors, not the likelihood criterion, which can name an effect below this size
-(such a name is capped, :func:`cap_below_detectable`).
+(a REAL noisier than SIM needs more), ignores what the whitening filter does to a dynamic
+channel's change, reads one parameter at a time (an effect that only shows in a combination
+is not covered) and reads the mismatch rule, not the likelihood criterion, which can name
+an effect below this size (such a name is capped, :func:`cap_below_detectable`).
 """
 
 from __future__ import annotations
@@ -26,7 +31,9 @@ from typing import Any
 
 import numpy as np
 
+from etsid.gap.calibration import Calibration
 from etsid.gap.candidates import BY_NAME, Candidate, Context
+from etsid.gap.criterion import offset_limit
 from etsid.gap.fitting import Scorer
 from etsid.gap.nominal import Mods
 
@@ -42,7 +49,8 @@ SKIP = {("wind", "lift"), ("ground_effect", "exponent")}
 """Parameters that do nothing alone (lift needs a wind; the exponent needs a radius)."""
 BELOW_CONFIDENCE = 0.45
 """Highest confidence of an effect named at a size below what the pair can detect at the
-mismatch threshold (the criterion can name it; at that size it is a hint, not a finding)."""
+mismatch rule (the criterion can name it; at that size it is a hint, not a finding): below
+even odds."""
 
 
 def _null(cand: Candidate, j: int, scorer: Scorer) -> float | None:
@@ -90,10 +98,13 @@ def _crossing(sizes: np.ndarray, excess: np.ndarray, need: float) -> float | Non
 
 
 def _one_parameter(cand: Candidate, j: int, scorer: Scorer, base: dict[str, np.ndarray],
-                   masks: list[np.ndarray], need: float) -> dict[str, float | None]:
-    """``{"down": size, "up": size}`` for parameter ``j`` (None: not within its bound)."""
+                   masks: list[np.ndarray], offsets: dict[str, tuple[float, int]]
+                   ) -> dict[str, Any]:
+    """``{"down": curve, "up": curve}`` for parameter ``j``: how far it can go (``span``)
+    and either the change of the prediction at steps along it (``sizes``, ``excess``) or,
+    for an offset, the variance and draws of each channel's offset test (``channels``)."""
     p, null = cand.params[j], _null(cand, j, scorer)
-    out: dict[str, float | None] = {}
+    out: dict[str, Any] = {}
     assert null is not None
     chans = tuple(c for c in cand.channels if c in base)
     for way, bound in (("down", p.lo), ("up", p.hi)):
@@ -102,31 +113,81 @@ def _one_parameter(cand: Candidate, j: int, scorer: Scorer, base: dict[str, np.n
             continue
         if cand.name in OFFSETS:
             mods = cand.mods(_theta(cand, j, null + np.sign(span)), scorer.ctx)
-            sig = [scorer.sigma[c] for c, v in mods.offset.items() if v and c in base
-                   and c in scorer.sigma]
-            size = float(np.sqrt(need) * min(sig)) if sig else None
-            out[way] = size if size is not None and size <= abs(span) else None
+            tests = [list(offsets.get(c, (scorer.sigma[c] ** 2, 0))) for c, v
+                     in mods.offset.items() if v and c in base and c in scorer.sigma]
+            out[way] = {"span": float(abs(span)), "channels": tests}
             continue
         sizes = np.abs(span) * FRACTIONS
         ex = np.array([_excess(scorer, cand.mods(_theta(cand, j, null + np.sign(span) * s),
                                                  scorer.ctx), base, chans, masks)
                        for s in sizes])
-        out[way] = _crossing(sizes, ex, need)
+        out[way] = {"span": float(abs(span)), "sizes": sizes.tolist(), "excess": ex.tolist()}
     return out
 
 
-def detectable_sizes(scorer: Scorer, masks: list[np.ndarray], threshold: float
-                     ) -> dict[str, dict[str, Any]]:
-    """Vocabulary effect → what this pair could have seen of it.
+def detectable_evidence(scorer: Scorer, masks: list[np.ndarray],
+                        offsets: dict[str, tuple[float, int]]) -> dict[str, Any]:
+    """What decides every vocabulary effect's detectable size, free of any threshold (so that
+    a benchmark can state the sizes again under another calibration).
 
     Parameters
     ----------
     scorer : Scorer
         REAL's flight, SIM's nominal model and the floors.
     masks : list of ndarray
-        REAL's evidence masks the mismatch rule reads (all of it, the held-out part).
-    threshold : float
-        The mismatch rule's z (:data:`etsid.gap.verdict.Z_MISMATCH`).
+        REAL's evidence masks (all of it, the held-out part).
+    offsets : dict
+        Sensor-consistency channel → (variance of its offset statistic's denominator per
+        unit of the channel, ``τ² + s²/(m (1 − Σa)²)``; the draws k of its F(1, k) law), as
+        the mismatch rule reads the channel (:func:`etsid.gap.noise.offset_z2`).
+
+    Returns
+    -------
+    dict
+        ``{"offset_channels": n, "effects": {name: {"reason": why} (insufficient) or
+        {"parameters": {param: {"unit", "down", "up"}}}}}``.
+    """
+    ctx: Context = scorer.ctx
+    base = scorer.prediction()
+    effects: dict[str, Any] = {}
+    for name, cand in BY_NAME.items():
+        if not cand.available(ctx):
+            missing = [s for s in cand.needs if s not in ctx.flight.have]
+            effects[name] = {"reason": (f"the logs lack {', '.join(missing)}" if missing
+                                        else "the logs lack what it acts through")}
+            continue
+        params = {}
+        for j, p in enumerate(cand.params):
+            if (name, p.name) in SKIP or _null(cand, j, scorer) is None:
+                continue
+            params[p.name] = {"unit": p.unit,
+                              **_one_parameter(cand, j, scorer, base, masks, offsets)}
+        effects[name] = {"parameters": params}
+    return {"offset_channels": len(offsets), "effects": effects}
+
+
+def _size(curve: dict[str, Any] | None, need: float, limit) -> float | None:
+    """Smallest detectable distance from no effect along one direction (None: not within
+    the parameter's range)."""
+    if not curve:
+        return None
+    if "channels" in curve:
+        found = [float(np.sqrt((limit(int(k)) if k > 0 else need) * var))
+                 for var, k in curve["channels"]]
+        size = min(found) if found else None
+    else:
+        size = _crossing(np.asarray(curve["sizes"]), np.asarray(curve["excess"]), need)
+    return size if size is not None and size <= curve["span"] else None
+
+
+def detectable_sizes(evidence: dict[str, Any], cal: Calibration) -> dict[str, dict[str, Any]]:
+    """Vocabulary effect → what this pair could have seen of it under calibration ``cal``:
+    where the mismatch rule would fire. A dynamic channel fires when its innovation
+    variance passes ``cal.mismatch_ratio`` times its floor's, so the change must reach
+    ``mean(Δ²) ≥ (mismatch_ratio − 1) σ²``; a sensor-consistency channel when its offset
+    statistic passes the F(1, k) limit at the calibration's rate
+    (:func:`etsid.gap.criterion.offset_limit`), so an offset θ must reach
+    ``θ² ≥ limit · (τ² + s²/(m (1 − Σa)²))``.
 
     Returns
     -------
@@ -135,32 +196,30 @@ def detectable_sizes(scorer: Scorer, masks: list[np.ndarray], threshold: float
         from no effect (parameter's unit) or None, "parameter", "unit", "per_parameter":
         {name: {"down": size|None, "up": size|None}}, "reason"}``.
     """
-    need = max(threshold - 1.0, 1e-6)
-    ctx: Context = scorer.ctx
-    base = scorer.prediction()
+    need = max(cal.mismatch_ratio - 1.0, 1e-6)
+    n_off = int(evidence.get("offset_channels", 0))
+
+    def limit(k: int) -> float:
+        return offset_limit(k, n_off, cal.false_positive_rate)
+
     out: dict[str, dict[str, Any]] = {}
-    for name, cand in BY_NAME.items():
-        if not cand.available(ctx):
-            missing = [s for s in cand.needs if s not in ctx.flight.have]
-            why = (f"the logs lack {', '.join(missing)}" if missing
-                   else "the logs lack what it acts through")
+    for name, e in evidence["effects"].items():
+        if "reason" in e:
             out[name] = {"status": "insufficient", "size": None, "parameter": None,
-                         "unit": None, "per_parameter": {}, "reason": why}
+                         "unit": None, "per_parameter": {}, "reason": e["reason"]}
             continue
         per: dict[str, dict[str, float | None]] = {}
         best: tuple[float, str, str] | None = None
-        for j, p in enumerate(cand.params):
-            if (name, p.name) in SKIP or _null(cand, j, scorer) is None:
-                continue
-            per[p.name] = _one_parameter(cand, j, scorer, base, masks, need)
-            for size in per[p.name].values():
+        for pname, ways in e["parameters"].items():
+            per[pname] = {w: _size(ways[w], need, limit) for w in ("down", "up") if w in ways}
+            for size in per[pname].values():
                 if size is not None and (best is None or size < best[0]):
-                    best = (size, p.name, p.unit)
+                    best = (size, pname, ways["unit"])
         if best is None:
             out[name] = {"status": "insufficient", "size": None, "parameter": None,
                          "unit": None, "per_parameter": per,
-                         "reason": "not even at the edge of its range would it lift a channel "
-                                   f"above {np.sqrt(threshold):.0f}× its floor"}
+                         "reason": "not even at the edge of its range would it pass the "
+                                   "mismatch threshold"}
         else:
             out[name] = {"status": "detectable", "size": best[0], "parameter": best[1],
                          "unit": best[2], "per_parameter": per, "reason": ""}
@@ -196,7 +255,7 @@ def below_detectable(effect: dict[str, Any], sizes: dict[str, dict[str, Any]]) -
 def cap_below_detectable(effects: list[dict[str, Any]], sizes: dict[str, dict[str, Any]]
                          ) -> None:
     """Cap at :data:`BELOW_CONFIDENCE`, with a caveat, every named effect whose fitted size
-    is below what the pair can detect at the mismatch threshold (:func:`below_detectable`)."""
+    is below what the pair can detect at the mismatch rule (:func:`below_detectable`)."""
     for e in effects:
         if below_detectable(e, sizes):
             entry = sizes[e["name"]]

@@ -21,13 +21,20 @@ from etsid.gap.criterion import (
     Criterion,
     Evaluated,
     LikelihoodScorer,
+    block_se,
     effect_weight,
     evaluate,
     make_folds,
     mismatched,
     run_criterion,
+    significant,
 )
-from etsid.gap.detectable import BELOW_CONFIDENCE, cap_below_detectable
+from etsid.gap.detectable import (
+    BELOW_CONFIDENCE,
+    cap_below_detectable,
+    detectable_evidence,
+    detectable_sizes,
+)
 from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.floors import sensor_noise
@@ -40,11 +47,6 @@ from etsid.gap.residual_model import ResidualModel, fit_residual_model
 from etsid.gap.signals import Flight
 from etsid.gap.summary import NICE, effect_params, summary_sentence
 from etsid.gap.verdict import at_bound, worsened
-
-LOOK_ALIKE_NATS = 1.0
-"""Another effect whose weight is within a factor e of the named one's (one nat of held-out
-evidence, "barely worth mentioning" on Jeffreys' scale) is one the logs cannot tell apart
-from it."""
 
 
 def _admissible(scorer: Scorer, ls: LikelihoodScorer) -> Callable[[Evaluated], str]:
@@ -71,9 +73,28 @@ def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
     return {c: float(np.sqrt(np.mean(v[mask] ** 2))) for c, v in res.items()}
 
 
+def look_alikes(crit: Criterion, named: Evaluated, cal: Calibration) -> list[Evaluated]:
+    """The other single effects the logs cannot tell apart from ``named``: admitted, with a
+    held-out gain of their own, and not put behind it by the blocks (its gain over theirs,
+    block by block, not :func:`~etsid.gap.criterion.significant` at the calibration's rate
+    among the singles tried)."""
+    singles = [m for m in crit.models if "+" not in m.name]
+    out = []
+    for m in singles:
+        if m is named or m.name == named.name or m.refused or m.weight <= 0 or m.gain <= 0:
+            continue
+        if m.gain_blocks.size != named.gain_blocks.size:
+            continue
+        diff = named.gain_blocks - m.gain_blocks
+        if not significant(float(diff.sum()), block_se(diff), len(singles),
+                           cal.false_positive_rate):
+            out.append(m)
+    return out
+
+
 def _entry(cand, theta: np.ndarray, err: np.ndarray, crit: Criterion, chosen: Evaluated,
-           res0: dict[str, np.ndarray], res1: dict[str, np.ndarray], hold: np.ndarray
-           ) -> dict[str, Any]:
+           res0: dict[str, np.ndarray], res1: dict[str, np.ndarray], hold: np.ndarray,
+           cal: Calibration) -> dict[str, Any]:
     chans = [c for c in cand.channels if c in res0]
     params = effect_params(cand, theta, err)
     before = {c: float(np.sqrt(np.mean(res0[c][hold] ** 2))) for c in chans}
@@ -87,9 +108,8 @@ def _entry(cand, theta: np.ndarray, err: np.ndarray, crit: Criterion, chosen: Ev
     entry = {"name": cand.name, "channels": chans, "parameters": params,
              "confidence": float(np.clip(weight, 0.0, 1.0)), "evidence": evidence,
              "rmse_before": before, "rmse_after": after}
-    rivals = [(m.name, m.weight) for m in crit.models
-              if "+" not in m.name and m.name != cand.name
-              and m.weight >= weight * np.exp(-LOOK_ALIKE_NATS) and m.weight > 0]
+    rivals = [(m.name, m.weight) for m in look_alikes(crit, single, cal)
+              if m.name not in chosen.name.split("+")]
     if rivals:
         entry["caveat"] = ("the logs cannot tell it apart from " + ", ".join(
             f"{NICE.get(n, n)} (weight {w:.2f})" for n, w in rivals)
@@ -211,6 +231,9 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     if isinstance(scorer, PredictionErrorScorer):
         noise = with_innovation_channels(noise, scorer)
     ls = LikelihoodScorer(scorer, noise, folds)
+    say("gap: what this pair could have seen (detectable size of every effect)")
+    seen = detectable_evidence(scorer, [real.airborne], ls.offset_tests())
+    base = {"detectable": detectable_sizes(seen, cal), **base}
     # the report's residuals in the channels' own units, not as innovations
     shown = scorer.base if isinstance(scorer, PredictionErrorScorer) else scorer
     library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
@@ -241,7 +264,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     radius, ground_law = info.get("radius"), None
     if final is not None:
         for cand, theta, err in final.split():
-            effects.append(_entry(cand, theta, err, crit, chosen, res0, res1, hold))
+            effects.append(_entry(cand, theta, err, crit, chosen, res0, res1, hold, cal))
             found = _airframe_evidence(cand.name, float(theta[0]), "fitted")
             if found:
                 airframe.append(found)
@@ -274,6 +297,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                                 "gain_per_sample": cal.gain_per_sample,
                                 "pair_gain_per_sample": cal.pair_gain_per_sample},
                  "innovation_ratio": crit.ratio,
+                 "detectable_evidence": seen,
                  "offset": {c: [v, k] for c, (v, k) in crit.offset.items()},
                  **({"after_lead": {"name": crit.after_lead["name"],
                                     "ratio": crit.after_lead["ratio"],

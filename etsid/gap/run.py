@@ -22,7 +22,6 @@ import pandas as pd
 from etsid.blas import one_blas_thread
 from etsid.errors import GapError
 from etsid.gap.candidates import Context
-from etsid.gap.detectable import detectable_sizes
 from etsid.gap.fitting import Scorer
 from etsid.gap.floors import channel_floors, own_error
 from etsid.gap.likelihood import explain_by_likelihood
@@ -51,7 +50,6 @@ from etsid.gap.signals import (
 )
 from etsid.gap.validation import time_split
 from etsid.gap.vehicle_check import check_vehicles, structural
-from etsid.gap.verdict import Z_MISMATCH
 
 SIM_FIT_SHARE = 0.7
 FIT_SHARE = 0.6
@@ -328,9 +326,7 @@ def _analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str,
     if floors.loop is not None and floors.loop.noise_driven:
         # SIM's loop answers noise its log does not hold: the direct fit is biased
         scorer = prediction_error_scorer(sim, scorer)  # roll and pitch: prediction errors
-    say("gap: what this pair could have seen (detectable size of every effect)")
-    base = {"detectable": detectable_sizes(scorer, [real.airborne], Z_MISMATCH),
-            "schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
+    base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared}, "vehicle_check": check,
             "nominal": {"k": nominal.k, "tau": nominal.tau, "delay": nominal.delay,

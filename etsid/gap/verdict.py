@@ -14,8 +14,7 @@
 5. After the named effects, every channel still mismatched on held-out data is reported
    with its size, and caps the named effects' confidence (a partial explanation).
 
-:data:`Z_MISMATCH` remains the size at which the pair's detectable sizes are stated
-(:mod:`etsid.gap.detectable`).
+The pair's detectable sizes are stated where rule 1 would fire (:mod:`etsid.gap.detectable`).
 """
 
 from __future__ import annotations
@@ -26,10 +25,6 @@ import numpy as np
 
 from etsid.gap.candidates import Candidate
 
-Z_MISMATCH = 4.0
-"""The mismatch size the pair's detectable sizes are stated at (:mod:`etsid.gap.detectable`):
-an effect is detectable from the size at which it raises a channel's RMSE to twice its
-floor (the criterion's own threshold is calibrated, ``mismatch_ratio``)."""
 WORSEN_Z = 1.0
 """Largest rise of any channel's held-out RMSE, in units of its floor, an effect may cause:
 its noise."""

@@ -9,6 +9,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import gap_calibrate
+import numpy as np
+import pytest
+
+from etsid.gap.calibration import Calibration
+from etsid.gap.criterion import offset_limit
+
+CAL = Calibration(2.0, 0.05, 0.1, 0.01, {})
 
 DAMPING = {"rate_damping": {"status": "detectable", "size": 11.9, "parameter": "yaw",
                             "per_parameter": {"damping": {"down": None, "up": None},
@@ -33,13 +40,13 @@ def test_truth_sizes_map_generator_truth_to_detectable_parameters():
 def test_below_detectable_reads_every_parameter_in_its_direction():
     small = _row({"rate_damping": 6.5}, "rate_damping", DAMPING)
     large = _row({"rate_damping": 13.0}, "rate_damping", DAMPING)
-    assert gap_calibrate.below_detectable("rate_damping", small)
-    assert not gap_calibrate.below_detectable("rate_damping", large)
+    assert gap_calibrate.below_detectable("rate_damping", small, CAL)
+    assert not gap_calibrate.below_detectable("rate_damping", large, CAL)
     unmapped = _row({"wind_enu": [3.0, 0.0, 0.0]}, "wind",
                     {"wind": {"status": "detectable", "per_parameter": {}}})
-    assert not gap_calibrate.below_detectable("wind", unmapped)
+    assert not gap_calibrate.below_detectable("wind", unmapped, CAL)
     unseeable = _row({}, "wind", {"wind": {"status": "insufficient", "per_parameter": {}}})
-    assert gap_calibrate.below_detectable("wind", unseeable)
+    assert gap_calibrate.below_detectable("wind", unseeable, CAL)
 
 
 def test_honest_miss_needs_no_wrong_name_and_a_size_below_detectable():
@@ -47,8 +54,38 @@ def test_honest_miss_needs_no_wrong_name_and_a_size_below_detectable():
     quiet = {"answer": "consistent", "verdict": "consistent"}
     wrong = {"answer": "inertia_scale", "verdict": "mismatch"}
     other = {"answer": "different-vehicle", "verdict": "different-vehicle"}
-    assert gap_calibrate.honest_miss("rate_damping", quiet, row)
-    assert not gap_calibrate.honest_miss("rate_damping", wrong, row)
-    assert not gap_calibrate.honest_miss("rate_damping", other, row)
+    assert gap_calibrate.honest_miss("rate_damping", quiet, row, CAL)
+    assert not gap_calibrate.honest_miss("rate_damping", wrong, row, CAL)
+    assert not gap_calibrate.honest_miss("rate_damping", other, row, CAL)
     seen = _row({"rate_damping": 13.0}, "rate_damping", DAMPING)
-    assert not gap_calibrate.honest_miss("rate_damping", quiet, seen)
+    assert not gap_calibrate.honest_miss("rate_damping", quiet, seen, CAL)
+
+
+def _evidence() -> dict:
+    """A time delay whose change of the prediction grows as the square of its size, and a
+    gyro bias read by a sensor channel (variance 1e-5 (rad/s)², 3 draws) and by a dynamic
+    channel (variance 4e-4)."""
+    sizes = [0.001, 0.01, 0.05]
+    return {"offset_channels": 3, "effects": {
+        "time_delay": {"parameters": {"delay": {"unit": "s", "up": {
+            "span": 0.05, "sizes": sizes, "excess": [(s / 0.01) ** 2 for s in sizes]}}}},
+        "gyro_bias": {"parameters": {"bx": {"unit": "rad/s", "up": {
+            "span": 0.1, "channels": [[1e-5, 3], [4e-4, 0]]}}}},
+        "wind": {"reason": "the logs lack vel"}}}
+
+
+def test_detectable_sizes_are_stated_again_under_each_calibration():
+    """Known answers: a dynamic channel fires where the change reaches (ratio − 1) floors²,
+    a sensor channel's offset where θ² reaches the F(1, k) limit times its variance."""
+    row = {"criterion": {"detectable_evidence": _evidence()}}
+    for ratio in (2.0, 5.0):
+        cal = Calibration(ratio, 0.05, 0.1, 0.01, {})
+        sizes = gap_calibrate.stated_sizes(row, cal)
+        assert sizes["time_delay"]["size"] == pytest.approx(0.01 * np.sqrt(ratio - 1))
+        bias = sizes["gyro_bias"]["per_parameter"]["bx"]["up"]
+        sensor = np.sqrt(offset_limit(3, 3, 0.01) * 1e-5)
+        dynamic = np.sqrt((ratio - 1) * 4e-4)
+        assert bias == pytest.approx(min(sensor, dynamic))
+        assert sizes["wind"]["status"] == "insufficient"
+    loose = gap_calibrate.stated_sizes(row, Calibration(2.0, 0.05, 0.1, 0.2, {}))
+    assert loose["gyro_bias"]["size"] < gap_calibrate.stated_sizes(row, CAL)["gyro_bias"]["size"]

@@ -16,11 +16,10 @@ GAP = Path(__file__).resolve().parents[2] / "etsid" / "gap"
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "gap.md"
 
 DECISION = {
-    "floors.GYRO_FLOOR", "floors.KINEMATIC_FLOOR", "likelihood.LOOK_ALIKE_NATS",
-    "likelihood.AIRFRAME_SCALES", "detectable.BELOW_CONFIDENCE", "verdict.Z_MISMATCH",
-    "verdict.WORSEN_Z", "verdict.BOUND_SHARE", "verdict.GEOMETRIC_RATIO", "loop.LOOP_TILT",
-    "loop.MIN_COHERENCE", "vehicle_check.PLAUSIBLE", "signals.MIN_AIRBORNE_S",
-    "nominal.STRUCTURE_Z", "nominal.MIN_VOLTAGE_COVER", "nominal.MIN_VOLTAGE_SPAN",
+    "floors.GYRO_FLOOR", "floors.KINEMATIC_FLOOR", "likelihood.AIRFRAME_SCALES",
+    "detectable.BELOW_CONFIDENCE", "verdict.WORSEN_Z", "verdict.BOUND_SHARE",
+    "verdict.GEOMETRIC_RATIO", "loop.LOOP_TILT", "loop.MIN_COHERENCE",
+    "vehicle_check.PLAUSIBLE", "signals.MIN_AIRBORNE_S", "nominal.MIN_VOLTAGE_COVER",
 }
 """Thresholds that decide a verdict, a name or a confidence, set by hand (the calibrated
 ones live in calibration.json, written by benchmarks/gap_calibrate.py)."""

@@ -14,10 +14,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from etsid.gap.calibration import load_calibration
+from etsid.gap.criterion import offset_limit
 from etsid.gap.detectable import below_detectable
 from etsid.gap.result import clean, validate
 from etsid.gap.run import analyse
-from etsid.gap.verdict import Z_MISMATCH
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import gap_real
@@ -102,14 +103,22 @@ def test_a_gyro_bias_below_its_detectable_size_is_not_a_finding() -> None:
                 and e["confidence"] >= 0.5], data["summary"]
 
 
-def test_a_sensor_offset_is_detectable_at_its_floor_times_the_threshold() -> None:
-    """Known answer: an offset adds itself to its channel, so the detectable size is
-    √(Z − 1) times the channel's floor."""
+def test_a_sensor_offset_is_detectable_where_the_mismatch_rule_fires() -> None:
+    """Known answer: an offset adds itself to its channel, so the detectable size is where
+    the mismatch rule's test of that channel fires: on a sensor-consistency channel
+    ``√(limit · var)`` with the F(1, k) limit at the calibration's rate and the variance of
+    its offset test; on a dynamic one ``√(mismatch_ratio − 1)`` floors."""
     table = _real("ardupilot_copter403_hexa_loiter_real.bin")
     data = analyse(table, table.copy(), "s", "r").data
-    sigma = data["noise"]["gyro_q"]
+    cal = load_calibration()
+    evidence = data["criterion"]["detectable_evidence"]
+    tests = evidence["effects"]["gyro_bias"]["parameters"]["by"]["up"]["channels"]
+    want = min(np.sqrt((offset_limit(int(k), evidence["offset_channels"],
+                                     cal.false_positive_rate) if k > 0
+                        else cal.mismatch_ratio - 1.0) * var) for var, k in tests)
     size = data["detectable"]["gyro_bias"]["per_parameter"]["by"]["up"]
-    assert size == pytest.approx(np.sqrt(Z_MISMATCH - 1.0) * sigma, rel=1e-9)
+    assert size == pytest.approx(want, rel=1e-9)
+    assert any(k > 0 for _, k in tests)  # the gyro's own channel is judged by its offset
     fake = {"name": "gyro_bias", "parameters": {"bx": {"value": 0.0}, "by": {"value": size / 2},
                                                "bz": {"value": 0.0}}}
     assert below_detectable(fake, data["detectable"])
