@@ -82,13 +82,6 @@ def _load(path: str) -> Calibration:
     return from_dict(data, str(p))
 
 
-def stated_rate() -> float:
-    """The false-positive rate the package's calibration is stated at: the one rate the
-    tests of ``etsid gap`` are held to, SIM's structure tests included (a benchmark's
-    recording calibration, loose on purpose, does not change SIM's nominal model)."""
-    return load_calibration(str(CALIBRATION_PATH)).false_positive_rate
-
-
 def calibration_dict(cal: Calibration) -> dict[str, Any]:
     """The file content of ``cal``."""
     return {"schema": CALIBRATION_SCHEMA,

@@ -181,7 +181,10 @@ def test_look_alikes_the_data_do_not_tell_apart_are_both_said(tmp_path: Path) ->
     step 20 the two explained the data equally well and the torque offset was named with the
     weak motor as its caveat; with the pack voltage in the speed law (step 21) the weak
     motor leaves a floor unit less on the dynamic channels and is named. Either way the
-    answer is never the torque offset without its look-alike, and at most half confident."""
+    answer is never the torque offset without its look-alike, nor more than half confident in
+    it; the weak motor, when named, is motor 4 at its thrust within 5 % (session 11: named
+    at 1.00 with 0.86, above the detectable size the calibrated mismatch rule gives; the hint
+    cap had held it at 0.45 below the older, larger size)."""
     from etsid.gap.run import analyse
 
     sim, real = _logged_pair("pyflyt", "weak_motor", 307130, tmp_path)
@@ -190,7 +193,11 @@ def test_look_alikes_the_data_do_not_tell_apart_are_both_said(tmp_path: Path) ->
     assert [e["name"] for e in named] in (["torque_offset"], ["weak_motor"]), data["summary"]
     if named[0]["name"] == "torque_offset":
         assert "weak motor" in named[0].get("caveat", ""), named[0]
-    assert named[0]["confidence"] <= 0.5
+        assert named[0]["confidence"] <= 0.5
+    else:
+        p = named[0]["parameters"]
+        assert p["motor"]["value"] == 4, p["motor"]
+        assert p["scale"]["value"] == pytest.approx(0.84, abs=0.05), p
 
 
 def test_rate_damping_is_named_in_roll_pitch_and_yaw(tmp_path: Path) -> None:
