@@ -156,7 +156,7 @@ def _etsid_pairs(seeds: list[int], labels: list[str] | None, wanted: set[str] | 
                 continue
             sim, real, truth = make_pair(effect, s * 100 + j)
             expected = "+".join(sorted(truth["effects"])) or "consistent"
-            yield f"etsid-{s * 100 + j}", effect, expected, False, sim, real, truth
+            yield pid, effect, expected, False, sim, real, truth
 
 
 def _dir_pairs(folder: Path, labels: list[str] | None, wanted: set[str] | None):
@@ -180,12 +180,10 @@ def record(args: argparse.Namespace) -> None:
                                     "thresholds": RECORDING,
                                     "source": {"note": "recording thresholds"}}))
     labels = args.only.split(",") if args.only else None
-    again = {json.loads(line)["id"] for line in Path(args.again).read_text().splitlines()
-             if line.strip()} if args.again else None
+    again = {str(r["id"]) for r in load([args.again])} if args.again else None
     seeds = ([int(s) for s in args.etsid_seeds.split(",")] if args.etsid_seeds else
              sorted({int(i.split("-")[1]) // 100 for i in again or () if i.startswith("etsid-")}))
-    done = {json.loads(line)["id"] for line in Path(args.out).read_text().splitlines()
-            if line.strip()} if Path(args.out).exists() else set()
+    done = {str(r["id"]) for r in load([args.out])} if Path(args.out).exists() else set()
     if done:
         print(f"{len(done)} pairs already in {args.out}: not recorded again", flush=True)
     wanted = again - done if again is not None else None

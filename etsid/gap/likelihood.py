@@ -81,7 +81,7 @@ def look_alikes(crit: Criterion, named: Evaluated, cal: Calibration) -> list[Eva
     singles = [m for m in crit.models if "+" not in m.name]
     out = []
     for m in singles:
-        if m is named or m.name == named.name or m.refused or m.weight <= 0 or m.gain <= 0:
+        if m.name == named.name or m.refused or m.weight <= 0 or m.gain <= 0:
             continue
         if m.gain_blocks.size != named.gain_blocks.size:
             continue
