@@ -9,9 +9,10 @@ near-still hover is judged on noise. Two things here:
   threshold (:data:`etsid.ident.flight.EXCITE_STD`);
 - :func:`blocked_validation`: :data:`N_BLOCKS` blocks spread over the excited rows, the
   first after :data:`FIRST_BLOCK` of them. **Each block is scored by the model learnt on
-  every row before it** (trained online from the first row, merged and frozen at the
-  block's start — as identify freezes its model; ranges from those rows only), so learning
-  stays online and causal and no block is scored by a model that saw it. ARX is fitted by
+  every row before it**: one online pass from the first row, copied, merged and frozen at
+  each block's start (as identify freezes its model), with the normalisation ranges of the
+  rows before the first block. Learning stays online and causal, no block is scored by a
+  model that saw it, and the flight is learnt once, not once per block. ARX is fitted by
   least squares on the same rows; no-change is the previous sample. Scores pool the blocks'
   rows (one-step RMSE) or average the blocks (free-run fit %).
 
@@ -21,6 +22,7 @@ When neither the tail nor any block moves on an axis, the flight cannot be valid
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -30,7 +32,7 @@ from etsid.ident.config import IdentConfig
 from etsid.ident.metrics import fit_percent
 from etsid.ident.regressors import Regression, RegressorSpec
 from etsid.ident.simulate import envelope, free_run
-from etsid.ident.structure import BEHIND, train
+from etsid.ident.structure import BEHIND, merged, untrained
 
 N_BLOCKS = 3
 """Validation blocks spread over the excited flight."""
@@ -103,9 +105,15 @@ def blocked_validation(reg: Regression, spec: RegressorSpec, config: IdentConfig
     moving = [[] for _ in range(m)]
     blocks = []
     limits = envelope(reg.Y)
+    online = untrained(reg, spec, config, bounds[0][0])
+    learnt = 0
     for a, b in bounds:
         sub = _truncated(reg, spec, b)
-        model = train(sub, spec, config, a)
+        if a > learnt:
+            online.run(reg.X[learnt:a], reg.Y[learnt:a],
+                       reg.S[learnt:a] if spec.antecedent else None)
+            learnt = a
+        model = merged(copy.deepcopy(online), reg, spec, config, a)
         S = sub.S[a:b] if spec.antecedent and sub.S is not None else None
         one = np.asarray(model.predict(sub.X[a:b], S)).reshape(b - a, m)
         sim = free_run(model, sub, spec, a, n_table, limits)

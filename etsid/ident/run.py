@@ -260,7 +260,7 @@ def _identify(table: pd.DataFrame, config: IdentConfig | None, source: str | Pat
     if choice is not None and frozen is not None and split < n:
         metrics["structure"] = {**choice.to_dict(), "validation": validation_table(
             table, reg, requested_spec, requested_config, choice.chosen, split, cols,
-            requested_reg)}
+            requested_reg, choice.online)}
         chosen.notes.extend(behind_lines(metrics["outputs"], frozen_rules,
                                          float(np.count_nonzero(excited[:split]) * dt),
                                          1.0 / dt, reg.X.shape[1] + 1))

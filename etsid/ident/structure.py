@@ -30,6 +30,7 @@ compared with ARX and no-change persistence (:func:`behind_lines`).
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -74,6 +75,10 @@ class StructureChoice:
     config: IdentConfig
     note: str
     inner: dict[str, dict[str, float]] = field(default_factory=dict)
+    online: dict[str, tuple[ETS, np.ndarray]] = field(default_factory=dict, repr=False)
+    """Each candidate's eTS as learnt online up to the inner validation (not merged, not
+    frozen) and the times of the rows it learnt: :func:`validation_table` goes on learning
+    it to the validation part instead of learning the same rows again."""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready record (metrics.json ``structure``)."""
@@ -99,22 +104,35 @@ def _regression(reg: Regression, spec: RegressorSpec, end: int) -> Regression:
                       reg.kinematics)
 
 
-def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) -> ETS:
-    """An eTS of ``spec``/``config`` learnt online on rows ``[0, upto)`` with learning-part
-    ranges of those rows (indistinguishable rules merged at the end, as identify does)."""
+def untrained(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) -> ETS:
+    """An empty eTS of ``spec``/``config`` with learning-part ranges of rows ``[0, upto)``."""
     scheduled = bool(spec.antecedent)
     x_range, y_range = fixed_ranges(reg, spec, upto, config.normalise)
     params = config.ets_params(scheduled, len(spec.antecedent_names or []))
-    model = ETS(**params, input_names=spec.input_names,
-                output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
-                s_range=schedule_range(reg, spec, upto, config.normalise)
-                if scheduled else None,
-                antecedent_names=spec.antecedent_names,
-                shared_outputs=config.shared_outputs(spec.outputs, scheduled))
-    model.run(reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
+    return ETS(**params, input_names=spec.input_names,
+               output_names=list(spec.outputs), x_range=x_range, y_range=y_range,
+               s_range=schedule_range(reg, spec, upto, config.normalise)
+               if scheduled else None,
+               antecedent_names=spec.antecedent_names,
+               shared_outputs=config.shared_outputs(spec.outputs, scheduled))
+
+
+def merged(model: ETS, reg: Regression, spec: RegressorSpec, config: IdentConfig,
+           upto: int) -> ETS:
+    """``model``, learnt on rows ``[0, upto)``, with indistinguishable rules merged (as
+    identify does; in place)."""
     if config.merge is not False:  # the structure choice is for the rate model
-        merge_rules(model, reg.X[:upto], reg.Y[:upto], reg.S[:upto] if scheduled else None)
+        S = reg.S[:upto] if spec.antecedent else None
+        merge_rules(model, reg.X[:upto], reg.Y[:upto], S)
     return model
+
+
+def train(reg: Regression, spec: RegressorSpec, config: IdentConfig, upto: int) -> ETS:
+    """An eTS of ``spec``/``config`` learnt online on rows ``[0, upto)`` with learning-part
+    ranges of those rows (indistinguishable rules merged at the end, as identify does)."""
+    model = untrained(reg, spec, config, upto)
+    model.run(reg.X[:upto], reg.Y[:upto], reg.S[:upto] if spec.antecedent else None)
+    return merged(model, reg, spec, config, upto)
 
 
 def scores_on(model: ETS, reg: Regression, spec: RegressorSpec, start: int, n_table: int
@@ -141,11 +159,15 @@ def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
                                f"≥ {2 * n_params} and ≥ {MIN_INNER_ROWS}), so no richer "
                                "structure could earn its place; --structure to force")
     fits: dict[str, dict[str, float]] = {}
+    online: dict[str, tuple[ETS, np.ndarray]] = {}
     for name in names:
         c_spec, c_config = candidate(name, spec, config)
         sub = _regression(reg, c_spec, split)
-        model = train(sub, c_spec, c_config, inner)
-        _, sim = scores_on(model, sub, c_spec, inner, n_table)
+        model = untrained(sub, c_spec, c_config, inner)
+        model.run(sub.X[:inner], sub.Y[:inner], sub.S[:inner] if c_spec.antecedent else None)
+        online[name] = (copy.deepcopy(model), sub.t[:inner])
+        _, sim = scores_on(merged(model, sub, c_spec, c_config, inner), sub, c_spec, inner,
+                           n_table)
         fits[name] = {y: fit_percent(sub.Y[inner:, o], sim[:, o])
                       for o, y in enumerate(spec.outputs)}
     moving = [o for o, y in enumerate(spec.outputs)
@@ -172,7 +194,7 @@ def choose_structure(reg: Regression, spec: RegressorSpec, config: IdentConfig,
                      f"rule, the scheduling gaining less than {MARGIN:g} points of free-run "
                      f"fit on the inner split there ({gains}; --structure scheduled to "
                      "schedule every output)")
-    return StructureChoice(chosen, c_spec, c_config, note, fits)
+    return StructureChoice(chosen, c_spec, c_config, note, fits, online)
 
 
 def unpaid_outputs(fits: dict[str, dict[str, float]], outputs: tuple[str, ...],
@@ -186,17 +208,38 @@ def unpaid_outputs(fits: dict[str, dict[str, float]], outputs: tuple[str, ...],
     return flat if len(flat) < len(outputs) else []
 
 
+def _learnt_to(name: str, c_reg: Regression, c_spec: RegressorSpec, c_config: IdentConfig,
+               c_split: int, online: dict[str, tuple[ETS, np.ndarray]]) -> ETS:
+    """Candidate ``name`` learnt online on rows ``[0, c_split)`` of ``c_reg``, merged: the
+    structure choice's model goes on learning from where it stopped when it learnt the same
+    first rows (its ranges are then those of the rows before the inner validation), else
+    it is learnt from the first row."""
+    model, t_learnt = online.get(name, (None, None))
+    done = 0 if t_learnt is None else len(t_learnt)
+    if model is None or not (0 < done <= c_split and np.array_equal(c_reg.t[:done],
+                                                                      t_learnt)):
+        return train(c_reg, c_spec, c_config, c_split)
+    model = copy.deepcopy(model)
+    if c_split > done:
+        model.run(c_reg.X[done:c_split], c_reg.Y[done:c_split],
+                  c_reg.S[done:c_split] if c_spec.antecedent else None)
+    return merged(model, c_reg, c_spec, c_config, c_split)
+
+
 def validation_table(table: Any, reg: Regression, spec: RegressorSpec, config: IdentConfig,
                      chosen: str, split: int, cols: dict[str, np.ndarray],
-                     requested: Regression | None = None
+                     requested: Regression | None = None,
+                     online: dict[str, tuple[ETS, np.ndarray]] | None = None
                      ) -> dict[str, dict[str, dict[str, float | None]]]:
     """Validation one-step RMSE and free-run fit % per output of every candidate (the
     chosen one from ``cols``), ARX (batch LS) and persistence: ``{model: {y: {...}}}``.
 
     ``spec`` and ``config`` are the requested ones (before the choice), ``reg`` and
     ``split`` the chosen model's regression and first validation row; each other candidate
-    learns on its own rows before the same validation start time. ``requested`` is
-    ``build(table, spec)`` when the caller has it (it is not built again)."""
+    learns on its own rows before the same validation start time, going on from the
+    structure choice's ``online`` models where they learnt the same first rows.
+    ``requested`` is ``build(table, spec)`` when the caller has it (it is not built
+    again)."""
     out: dict[str, dict[str, dict[str, float | None]]] = {}
     built = [(candidate(chosen, spec, config)[0], reg)]  # arx and unscheduled share a spec
     if requested is not None:
@@ -214,8 +257,8 @@ def validation_table(table: Any, reg: Regression, spec: RegressorSpec, config: I
         c_split = int(np.searchsorted(c_reg.t, reg.t[split], side="left"))
         if not 0 < c_split < len(c_reg.t):
             continue
-        one, sim = scores_on(train(c_reg, c_spec, c_config, c_split), c_reg, c_spec, c_split,
-                             len(table))
+        model = _learnt_to(name, c_reg, c_spec, c_config, c_split, online or {})
+        one, sim = scores_on(model, c_reg, c_spec, c_split, len(table))
         out[label] = _block(c_reg, c_split, one, sim, spec)
     out["ARX"] = _block(reg, split, cols["y_arx_val"][split:], cols["y_arx_sim"][split:], spec)
     out["no-change"] = _block(reg, split, cols["y_persist"][split:], None, spec)
