@@ -66,3 +66,58 @@ def test_too_little_data_to_check_keeps_the_simplest() -> None:
     assert note.startswith("structure: one rule (ARX), the simplest, unchecked")
     assert run.metrics["rules"]["frozen"] == 1
     assert run.config["parameters"]["max_rules"] == 1
+
+
+def test_the_validation_table_goes_on_from_the_inner_models() -> None:
+    """Each candidate of the validation table is the structure choice's online model
+    learnt on to the validation start: the same bits as one pass from the first row (with
+    the ranges of the rows before the inner validation), the stored model left as it was;
+    rows that differ from the ones it learnt are learnt again from the first row."""
+    import numpy as np
+
+    from etsid.ident import IdentConfig
+    from etsid.ident.checks import split_excited
+    from etsid.ident.model_choice import choose_model
+    from etsid.ident.regressors import build
+    from etsid.ident.resample import decimate
+    from etsid.ident.structure import (
+        _learnt_to,
+        candidate,
+        choose_structure,
+        merged,
+        train,
+        untrained,
+    )
+    from etsid.ident.synthetic import rate_table
+
+    table = rate_table(9000, seed=4, segments=1)
+    table["alt"] = 0.3 + 0.5 * (1.0 + np.sin(np.arange(len(table)) / 700.0))
+    table = decimate(table, 50.0)
+    config = IdentConfig(segments="all")
+    spec = choose_model(table, config).spec
+    assert spec.antecedent  # rules on the altitude: the scheduled candidate is there
+    reg = build(table, spec)
+    excited = np.ones(len(reg.X), dtype=bool)
+    split = split_excited(excited, 0.3)
+    choice = choose_structure(reg, spec, config, excited, split, len(table))
+    assert set(choice.online) == {"arx", "unscheduled", "scheduled"}
+    for name, (stored, t_learnt) in choice.online.items():
+        c_spec, c_config = candidate(name, spec, config)
+        c_reg = build(table, c_spec)
+        inner = len(t_learnt)
+        assert 0 < inner < split
+        before = stored.to_dict()
+        S = c_reg.S[:split] if c_spec.antecedent else None
+        onepass = untrained(c_reg, c_spec, c_config, inner)
+        onepass.run(c_reg.X[:split], c_reg.Y[:split], S)
+        onepass = merged(onepass, c_reg, c_spec, c_config, split)
+        goes_on = _learnt_to(name, c_reg, c_spec, c_config, split, choice.online)
+        Sv = c_reg.S[split:] if c_spec.antecedent else None
+        assert np.array_equal(goes_on.predict(c_reg.X[split:], Sv),
+                              onepass.predict(c_reg.X[split:], Sv))
+        assert stored.to_dict() == before
+        moved = {name: (stored, t_learnt + 1.0)}  # not the rows it learnt
+        again = _learnt_to(name, c_reg, c_spec, c_config, split, moved)
+        fresh = train(c_reg, c_spec, c_config, split)
+        assert np.array_equal(again.predict(c_reg.X[split:], Sv),
+                              fresh.predict(c_reg.X[split:], Sv))
