@@ -39,7 +39,10 @@ def resume_marker(started: float) -> str:
 
 def done_elsewhere(final: Path, done: frozenset[str]) -> bool:
     """True when this is a ``--resume`` batch and another batch put run directory
-    ``final`` in place since this one started (checked while holding the log's lock)."""
+    ``final`` in place since this one began to read its results (checked while holding the
+    log's lock; a worker stamps a run directory with the time it put it in place). A log
+    put in place before that moment whose row is not in the results yet is still worked
+    again: the window is the other batch's time from the rename to its row."""
     starts = [float(k[len(RESUMING):]) for k in done if k.startswith(RESUMING)]
     if not starts:
         return False

@@ -142,11 +142,13 @@ def run_batch(items: list[Item], spec: BatchSpec, out: str | Path, jobs: int | N
     digest = spec.digest()
     stale = 0
     try:
+        scanned = time.time()  # before the results are read: a log another batch puts
+        # in place from now on may be missing from them, and is skipped by its time
         done = done_keys(out, spec.command, digest, retry_failed) if resume else frozenset()
         if resume:  # a killed batch's staging folders (partial files), and the marker that
             # lets a worker skip a log another --resume batch finished while it waited
             stale = remove_stale_staging(out / RUNS)
-            done = done | {resume_marker(time.time())}
+            done = done | {resume_marker(scanned)}
         runner = _runner(spec, out, done, jobs, scheduler, max_memory_mb, dashboard)
     except BaseException:
         _remove_empty(made)  # an error before any log ran leaves no empty folder

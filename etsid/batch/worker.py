@@ -135,6 +135,7 @@ def staged_dir(final: Path) -> Iterator[Path]:
                                                 dir=final.parent))
                     os.replace(final, old / final.name)
                 os.rename(staging, final)
+                os.utime(final)  # its time is when it was put in place, not its last file's
                 break
             except OSError:
                 if attempt == 2:
