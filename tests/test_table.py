@@ -360,7 +360,7 @@ def test_hold_index_merge_walk_equals_searchsorted() -> None:
     a NaN or an unordered time array falls back to searchsorted itself."""
     import numba  # noqa: F401  (the walk runs once numba is loaded)
 
-    from etsid.ingest.align import HOLD_MERGE_MIN, hold_index
+    from etsid.ingest.align import HOLD_MERGE_MIN, HOLD_TOLERANCE_S, hold_index
 
     rng = np.random.default_rng(5)
     for case in range(60):
@@ -374,6 +374,23 @@ def test_hold_index_merge_walk_equals_searchsorted() -> None:
         grid = np.sort(rng.normal(size=HOLD_MERGE_MIN + int(rng.integers(1, 2000))) * 12)
         if case % 5 == 0:
             grid = np.round(grid)
-        want = np.searchsorted(t, grid, side="right") - 1
+        want = np.searchsorted(t, grid + HOLD_TOLERANCE_S, side="right") - 1
         got = hold_index(t, grid)
         assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("n", [1000, 2340, 2488, 3000])
+def test_hold_takes_a_sample_stamped_at_the_grid_point(n: int) -> None:
+    """A motor stream stamped at the reference stream's instants (one in µs, one in ms, as
+    MAVLink's SERVO_OUTPUT_RAW and ATTITUDE are) is held from its own instant on the grid
+    built from the reference's estimated period: floating-point rounding of that grid put
+    8-37 % of the points a hair before their sample, which was then held one period late."""
+    from etsid.ingest.align import hold_index, native_period
+
+    ref = np.rint((np.arange(n) * 0.02 + 30.0) * 1e3) / 1e3
+    servo = np.rint((np.arange(n) * 0.02 + 30.0) * 1e6) / 1e6
+    grid = ref[0] + np.arange(n) / (1.0 / native_period(ref))
+    assert np.mean(np.searchsorted(servo, grid, side="right") - 1 != np.arange(n)) > 0.05
+    assert np.array_equal(hold_index(servo, grid), np.arange(n))
+    late = servo + 0.004  # a stream 4 ms behind is still held from its own samples
+    assert np.array_equal(hold_index(late, grid)[1:], np.arange(n - 1))

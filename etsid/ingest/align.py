@@ -110,11 +110,25 @@ def interpolation(column: str) -> str:
     return COLUMNS[column].interp if column in COLUMNS else "linear"
 
 
+HOLD_TOLERANCE_S = 1e-6
+"""A sample stamped less than this after a grid point is held from that point on: one
+microsecond, the finest clock of the log formats read (MAVLink ``time_usec``, DataFlash
+``TimeUS``), so two stamps closer than it are one instant as far as a log can say. The
+grid's own floating-point error lies far below it (the grid is built from an estimated
+period: about 1e-14 s at boot-clock times, 1e-7 s at Unix times), and without it a motor
+output stamped at the same instant as a grid point was held one sample late wherever
+rounding put the point a hair early: on a 50 Hz log, at 15 % of its points or at none,
+depending on the log's length, a 3 ms difference in apparent motor timing between two
+logs of one simulator (docs/gap_results.md, session 12)."""
+
+
 def hold_index(t: np.ndarray, grid: np.ndarray) -> np.ndarray:
-    """Index of the last sample of ``t`` at or before each grid point (−1 before the first).
+    """Index of the last sample of ``t`` at or before each grid point (−1 before the first),
+    a sample within :data:`HOLD_TOLERANCE_S` after the point counting as at it.
 
     Once numba is loaded, ordered float arrays take one merge walk
     (:mod:`etsid.ingest.align_kernels`) instead of a bisection per grid point."""
+    grid = np.asarray(grid, dtype=float) + HOLD_TOLERANCE_S
     if ("numba" in sys.modules and grid.size > HOLD_MERGE_MIN and t.dtype == np.float64
             and grid.dtype == np.float64 and t.ndim == grid.ndim == 1):
         from etsid.ingest.align_kernels import hold_merge
