@@ -291,8 +291,10 @@ def load(paths: list[str]) -> list[dict[str, Any]]:
     return list(rows.values())
 
 
-def fit(args: argparse.Namespace) -> None:
-    rows = [r for r in load(args.records) if r["generator"] in args.generators.split(",")]
+def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> None:
+    """Fit and write a calibration from ``args.records`` (or from ``rows`` already loaded)."""
+    rows = [r for r in (load(args.records) if rows is None else rows)
+            if r["generator"] in args.generators.split(",")]
     none = [r for r in rows if r["label"] == "none" and r.get("criterion")]
     ratios = [max(v for c, v in r["criterion"]["innovation_ratio"].items()
                   if c not in r["criterion"].get("offset", {})) for r in none]
