@@ -20,7 +20,7 @@ DECISION = {
     "detectable.BELOW_CONFIDENCE", "verdict.WORSEN_Z", "verdict.BOUND_SHARE",
     "verdict.GEOMETRIC_RATIO", "loop.LOOP_TILT", "loop.MIN_COHERENCE",
     "vehicle_check.PLAUSIBLE", "signals.MIN_AIRBORNE_S", "nominal.STRUCTURE_Z",
-    "nominal.MIN_VOLTAGE_COVER", "nominal.MIN_VOLTAGE_SPAN",
+    "nominal.MIN_VOLTAGE_COVER",
 }
 """Thresholds that decide a verdict, a name or a confidence, set by hand (the calibrated
 ones live in calibration.json, written by benchmarks/gap_calibrate.py)."""
