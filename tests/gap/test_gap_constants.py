@@ -17,7 +17,7 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "gap.md"
 
 DECISION = {
     "floors.GYRO_FLOOR", "floors.KINEMATIC_FLOOR", "likelihood.AIRFRAME_SCALES",
-    "detectable.BELOW_CONFIDENCE", "verdict.WORSEN_Z", "loop.LOOP_TILT", "loop.MIN_COHERENCE",
+    "detectable.BELOW_CONFIDENCE", "verdict.WORSEN_Z", "loop.LOOP_TILT",
     "vehicle_check.PLAUSIBLE", "signals.MIN_AIRBORNE_S", "nominal.STRUCTURE_Z",
     "nominal.MIN_VOLTAGE_COVER",
 }
