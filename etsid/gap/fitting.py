@@ -32,12 +32,17 @@ class Fit:
         Standard errors of ``theta``.
     mods : Mods
         The model change at ``theta``.
+    bound_cost : ndarray
+        (n_params, 2): the fitting objective with one parameter moved to its lower (upper)
+        search bound, the others held, minus its value at ``theta``; NaN at a bound that is
+        the law's no-effect value (verdict rule 3, :func:`etsid.gap.verdict.at_bound`).
     """
 
     candidates: tuple[Candidate, ...]
     theta: np.ndarray
     stderr: np.ndarray
     mods: Mods
+    bound_cost: np.ndarray | None = None
 
     @property
     def name(self) -> str:
@@ -55,6 +60,17 @@ class Fit:
         for c in self.candidates:
             k = len(c.params)
             out.append((c, self.theta[i:i + k], self.stderr[i:i + k]))
+            i += k
+        return out
+
+    def split_bounds(self) -> list[tuple[Candidate, np.ndarray, np.ndarray]]:
+        """(candidate, its theta, its rows of :attr:`bound_cost`) per candidate."""
+        cost = (self.bound_cost if self.bound_cost is not None
+                else np.full((self.theta.size, 2), np.nan))
+        out, i = [], 0
+        for c in self.candidates:
+            k = len(c.params)
+            out.append((c, self.theta[i:i + k], cost[i:i + k]))
             i += k
         return out
 
@@ -271,7 +287,21 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
         if f(x0) < f(theta):  # never worse than the start (e.g. the single fits of a pair)
             theta = x0
     stderr = _stderr(f, theta, lo, hi, scorer, mask)
-    return Fit(cands, theta, stderr, mods_at(theta))
+    return Fit(cands, theta, stderr, mods_at(theta), _bound_cost(f, theta, params))
+
+
+def _bound_cost(f, theta: np.ndarray, params: list) -> np.ndarray:
+    """The objective with each parameter moved to each of its bounds, minus the fit's
+    (NaN at a bound that is the law's no-effect value)."""
+    j0 = f(theta)
+    out = np.full((theta.size, 2), np.nan)
+    for i, p in enumerate(params):
+        for side, b in enumerate((p.lo, p.hi)):
+            if b != p.null:
+                moved = theta.copy()
+                moved[i] = b
+                out[i, side] = f(moved) - j0
+    return out
 
 
 def _stderr(f, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray, scorer: Scorer,

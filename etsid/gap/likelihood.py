@@ -53,8 +53,8 @@ def _admissible(scorer: Scorer, ls: LikelihoodScorer) -> Callable[[Evaluated], s
     """Verdict rules 3 and 4 on a model's fold fits: why it may not be named, or ""."""
     def check(ev: Evaluated) -> str:
         for fit in ev.fits:
-            for cand, theta, _ in fit.split():
-                hits = at_bound(cand, theta)
+            for cand, theta, cost in fit.split_bounds():
+                hits = at_bound(cand, theta, cost)
                 if hits:
                     return "at bound: " + hits[0].describe()
         k = 0

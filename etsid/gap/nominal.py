@@ -727,10 +727,6 @@ def _weighted_sse(flight: Flight, mask: np.ndarray, k: float, tau: float,
 K_SEARCH = (0.0, 0.3)
 """Bounds of the idle offset ``k`` when a voltage-scaled speed law is fitted on SIM: the
 voltage's drift over a flight moves the hover command along the law, which fixes ``k``."""
-MIN_VOLTAGE_SPAN = 0.01
-"""Least relative spread (5th to 95th percentile) of SIM's airborne pack voltage, low-passed
-at :data:`VOLTAGE_CUTOFF_HZ`, for a voltage-scaled rotor-speed law to be tried at all."""
-
 
 MIN_VOLTAGE_COVER = 0.5
 """Least share of REAL's airborne samples whose pack voltage lies within SIM's (1st to 99th
@@ -774,11 +770,14 @@ def speed_law(flight: Flight, mask: np.ndarray, k: float | None, tau: float, del
 
     Most ESCs set a duty cycle, so a rotor's speed goes as the pack voltage times the
     command and its thrust as the voltage squared: a simulation with a battery model drifts
-    in thrust per command as its pack drains. The voltage-scaled law (with ``k`` fitted in
-    :data:`K_SEARCH` unless given) is kept when, fitted on SIM's first 60 %, it predicts
-    ``az`` on the last 40 % better by :data:`STRUCTURE_Z` standard errors of the
-    difference; otherwise the command alone sets the speed (``k`` given, or
-    :data:`K_DEFAULT`) and a voltage effect is a candidate (``battery_sag``).
+    in thrust per command as its pack drains. The voltage-scaled law is kept when, fitted on
+    SIM's first 60 %, it predicts ``az`` on the last 40 % better than the command-only law
+    by :data:`STRUCTURE_Z` standard errors of the difference, each law with the same ``k``
+    when given, else each with its own ``k`` fitted in :data:`K_SEARCH` (so the voltage law
+    can win only by the voltage: on a pack that does not drain the two laws are one, and a
+    refitted idle offset alone is not a voltage law); otherwise the command alone sets the
+    speed (``k`` given, or :data:`K_DEFAULT`) and a voltage effect is a candidate
+    (``battery_sag``).
     """
     k_plain = K_DEFAULT if k is None else float(k)
     if "vbat" not in flight.have or "az" not in measured(flight) or mask.sum() < 20:
@@ -786,19 +785,19 @@ def speed_law(flight: Flight, mask: np.ndarray, k: float | None, tau: float, del
     if not np.all(np.isfinite(flight.vbat)) or np.median(flight.vbat[mask]) <= 0:
         return k_plain, None
     volts = lowpass(flight.vbat, flight.fs, VOLTAGE_CUTOFF_HZ)[mask]  # the drift, not noise
-    lo, hi = np.quantile(volts, (0.05, 0.95))
-    if (hi - lo) / np.median(volts) < MIN_VOLTAGE_SPAN:
-        return k_plain, None
     v_ref = float(np.median(volts))
-    k_volt = k_plain
-    if k is None:
+    k_cmd = k_volt = k_plain
+    if k is None:  # each law with its own idle offset: the voltage law wins by the voltage
         idx = np.flatnonzero(mask)
         early = mask & (np.arange(mask.size) < idx[int(0.6 * idx.size)])
-        r = minimize_scalar(lambda v: float(np.mean(_late_error(flight, early, v, tau, delay,
-                                                                v_ref))),
-                            bounds=K_SEARCH, method="bounded", options={"xatol": 5e-3})
-        k_volt = float(r.x)
-    gain = _late_error(flight, mask, k_plain, tau, delay, None) - _late_error(
+
+        def own_k(ref: float | None) -> float:
+            r = minimize_scalar(lambda v: float(np.mean(_late_error(flight, early, v, tau,
+                                                                    delay, ref))),
+                                bounds=K_SEARCH, method="bounded", options={"xatol": 5e-3})
+            return float(r.x)
+        k_cmd, k_volt = own_k(None), own_k(v_ref)
+    gain = _late_error(flight, mask, k_cmd, tau, delay, None) - _late_error(
         flight, mask, k_volt, tau, delay, v_ref)
     n_eff = max(gain.size * 2.0 * CUTOFF_HZ["az"] / flight.fs, 2.0)
     if float(np.mean(gain)) > STRUCTURE_Z * float(np.std(gain)) / np.sqrt(n_eff):

@@ -5,9 +5,10 @@
    ``consistent`` only when none is and no effect is named.
 2. :func:`worsened` — an effect is not kept if it raises any channel's held-out RMSE by
    more than that channel's floor (``√z_after − √z_before > WORSEN_Z``).
-3. :func:`at_bound` — a fitted parameter at, or within :data:`BOUND_SHARE` of, a search
-   bound that is not the law's "no effect" value is not a finding: the difference exceeds
-   the vocabulary's range (another airframe, or a larger effect than modelled).
+3. :func:`at_bound` — a fitted parameter whose fit does not prefer it to a search bound
+   that is not the law's "no effect" value (the objective there, the other parameters held,
+   is no higher: the constrained optimum is on the bound) is not a finding: the difference
+   exceeds the vocabulary's range (another airframe, or a larger effect than modelled).
 4. A thrust or inertia scale beyond one airframe's faults, fitted or at its bound, says
    another vehicle (:data:`etsid.gap.likelihood.AIRFRAME_SCALES`), as does the airframe
    check of :mod:`etsid.gap.vehicle_check`.
@@ -28,11 +29,6 @@ from etsid.gap.candidates import Candidate
 WORSEN_Z = 1.0
 """Largest rise of any channel's held-out RMSE, in units of its floor, an effect may cause:
 its noise."""
-BOUND_SHARE = 0.02
-GEOMETRIC_RATIO = 20.0
-"""A parameter within :data:`BOUND_SHARE` of its search range from a bound is at the bound;
-for a range spanning more than :data:`GEOMETRIC_RATIO` times (a time constant from 3 ms to
-0.5 s) within that share of the bound's own value."""
 
 VERDICTS = ("consistent", "mismatch", "insufficient", "different-vehicle")
 
@@ -62,16 +58,18 @@ class BoundHit:
                 f"{self.bound:g}{unit}")
 
 
-def at_bound(cand: Candidate, theta: np.ndarray) -> list[BoundHit]:
-    """Rule 4: the parameters of ``cand`` that sit at a search bound. A bound equal to the
-    law's no-effect value (zero delay, zero drag, zero offset) is not a range limit."""
+def at_bound(cand: Candidate, theta: np.ndarray, bound_cost: np.ndarray) -> list[BoundHit]:
+    """Rule 3: the parameters of ``cand`` whose fit sits at a search bound: the fitting
+    objective with the parameter moved to the bound (the others held) is no higher than
+    at the fit (``bound_cost`` ≤ 0, rows per parameter, columns lower and upper bound,
+    :attr:`etsid.gap.fitting.Fit.bound_cost`), so the bounded search stopped there (or
+    short of it) and the data may lie beyond. An interior optimum, however close to a
+    bound, costs more there. A bound equal to the law's no-effect value (zero delay, zero
+    drag, zero offset) is not a range limit."""
     hits = []
-    for p, v in zip(cand.params, np.asarray(theta, dtype=float), strict=True):
-        for b in (p.lo, p.hi):
-            if b == p.null:
-                continue
-            geometric = p.lo > 0 and p.hi / p.lo > GEOMETRIC_RATIO
-            tol = BOUND_SHARE * (abs(b) if geometric else p.hi - p.lo)
-            if abs(v - b) <= tol:
+    cost = np.asarray(bound_cost, dtype=float).reshape(len(cand.params), 2)
+    for p, v, row in zip(cand.params, np.asarray(theta, dtype=float), cost, strict=True):
+        for b, c in zip((p.lo, p.hi), row, strict=True):
+            if b != p.null and np.isfinite(c) and c <= 0.0:
                 hits.append(BoundHit(cand.name, p.name, float(v), float(b), p.unit))
     return hits

@@ -17,10 +17,9 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "gap.md"
 
 DECISION = {
     "floors.GYRO_FLOOR", "floors.KINEMATIC_FLOOR", "likelihood.AIRFRAME_SCALES",
-    "detectable.BELOW_CONFIDENCE", "verdict.WORSEN_Z", "verdict.BOUND_SHARE",
-    "verdict.GEOMETRIC_RATIO", "loop.LOOP_TILT", "loop.MIN_COHERENCE",
+    "detectable.BELOW_CONFIDENCE", "verdict.WORSEN_Z", "loop.LOOP_TILT",
     "vehicle_check.PLAUSIBLE", "signals.MIN_AIRBORNE_S", "nominal.STRUCTURE_Z",
-    "nominal.MIN_VOLTAGE_COVER", "nominal.MIN_VOLTAGE_SPAN",
+    "nominal.MIN_VOLTAGE_COVER",
 }
 """Thresholds that decide a verdict, a name or a confidence, set by hand (the calibrated
 ones live in calibration.json, written by benchmarks/gap_calibrate.py)."""
@@ -83,7 +82,7 @@ def _numeric_constants() -> set[str]:
 
 def _docstring(qualified: str) -> str:
     """The docstring after a constant, or after the group of constants declared on
-    consecutive lines with it (``BOUND_SHARE`` and ``GEOMETRIC_RATIO`` share one)."""
+    consecutive lines with it (a group of constants may share one)."""
     module, name = qualified.split(".")
     body = ast.parse((GAP / f"{module}.py").read_text(encoding="utf-8")).body
     for i, node in enumerate(body):

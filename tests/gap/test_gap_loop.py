@@ -62,11 +62,23 @@ def test_a_loop_following_its_references_reads_unity() -> None:
 def test_a_loop_answering_its_motor_noise_is_noise_driven() -> None:
     """With noise of 0.3 per step against a 0.05 rad/s reference the commands are mostly the
     loop's answer to the noise: the true law reads low at 1-4 Hz and high at 4-8 Hz (as
-    PyFlyt's Crazyflie, 0.7× and 1.5×), a tilt beyond LOOP_TILT."""
+    PyFlyt's Crazyflie, 0.7× and 1.5×), a tilt beyond LOOP_TILT even at its lower bound."""
     resp = _response(0.3, 30.0)
     low, high = resp.gains["p"]
     assert low < 0.8 and high > 1.2, resp.gains
-    assert resp.tilt >= LOOP_TILT and resp.noise_driven
+    assert resp.tilt_low >= LOOP_TILT and resp.noise_driven
+
+
+def test_the_same_tilt_read_through_sensor_noise_is_not_enough() -> None:
+    """That loop measured through white noise of five times its signal: the gains stay
+    unbiased (tilt about 2) but are read so loosely that the tilt's lower bound at the
+    stated rate falls short of LOOP_TILT, and nothing is claimed."""
+    pred, meas = _fly(0.3, 30.0)
+    noisy = meas + 5.0 * meas.std() * np.random.default_rng(7).standard_normal(meas.size)
+    flight = SimpleNamespace(fs=float(FS_LOG), airborne=np.ones(pred.size, bool))
+    model = SimpleNamespace(channels=("p",), predict=lambda *_: {"p": pred})
+    resp = band_response(flight, model, {"p": noisy})
+    assert resp.tilt >= LOOP_TILT > resp.tilt_low and not resp.noise_driven
 
 
 def test_its_look_alike_weak_noise_is_not_noise_driven() -> None:
@@ -76,8 +88,9 @@ def test_its_look_alike_weak_noise_is_not_noise_driven() -> None:
 
 
 def test_a_band_the_commands_do_not_explain_gives_no_reading() -> None:
-    """A measurement the prediction does not explain (independent noise, coherence near 0)
-    and a stretch shorter than three Welch segments give no band gain: nothing is claimed."""
+    """A measurement the prediction does not explain (independent noise: its coherence
+    within chance at the stated rate) and a stretch shorter than three Welch segments give
+    no band gain: nothing is claimed."""
     pred, _ = _fly(0.0, 30.0)
     flight = SimpleNamespace(fs=float(FS_LOG), airborne=np.ones(pred.size, bool))
     model = SimpleNamespace(channels=("p",), predict=lambda *_: {"p": pred})
