@@ -20,7 +20,9 @@ import argparse
 import contextlib
 import copy
 import io
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -74,12 +76,13 @@ def main() -> None:
     args = ap.parse_args()
     seen = gc.load(args.records)
     fresh = gc.load(args.fresh) if args.fresh else []
+    scratch = Path(tempfile.mkdtemp(prefix="gap_offset_null_"))
     for rule, prep in (("as recorded", lambda r: r), ("offset null", capped)):
         rows = [prep(r) for r in seen]
         later = [prep(r) for r in fresh]
         for g in GENERATORS:
             others = ",".join(x for x in GENERATORS if x != g)
-            out = Path(f"/tmp/gap_offset_null_{g}_{rule.replace(' ', '_')}.json")
+            out = scratch / f"{g}_{rule.replace(' ', '_')}.json"
             with contextlib.redirect_stdout(io.StringIO()):
                 gc.fit(argparse.Namespace(records=[], generators=others, fpr=0.01,
                                           out=str(out)), rows=rows)
@@ -89,6 +92,7 @@ def main() -> None:
             if later:
                 line += "; fresh " + tally([r for r in later if r["generator"] == g], cal)
             print(line, flush=True)
+    shutil.rmtree(scratch, ignore_errors=True)
 
 
 if __name__ == "__main__":
