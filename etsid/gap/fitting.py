@@ -54,25 +54,23 @@ class Fit:
         """Number of fitted parameters."""
         return int(self.theta.size)
 
-    def split(self) -> list[tuple[Candidate, np.ndarray, np.ndarray]]:
-        """(candidate, its theta, its stderr) per candidate."""
+    def _per_candidate(self, rows: np.ndarray) -> list[tuple[Candidate, np.ndarray, np.ndarray]]:
+        """(candidate, its theta, its rows of ``rows``) per candidate."""
         out, i = [], 0
         for c in self.candidates:
             k = len(c.params)
-            out.append((c, self.theta[i:i + k], self.stderr[i:i + k]))
+            out.append((c, self.theta[i:i + k], rows[i:i + k]))
             i += k
         return out
 
+    def split(self) -> list[tuple[Candidate, np.ndarray, np.ndarray]]:
+        """(candidate, its theta, its stderr) per candidate."""
+        return self._per_candidate(self.stderr)
+
     def split_bounds(self) -> list[tuple[Candidate, np.ndarray, np.ndarray]]:
         """(candidate, its theta, its rows of :attr:`bound_cost`) per candidate."""
-        cost = (self.bound_cost if self.bound_cost is not None
-                else np.full((self.theta.size, 2), np.nan))
-        out, i = [], 0
-        for c in self.candidates:
-            k = len(c.params)
-            out.append((c, self.theta[i:i + k], cost[i:i + k]))
-            i += k
-        return out
+        return self._per_candidate(self.bound_cost if self.bound_cost is not None
+                                   else np.full((self.theta.size, 2), np.nan))
 
 
 class Scorer:
