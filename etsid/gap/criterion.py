@@ -10,6 +10,10 @@ the noise model (:mod:`etsid.gap.noise`): per channel, the residual whitened by 
 filter, Gaussian with the deviation the model reaches on its own fitting folds, never
 below the channel's floor. A model's gain is its summed held-out log-likelihood minus the
 null's; only channels a model changes can differ from the null, so the gain sums over them.
+On a sensor-consistency channel the null carries the flight's own offset (``β + u``, β
+drawn once per flight from the between-flight spread), so a model gains there at most half
+REAL's offset statistic ``z²`` over the flight, shared among the folds by their samples
+(:meth:`LikelihoodScorer._offset_evidence`).
 
 A model is named when its gain per scored sample exceeds the calibrated threshold
 (:mod:`etsid.gap.calibration`); a second effect is added only when the pair's gain over
@@ -183,6 +187,43 @@ class LikelihoodScorer:
         self.null_innov = noise.innovations(null)
         self.null_ll = {c: [self._loglik(c, self.null_innov[c], k) for k in range(len(
             folds.score))] for c in self.channels}
+        self.offset_evidence = self._offset_evidence()
+
+    def _offset_evidence(self) -> dict[str, tuple[float, np.ndarray]]:
+        """Sensor-consistency channel → (½ z², REAL's offset statistic under the null over
+        all folds, nats; per fold, its share of the channel's scored innovations).
+
+        On these channels the null is ``β + u`` with the flight's offset β ~ N(0, τ²)
+        (:mod:`etsid.gap.noise`). Against that null's marginal likelihood, a model that
+        removes REAL's offset entirely gains ``½ z² + ½ ln(1 + m c²τ²/σ²)``; the log term
+        is the Occam factor of a parameter fitted by the data (what held-out scoring charges
+        a fitted offset), so ``½ z²`` is the most a model can gain there. Without this, a
+        fitted offset within the between-flight spread gains ``½ m (cβ)²/σ²``, growing
+        with the m samples of the flight."""
+        out: dict[str, tuple[float, np.ndarray]] = {}
+        mask = self._scored()
+        for c in self.channels:
+            if self.noise.channels[c].offset_dof <= 0:
+                continue
+            z2 = offset_z2(self.noise.channels[c], self.null_innov[c], mask)
+            ok = np.isfinite(self.null_innov[c])
+            counts = np.array([np.sum(s & ok) for s in self.folds.score], dtype=float)
+            if np.isfinite(z2) and counts.sum() > 0:
+                out[c] = (0.5 * z2, counts / counts.sum())
+        return out
+
+    def _capped(self, c: str, per_fold: dict[int, np.ndarray]) -> dict[int, np.ndarray]:
+        """A sensor-consistency channel's per-sample gains of the scored folds, scaled down
+        so that their sum is at most those folds' share of ``½ z²``
+        (:meth:`_offset_evidence`); other channels' unchanged."""
+        if c not in self.offset_evidence or not per_fold:
+            return per_fold
+        half_z2, share = self.offset_evidence[c]
+        cap = half_z2 * float(sum(share[k] for k in per_fold))
+        total = float(sum(np.nansum(d) for d in per_fold.values()))
+        if total <= cap:
+            return per_fold
+        return {k: d * (cap / total) for k, d in per_fold.items()}
 
     def _loglik(self, c: str, innov: np.ndarray, k: int) -> np.ndarray:
         """Per-sample log-likelihood of fold ``k``'s samples (NaN elsewhere) with the
@@ -205,9 +246,8 @@ class LikelihoodScorer:
              ) -> tuple[np.ndarray, int, dict[str, tuple[float, int]]]:
         """(per-block gain over the null, samples scored, channel → (gain, its scored
         samples)) of the fold fits ``fits`` (None: that fold not scored)."""
-        total = np.zeros(self.folds.n_blocks)
         n = 0
-        by_channel: dict[str, tuple[float, int]] = {}
+        per_channel: dict[str, dict[int, np.ndarray]] = {}
         for k, fit in enumerate(fits):
             if fit is None:
                 continue
@@ -217,11 +257,16 @@ class LikelihoodScorer:
             res = self.scorer.residuals(fit.mods, chans)
             innov = self.noise.innovations(res)
             for c in chans:
-                d = self._loglik(c, innov[c], k) - self.null_ll[c][k]
+                per_channel.setdefault(c, {})[k] = (self._loglik(c, innov[c], k)
+                                                    - self.null_ll[c][k])
+            n += int(np.sum(self.folds.score[k]))
+        total = np.zeros(self.folds.n_blocks)
+        by_channel: dict[str, tuple[float, int]] = {}
+        for c, per_fold in per_channel.items():
+            for d in self._capped(c, per_fold).values():
                 total += self.blocks(d)
                 g0, n0 = by_channel.get(c, (0.0, 0))
                 by_channel[c] = (g0 + float(np.nansum(d)), n0 + int(np.sum(np.isfinite(d))))
-            n += int(np.sum(self.folds.score[k]))
         return total, n, by_channel
 
     def _scored(self, n_folds: int | None = None) -> np.ndarray:

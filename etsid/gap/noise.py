@@ -34,7 +34,8 @@ flight: the mean square of SIM's offsets over the sensor's three axes (k = 3 dra
 innovations β appears as ``(1 − Σ a_i) β``; the floor of a model's innovation variance on
 these channels is ``σ² + (1 − Σ a_i)² τ²`` (an offset within the between-flight spread is no
 evidence), and REAL's offset is tested against τ by its F(1, k) distribution
-(:func:`offset_z2`).
+(:func:`offset_z2`). The criterion's null on these channels is the same law: a model's gain
+there is at most ``½ z²`` per flight (:mod:`etsid.gap.criterion`).
 """
 
 from __future__ import annotations

@@ -4,6 +4,7 @@ folds, the pseudo-BMA+ weights, the choice rule and the calibration file."""
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from etsid.errors import GapError
 from etsid.gap.calibration import Calibration, calibration_dict, load_calibration
 from etsid.gap.criterion import (
     Evaluated,
+    LikelihoodScorer,
     choose,
     make_folds,
     mismatched,
@@ -19,6 +21,7 @@ from etsid.gap.criterion import (
     pseudo_bma,
     significant,
 )
+from etsid.gap.fitting import Fit, Scorer
 from etsid.gap.noise import decimation, fit_ar, fit_noise, offset_z2
 
 
@@ -99,6 +102,52 @@ def test_sensor_offsets_are_judged_against_the_spread_sim_shows():
     offs = {c: (offset_z2(ch, model.channels[c].whiten(biased[c]), mask), 3) for c in biased}
     assert mismatched(dict.fromkeys(biased, 1.0), offs, cal) == ["gyro_q"]
     assert offset_limit(3, 6, 0.01) > offset_limit(30, 6, 0.01) > 1.0
+
+
+class _OffsetModel(Scorer):
+    """A nominal model that predicts a constant per channel: ``mods`` maps channel →
+    offset (None: zero), so that a fitted offset is the whole model change."""
+
+    def prediction(self, mods=None, channels=None):
+        n = next(iter(self.measured.values())).size
+        return {c: np.full(n, (mods or {}).get(c, 0.0)) for c in channels or self.measured}
+
+
+@dataclass(frozen=True)
+class _Bias:
+    channels: tuple[str, ...]
+
+
+def test_a_fitted_offset_gains_at_most_what_the_flight_offset_test_says():
+    # SIM and REAL each carry their own gyro-vs-attitude offsets of spread 0.005; REAL's
+    # within that spread must gain next to nothing, a 0.2 offset on q exactly half its
+    # offset statistic (the likelihood ratio against the random-offset null)
+    rng = np.random.default_rng(7)
+    n = 6000
+    mask = np.ones(n, dtype=bool)
+    sim = _sensor_flight(rng, rng.normal(0.0, 0.005, 3), n)
+    real = _sensor_flight(rng, np.array([0.004, -0.003, 0.005]), n)
+    real["gyro_q"] = real["gyro_q"] + 0.2
+    noise = fit_noise(sim, mask, dict.fromkeys(sim, 0.0), 100.0, dict.fromkeys(sim, 100.0),
+                      real_residuals=real, real_mask=mask)
+    folds = make_folds(mask, fs=100.0)
+    ls = LikelihoodScorer(_OffsetModel(None, real, dict.fromkeys(real, 0.002)), noise, folds)
+    bias = (_Bias(tuple(real)),)
+    fits = [Fit(bias, np.zeros(3), np.zeros(3),
+                {c: float(np.mean(v[fold])) for c, v in real.items()})
+            for fold in folds.fit]
+    _, _, by_channel = ls.gain(fits)
+    for c in ("gyro_p", "gyro_r"):
+        half_z2 = 0.5 * offset_z2(noise.channels[c], noise.channels[c].whiten(real[c]), mask)
+        assert by_channel[c][0] <= half_z2 + 1e-9
+        assert half_z2 < 0.5 * offset_limit(3, 3, 0.01)  # within the spread: no mismatch
+    half_z2_q = 0.5 * offset_z2(noise.channels["gyro_q"],
+                                noise.channels["gyro_q"].whiten(real["gyro_q"]), mask)
+    assert by_channel["gyro_q"][0] == pytest.approx(half_z2_q, rel=1e-3)  # scored samples only
+    assert half_z2_q > 100.0
+    ls.offset_evidence = {}  # the plain likelihood: the small offsets gain with every sample
+    _, _, plain = ls.gain(fits)
+    assert plain["gyro_p"][0] > 100 * max(by_channel["gyro_p"][0], 1.0)
 
 
 def test_decimation_reads_a_slow_channel_sparsely():
