@@ -46,7 +46,8 @@ def _object(required: tuple[str, ...] = (), **properties: dict[str, Any]) -> dic
 
 TABLE_ATTRS = _object(
     source=NAME, format=NAME, start_time=NUM_OR_NULL, rate_hz=POS_OR_NULL,
-    physics_hz=POS_OR_NULL, reference={"type": ["string", "null"], "maxLength": 1000},
+    physics_hz=POS_OR_NULL, command_log=NAME,
+    reference={"type": ["string", "null"], "maxLength": 1000},
     mapping=_map_of({"type": ["string", "null"], "maxLength": 1000}),
     signals=_map_of(_object(source=NAME, count=INT, rate_hz=NUM_OR_NULL)),
     dropped=_list_of(OBJ), repaired=_list_of(_object(reason=STR, count=INT, signal=NAME)),

@@ -31,6 +31,7 @@ from etsid.sim.params import (
     EST_KP,
     EST_ON,
     GYRO_BIAS,
+    LOG_MEAN,
     LOOP_INPUT,
     LOOP_MOTORS,
     NZ_ACC,
@@ -110,7 +111,9 @@ def advance(
     noise : ndarray
         (n, N_NOISE) measurement noise in physical units.
     k_out : int
-        Record every ``k_out``-th step (row ``i // k_out``).
+        Record every ``k_out``-th step (row ``i // k_out``). With ``P[LOG_MEAN]`` set, a
+        row's motor outputs are the mean of the commands of its ``k_out`` steps (those the
+        motors received over the row's period) instead of the first step's.
     rf_every : int
         Rangefinder sample period in steps (sample and hold).
     meas, truth : ndarray
@@ -134,6 +137,7 @@ def advance(
     buf = S[o_buf:o_buf + cap * n_rot].copy().reshape((cap, n_rot))
     est_on = P[EST_ON] > 0.5
     mode = int(P[LOOP_INPUT])
+    log_mean = P[LOG_MEAN] > 0.5
     delay = P[DELAY]
     n_del = int(delay)
     f_del = delay - n_del
@@ -224,6 +228,12 @@ def advance(
                    k1, work)
         for j in range(3):  # accelerometer sample, used by the estimator on the next step
             est[EST_F + j] = aux[AUX_F + j] + noise[i, NZ_ACC + j] + P[ACCEL_BIAS + j]
+        if log_mean and i % k_out != 0:
+            # running mean of the commands over the log period of row i // k_out
+            w_new = 1.0 / (i % k_out + 1)
+            row = meas[i // k_out]
+            for j in range(n_rot):
+                row[nm + j] += w_new * (m_cmd[j] - row[nm + j])
         if i % k_out == 0:
             o = i // k_out
             for j in range(n_rot):

@@ -14,7 +14,7 @@ import pandas as pd
 from etsid import progress
 from etsid.errors import SimError
 from etsid.sim.engine import MEAS_COLUMNS, ROTOR_BLOCKS, TRUTH_COLUMNS, advance, run_flight
-from etsid.sim.params import N_NOISE
+from etsid.sim.params import LOG_MEAN, N_NOISE
 from etsid.sim.plant import initial_state, make_plant, noise_levels, noise_std
 from etsid.sim.scenarios import build_references, resolve_params
 from etsid.sim.settings import split_settings
@@ -22,6 +22,8 @@ from etsid.sim.trim import hover_trim
 from etsid.sim.vehicle import Vehicle, load_vehicle
 
 MIN_PHYSICS_HZ = 1000.0
+COMMAND_LOGS = ("sample", "mean")
+"""What a log row's motor outputs may hold (:func:`simulate`'s ``command_log``)."""
 MAX_SIM_BYTES = 2 * 2**30
 """Memory a simulation may take (arrays of every physics step): 3600 s at 250 Hz needs
 about 0.6 GiB."""
@@ -82,6 +84,7 @@ def simulate(
     ground_effect: bool = True,
     rate_hz: float = 250.0,
     settings: Mapping[str, Any] | None = None,
+    command_log: str = "sample",
     **scenario_params: Any,
 ) -> SimFlight:
     """Fly ``scenario`` closed loop and log it like a flight controller would.
@@ -108,6 +111,13 @@ def simulate(
         the vehicle (an effect such as ``vehicle.thrust_scale``, ``vehicle.mass``,
         ``vehicle.rotor.radius``; see :meth:`Vehicle.with_settings`), ``scenario.KEY`` a
         scenario setting (``scenario.altitude``). Keyword overrides win over them.
+    command_log : str
+        What a row's motor outputs ``m1..mN`` hold: ``"sample"``, the command of the row's
+        first control step (a logger's snapshot); ``"mean"``, the mean of the commands of
+        the control steps in the row's period (what the motors received over it). The
+        control loop answers gyro noise at the physics rate, so a snapshot carries command
+        jitter that acted for one physics step but reads as held for a whole log period.
+        The flight itself is the same either way.
     **scenario_params
         Overrides of the scenario's settings (see ``SCENARIOS[name]["params"]``).
 
@@ -130,6 +140,9 @@ def simulate(
         raise SimError(f"rate_hz must be a positive number, got {rate_hz!r}")
     if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
         raise SimError(f"seed must be a non-negative integer, got {seed!r}")
+    if command_log not in COMMAND_LOGS:
+        raise SimError(f"command_log must be one of {', '.join(COMMAND_LOGS)}, "
+                       f"got {command_log!r}")
     k_out = max(1, math.ceil(MIN_PHYSICS_HZ / rate_hz))
     dt = 1.0 / (rate_hz * k_out)
     n_out = round(params["duration"] * rate_hz)
@@ -158,6 +171,7 @@ def simulate(
         bias = np.asarray(veh.effects["gyro_bias"], dtype=float)
     plant = make_plant(veh, dt=dt, ground_effect=ground_effect, alt_hold=params["alt_hold"],
                        pilot=params["pilot"], wind=tuple(params["wind"]), gyro_bias=bias)
+    plant.P[LOG_MEAN] = 1.0 if command_log == "mean" else 0.0
     S0 = initial_state(plant, alt0, ground_effect=ground_effect,
                        command=None if params["alt_hold"] else throttle)
     n_rot = veh.n_rotors
@@ -186,6 +200,7 @@ def simulate(
         "ground_effect": bool(ground_effect),
         "rate_hz": float(rate_hz),
         "physics_hz": float(1.0 / dt),
+        "command_log": command_log,
         "params": {k: v for k, v in params.items()},
         "noise": lv,
         "hover_command": float(trim_oge.command),

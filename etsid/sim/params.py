@@ -94,7 +94,8 @@ DELAY = 85         # command -> motor transport delay, in physics steps (fractio
 LOOP_INPUT = 86    # what the per-step loop commands are (LOOP_* below)
 WEAK_MOTOR = 87    # 1-based rotor whose thrust and torque are scaled (0: none)
 WEAK_SCALE = 88    # its thrust and torque multiplier
-N_PARAMS = 89
+LOG_MEAN = 89      # 1: a log row's motor outputs are the mean over its period (0: the sample)
+N_PARAMS = 90
 
 # LOOP_INPUT values: how the per-step command array ``exc`` is read
 LOOP_STICKS = 0    # added to the pilot's sticks (pilot off: the sticks), angle mode
