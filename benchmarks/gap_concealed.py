@@ -60,9 +60,12 @@ def random_vehicle(rng: np.random.Generator):
     })
 
 
-def make_pair(effect: str, seed: int, old_ground: bool = False):
+def make_pair(effect: str, seed: int, old_ground: bool = False,
+              command_log: str | None = None):
     """(sim table, real table, truth dict) for one concealed pair (``old_ground``: the
-    previous generator's ground-effect pairs, for comparison)."""
+    previous generator's ground-effect pairs, for comparison; ``command_log``: how the
+    motor outputs are logged, default :data:`COMMAND_LOG`)."""
+    command_log = command_log or COMMAND_LOG
     rng = np.random.default_rng(seed)
     veh = random_vehicle(rng)
     est = str(rng.choice(["none", "mahony"]))
@@ -154,9 +157,9 @@ def make_pair(effect: str, seed: int, old_ground: bool = False):
     # gyro's white noise, and a 250 Hz snapshot of that jitter reads as held four times
     # longer than the motors saw it, a flight-dependent error a time delay fits (docs/sim.md)
     sim = simulate(sc_sim, veh, duration=d_sim, seed=seed, ground_effect=ge_sim,
-                   settings=base, command_log=COMMAND_LOG, **kw_sim)
+                   settings=base, command_log=command_log, **kw_sim)
     real = simulate(sc_real, veh, duration=d_real, seed=seed + 7919, ground_effect=ge_real,
-                    settings=real_set, command_log=COMMAND_LOG, **kw_real)
+                    settings=real_set, command_log=command_log, **kw_real)
     if "ground_effect" in truth["effects"]:
         n = veh.n_rotors
         ge = real.truth[[f"true_ge{i}" for i in range(1, n + 1)]].to_numpy().mean(axis=1)
@@ -237,6 +240,9 @@ def main() -> None:
     ap.add_argument("--old-ground", action="store_true",
                     help="the previous generator's ground-effect pairs (vehicle-file law, "
                          "fixed low heights) for comparison")
+    ap.add_argument("--command-log", choices=("mean", "sample"), default=COMMAND_LOG,
+                    help="motor outputs logged as each period's mean (default) or as "
+                         "snapshots (the pairs before session 13)")
     args = ap.parse_args()
     seeds = DEV_SEEDS if args.dev else TEST_SEEDS
     if args.seeds:
@@ -253,7 +259,7 @@ def main() -> None:
     if args.only:
         jobs = [j for j in jobs if j[1] in args.only.split(",")]
     for seed, effect in jobs:
-        sim, real, truth = make_pair(effect, seed, args.old_ground)
+        sim, real, truth = make_pair(effect, seed, args.old_ground, args.command_log)
         data = analyse(sim, real, "a", "b").data
         named = sorted(e["name"] for e in data["effects"] if e["name"] != "unexplained")
         label = "+".join(named) if named else ("unexplained" if data["effects"] else
