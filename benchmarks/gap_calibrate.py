@@ -220,7 +220,7 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
     if not crit:  # decided before the criterion (insufficient, different-vehicle)
         return {"answer": row["verdict"], "verdict": row["verdict"], "confidence": {}}
     models = crit["models"]
-    name = choose(models, cal, crit.get("after_lead"))
+    name = choose(models, cal, crit.get("after_lead"), crit.get("offset"))
     if name is not None:
         m = next(m for m in models if m["name"] == name)
         theta = m["theta"]

@@ -9,7 +9,9 @@ removes the offset gains ``½ z²`` nats on the channel, ``z²`` REAL's offset s
 under the null, so every channel's recorded gain is capped at half that statistic, the
 thresholds are fitted again under the cap, and each generator is scored under the other
 two's calibration, before and after. An estimate: the block standard errors are the
-recorded ones, and the package does not implement the rule.
+recorded ones. The package implements the rule since session 13
+(``etsid.gap.criterion.LikelihoodScorer``, with the blocks scaled too); on records made
+since, the cap here changes nothing.
 
     python benchmarks/gap_offset_null.py RECORDS... [--fresh RECORDS...]
 """

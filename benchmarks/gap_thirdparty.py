@@ -188,24 +188,29 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
 def generate(out: Path, sims: list[str], seeds: list[int], only: list[str] | None,
              jobs: int, duration: float | None = None, excite: bool = False,
              motor_noise: float = 1.0) -> None:
+    """Write every pair of ``sims`` × ``seeds`` (``only`` these labels) into ``out``.
+    ``labels.json`` is rewritten after each pair, so an interrupted run keeps what it wrote
+    and a rerun into the same folder writes only the pairs it lacks."""
     out.mkdir(parents=True, exist_ok=True)
+    labels = out / "labels.json"
+    entries = json.loads(labels.read_text())["pairs"] if labels.exists() else []
+    have = {e["id"] for e in entries}
     todo = [dict(j, duration=duration) if duration else j for j in pair_jobs(sims, seeds, only)]
     todo = [dict(j, excite=True) if excite else j for j in todo]
     todo = [dict(j, motor_noise=motor_noise) if motor_noise != 1.0 else j for j in todo]
-    entries = []
+    if have:
+        print(f"{sum(j['id'] in have for j in todo)} pairs already in {labels}", flush=True)
+    todo = [j for j in todo if j["id"] not in have]
     t0 = time.time()
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = [pool.submit(generate_one, j, str(out)) for j in todo]
         for f in futures:
             e = f.result()
             entries.append(e)
+            labels.write_text(json.dumps({"benchmark": "gap_thirdparty", "pairs": entries},
+                                         indent=1))
             print(f"{e['id']:20s} written in {e['seconds']:5.1f} s", flush=True)
-    labels = out / "labels.json"
-    old = json.loads(labels.read_text())["pairs"] if labels.exists() else []
-    keep = [e for e in old if e["id"] not in {x["id"] for x in entries}]
-    labels.write_text(json.dumps({"benchmark": "gap_thirdparty", "pairs": keep + entries},
-                                 indent=1))
-    print(f"{len(entries)} pairs in {time.time() - t0:.0f} s; labels in {labels}")
+    print(f"{len(todo)} pairs in {time.time() - t0:.0f} s; labels in {labels}")
 
 
 def inspect_one(entry: dict[str, Any], out: str) -> str:

@@ -432,28 +432,61 @@ def significant(gain: float, se: float | None, n_tested: int, rate: float) -> bo
     return gain > float(stats.norm.ppf(1.0 - rate / max(n_tested, 1))) * se
 
 
-def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | None = None
-           ) -> str | None:
+def _get(m: Any, key: str) -> Any:
+    """A field of an :class:`Evaluated` or of its gap.json row."""
+    return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
+
+
+def beyond_offset_null(m: Any, offset: dict[str, Any] | None, cal: Calibration) -> bool:
+    """Whether a model's held-out gain on some sensor-consistency channel exceeds what a
+    no-effect flight reaches there at ``cal``'s rate: ``½`` :func:`offset_limit` (its gain
+    on the channel is at most ``½ z²``, z² ~ F(1, k) under no effect; Bonferroni over the
+    channels of ``offset``, channel → (statistic, draws k)). The per-flight counterpart of
+    the per-sample threshold, which a per-flight offset's evidence does not grow into."""
+    if not offset:
+        return False
+    by_channel = _get(m, "by_channel") or {}
+    for c, (_, dof) in offset.items():
+        if c in by_channel and float(by_channel[c][0]) > 0.5 * offset_limit(
+                int(dof), len(offset), cal.false_positive_rate):
+            return True
+    return False
+
+
+def named_single(m: Any, cal: Calibration, offset: dict[str, Any] | None = None,
+                 n_singles: int | None = None) -> bool:
+    """Whether a single's held-out gain is beyond the no-effect flights': per scored sample
+    above ``cal.gain_per_sample`` (and :func:`significant` among the ``n_singles`` tried,
+    when given), or on a sensor-consistency channel beyond :func:`beyond_offset_null`."""
+    if beyond_offset_null(m, offset, cal):
+        return True
+    if float(_get(m, "per_sample")) <= cal.gain_per_sample:
+        return False
+    return n_singles is None or significant(float(_get(m, "gain")),
+                                            _get(m, "gain_se") or None, n_singles,
+                                            cal.false_positive_rate)
+
+
+def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | None = None,
+           offset: dict[str, Any] | None = None) -> str | None:
     """The name of the model the criterion names, or None.
 
-    The best admissible single whose held-out gain per scored sample exceeds
-    ``cal.gain_per_sample`` and whose gain is :func:`significant` among the singles tried;
-    joined by a second effect only while REAL, predicted by that single on held-out blocks
-    (``after_lead``: its ``ratio`` and ``offset``), still has a mismatched channel, and
-    when the pair's gain over the single exceeds ``cal.pair_gain_per_sample`` per scored
-    sample and is significant among the pairs tried. ``models`` are :class:`Evaluated` or
-    their gap.json rows (``name``, ``gain``, ``gain_se``, ``extra_se``, ``per_sample``,
-    ``n_scored``, ``refused``), so that a benchmark can decide recorded runs again under
-    another calibration.
+    The best admissible single when :func:`named_single` (its held-out gain per scored
+    sample exceeds ``cal.gain_per_sample`` and is :func:`significant` among the singles
+    tried, or its gain on a sensor-consistency channel of ``offset`` is beyond the offset
+    law's); joined by a second effect only while REAL, predicted by that single on held-out
+    blocks (``after_lead``: its ``ratio`` and ``offset``), still has a mismatched channel,
+    and when the pair's gain over the single exceeds ``cal.pair_gain_per_sample`` per
+    scored sample and is significant among the pairs tried. ``models`` are
+    :class:`Evaluated` or their gap.json rows (``name``, ``gain``, ``gain_se``,
+    ``extra_se``, ``per_sample``, ``n_scored``, ``refused``, ``by_channel``), so that a
+    benchmark can decide recorded runs again under another calibration.
     """
-    def get(m: Any, key: str) -> Any:
-        return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
+    get = _get
     singles = sorted((m for m in models if "+" not in get(m, "name")
                       and not get(m, "refused")), key=lambda m: -get(m, "gain"))
     n_singles = sum("+" not in get(m, "name") for m in models)
-    if not singles or get(singles[0], "per_sample") <= cal.gain_per_sample or not significant(
-            float(get(singles[0], "gain")), get(singles[0], "gain_se") or None, n_singles,
-            cal.false_positive_rate):
+    if not singles or not named_single(singles[0], cal, offset, n_singles):
         return None
     lead = singles[0]
     best, best_gain = str(get(lead, "name")), float(get(lead, "gain"))
@@ -512,7 +545,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     ranked = sorted(best_of.values(), key=lambda m: -m.gain)
     models = list(ranked)
     usable = [m for m in ranked if not m.refused]
-    if usable and usable[0].per_sample > cal.gain_per_sample:
+    if usable and named_single(usable[0], cal, crit.offset):
         lead = usable[0]
         ratio, offset = ls.held_out(lead)
         crit.after_lead = {"name": lead.name, "ratio": ratio, "offset": offset}
@@ -536,7 +569,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     for m, wi in zip(admitted, w[:-1], strict=True):
         m.weight = float(wi)
     crit.models = models
-    name = choose(models, cal, crit.after_lead or None)
+    name = choose(models, cal, crit.after_lead or None, crit.offset)
     crit.chosen = next((m for m in models if m.name == name), None)
     return crit
 

@@ -199,6 +199,25 @@ def test_choose_names_above_the_threshold_and_pairs_only_past_their_own():
     assert choose(rows, cal) == "thrust_scale"
 
 
+def test_a_sensor_offset_is_named_by_the_offset_law_not_by_its_samples():
+    # a gyro bias's gain is per flight (at most half REAL's offset statistic): it passes
+    # where half the F(1, 3) limit at the rate is exceeded on a channel, whatever its gain
+    # per sample; below that limit it does not, however many samples the flight has
+    cal = Calibration(4.0, 0.05, 0.05, 0.01, {})
+    offset = {c: (0.0, 3) for c in ("gyro_p", "gyro_q", "gyro_r")}
+    half_limit = 0.5 * offset_limit(3, 3, 0.01)
+    strong = _ev("gyro_bias", [half_limit + 1.0], n=20000)  # 0.003 nats per sample
+    strong.by_channel = {"gyro_q": (half_limit + 1.0, 20000)}
+    weak = _ev("gyro_bias", [half_limit - 1.0], n=20000)
+    weak.by_channel = {"gyro_q": (half_limit - 1.0, 20000)}
+    assert choose([strong], cal, offset=offset) == "gyro_bias"
+    assert choose([weak], cal, offset=offset) is None
+    assert choose([strong], cal) is None  # without the offset law: the per-sample rule
+    row = {"name": "gyro_bias", "gain": half_limit + 1.0, "per_sample": 0.003,
+           "n_scored": 20000, "refused": "", "by_channel": {"gyro_q": [half_limit + 1.0, 9]}}
+    assert choose([row], cal, offset={c: [0.0, 3] for c in offset}) == "gyro_bias"
+
+
 def test_a_gain_within_its_block_spread_is_not_named():
     """Above the size threshold but not beyond chance over the blocks: not named."""
     cal = Calibration(4.0, 0.01, 0.05, 0.01, {})
