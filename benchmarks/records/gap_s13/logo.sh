@@ -1,0 +1,21 @@
+#!/bin/bash
+# leave-one-generator-out on the gap_s13 records: fit each rotation on the other two, score seen and fresh
+set -e
+cd /work/main; . /work/venv/bin/activate
+O=benchmarks/records/gap_s13
+ET="$O/seen_etsid.jsonl"
+PY="$O/none_py.jsonl $O/draw740_py.jsonl $O/seen_py.jsonl $O/accel_py.jsonl"
+MR="$O/none_mr.jsonl $O/draw740_mr.jsonl $O/seen_mr.jsonl"
+mode=${1:-seen}
+for g in etsid pyflyt multirotor; do
+  case $g in etsid) others=pyflyt,multirotor; cal_in="$PY $MR"; own="$ET"; fresh=$O/fresh850_etsid.jsonl;;
+             pyflyt) others=etsid,multirotor; cal_in="$ET $MR"; own="$PY"; fresh=$O/fresh750_py.jsonl;;
+             multirotor) others=etsid,pyflyt; cal_in="$ET $PY"; own="$MR"; fresh=$O/fresh750_mr.jsonl;; esac
+  if [ "$mode" = fit ]; then
+    python benchmarks/gap_calibrate.py fit $cal_in --generators $others --out $O/cal_$g.json | tail -n 1
+  elif [ "$mode" = seen ]; then
+    python benchmarks/gap_calibrate.py score $own --generator $g --calibration $O/cal_$g.json | tail -n 1
+  else
+    python benchmarks/gap_calibrate.py score $fresh --generator $g --calibration $O/cal_$g.json > /work/s13/score_fresh_$g.txt; tail -n 1 /work/s13/score_fresh_$g.txt
+  fi
+done
