@@ -1,7 +1,9 @@
 #!/bin/bash
-# leave-one-generator-out on the gap_s13 records: fit each rotation on the other two, score seen and fresh
+# Leave-one-generator-out on the gap_s13 records: fit each rotation on the other two
+# generators' records (fit), score its own seen records (seen) or its fresh draw (fresh).
+# bash benchmarks/records/gap_s13/logo.sh fit|seen|fresh
 set -e
-cd /work/main; . /work/venv/bin/activate
+cd "$(dirname "$0")/../../.."  # the repository root
 O=benchmarks/records/gap_s13
 ET="$O/seen_etsid.jsonl"
 PY="$O/none_py.jsonl $O/draw740_py.jsonl $O/seen_py.jsonl $O/accel_py.jsonl"
@@ -16,6 +18,6 @@ for g in etsid pyflyt multirotor; do
   elif [ "$mode" = seen ]; then
     python benchmarks/gap_calibrate.py score $own --generator $g --calibration $O/cal_$g.json | tail -n 1
   else
-    python benchmarks/gap_calibrate.py score $fresh --generator $g --calibration $O/cal_$g.json > /work/s13/score_fresh_$g.txt; tail -n 1 /work/s13/score_fresh_$g.txt
+    python benchmarks/gap_calibrate.py score $fresh --generator $g --calibration $O/cal_$g.json | tail -n 1
   fi
 done
