@@ -353,7 +353,6 @@ def test_a_crazyflie_rate_damping_within_the_floors_is_named(tmp_path: Path) -> 
     assert 3.0 <= params["damping"] <= 10.0, params
 
 
-@SEEN_PAIR_MISSED(reason="answered consistent")
 def test_its_look_alike_a_crazyflie_inertia_change_is_no_rate_damping(
         tmp_path: Path) -> None:
     """An inertia ×1.52 on the same kind of vehicle (seed 321050, seen) also changes how the
@@ -362,7 +361,6 @@ def test_its_look_alike_a_crazyflie_inertia_change_is_no_rate_damping(
     assert names == ["inertia_scale"], data["summary"]
 
 
-@SEEN_PAIR_MISSED(reason="answered consistent")
 def test_a_crazyflie_rotor_inertia_is_named(tmp_path: Path) -> None:
     """A rotor inertia added to the Crazyflie (seed 329160, set 329's pair 3, seen): its
     spin-up reaction opposes the yaw kick of each motor's speed fluctuations; named a rotor
