@@ -16,8 +16,9 @@ REAL's offset statistic ``z²`` over the flight, shared among the folds by their
 (:meth:`LikelihoodScorer._offset_evidence`).
 
 A model is named when its gain per scored sample exceeds the calibrated threshold
-(:mod:`etsid.gap.calibration`); a second effect is added only when the pair's gain over
-the best single passes the same threshold. The weights of the candidates are pseudo-BMA+
+(:mod:`etsid.gap.calibration`), or its per-flight gain on a sensor-consistency channel
+exceeds half the offset law's limit there (:func:`named_single`); a second effect is
+added only when the pair's gain over the best single passes the same threshold. The weights of the candidates are pseudo-BMA+
 (Yao et al. 2018): softmax of the held-out log-likelihoods under a Bayesian bootstrap of
 the blocks, so that two look-alikes whose predictions the logs cannot separate share
 their weight.
