@@ -18,10 +18,10 @@ REAL's offset statistic ``z²`` over the flight, shared among the folds by their
 A model is named when its gain per scored sample exceeds the calibrated threshold
 (:mod:`etsid.gap.calibration`), or its per-flight gain on a sensor-consistency channel
 exceeds half the offset law's limit there (:func:`named_single`); a second effect is
-added only when the pair's gain over the best single passes the same threshold. The weights of the candidates are pseudo-BMA+
-(Yao et al. 2018): softmax of the held-out log-likelihoods under a Bayesian bootstrap of
-the blocks, so that two look-alikes whose predictions the logs cannot separate share
-their weight.
+added only when the pair's gain over the best single passes the same threshold. The
+weights of the candidates are pseudo-BMA+ (Yao et al. 2018): softmax of the held-out
+log-likelihoods under a Bayesian bootstrap of the blocks, so that two look-alikes whose
+predictions the logs cannot separate share their weight.
 """
 
 from __future__ import annotations
