@@ -2,6 +2,7 @@
 # Leave-one-generator-out on the gap_s13 records: fit each rotation on the other two
 # generators' records (fit), score its own seen records (seen) or its fresh draw (fresh).
 # bash benchmarks/records/gap_s13/logo.sh fit|seen|fresh
+# fit rewrites cal_*.json beside the records (as committed, the files frozen at 5e1a344).
 set -e
 cd "$(dirname "$0")/../../.."  # the repository root
 O=benchmarks/records/gap_s13
