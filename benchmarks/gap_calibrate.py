@@ -379,6 +379,20 @@ def honest_miss(expected: str, decided: dict[str, Any], row: dict[str, Any],
     return bool(missing) and all(below_detectable(w, row, cal) for w in missing)
 
 
+def judged(row: dict[str, Any], decided: dict[str, Any], cal: Calibration
+           ) -> tuple[bool, bool]:
+    """(right, honest) of a recorded pair's answer ``decided``: an out-of-vocabulary pair is
+    right when called a mismatch with nothing named at ≥ 0.5; any other when named as
+    expected, and honest when not but :func:`honest_miss` (effect pairs only)."""
+    if row.get("oov"):
+        return (decided["verdict"] != "consistent"
+                and not any(c >= 0.5 for c in decided["confidence"].values())), False
+    ok = _same(row["expected"], decided["answer"])
+    honest = (not ok and row["label"] != "none"
+              and honest_miss(row["expected"], decided, row, cal))
+    return ok, honest
+
+
 def score(args: argparse.Namespace) -> None:
     cal = load_calibration(args.calibration)
     rows = [r for r in load(args.records) if r["generator"] in args.generator.split(",")]
@@ -387,16 +401,12 @@ def score(args: argparse.Namespace) -> None:
     for r in rows:
         d = decide(r, cal)
         exp = r["expected"]
-        honest = False
+        ok, honest = judged(r, d, cal)
         if r.get("oov"):
-            bad = any(c >= 0.5 for c in d["confidence"].values())
-            oov_bad += bad
-            ok = d["verdict"] != "consistent" and not bad
+            oov_bad += any(c >= 0.5 for c in d["confidence"].values())
         else:
-            ok = _same(exp, d["answer"])
             total += 1
             right += ok
-            honest = not ok and r["label"] != "none" and honest_miss(exp, d, r, cal)
             n_honest += honest
         if r["label"] == "none":
             n_none += 1

@@ -18,7 +18,6 @@ import io
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -27,17 +26,6 @@ import gap_calibrate as gc
 from etsid.gap.calibration import load_calibration
 
 GENERATORS = ("etsid", "pyflyt", "multirotor")
-
-
-def right(row: dict[str, Any], cal: Any) -> bool:
-    """Whether a recorded pair is answered right or honestly under ``cal``."""
-    d = gc.decide(row, cal)
-    if row.get("oov"):
-        return d["verdict"] != "consistent" and not any(
-            c >= 0.5 for c in d["confidence"].values())
-    if gc._same(row["expected"], d["answer"]):
-        return True
-    return row["label"] != "none" and gc.honest_miss(row["expected"], d, row, cal)
 
 
 def decided(paths: list[str], held_out: str, scratch: Path) -> dict[str, bool]:
@@ -49,7 +37,8 @@ def decided(paths: list[str], held_out: str, scratch: Path) -> dict[str, bool]:
     with contextlib.redirect_stdout(io.StringIO()):
         gc.fit(args, rows)
     cal = load_calibration(out)
-    return {str(r["id"]): right(r, cal) for r in rows if r["generator"] == held_out}
+    return {str(r["id"]): any(gc.judged(r, gc.decide(r, cal), cal))
+            for r in rows if r["generator"] == held_out}
 
 
 def main() -> None:

@@ -483,28 +483,27 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     ``extra_se``, ``per_sample``, ``n_scored``, ``refused``, ``by_channel``), so that a
     benchmark can decide recorded runs again under another calibration.
     """
-    get = _get
-    singles = sorted((m for m in models if "+" not in get(m, "name")
-                      and not get(m, "refused")), key=lambda m: -get(m, "gain"))
-    n_singles = sum("+" not in get(m, "name") for m in models)
+    singles = sorted((m for m in models if "+" not in _get(m, "name")
+                      and not _get(m, "refused")), key=lambda m: -_get(m, "gain"))
+    n_singles = sum("+" not in _get(m, "name") for m in models)
     if not singles or not named_single(singles[0], cal, offset, n_singles):
         return None
     lead = singles[0]
-    best, best_gain = str(get(lead, "name")), float(get(lead, "gain"))
+    best, best_gain = str(_get(lead, "name")), float(_get(lead, "gain"))
     if after_lead and after_lead.get("name") == best and not mismatched(
             after_lead["ratio"], after_lead.get("offset", {}), cal):
         return best
-    base_of = {str(get(m, "name")): m for m in singles}
-    pairs = [m for m in models if "+" in str(get(m, "name"))
-             and str(get(m, "name")).split("+")[0] in base_of and not get(m, "refused")]
+    base_of = {str(_get(m, "name")): m for m in singles}
+    pairs = [m for m in models if "+" in str(_get(m, "name"))
+             and str(_get(m, "name")).split("+")[0] in base_of and not _get(m, "refused")]
     for m in pairs:  # each pair over the single it was built on (the lead or one tied to it)
-        base = base_of[str(get(m, "name")).split("+")[0]]
-        extra = float(get(m, "gain")) - float(get(base, "gain"))
-        if (extra / max(get(m, "n_scored"), 1) > cal.pair_gain_per_sample
-                and significant(extra, get(m, "extra_se") or None, len(pairs),
+        base = base_of[str(_get(m, "name")).split("+")[0]]
+        extra = float(_get(m, "gain")) - float(_get(base, "gain"))
+        if (extra / max(_get(m, "n_scored"), 1) > cal.pair_gain_per_sample
+                and significant(extra, _get(m, "extra_se") or None, len(pairs),
                                 cal.false_positive_rate)
-                and float(get(m, "gain")) > best_gain):
-            best, best_gain = str(get(m, "name")), float(get(m, "gain"))
+                and float(_get(m, "gain")) > best_gain):
+            best, best_gain = str(_get(m, "name")), float(_get(m, "gain"))
     return best
 
 
