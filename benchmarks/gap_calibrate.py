@@ -64,6 +64,7 @@ from etsid.gap.calibration import (
 from etsid.gap.criterion import choose, mismatched, significant
 from etsid.gap.detectable import BELOW_CONFIDENCE, detectable_sizes
 from etsid.gap.likelihood import AIRFRAME_SCALES
+from etsid.gap.scale import scale_mismatched, significant_delta
 
 RECORDING = {"mismatch_ratio": 1.0, "gain_per_sample": 0.004, "pair_gain_per_sample": 0.004}
 RECORDING_RATE = 0.5
@@ -241,7 +242,8 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
             if not lo <= m["theta"][0] <= hi:
                 return {"answer": "different-vehicle", "verdict": "different-vehicle",
                         "confidence": {}}
-    mismatch = bool(mismatched(crit["innovation_ratio"], crit.get("offset", {}), cal))
+    scaled = scale_mismatched(crit.get("scale", {}), cal)  # left after every model
+    mismatch = bool(mismatched(crit["innovation_ratio"], crit.get("offset", {}), cal) or scaled)
     if name is None:
         verdict = "mismatch" if mismatch else "consistent"
         return {"answer": verdict, "verdict": verdict, "confidence": {}}
@@ -249,10 +251,11 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
     for part in name.split("+"):
         conf[part] = float(sum(m["weight"] for m in models if part in m["name"].split("+")))
     lead = crit.get("after_lead") or {}
-    if "+" not in name and lead.get("name") == name and mismatched(
-            lead["ratio"], {c: tuple(v) for c, v in lead.get("offset", {}).items()}, cal):
+    if scaled or ("+" not in name and lead.get("name") == name and mismatched(
+            lead["ratio"], {c: tuple(v) for c, v in lead.get("offset", {}).items()}, cal)):
         # a partial explanation (the package's likelihood.cap_partial); the records hold
-        # the held-out channels after a single effect only, so a pair is not capped here
+        # the held-out channels after a single effect only, so a pair is capped here by
+        # what the lead leaves or by a gyro scale (which every model leaves)
         conf = {k: min(v, BELOW_CONFIDENCE) for k, v in conf.items()}
     return {"answer": "+".join(sorted(name.split("+"))), "verdict": "mismatch",
             "confidence": conf}
@@ -309,6 +312,9 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
     if not none:
         raise SystemExit("no no-effect pairs recorded for " + args.generators)
     alpha = args.fpr
+    scales = [max([abs(d) for d, se in r["criterion"]["scale"].values()
+                   if significant_delta(d, se, len(r["criterion"]["scale"]), alpha)] + [0.0])
+              for r in none if "scale" in r["criterion"]]
     mismatch_ratio = _largest(ratios)
     probe = Calibration(mismatch_ratio, 0.0, 0.0, alpha, {})
     extras = []
@@ -335,6 +341,7 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
         mismatch_ratio=mismatch_ratio, gain_per_sample=_largest(gains),
         pair_gain_per_sample=max(_largest(extras), _largest(gains)),
         false_positive_rate=alpha,
+        scale_tolerance=_largest(scales) if scales else float("inf"),
         source={"generators": args.generators.split(","),
                 "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
@@ -345,7 +352,9 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
                         "the single's threshold: a second effect's extra gain has the same "
                         "sources of model error as a first's (a new pair exceeds "
                         "the largest of n with probability 1/(n + 1)); every gain must also "
-                        "be significant at the rate among the models tried (Bonferroni)",
+                        "be significant at the rate among the models tried (Bonferroni); "
+                        "the largest significant gyro-scale difference of the no-effect "
+                        "pairs (etsid/gap/scale.py)",
                 "supported_rate": round(1.0 / (len(none) + 1), 4),
                 "written": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")})
     out = Path(args.out) if args.out else CALIBRATION_PATH
@@ -353,11 +362,14 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
     print(f"{len(none)} no-effect pairs ({args.generators}): largest channel ratio "
           f"{np.round(sorted(ratios), 2).tolist()}")
     print(f"  best single gain per sample {np.round(sorted(gains), 4).tolist()}")
+    print("  largest significant gyro-scale difference "
+          f"{np.round(sorted(scales), 4).tolist()}")
     print(f"{len(extras)} single-effect pairs named right with a channel left: best "
           f"significant second-effect gain per sample {np.round(sorted(extras), 4).tolist()}")
     print(f"at a false-positive rate of {alpha:g}: mismatch_ratio {cal.mismatch_ratio:.3g}, "
           f"gain_per_sample {cal.gain_per_sample:.3g}, pair_gain_per_sample "
-          f"{cal.pair_gain_per_sample:.3g}; written to {out}")
+          f"{cal.pair_gain_per_sample:.3g}, scale_tolerance {cal.scale_tolerance:.3g}; "
+          f"written to {out}")
 
 
 # ---------------------------------------------------------------- score

@@ -37,9 +37,13 @@ class Calibration:
         Least gain of a pair over its first effect, nats per scored sample, for the second
         effect to be named (single-effect pairs' best second effect stays below it).
     false_positive_rate : float
-        The rate both were set at.
+        The rate all were set at.
     source : dict
         What the script used (generators, pair counts, date), for the record.
+    scale_tolerance : float
+        Largest difference of REAL's gyro-vs-attitude slope from SIM's that no-effect pairs
+        show (unitless; :mod:`etsid.gap.scale`); infinite in a file written before it
+        existed (the scale is then not tested).
     """
 
     mismatch_ratio: float
@@ -47,6 +51,7 @@ class Calibration:
     pair_gain_per_sample: float
     false_positive_rate: float
     source: dict[str, Any]
+    scale_tolerance: float = float("inf")
 
 
 def from_dict(data: dict[str, Any], where: str) -> Calibration:
@@ -58,7 +63,8 @@ def from_dict(data: dict[str, Any], where: str) -> Calibration:
         th = data["thresholds"]
         return Calibration(float(th["mismatch_ratio"]), float(th["gain_per_sample"]),
                            float(th["pair_gain_per_sample"]),
-                           float(data["false_positive_rate"]), dict(data.get("source", {})))
+                           float(data["false_positive_rate"]), dict(data.get("source", {})),
+                           float(th.get("scale_tolerance", float("inf"))))
     except (KeyError, TypeError, ValueError) as err:
         raise GapError(f"{where}: calibration file lacks a threshold ({err})") from err
 
@@ -88,5 +94,7 @@ def calibration_dict(cal: Calibration) -> dict[str, Any]:
             "false_positive_rate": cal.false_positive_rate,
             "thresholds": {"mismatch_ratio": cal.mismatch_ratio,
                            "gain_per_sample": cal.gain_per_sample,
-                           "pair_gain_per_sample": cal.pair_gain_per_sample},
+                           "pair_gain_per_sample": cal.pair_gain_per_sample,
+                           **({"scale_tolerance": cal.scale_tolerance}
+                              if cal.scale_tolerance < float("inf") else {})},
             "source": cal.source}

@@ -44,8 +44,9 @@ from etsid.gap.nominal import CUTOFF_HZ, LABELS, NominalModel, measured
 from etsid.gap.pem import PredictionErrorScorer, with_innovation_channels
 from etsid.gap.regime import locate, located_by_driver
 from etsid.gap.residual_model import ResidualModel, fit_residual_model
+from etsid.gap.scale import scale_mismatched, scale_tests
 from etsid.gap.signals import Flight
-from etsid.gap.summary import NICE, effect_params, summary_sentence
+from etsid.gap.summary import NICE, effect_params, left_words, summary_sentence
 from etsid.gap.verdict import at_bound, worsened
 
 
@@ -204,8 +205,8 @@ def cap_partial(effects: list[dict[str, Any]], left: dict[str, Any]) -> None:
     (a partial explanation, not a finding)."""
     if not left:
         return
-    still = ", ".join(f"{LABELS.get(c, c)} {v['ratio']:.1f}×" for c, v in left.items())
-    note = f"a partial explanation: {still} its floor still on held-out data"
+    still = "; ".join(left_words(c, v) for c, v in left.items())
+    note = f"a partial explanation, still on held-out data: {still}"
     for e in effects:
         e["confidence"] = min(float(e["confidence"]), BELOW_CONFIDENCE)
         e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
@@ -247,7 +248,10 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     for s in folds.score:
         hold |= s
     res0 = shown.residuals()
+    scale = scale_tests(sim, real)
+    scaled = scale_mismatched(scale, cal)  # no effect acts on it: left after every model
     mismatch = mismatched(crit.ratio, crit.offset, cal)
+    mismatch += [c for c in scaled if c not in mismatch]
     chosen = crit.chosen
     final: Fit | None = None
     if chosen is not None:
@@ -258,7 +262,9 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     offset_after = ls.offsets(final.mods) if final is not None else crit.offset
     left = {c: {"z": ratio_after[c], "rmse": float(np.sqrt(np.mean(res1[c][hold] ** 2))),
                 "floor": sigma[c], "ratio": float(np.sqrt(ratio_after[c]))}
-            for c in mismatched(ratio_after, offset_after, cal)}
+            for c in mismatched(ratio_after, offset_after, cal) + scaled}
+    for c in scaled:
+        left[c].update(scale=scale[c][0], scale_se=scale[c][1])
     effects: list[dict[str, Any]] = []
     airframe: list[str] = []
     radius, ground_law = info.get("radius"), None
@@ -299,6 +305,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                  "innovation_ratio": crit.ratio,
                  "detectable_evidence": seen,
                  "offset": {c: [v, k] for c, (v, k) in crit.offset.items()},
+                 "scale": {c: [d, se] for c, (d, se) in scale.items()},
                  **({"after_lead": {"name": crit.after_lead["name"],
                                     "ratio": crit.after_lead["ratio"],
                                     "offset": {c: [v, k] for c, (v, k)
@@ -362,8 +369,9 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                     ground_law)
     regime.update(located_by_driver(effects, real) or {})
     segs = regime.pop("segments")
-    what = ", ".join(f"{LABELS[c]} {np.sqrt(crit.ratio[c]):.1f}×" for c in channels) + \
-        " their floor (innovations)"
+    what = "; ".join(left_words(c, {"ratio": float(np.sqrt(crit.ratio[c])),
+                                     **({"scale": scale[c][0]} if c in scaled else {})})
+                     for c in channels) + " (innovations)"
     data.update(verdict="mismatch",
                 reason=what + ("" if named else "; no named effect explains it on held-out "
                                "data"),

@@ -165,7 +165,7 @@ def euler_body_rates(att: np.ndarray, fs: float) -> np.ndarray:
     return np.column_stack([p, q, r])
 
 
-def _kinematic_rates(flight: Flight) -> np.ndarray:
+def kinematic_rates(flight: Flight) -> np.ndarray:
     """(n, 3) filtered body rates implied by the attitude (rad/s), the gyro channels'
     prediction; kept on the flight for as long as its attitude array is the same object."""
     cached = flight.__dict__.get("_kinematic_rates")
@@ -469,7 +469,7 @@ class NominalModel:
             for j, c in enumerate(group):
                 out[c] = filtered[j] + mods.offset[c] if c in mods.offset else filtered[j]
         if any(c in chans for c in GYRO_CHANNELS):
-            kin = _kinematic_rates(flight)
+            kin = kinematic_rates(flight)
             for j, c in enumerate(GYRO_CHANNELS):
                 if c in chans:
                     out[c] = kin[:, j] + mods.offset.get(c, 0.0)

@@ -53,8 +53,12 @@ def summary_sentence(data: dict[str, Any]) -> str:
     sim, real = data["sim"]["file"], data["real"]["file"]
     mis = data["mismatch"]
     regime = mis["regime"]
-    sizes = ", ".join(f"{LABELS[c]} {_size(data, c):.1f}×" for c in mis["channels"])
-    parts = [f"Mismatch: {sizes} its floor."]
+    scale = (data.get("criterion") or {}).get("scale") or {}
+    left = data.get("leftover") or {}
+    sizes = "; ".join(left_words(c, {"ratio": _size(data, c),
+                                     **({"scale": scale[c][0]} if "scale" in left.get(c, {})
+                                        else {})}) for c in mis["channels"])
+    parts = [f"Mismatch: {sizes}."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
     names = [e for e in data["effects"] if e["name"] != "unexplained"]
@@ -69,9 +73,9 @@ def summary_sentence(data: dict[str, Any]) -> str:
                      "(another airframe, or a larger effect than modelled).")
     left = data.get("leftover") or {}
     if left:
-        bits = [f"{LABELS[c]} {v['ratio']:.1f}× its floor"
-                + (" (an eTS residual model predicts part of it)" if v.get("modelled_by_ets")
-                   else "") for c, v in left.items()]
+        bits = [left_words(c, v) + (" (an eTS residual model predicts part of it)"
+                                    if v.get("modelled_by_ets") else "")
+                for c, v in left.items()]
         lead = "Still mismatched on held-out data" + (" after that" if names else "")
         parts.append(f"{lead}: {'; '.join(bits)}.")
     covered = {c for e in names for c in e.get("channels", [])} | set(left)
@@ -89,6 +93,16 @@ def summary_sentence(data: dict[str, Any]) -> str:
         parts.append(f"Held-out RMSE of {', '.join(moved)}.")
         parts.extend(_barely_moved(data, mis["channels"], set(left)))
     return " ".join(parts) + _blind_spots(data, brief=True) + _twin(data)
+
+
+def left_words(channel: str, entry: dict[str, Any]) -> str:
+    """A mismatched channel in words: its innovations over their floor, or for a gyro whose
+    scale departs from SIM's (:mod:`etsid.gap.scale`, ``entry["scale"]``) the share of the
+    rate it reads beyond the attitude's."""
+    if "scale" in entry:
+        return (f"{LABELS[channel]} reads {100 * entry['scale']:+.1f} % of the rate against "
+                "SIM's (a gyro scale factor, or an estimator SIM does not have)")
+    return f"{LABELS[channel]} {entry['ratio']:.1f}× its floor"
 
 
 def _barely_moved(data: dict[str, Any], channels: list[str], listed: set[str]) -> list[str]:

@@ -1,0 +1,93 @@
+"""The gyro's scale against the attitude: a sensor fault no effect of the vocabulary acts on.
+
+A gyro that reads ``k ω`` drives the rate loop with its error, so on the dynamic channels it
+looks like an inertia scale of ``1/k`` (the angular acceleration per unit of torque is read
+``k`` times larger). What tells it apart is the gyro-vs-attitude channel: an aided attitude
+estimator is pulled towards the true rotation below its correction bandwidth, so there the
+gyro minus the body rate implied by the attitude is ``(k − 1) ω``, a residual proportional
+to the rate. Its slope on the rate, per axis,
+
+    gyro − ω_att = c ω_att + b + e,
+
+is the estimator's own answer to the rate in SIM (a lag or a scaling of its own), and the
+same plus the scale error's share in REAL; REAL's slope minus SIM's, ``Δ``, is the evidence.
+Its standard error comes from blocks of :data:`BLOCK_S` (the residual is low-passed and
+autocorrelated: whole blocks are independent, samples are not).
+
+A channel's scale is mismatched when ``|Δ|`` exceeds the calibrated tolerance
+(:attr:`etsid.gap.calibration.Calibration.scale_tolerance`: the largest no-effect pair's,
+so the between-flight spread of the estimator's own slope is in it) and is significant at
+the calibration's false-positive rate over the three axes. No effect of the vocabulary
+changes the slope, so a mismatched scale is a leftover of every model: it makes the verdict
+a ``mismatch`` and caps a named effect's confidence (a partial explanation).
+
+What it does not do: the estimator's correction bandwidth sets how much of ``k − 1`` shows
+(a filter that follows the gyro above 0.2 Hz shows the share of the rate below it), so
+``Δ`` is evidence of a scale error, not its size; a scale on the accelerometer is not
+tested.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+from etsid.gap.calibration import Calibration
+from etsid.gap.nominal import GYRO_CHANNELS, kinematic_rates, measured
+from etsid.gap.signals import Flight
+
+BLOCK_S = 4.0
+"""Blocks of the standard error, s: the criterion's blocks (several closed-loop time
+constants, so that blocks are nearly independent)."""
+
+
+def slopes(flight: Flight) -> dict[str, tuple[float, float]]:
+    """Gyro channel → (slope ``c`` of gyro − attitude rate on the attitude rate, its block
+    standard error) over the airborne samples; empty without attitude or gyro channels."""
+    ys = measured(flight)
+    if not all(c in ys for c in GYRO_CHANNELS):
+        return {}
+    kin = kinematic_rates(flight)
+    block = max(round(BLOCK_S * flight.fs), 1)
+    out: dict[str, tuple[float, float]] = {}
+    for j, c in enumerate(GYRO_CHANNELS):
+        x = kin[:, j]
+        r = ys[c] - x
+        ok = flight.airborne & np.isfinite(r) & np.isfinite(x)
+        idx = np.flatnonzero(ok)
+        if idx.size < 3 * block:
+            continue
+        xc = x[ok] - np.mean(x[ok])
+        sxx = float(xc @ xc)
+        if sxx <= 0.0:
+            continue
+        slope = float(xc @ r[ok]) / sxx
+        e = r[ok] - np.mean(r[ok]) - slope * xc
+        per_block = np.bincount((idx - idx[0]) // block, weights=xc * e)
+        out[c] = (slope, float(np.sqrt(np.sum(per_block ** 2))) / sxx)
+    return out
+
+
+def scale_tests(sim: Flight, real: Flight) -> dict[str, tuple[float, float]]:
+    """Gyro channel → (REAL's slope minus SIM's, its standard error) where both have one."""
+    a, b = slopes(sim), slopes(real)
+    return {c: (b[c][0] - a[c][0], float(np.hypot(a[c][1], b[c][1])))
+            for c in GYRO_CHANNELS if c in a and c in b}
+
+
+def significant_delta(delta: float, se: float, n_channels: int, rate: float) -> bool:
+    """``|delta|`` beyond its standard error at false-positive ``rate`` over ``n_channels``
+    (two-sided, Bonferroni)."""
+    z = float(stats.norm.ppf(1.0 - rate / (2.0 * max(n_channels, 1))))
+    return abs(delta) > z * se
+
+
+def scale_mismatched(tests: dict[str, tuple[float, float]] | dict[str, list[float]],
+                     cal: Calibration) -> list[str]:
+    """Gyro channels whose scale departs from SIM's: ``|Δ|`` over the calibrated tolerance
+    and significant (``tests`` as :func:`scale_tests` or gap.json's ``scale``), largest
+    first."""
+    out = [(abs(float(d)), c) for c, (d, se) in tests.items()
+           if abs(float(d)) > cal.scale_tolerance
+           and significant_delta(float(d), float(se), len(tests), cal.false_positive_rate)]
+    return [c for _, c in sorted(out, reverse=True)]
