@@ -312,8 +312,9 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
     if not none:
         raise SystemExit("no no-effect pairs recorded for " + args.generators)
     alpha = args.fpr
-    scales = [max([abs(d) for d, se in r["criterion"]["scale"].values()
-                   if significant_delta(d, se, len(r["criterion"]["scale"]), alpha)] + [0.0])
+    scales = [max([abs(d) for d, se, dof in r["criterion"]["scale"].values()
+                   if significant_delta(d, se, dof, len(r["criterion"]["scale"]), alpha)]
+                  + [0.0])
               for r in none if "scale" in r["criterion"]]
     mismatch_ratio = _largest(ratios)
     probe = Calibration(mismatch_ratio, 0.0, 0.0, alpha, {})

@@ -305,7 +305,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                  "innovation_ratio": crit.ratio,
                  "detectable_evidence": seen,
                  "offset": {c: [v, k] for c, (v, k) in crit.offset.items()},
-                 "scale": {c: [d, se] for c, (d, se) in scale.items()},
+                 "scale": {c: list(v) for c, v in scale.items()},
                  **({"after_lead": {"name": crit.after_lead["name"],
                                     "ratio": crit.after_lead["ratio"],
                                     "offset": {c: [v, k] for c, (v, k)

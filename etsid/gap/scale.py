@@ -12,7 +12,9 @@ to the rate. Its slope on the rate, per axis,
 is the estimator's own answer to the rate in SIM (a lag or a scaling of its own), and the
 same plus the scale error's share in REAL; REAL's slope minus SIM's, ``Δ``, is the evidence.
 Its standard error comes from blocks of :data:`BLOCK_S` (the residual is low-passed and
-autocorrelated: whole blocks are independent, samples are not).
+autocorrelated: whole blocks are independent, samples are not), and with a few tens of
+blocks it is itself uncertain: ``Δ / SE`` is read against Student's t with one fewer degree
+of freedom than the shorter flight has blocks (a cluster-robust standard error's law).
 
 A channel's scale is mismatched when ``|Δ|`` exceeds the calibrated tolerance
 (:attr:`etsid.gap.calibration.Calibration.scale_tolerance`: the largest no-effect pair's,
@@ -41,15 +43,16 @@ BLOCK_S = 4.0
 constants, so that blocks are nearly independent)."""
 
 
-def slopes(flight: Flight) -> dict[str, tuple[float, float]]:
+def slopes(flight: Flight) -> dict[str, tuple[float, float, int]]:
     """Gyro channel → (slope ``c`` of gyro − attitude rate on the attitude rate, its block
-    standard error) over the airborne samples; empty without attitude or gyro channels."""
+    standard error, the blocks it came from) over the airborne samples; empty without
+    attitude or gyro channels."""
     ys = measured(flight)
     if not all(c in ys for c in GYRO_CHANNELS):
         return {}
     kin = kinematic_rates(flight)
     block = max(round(BLOCK_S * flight.fs), 1)
-    out: dict[str, tuple[float, float]] = {}
+    out: dict[str, tuple[float, float, int]] = {}
     for j, c in enumerate(GYRO_CHANNELS):
         x = kin[:, j]
         r = ys[c] - x
@@ -64,30 +67,34 @@ def slopes(flight: Flight) -> dict[str, tuple[float, float]]:
         slope = float(xc @ r[ok]) / sxx
         e = r[ok] - np.mean(r[ok]) - slope * xc
         per_block = np.bincount((idx - idx[0]) // block, weights=xc * e)
-        out[c] = (slope, float(np.sqrt(np.sum(per_block ** 2))) / sxx)
+        out[c] = (slope, float(np.sqrt(np.sum(per_block ** 2))) / sxx, per_block.size)
     return out
 
 
-def scale_tests(sim: Flight, real: Flight) -> dict[str, tuple[float, float]]:
-    """Gyro channel → (REAL's slope minus SIM's, its standard error) where both have one."""
+def scale_tests(sim: Flight, real: Flight) -> dict[str, tuple[float, float, int]]:
+    """Gyro channel → (REAL's slope minus SIM's, its standard error, degrees of freedom)
+    where both have one."""
     a, b = slopes(sim), slopes(real)
-    return {c: (b[c][0] - a[c][0], float(np.hypot(a[c][1], b[c][1])))
+    return {c: (b[c][0] - a[c][0], float(np.hypot(a[c][1], b[c][1])),
+                min(a[c][2], b[c][2]) - 1)
             for c in GYRO_CHANNELS if c in a and c in b}
 
 
-def significant_delta(delta: float, se: float, n_channels: int, rate: float) -> bool:
+def significant_delta(delta: float, se: float, dof: int, n_channels: int, rate: float
+                      ) -> bool:
     """``|delta|`` beyond its standard error at false-positive ``rate`` over ``n_channels``
-    (two-sided, Bonferroni)."""
-    z = float(stats.norm.ppf(1.0 - rate / (2.0 * max(n_channels, 1))))
-    return abs(delta) > z * se
+    (two-sided, Bonferroni; Student's t with ``dof`` degrees of freedom)."""
+    t = float(stats.t.ppf(1.0 - rate / (2.0 * max(n_channels, 1)), max(int(dof), 1)))
+    return abs(delta) > t * se
 
 
-def scale_mismatched(tests: dict[str, tuple[float, float]] | dict[str, list[float]],
+def scale_mismatched(tests: dict[str, tuple[float, float, int]] | dict[str, list[float]],
                      cal: Calibration) -> list[str]:
     """Gyro channels whose scale departs from SIM's: ``|Δ|`` over the calibrated tolerance
     and significant (``tests`` as :func:`scale_tests` or gap.json's ``scale``), largest
     first."""
-    out = [(abs(float(d)), c) for c, (d, se) in tests.items()
+    out = [(abs(float(d)), c) for c, (d, se, dof) in tests.items()
            if abs(float(d)) > cal.scale_tolerance
-           and significant_delta(float(d), float(se), len(tests), cal.false_positive_rate)]
+           and significant_delta(float(d), float(se), int(dof), len(tests),
+                                 cal.false_positive_rate)]
     return [c for _, c in sorted(out, reverse=True)]
