@@ -106,4 +106,5 @@ def test_a_gyro_read_high_is_never_named_confidently(hexa) -> None:
     data = analyse(hexa, gap_real.BY_NAME["gyro_scale"].make(hexa, 0.15), "s", "r").data
     assert data["verdict"] == "mismatch", data["summary"]
     assert "scale" in data["leftover"]["gyro_p"], data["leftover"]
-    assert all(e["confidence"] < 0.5 for e in data["effects"]), data["summary"]
+    assert all(e["confidence"] < 0.5 for e in data["effects"]
+               if e["name"] != "unexplained"), data["summary"]

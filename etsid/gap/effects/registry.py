@@ -156,8 +156,10 @@ def _wind(p: dict[str, float], sim: str, real: str) -> str:
 @_declare("weak_motor", "weak motor",
           {"scale": Prior(LN, 0.2), "torque_scale": Prior(LN, 0.2)}, ("torque_offset",))
 def _weak_motor(p: dict[str, float], sim: str, real: str) -> str:
+    torque = p.get("torque_scale", 1.0)
+    own = f", and ×{torque:.3g} its reaction torque" if abs(torque - 1.0) > 0.005 else ""
     return (f"motor {p['motor']:.0f} gives ×{p['scale']:.3g} the thrust of the others at "
-            "the same command (weak motor)")
+            f"the same command{own} (weak motor)")
 
 
 REGISTRY: tuple[Effect, ...] = tuple(_DECLARED)
