@@ -11,7 +11,8 @@ to the rate. Its slope on the rate, per axis,
 
 is the estimator's own answer to the rate in SIM (a lag or a scaling of its own), and the
 same plus the scale error's share in REAL; REAL's slope minus SIM's, ``Δ``, is the evidence.
-Its standard error comes from blocks of :data:`BLOCK_S` (the residual is low-passed and
+Its standard error comes from the criterion's blocks of
+:data:`~etsid.gap.criterion.BLOCK_S` (the residual is low-passed and
 autocorrelated: whole blocks are independent, samples are not), and with a few tens of
 blocks it is itself uncertain: ``Δ / SE`` is read against Student's t with one fewer degree
 of freedom than the shorter flight has blocks (a cluster-robust standard error's law).
@@ -35,12 +36,9 @@ import numpy as np
 from scipy import stats
 
 from etsid.gap.calibration import Calibration
+from etsid.gap.criterion import BLOCK_S
 from etsid.gap.nominal import GYRO_CHANNELS, kinematic_rates, measured
 from etsid.gap.signals import Flight
-
-BLOCK_S = 4.0
-"""Blocks of the standard error, s: the criterion's blocks (several closed-loop time
-constants, so that blocks are nearly independent)."""
 
 
 def slopes(flight: Flight) -> dict[str, tuple[float, float, int]]:
