@@ -167,6 +167,7 @@ def merge(a: Mods, b: Mods) -> Mods:
                 mass=a.mass * b.mass,
                 offset=offset, drag=a.drag + b.drag,
                 drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
+                spin_gain=_times(a.spin_gain, b.spin_gain),
                 spin_torque=a.spin_torque + b.spin_torque,
                 damping=a.damping + b.damping, yaw_damping=a.yaw_damping + b.yaw_damping,
                 wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]))
@@ -249,9 +250,11 @@ def ground_search(ctx: Context) -> SearchMap:
 
 
 def _battery(theta: np.ndarray, ctx: Context) -> Mods:
+    """Thrust and reaction torque ∝ Ω² follow ``(V/V_sim)^n``, so the rotor speed and its
+    spin-up (the yaw reaction of the rotors' inertia) follow its square root."""
     v = ctx.flight.vbat
     gain = (np.clip(v, 0.3 * ctx.v_ref, 3.0 * ctx.v_ref) / ctx.v_ref) ** theta[0]
-    return Mods(thrust_gain=gain, torque_gain=gain)
+    return Mods(thrust_gain=gain, torque_gain=gain, spin_gain=np.sqrt(gain))
 
 
 def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]:
@@ -352,7 +355,8 @@ LIBRARY: tuple[Candidate, ...] = (
     Candidate(
         "battery_sag", (Param("exponent", "1", 0.0, 6.0, 2.0, 0.0),), ("az", "p", "q", "r"),
         "thrust and torque follow the measured pack voltage (drops under load and with charge)",
-        "T_i = T_i,nom · (V / V_sim)^n, V_sim the simulation's mean voltage",
+        "T_i = T_i,nom · (V / V_sim)^n, Ω_i and dΩ_i/dt · (V / V_sim)^(n/2), V_sim the "
+        "simulation's mean voltage",
         _battery, ("vbat",)),
     Candidate(
         "motor_lag", (Param("tau", "s", 0.003, 0.5, 0.08),), ("az", "p", "q", "r"),

@@ -92,6 +92,9 @@ class Mods:
         coefficient (a spin-up reaction a simulation without rotor inertia lacks).
     spinup : float
         Multiplier on the rotors' spin-up reaction torque (∝ rotor inertia) in r.
+    spin_gain : float or ndarray
+        Factor on the rotor speed, so on its spin-up rate, per sample (n,) or per sample and
+        rotor (n, n_rotors): a sagging pack slows the rotors and their spin-up with them.
     damping : float
         Extra rate damping of roll and pitch, 1/s (ṗ −= d p, q̇ −= d q).
     yaw_damping : float
@@ -113,6 +116,7 @@ class Mods:
     drag: float = 0.0
     drag_moment: float = 0.0
     spinup: float = 1.0
+    spin_gain: float | np.ndarray = 1.0
     spin_torque: float = 0.0
     damping: float = 0.0
     yaw_damping: float = 0.0
@@ -284,14 +288,14 @@ def features(flight: Flight, k: float, tau: float, mods: Mods,
     speed scales with the pack voltage over it, None: it does not)."""
     if not any(c in channels for c in (*RATE_CHANNELS, *FORCE_CHANNELS)):
         return {}
-    if np.ndim(mods.thrust_gain) or np.ndim(mods.torque_gain):
+    if np.ndim(mods.thrust_gain) or np.ndim(mods.torque_gain) or np.ndim(mods.spin_gain):
         return _features(flight, k, tau, mods, channels, delay, v_ref)
     # a fit that varies what acts after the regressors (inertia, mass, offsets, damping,
     # drag) builds them once: kept on the flight per channel and regressor inputs
     signals = (flight.motors, flight.rates, flight.v_body, flight.att)
     key = (float(k), float(tau if mods.tau is None else mods.tau), float(delay + mods.delay),
            v_ref, tuple(mods.wind), float(mods.thrust_gain), float(mods.torque_gain),
-           float(mods.spinup), flight.inputs)
+           float(mods.spinup), float(mods.spin_gain), flight.inputs)
     cache = flight.__dict__.setdefault("_features", {})
     out: dict[str, np.ndarray] = {}
     for c in (*channels, "spin"):
@@ -330,6 +334,7 @@ def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[
     vh2 = vb[:, 0] ** 2 + vb[:, 1] ** 2
     tg = _column_gain(mods.thrust_gain, p.size)
     qg = _column_gain(mods.torque_gain, p.size)
+    sg = _column_gain(mods.spin_gain, p.size)
     one = np.ones_like(p)
     if flight.inputs == "motors":
         thrust = pw * tg
@@ -339,7 +344,7 @@ def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[
 
         def yaw() -> list[np.ndarray]:
             tq = pw * qg
-            dom = spin * mods.spinup
+            dom = spin * sg * mods.spinup
             return [tq - _row_mean(tq), dom - _row_mean(dom)]
 
         def om_mean() -> np.ndarray:
@@ -350,7 +355,8 @@ def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[
         mom = m_eff[:, 1:] * (omt * tg.mean(axis=1))[:, None]
 
         def yaw() -> list[np.ndarray]:
-            return [m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None], spin * mods.spinup]
+            return [m_eff[:, 1:] * (omt * qg.mean(axis=1))[:, None],
+                    spin * sg.mean(axis=1)[:, None] * mods.spinup]
 
         def om_mean() -> np.ndarray:
             return omt
