@@ -198,6 +198,23 @@ def cap_unseen(effects: list[dict[str, Any]], hidden: list[Evaluated], cal: Cali
                 e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
 
 
+def cap_on_sticks(effects: list[dict[str, Any]], inputs: str) -> None:
+    """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every airframe
+    scale (:data:`AIRFRAME_SCALES`) named from stick commands (``inputs`` not
+    ``"motors"``): a stick's thrust and moment per unit is the autopilot's mixer and thrust
+    model applied to its airframe, so another airframe and the same one scaled change it
+    alike, and such logs lack the rotor count that tells them apart (identifiability, as
+    :func:`cap_unseen`)."""
+    if inputs == "motors":
+        return
+    note = ("named from stick commands: another airframe changes thrust and moment per unit "
+            "stick as this does, and the logs have no motor outputs to tell them apart")
+    for e in effects:
+        if e["name"] in AIRFRAME_SCALES:
+            e["confidence"] = min(float(e["confidence"]), BELOW_CONFIDENCE)
+            e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
+
+
 def cap_partial(effects: list[dict[str, Any]], left: dict[str, Any]) -> None:
     """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every named
     effect when a channel is still mismatched on held-out data after them: the weights are
@@ -283,6 +300,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     cap_partial(effects, left)
     cap_unseen(effects, hidden, cal, lambda name: ", ".join(
         s for s in unseen[name].needs if s not in real.have))
+    cap_on_sticks(effects, real.inputs)
     for m in crit.models:
         if m.refused and m.per_sample > cal.gain_per_sample and (
                 chosen is None or m.gain > chosen.gain):

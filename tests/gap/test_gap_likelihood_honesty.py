@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from etsid.gap.detectable import BELOW_CONFIDENCE
-from etsid.gap.likelihood import AIRFRAME_SCALES, _airframe_evidence, cap_partial
+from etsid.gap.likelihood import AIRFRAME_SCALES, _airframe_evidence, cap_on_sticks, cap_partial
 from etsid.gap.run import analyse
 from etsid.sim import load_vehicle, simulate
 
@@ -21,6 +21,21 @@ def test_a_leftover_caps_every_named_effect_and_says_why():
     assert [e["confidence"] for e in effects] == [BELOW_CONFIDENCE, BELOW_CONFIDENCE]
     assert "partial explanation" in effects[0]["caveat"] and "1.5×" in effects[0]["caveat"]
     assert effects[1]["caveat"].startswith("look-alike; a partial explanation")
+
+
+@pytest.mark.parametrize("inputs", ["sticks", "motors"])
+def test_an_airframe_scale_named_from_sticks_alone_is_capped(inputs):
+    """On stick commands another airframe and the same one scaled look alike: mass, thrust
+    and inertia scales are capped with the reason; other effects, and any effect named
+    from motor outputs, keep their weight."""
+    effects = [{"name": "mass", "confidence": 1.0}, {"name": "inertia_scale", "confidence": 0.63},
+               {"name": "ground_effect", "confidence": 1.0}]
+    cap_on_sticks(effects, inputs)
+    capped = inputs != "motors"
+    assert effects[0]["confidence"] == (BELOW_CONFIDENCE if capped else 1.0)
+    assert effects[1]["confidence"] == (BELOW_CONFIDENCE if capped else 0.63)
+    assert effects[2]["confidence"] == 1.0 and "caveat" not in effects[2]
+    assert ("stick commands" in effects[0].get("caveat", "")) is capped
 
 
 def test_a_complete_explanation_keeps_its_weight():
