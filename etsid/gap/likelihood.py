@@ -387,8 +387,8 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                     ground_law)
     regime.update(located_by_driver(effects, real) or {})
     segs = regime.pop("segments")
-    what = "; ".join(left_words(c, {"ratio": float(np.sqrt(crit.ratio[c])),
-                                     **({"scale": scale[c][0]} if c in scaled else {})})
+    what = "; ".join(left_words(c, left[c] if c in scaled
+                                else {"ratio": float(np.sqrt(crit.ratio[c]))})
                      for c in channels) + " (innovations)"
     data.update(verdict="mismatch",
                 reason=what + ("" if named else "; no named effect explains it on held-out "

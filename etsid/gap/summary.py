@@ -53,11 +53,9 @@ def summary_sentence(data: dict[str, Any]) -> str:
     sim, real = data["sim"]["file"], data["real"]["file"]
     mis = data["mismatch"]
     regime = mis["regime"]
-    scale = (data.get("criterion") or {}).get("scale") or {}
     left = data.get("leftover") or {}
-    sizes = "; ".join(left_words(c, {"ratio": _size(data, c),
-                                     **({"scale": scale[c][0]} if "scale" in left.get(c, {})
-                                        else {})}) for c in mis["channels"])
+    sizes = "; ".join(left_words(c, left[c] if "scale" in left.get(c, {})
+                                 else {"ratio": _size(data, c)}) for c in mis["channels"])
     parts = [f"Mismatch: {sizes}."]
     if regime["variable"] != "none":
         parts.append(f"Where: {regime['description']}.")
@@ -71,7 +69,6 @@ def summary_sentence(data: dict[str, Any]) -> str:
     for text in data.get("beyond_range", []):
         parts.append(f"Not a finding: {text} — the difference exceeds the vocabulary's range "
                      "(another airframe, or a larger effect than modelled).")
-    left = data.get("leftover") or {}
     if left:
         bits = [left_words(c, v) + (" (an eTS residual model predicts part of it)"
                                     if v.get("modelled_by_ets") else "")
