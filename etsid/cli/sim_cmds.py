@@ -66,7 +66,8 @@ def _check_out(out: Path, fmt: str | None) -> None:
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="Change a setting; repeatable. vehicle.EFFECT (time_delay, motor_lag, "
                    "thrust_scale, torque_scale, cg_offset, torque_offset, inertia_scale, "
-                   "gyro_bias, accel_bias, estimator, ground_effect_torque, battery_sag), "
+                   "gyro_bias, accel_bias, estimator, ground_effect_torque, battery_sag, "
+                   "weak_motor, rotor_twist), "
                    "vehicle.mass, vehicle.SECTION.FIELD, or scenario.SETTING "
                    "(duration, altitude, amplitude, ...). Values in TOML syntax, e.g. "
                    "--set vehicle.cg_offset=[0.02,0,0].")

@@ -137,6 +137,8 @@ class Candidate:
             return False
         if self.build is _wind_quadratic and not ctx.nominal.drag_quadratic:
             return False
+        if self.build is _rotor_twist and "az" not in ctx.nominal.coef:
+            return False
         if self.motor is not None and (ctx.flight.inputs != "motors"
                                        or self.motor >= ctx.flight.motors.shape[1]):
             return False
@@ -169,6 +171,7 @@ def merge(a: Mods, b: Mods) -> Mods:
                 drag_moment=a.drag_moment + b.drag_moment, spinup=a.spinup * b.spinup,
                 spin_gain=_times(a.spin_gain, b.spin_gain),
                 spin_torque=a.spin_torque + b.spin_torque,
+                yaw_per_thrust=a.yaw_per_thrust + b.yaw_per_thrust,
                 damping=a.damping + b.damping, yaw_damping=a.yaw_damping + b.yaw_damping,
                 wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]))
 
@@ -270,6 +273,12 @@ def _gyro_bias_leaning(theta: np.ndarray, ctx: Context) -> Mods:
     bx, by, bz, lean = (float(v) for v in theta)
     return Mods(offset={"gyro_p": bx, "gyro_q": by, "gyro_r": bz,
                         "kin_x": -GRAVITY * lean * by, "kin_y": GRAVITY * lean * bx})
+
+
+def _rotor_twist(theta: np.ndarray, ctx: Context) -> Mods:
+    """A yaw angular acceleration ``theta[0]`` rad/s² at 1 g of thrust, in proportion to the
+    thrust: rotors twisted about their arms in one sense (κ = yaw / g)."""
+    return Mods(yaw_per_thrust=float(theta[0]) / GRAVITY)
 
 
 def _weak_motor(index: int) -> Callable[[np.ndarray, Context], Mods]:
@@ -430,6 +439,15 @@ LIBRARY: tuple[Candidate, ...] = (
         "simulator that neglects rotor inertia); steady yaw authority unchanged",
         "ṙ += c Σ_i sgn(h_i) dΩ_i/dt (h_i: rotor i's yaw-torque coefficient in SIM)",
         lambda th, ctx: Mods(spin_torque=th[0])),
+    Candidate(
+        "rotor_twist", (Param("yaw", "rad/s² at 1 g", -100.0, 100.0, 0.0, 0.0),), ("r",),
+        "a yaw moment in proportion to the total thrust, whatever the rotors' differences: "
+        "rotor axes twisted about their arms in one sense (bent arms, motor mounts turned "
+        "on their tubes) tilt every thrust vector sideways, and the yaw controller holds "
+        "the heading with a steady reaction-torque differential that grows with thrust",
+        "ṙ = ṙ_nom + κ |a_T|, a_T the rotors' thrust specific force (κ = m L tan δ / I_z; "
+        "reported as κ g, the yaw acceleration at hover thrust)",
+        _rotor_twist),
     Candidate(
         "rate_damping", (Param("damping", "1/s", -5.0, 20.0, 0.0, 0.0),
                          Param("yaw", "1/s", -5.0, 20.0, 0.0, 0.0)), ("p", "q", "r"),

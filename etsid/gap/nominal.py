@@ -95,6 +95,10 @@ class Mods:
     spin_gain : float or ndarray
         Factor on the rotor speed, so on its spin-up rate, per sample (n,) or per sample and
         rotor (n, n_rotors): a sagging pack slows the rotors and their spin-up with them.
+    yaw_per_thrust : float
+        Yaw angular acceleration per unit of the rotors' thrust specific force, rad/s² per
+        (m/s²): ``ṙ += κ |a_T|``. Rotors twisted about their arms in one sense tilt every
+        thrust vector sideways by δ, a yaw moment ``L sin δ Σ T_i`` (``κ = m L tan δ / I_z``).
     damping : float
         Extra rate damping of roll and pitch, 1/s (ṗ −= d p, q̇ −= d q).
     yaw_damping : float
@@ -118,6 +122,7 @@ class Mods:
     spinup: float = 1.0
     spin_gain: float | np.ndarray = 1.0
     spin_torque: float = 0.0
+    yaw_per_thrust: float = 0.0
     damping: float = 0.0
     yaw_damping: float = 0.0
     wind: tuple[float, float] = (0.0, 0.0)
@@ -491,6 +496,13 @@ class NominalModel:
         chans = tuple(c for c in channels if c in self.channels and c in RATE_CHANNELS)
         return self._unfiltered(flight, mods or Mods(), chans, self.tau, self.delay)
 
+    def thrust_acceleration(self, flight: Flight, mods: Mods, tau: float, delay: float
+                            ) -> np.ndarray:
+        """|Specific force| of the rotors' thrust (n,), m/s², as SIM's vertical-force law
+        predicts it under ``mods`` (its thrust column alone: no drag terms)."""
+        s = features(flight, self.k, tau, mods, ("az",), delay, self.v_ref)["az"][:, 0]
+        return np.abs(self.coef["az"][0]) * s
+
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
                     delay: float) -> dict[str, np.ndarray]:
         """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
@@ -508,6 +520,8 @@ class NominalModel:
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
                          else np.ones(1))
                 y = y + mods.spin_torque * (feats["spin"] @ signs)
+            if c == "r" and mods.yaw_per_thrust:
+                y = y + mods.yaw_per_thrust * self.thrust_acceleration(flight, mods, tau, delay)
             if c in RATE_CHANNELS:
                 if mods.inertia != 1.0:  # y / 1.0 is y: no copy
                     y = y / mods.inertia

@@ -37,6 +37,7 @@ from etsid.sim.params import (
     LIFT,
     M_OFF,
     MASS,
+    MOUNT_SIN,
     R_INT,
     RADIUS,
     RHO,
@@ -131,6 +132,8 @@ def derivative(
     ge_torque = P[GE_TORQUE] > 0.5
     scale_t = P[THRUST_SCALE]
     scale_q = P[TORQUE_SCALE]
+    s_mount = P[MOUNT_SIN]
+    c_mount = math.sqrt(1.0 - s_mount * s_mount)
     for k in range(n):
         rx, ry, rz = rpos[k, 0] - cgx, rpos[k, 1] - cgy, rpos[k, 2] - cgz  # hub from the CG
         vhx = vb0 + w[1] * rz - w[2] * ry
@@ -162,6 +165,11 @@ def derivative(
         fx = -cd * vhx
         fy = -cd * vhy
         fz = -t
+        if s_mount != 0.0:  # the thrust tilted across the arm: a side force and a yaw moment
+            arm = math.sqrt(rpos[k, 0] ** 2 + rpos[k, 1] ** 2)
+            fx -= t * s_mount * rpos[k, 1] / arm
+            fy += t * s_mount * rpos[k, 0] / arm
+            fz = -t * c_mount
         fb0 += fx
         fb1 += fy
         fb2 += fz

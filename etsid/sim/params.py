@@ -95,7 +95,8 @@ LOOP_INPUT = 86    # what the per-step loop commands are (LOOP_* below)
 WEAK_MOTOR = 87    # 1-based rotor whose thrust and torque are scaled (0: none)
 WEAK_SCALE = 88    # its thrust and torque multiplier
 LOG_MEAN = 89      # 1: a log row's motor outputs are the mean over its period (0: the sample)
-N_PARAMS = 90
+MOUNT_SIN = 90     # sin of every rotor axis's twist about its arm (+: a nose-right yaw)
+N_PARAMS = 91
 
 # LOOP_INPUT values: how the per-step command array ``exc`` is read
 LOOP_STICKS = 0    # added to the pilot's sticks (pilot off: the sticks), angle mode
@@ -232,6 +233,7 @@ def pack(
     p[LOOP_INPUT] = loop_input
     weak = fx["weak_motor"]
     p[WEAK_MOTOR], p[WEAK_SCALE] = (0.0, 1.0) if weak is None else (weak[0], weak[1])
+    p[MOUNT_SIN] = math.sin(math.radians(fx["rotor_twist"]))
     return p
 
 

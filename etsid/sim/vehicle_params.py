@@ -196,6 +196,8 @@ EFFECTS: dict[str, Param] = {
                        default=0.05),
     "ground_effect_torque": Param("bool", "", default=False,
                                   doc="reaction torque follows the IGE inflow"),
+    "rotor_twist": _n("deg", -30.0, 30.0, "every rotor axis twisted about its arm in one "
+                      "sense (+: the thrusts' side components yaw the nose right)", default=0.0),
     "weak_motor": Param("weak", "1", 0.0, 20.0, low_open=True,
                         doc="[rotor number 1..N, thrust and torque multiplier]"),
 }

@@ -93,7 +93,7 @@ def _inertia_scale(p: dict[str, float], sim: str, real: str) -> str:
 
 @_declare("torque_offset", "torque offset",
           {"p_offset": Prior(NORMAL, 5.0), "q_offset": Prior(NORMAL, 5.0),
-           "r_offset": Prior(NORMAL, 5.0)}, ("weak_motor",))
+           "r_offset": Prior(NORMAL, 5.0)}, ("weak_motor", "rotor_twist"))
 def _torque_offset(p: dict[str, float], sim: str, real: str) -> str:
     return (f"a constant angular acceleration of ({p['p_offset']:+.2f}, "
             f"{p['q_offset']:+.2f}, {p['r_offset']:+.2f}) rad/s² about roll, pitch, yaw "
@@ -136,6 +136,15 @@ def _rotor_inertia(p: dict[str, float], sim: str, real: str) -> str:
             f"{p['scale']:.3g}× SIM's)")
 
 
+@_declare("rotor_twist", "rotors twisted on their arms",
+          {"yaw": Prior(NORMAL, 25.0)}, ("weak_motor", "torque_offset"))
+def _rotor_twist(p: dict[str, float], sim: str, real: str) -> str:
+    sense = "nose right (clockwise from above)" if p["yaw"] > 0 else "nose left"
+    return (f"a yaw acceleration of {abs(p['yaw']):.2g} rad/s² {sense} at hover thrust, in "
+            f"proportion to the thrust: rotor axes twisted about their arms in one sense "
+            f"(rotors twisted on their arms)")
+
+
 @_declare("rate_damping", "rate damping",
           {"damping": Prior(NORMAL, 5.0), "yaw": Prior(NORMAL, 5.0)}, ("inertia_scale",))
 def _rate_damping(p: dict[str, float], sim: str, real: str) -> str:
@@ -154,7 +163,8 @@ def _wind(p: dict[str, float], sim: str, real: str) -> str:
 
 
 @_declare("weak_motor", "weak motor",
-          {"scale": Prior(LN, 0.2), "torque_scale": Prior(LN, 0.2)}, ("torque_offset",))
+          {"scale": Prior(LN, 0.2), "torque_scale": Prior(LN, 0.2)},
+          ("torque_offset", "rotor_twist"))
 def _weak_motor(p: dict[str, float], sim: str, real: str) -> str:
     torque = p.get("torque_scale", 1.0)
     own = f", and ×{torque:.3g} its reaction torque" if abs(torque - 1.0) > 0.005 else ""
