@@ -161,6 +161,8 @@ def _etsid_pairs(seeds: list[int], labels: list[str] | None, wanted: set[str] | 
 
 
 def _dir_pairs(folder: Path, labels: list[str] | None, wanted: set[str] | None):
+    from thirdparty.common import expected_name, out_of_vocabulary
+
     from etsid.ingest import read_log
     entries = json.loads((folder / "labels.json").read_text())["pairs"]
     for e in entries:
@@ -168,8 +170,9 @@ def _dir_pairs(folder: Path, labels: list[str] | None, wanted: set[str] | None):
             continue
         sim = read_log(folder / e["sim_log"])
         real = read_log(folder / e["real_log"])
-        yield (e["id"], e["label"], e["expected"], e["out_of_vocabulary"], sim, real,
-               e.get("truth", {}))
+        # the expectation of today's vocabulary, not the one written at generation
+        yield (e["id"], e["label"], expected_name(e["label"], e["sim"]),
+               out_of_vocabulary(e["label"], e["sim"]), sim, real, e.get("truth", {}))
 
 
 def record(args: argparse.Namespace) -> None:

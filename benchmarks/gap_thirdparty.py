@@ -54,9 +54,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from thirdparty.common import (
-    OUT_OF_VOCABULARY,
     expected_name,
     jsonable,
+    out_of_vocabulary,
     same_answer,
     to_table,
 )
@@ -179,8 +179,8 @@ def generate_one(job: dict[str, Any], out: str) -> dict[str, Any]:
     for role, table in (("sim", sim), ("real", real)):
         path = folder / f"{role}{suffix}"
         paths[role] = str(write_log(table, path, rates=mod.LOG_RATES).relative_to(out))
-    return {**job, "expected": expected_name(job["label"]),
-            "out_of_vocabulary": job["label"] in OUT_OF_VOCABULARY,
+    return {**job, "expected": expected_name(job["label"], job["sim"]),
+            "out_of_vocabulary": out_of_vocabulary(job["label"], job["sim"]),
             "sim_log": paths["sim"], "real_log": paths["real"], "truth": jsonable(truth),
             "seconds": round(time.time() - t0, 1)}
 
@@ -282,7 +282,7 @@ def score_one(entry: dict[str, Any], out: str) -> dict[str, Any]:
 
 def report(rows: list[dict[str, Any]], title: str) -> None:
     """Print the figures of ``rows`` (one simulator or all)."""
-    vocab = [r for r in rows if r["label"] not in OUT_OF_VOCABULARY]
+    vocab = [r for r in rows if not out_of_vocabulary(r["label"], r["sim"])]
     none = [r for r in rows if r["label"] == "none"]
     correct = sum(same_answer(r["expected"], r["named"]) for r in vocab)
     fp = sum(r["verdict"] != "consistent" for r in none)
@@ -302,8 +302,9 @@ def report(rows: list[dict[str, Any]], title: str) -> None:
     for label in sorted(per):
         ok, n = per[label]
         instead = ", ".join(f"{k} ×{v}" for k, v in wrong[label].most_common())
-        print(f"  {label:24s} → {expected_name(label):24s} {ok}/{n}  {instead}")
-    oov = [r for r in rows if r["label"] in OUT_OF_VOCABULARY]
+        want = next(r["expected"] for r in vocab if r["label"] == label)
+        print(f"  {label:24s} → {want:24s} {ok}/{n}  {instead}")
+    oov = [r for r in rows if out_of_vocabulary(r["label"], r["sim"])]
     if oov:
         print("out-of-vocabulary changes (honest = unexplained, caveated or mismatch without "
               "a confident name):")
@@ -329,7 +330,7 @@ def score(out: Path, jobs: int, only_sims: list[str] | None) -> None:
         for r in pool.map(score_one, entries, [str(out)] * len(entries)):
             rows.append(r)
             mark = "ok" if same_answer(r["expected"], r["named"]) else (
-                "oov" if r["label"] in OUT_OF_VOCABULARY else "WRONG")
+                "oov" if out_of_vocabulary(r["label"], r["sim"]) else "WRONG")
             print(f"{r['id']:20s} truth {r['label']:24s} named {r['named']:26s} {mark:5s} "
                   f"{r['seconds']:5.1f} s  {r['summary'][:100]}", flush=True)
     (out / "scores.json").write_text(json.dumps(rows, indent=1))
@@ -353,7 +354,7 @@ def detectability_one(entry: dict[str, Any], out: str) -> str:
     from etsid.gap.nominal import measured
     from etsid.ingest import read_log
 
-    name = expected_name(entry["label"])
+    name = expected_name(entry["label"], entry["sim"])
     cands = [c for c in LIBRARY if c.name == name]
     if not cands:
         return f"{entry['id']:20s} {entry['label']:24s} (no single law)"
@@ -392,7 +393,7 @@ def detectability_one(entry: dict[str, Any], out: str) -> str:
 
 def detectability(out: Path, jobs: int) -> None:
     entries = [e for e in json.loads((out / "labels.json").read_text())["pairs"]
-               if e["label"] not in OUT_OF_VOCABULARY and e["label"] != "none"]
+               if not out_of_vocabulary(e["label"], e["sim"]) and e["label"] != "none"]
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         for line in pool.map(detectability_one, entries, [str(out)] * len(entries)):
             print(line, flush=True)

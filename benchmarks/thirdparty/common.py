@@ -67,8 +67,23 @@ OUT_OF_VOCABULARY: dict[str, str] = {
 physical name with a caveat, never a confident wrong name."""
 
 
-def expected_name(label: str) -> str:
-    """The answer expected for ``label`` ("unexplained" for an out-of-vocabulary change)."""
+IN_VOCABULARY_FOR: dict[tuple[str, str], str] = {("pyflyt", "motor_tilt"): "rotor_twist"}
+"""(simulator, label) → the vocabulary name of a change that is out of the vocabulary on
+the other simulators: PyFlyt twists every rotor about its arm, which ``rotor_twist``
+describes (session 15); the octocopter tilts them outward along the arm, which nothing
+does."""
+
+
+def out_of_vocabulary(label: str, sim: str | None = None) -> bool:
+    """Whether ``label`` flown by simulator ``sim`` is outside the vocabulary."""
+    return label in OUT_OF_VOCABULARY and (sim, label) not in IN_VOCABULARY_FOR
+
+
+def expected_name(label: str, sim: str | None = None) -> str:
+    """The answer expected for ``label`` flown by ``sim`` ("unexplained" for a change
+    outside the vocabulary)."""
+    if (sim, label) in IN_VOCABULARY_FOR:
+        return IN_VOCABULARY_FOR[(sim, label)]
     return "unexplained" if label in OUT_OF_VOCABULARY else EXPECTED[label]
 
 
