@@ -163,11 +163,12 @@ def _wind(p: dict[str, float], sim: str, real: str) -> str:
 
 
 @_declare("weak_motor", "weak motor",
-          {"scale": Prior(LN, 0.2), "torque_scale": Prior(LN, 0.2)},
+          {"scale": Prior(LN, 0.2), "torque_per_thrust": Prior(LN, 0.2)},
           ("torque_offset", "rotor_twist"))
 def _weak_motor(p: dict[str, float], sim: str, real: str) -> str:
-    torque = p.get("torque_scale", 1.0)
-    own = f", and ×{torque:.3g} its reaction torque" if abs(torque - 1.0) > 0.005 else ""
+    ratio = p.get("torque_per_thrust", 1.0)
+    own = (f", and ×{ratio:.3g} its reaction torque per unit thrust"
+           if abs(ratio - 1.0) > 0.005 else "")
     return (f"motor {p['motor']:.0f} gives ×{p['scale']:.3g} the thrust of the others at "
             f"the same command{own} (weak motor)")
 
