@@ -227,6 +227,20 @@ def param_error(name: str, eff: dict, truth: dict) -> float | None:
     return None
 
 
+def honest_answer(want: str, label: str, data: dict, truth: dict) -> bool:
+    """Issue 38's honest miss: nothing named the truth lacks, and every true effect left
+    unnamed is below the size the verdict states it could detect (gap.json's
+    ``detectable``), as :func:`gap_calibrate.honest_miss` scores the recorded sets."""
+    from gap_calibrate import honest_miss, truth_sizes
+
+    from etsid.gap.calibration import load_calibration
+
+    row = {"label": want, "detectable": data.get("detectable") or {},
+           "truth_sizes": truth_sizes(want, truth)}
+    return honest_miss(want, {"verdict": data["verdict"], "answer": label}, row,
+                       load_calibration())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dev", action="store_true", help="use the development seeds")
@@ -250,7 +264,7 @@ def main() -> None:
     confusion: Counter = Counter()
     perr: dict[str, list[float]] = {}
     reductions: list[float] = []
-    correct = total = fp = n_none = 0
+    correct = total = fp = n_none = n_honest = 0
     loc_ok = loc_n = 0
     t0 = time.time()
     jobs = [(s * 100 + j, effect) for s in seeds for j, effect in enumerate(EFFECTS)]
@@ -266,8 +280,10 @@ def main() -> None:
                                                data["verdict"])
         want = "+".join(sorted(truth["effects"])) or "consistent"
         ok = label == want
+        honest = not ok and effect != "none" and honest_answer(want, label, data, truth)
         total += 1
         correct += ok
+        n_honest += honest
         confusion[(want, label)] += 1
         if args.record:
             with open(args.record, "a", encoding="utf-8") as out:
@@ -298,10 +314,13 @@ def main() -> None:
             print(f"    ground-effect band: true up to {top:.3f} m, located "
                   f"{reg.get('variable')} {np.round(reg.get('range') or [], 3).tolist()}")
         print(f"seed {seed:6d} {truth['vehicle']:9s} truth {want:26s} named {label:26s} "
-              f"{'ok' if ok else 'WRONG'}  {data['summary'][:110]}", flush=True)
+              f"{'ok' if ok else ('HONEST' if honest else 'WRONG')}  {data['summary'][:110]}",
+              flush=True)
     print(f"\n{total} pairs in {time.time() - t0:.0f} s, seeds {seeds}"
           + (f" + no-effect seeds {DEV_NONE_SEEDS}" if args.dev else ""))
-    print(f"named correctly: {correct}/{total} = {100 * correct / total:.0f} %")
+    print(f"named correctly: {correct}/{total} = {100 * correct / total:.0f} %; not named "
+          f"but below the detectable size the verdict states (honest): {n_honest}; right or "
+          f"honest {correct + n_honest}/{total}")
     print(f"false positives on no-effect pairs: {fp}/{n_none}")
     print(f"median held-out RMSE reduction (main channel, effect present): "
           f"{100 * float(np.median(reductions)):.0f} %")
