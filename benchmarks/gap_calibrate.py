@@ -251,8 +251,11 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
         verdict = "mismatch" if mismatch else "consistent"
         return {"answer": verdict, "verdict": verdict, "confidence": {}}
     conf = {}
+    size = len(name.split("+"))  # weights are among the models of the answer's size
     for part in name.split("+"):
-        conf[part] = float(sum(m["weight"] for m in models if part in m["name"].split("+")))
+        conf[part] = float(sum(m["weight"] for m in models
+                               if len(m["name"].split("+")) == size
+                               and part in m["name"].split("+")))
     lead = crit.get("after_lead") or {}
     if scaled or ("+" not in name and lead.get("name") == name and mismatched(
             lead["ratio"], {c: tuple(v) for c, v in lead.get("offset", {}).items()}, cal)):

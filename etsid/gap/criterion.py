@@ -562,18 +562,29 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
                                 cal.pair_gain_per_sample, x0=x0, base=base)
                 pair.refused = admissible(pair)
                 models.append(pair)
-    # weights over the models that may be named: one refused by a verdict rule (a
-    # parameter at its bound, a channel made worse) is not an explanation of REAL
-    admitted = [m for m in models if not m.refused]
-    w = pseudo_bma(admitted)
-    for m, wi in zip(admitted, w[:-1], strict=True):
-        m.weight = float(wi)
+    # weights over the models that may be named (one refused by a verdict rule, a
+    # parameter at its bound or a channel made worse, is not an explanation of REAL), one
+    # size at a time: a pair fits at least as well as its single, so weighed together
+    # every single's weight would pass to its pairs and their companions' noise would
+    # decide which of two look-alikes keeps it
+    for size in (1, 2):
+        admitted = [m for m in models if not m.refused and _size(m.name) == size]
+        w = pseudo_bma(admitted)
+        for m, wi in zip(admitted, w[:-1], strict=True):
+            m.weight = float(wi)
     crit.models = models
     name = choose(models, cal, crit.after_lead or None, crit.offset)
     crit.chosen = next((m for m in models if m.name == name), None)
     return crit
 
 
+def _size(name: str) -> int:
+    return len(name.split("+"))
+
+
 def effect_weight(crit: Criterion, name: str) -> float:
-    """Total weight of the models that contain effect ``name``."""
-    return float(sum(m.weight for m in crit.models if name in m.name.split("+")))
+    """Total weight of the models that contain effect ``name``, among the models of the
+    chosen answer's size (one effect or two; one when nothing is chosen)."""
+    size = _size(crit.chosen.name) if crit.chosen is not None else 1
+    return float(sum(m.weight for m in crit.models
+                     if _size(m.name) == size and name in m.name.split("+")))
