@@ -255,15 +255,24 @@ def below_detectable(effect: dict[str, Any], sizes: dict[str, dict[str, Any]]) -
 def cap_below_detectable(effects: list[dict[str, Any]], sizes: dict[str, dict[str, Any]]
                          ) -> None:
     """Cap at :data:`BELOW_CONFIDENCE`, with a caveat, every named effect whose fitted size
-    is below what the pair can detect at the mismatch rule (:func:`below_detectable`)."""
+    is below what the pair can detect at the mismatch rule (:func:`below_detectable`), or
+    that the pair cannot detect at any size in its range (``insufficient``)."""
     for e in effects:
-        if below_detectable(e, sizes):
-            entry = sizes[e["name"]]
-            e["confidence"] = min(float(e["confidence"]), BELOW_CONFIDENCE)
-            note = (f"fitted below the smallest {e['name'].replace('_', ' ')} this pair can "
-                    f"detect ({entry['size']:.3g} {entry['unit'] or ''}".rstrip()
+        entry = sizes.get(e.get("name", ""))
+        label = e.get("name", "").replace("_", " ")
+        if entry and entry["status"] == "insufficient":
+            # the pair's power analysis finds no size in range the mismatch rule would see:
+            # a name found anyway is held to what a size below the detectable one gets
+            note = (f"this pair cannot detect a {label} of any size in its range "
+                    f"({entry.get('reason') or 'by the mismatch rule'}): a hint, not a finding")
+        elif below_detectable(e, sizes):
+            note = (f"fitted below the smallest {label} this pair can detect "
+                    f"({entry['size']:.3g} {entry['unit'] or ''}".rstrip()
                     + "): a hint, not a finding")
-            e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
+        else:
+            continue
+        e["confidence"] = min(float(e["confidence"]), BELOW_CONFIDENCE)
+        e["caveat"] = f"{e['caveat']}; {note}" if e.get("caveat") else note
 
 
 def words(sizes: dict[str, dict[str, Any]], names: list[str] | None = None) -> str:
