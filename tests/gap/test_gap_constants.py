@@ -59,7 +59,7 @@ STRUCTURE = {
     "nominal.QUADRATIC_TERMS",
 }
 """Physical constants, indices into the model's terms, cache sizes."""
-VOCABULARY = {"candidates.LIBRARY", "candidates.WIND_PARAMS"}
+VOCABULARY = {"candidates.LIBRARY", "candidates.WIND_PARAMS", "candidates.TORQUE_PER_THRUST"}
 """The effects' laws: each parameter's search bounds and no-effect value (a fit at a bound
 gets no weight, verdict rule 3; the priors are declared with each effect in the registry)."""
 
