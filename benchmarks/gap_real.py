@@ -22,8 +22,8 @@ A case is scored as (docs/gap_benchmarks.md gives the rules):
 * an out-of-vocabulary change (gyro scale, accelerometer scale, IMU misalignment):
   ``seen`` when the verdict is ``mismatch``;
 * every change: never ``different-vehicle``; where the verdict carries the pair's detectable
-  size (``detectable``), a change below it must not be named at confidence >= 0.5 and the
-  verdict must say the pair could not see it.
+  size (``detectable``), a change below it is honest when nothing (it or another effect)
+  is named at confidence >= 0.5 and the verdict says the pair could not see it.
 """
 
 from __future__ import annotations
@@ -257,8 +257,9 @@ class Case:
         if exp is None:
             return "seen" if self.verdict == "mismatch" else "unseen"
         names = dict(self.named or [])
-        if self.below():
-            return "honest" if names.get(exp, 0.0) < 0.5 else "wrong"
+        if self.below():  # honest: nothing said with confidence, neither it nor another name
+            confident = [n for n, c in names.items() if c >= 0.5 and n != "unexplained"]
+            return "wrong" if confident else "honest"
         if exp in names:
             return "right"
         if any(exp.replace("_", " ") in c for c in self.caveats or []):

@@ -181,12 +181,15 @@ def cap_unseen(effects: list[dict[str, Any]], hidden: list[Evaluated], cal: Cali
     """Cap at :data:`~etsid.gap.detectable.BELOW_CONFIDENCE`, with a caveat, every named
     effect that shares a channel with a candidate the logs cannot name whole (REAL lacks a
     signal that tells it apart, :meth:`~etsid.gap.candidates.Candidate.partly_seen`) when
-    that candidate, fitted on the channels REAL has, passes the naming threshold itself: an
-    accelerometer bias on a log without velocity acts on the vertical force as a thrust
-    scale or a mass does, and what is left between them is the nominal model's own misfit,
-    not evidence (identifiability, not a statistical tie)."""
+    that candidate, fitted on the channels REAL has, explains them beyond chance (its held-out
+    gain :func:`~etsid.gap.criterion.significant` at the calibration's rate among the hidden
+    ones; whether there is an effect at all was the named one's test): an accelerometer bias
+    on a log without velocity acts on the vertical force as a thrust scale or a mass does,
+    and what is left between them is the nominal model's own misfit, not evidence
+    (identifiability, not a statistical tie)."""
     for h in hidden:
-        if h.per_sample <= cal.gain_per_sample:
+        if h.gain <= 0 or not significant(h.gain, h.gain_se, len(hidden),
+                                          cal.false_positive_rate):
             continue
         seen = set(h.by_channel)
         note = (f"look-alike: {h.name.replace('_', ' ')} explains the same channels "

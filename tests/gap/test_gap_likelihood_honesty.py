@@ -93,20 +93,26 @@ def test_a_look_alike_the_logs_cannot_name_caps_what_shares_its_channels():
         assert "look-alike: accel bias" in e["caveat"] and "vel" in e["caveat"], e["caveat"]
 
 
-def test_an_unseen_look_alike_below_the_threshold_caps_nothing():
+def test_an_unseen_look_alike_within_chance_caps_nothing():
+    """The hidden candidate caps a name on its channels when its held-out gain is beyond
+    chance (block by block), whatever its size per sample: the named effect has already
+    shown there is an effect, the question is only whether the look-alike explains it."""
     from etsid.gap.calibration import Calibration
     from etsid.gap.criterion import Evaluated
     from etsid.gap.likelihood import cap_unseen
 
-    def hidden(per_sample: float) -> Evaluated:
-        g = np.full(10, per_sample * 100.0)
-        return Evaluated("accel_bias", (), [], g, 1000, False, by_channel={"az": (1.0, 1000)})
+    def hidden(blocks: list[float]) -> Evaluated:
+        return Evaluated("accel_bias", (), [], np.array(blocks), 1000, False,
+                         by_channel={"az": (float(sum(blocks)), 1000)})
 
     cal = Calibration(2.0, 0.05, 0.05, 0.01, {})
     effects = [{"name": "mass", "channels": ["az"], "confidence": 1.0},
                {"name": "inertia_scale", "channels": ["p", "q", "r"], "confidence": 1.0}]
-    cap_unseen(effects, [hidden(0.01)], cal, lambda n: "vel")
+    noise = [3.0, -2.0, 4.0, -3.0, 2.0, -1.0, 3.0, -4.0, 1.0, -2.0]  # 1 nat over 10 blocks
+    cap_unseen(effects, [hidden(noise)], cal, lambda n: "vel")
     assert [e["confidence"] for e in effects] == [1.0, 1.0]
-    cap_unseen(effects, [hidden(0.2)], cal, lambda n: "vel")
+    # small per sample (0.012 nats) but in every block: beyond chance
+    cap_unseen(effects, [hidden([1.2 + 0.1 * (i % 3) for i in range(10)])], cal,
+               lambda n: "vel")
     assert [e["confidence"] for e in effects] == [BELOW_CONFIDENCE, 1.0]
     assert "lack vel" in effects[0]["caveat"] and "caveat" not in effects[1]
