@@ -54,3 +54,15 @@ def test_a_channel_the_named_effect_barely_moves_is_said_mostly_unexplained() ->
     assert LABELS["az"] not in said
     data["rmse_after"]["q"] = 0.55  # 72 % of the excess removed: explained
     assert "Mostly unexplained" not in summary_sentence(data)
+
+
+def test_a_mostly_yaw_torque_offset_says_a_twisted_rotor_gives_it_too() -> None:
+    """In steady hover a yaw offset and rotors twisted on their arms (a yaw ∝ thrust) are
+    one: the torque offset's sentence says so when its yaw part is the largest."""
+    from etsid.gap.effects import effect
+
+    said = effect("torque_offset").said
+    yaw = said({"p_offset": 0.8, "q_offset": 0.4, "r_offset": 4.3}, "sim", "real")
+    assert "(torque offset)" in yaw and "twisted on their arms" in yaw
+    roll = said({"p_offset": 2.0, "q_offset": -1.0, "r_offset": 0.1}, "sim", "real")
+    assert "twisted" not in roll

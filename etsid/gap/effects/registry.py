@@ -95,9 +95,12 @@ def _inertia_scale(p: dict[str, float], sim: str, real: str) -> str:
           {"p_offset": Prior(NORMAL, 5.0), "q_offset": Prior(NORMAL, 5.0),
            "r_offset": Prior(NORMAL, 5.0)}, ("weak_motor", "rotor_twist"))
 def _torque_offset(p: dict[str, float], sim: str, real: str) -> str:
+    yaw = abs(p["r_offset"]) > max(abs(p["p_offset"]), abs(p["q_offset"]))
+    twist = ("; mostly yaw, which rotors twisted on their arms also give at a steady thrust "
+             "(only a change of thrust tells the two apart)" if yaw else "")
     return (f"a constant angular acceleration of ({p['p_offset']:+.2f}, "
             f"{p['q_offset']:+.2f}, {p['r_offset']:+.2f}) rad/s² about roll, pitch, yaw "
-            "(torque offset)")
+            f"(torque offset){twist}")
 
 
 @_declare("gyro_bias", "gyro bias",
