@@ -61,7 +61,7 @@ from etsid.gap.calibration import (
     calibration_dict,
     load_calibration,
 )
-from etsid.gap.criterion import choose, mismatched, significant
+from etsid.gap.criterion import answer_size, choose, mismatched, significant
 from etsid.gap.detectable import BELOW_CONFIDENCE, detectable_sizes
 from etsid.gap.likelihood import AIRFRAME_SCALES
 from etsid.gap.scale import scale_mismatched, significant_delta
@@ -251,10 +251,10 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
         verdict = "mismatch" if mismatch else "consistent"
         return {"answer": verdict, "verdict": verdict, "confidence": {}}
     conf = {}
-    size = len(name.split("+"))  # weights are among the models of the answer's size
+    size = answer_size(name)  # weights are among the models of the answer's size
     for part in name.split("+"):
         conf[part] = float(sum(m["weight"] for m in models
-                               if len(m["name"].split("+")) == size
+                               if answer_size(m["name"]) == size
                                and part in m["name"].split("+")))
     lead = crit.get("after_lead") or {}
     if scaled or ("+" not in name and lead.get("name") == name and mismatched(

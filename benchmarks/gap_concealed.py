@@ -30,6 +30,7 @@ from collections import Counter
 
 import numpy as np
 
+from etsid.gap.calibration import load_calibration
 from etsid.gap.candidates import ground_ratio, ground_ratio_exp
 from etsid.gap.run import analyse
 from etsid.sim import load_vehicle, simulate
@@ -227,18 +228,19 @@ def param_error(name: str, eff: dict, truth: dict) -> float | None:
     return None
 
 
+PACKAGE_CAL = load_calibration()
+"""The calibration the package decides with (the detectable sizes it states)."""
+
+
 def honest_answer(want: str, label: str, data: dict, truth: dict) -> bool:
     """Issue 38's honest miss: nothing named the truth lacks, and every true effect left
     unnamed is below the size the verdict states it could detect (gap.json's
     ``detectable``), as :func:`gap_calibrate.honest_miss` scores the recorded sets."""
     from gap_calibrate import honest_miss, truth_sizes
 
-    from etsid.gap.calibration import load_calibration
-
     row = {"label": want, "detectable": data.get("detectable") or {},
            "truth_sizes": truth_sizes(want, truth)}
-    return honest_miss(want, {"verdict": data["verdict"], "answer": label}, row,
-                       load_calibration())
+    return honest_miss(want, {"verdict": data["verdict"], "answer": label}, row, PACKAGE_CAL)
 
 
 def main() -> None:

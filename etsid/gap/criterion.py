@@ -568,7 +568,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     # every single's weight would pass to its pairs and their companions' noise would
     # decide which of two look-alikes keeps it
     for size in (1, 2):
-        admitted = [m for m in models if not m.refused and _size(m.name) == size]
+        admitted = [m for m in models if not m.refused and answer_size(m.name) == size]
         w = pseudo_bma(admitted)
         for m, wi in zip(admitted, w[:-1], strict=True):
             m.weight = float(wi)
@@ -578,13 +578,14 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     return crit
 
 
-def _size(name: str) -> int:
+def answer_size(name: str) -> int:
+    """How many effects a model's name (``a`` or ``a+b``) joins."""
     return len(name.split("+"))
 
 
 def effect_weight(crit: Criterion, name: str) -> float:
     """Total weight of the models that contain effect ``name``, among the models of the
     chosen answer's size (one effect or two; one when nothing is chosen)."""
-    size = _size(crit.chosen.name) if crit.chosen is not None else 1
+    size = answer_size(crit.chosen.name) if crit.chosen is not None else 1
     return float(sum(m.weight for m in crit.models
-                     if _size(m.name) == size and name in m.name.split("+")))
+                     if answer_size(m.name) == size and name in m.name.split("+")))

@@ -21,6 +21,7 @@ from etsid.gap.criterion import (
     Criterion,
     Evaluated,
     LikelihoodScorer,
+    answer_size,
     block_se,
     effect_weight,
     evaluate,
@@ -383,7 +384,8 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
         if worst in left:
             left[worst]["modelled_by_ets"] = True
     if not named or model is not None:
-        weight = 1.0 - max((m.weight for m in crit.models if "+" not in m.name), default=0.0)
+        weight = 1.0 - max((m.weight for m in crit.models if answer_size(m.name) == 1),
+                           default=0.0)
         effects.append(_unexplained_entry(worst or channels[0], weight, model, sim.name, data))
     main = channels[0]
     regime = locate(real, main, res0, sigma[main], radius, info.get("radius") is None,
