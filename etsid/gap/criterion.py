@@ -139,6 +139,9 @@ class Evaluated:
     by_channel: dict[str, tuple[float, int]] = field(default_factory=dict)
     """Channel → (held-out gain on it, nats; its scored samples): a sensor-consistency
     channel is read at its own, lower rate."""
+    sim_per_sample: float | None = None
+    """The same law's held-out gain per scored sample on SIM's own log against SIM's
+    nominal model, nats (:func:`sim_gains`; None: not evaluated)."""
 
     @property
     def gain(self) -> float:
@@ -147,8 +150,10 @@ class Evaluated:
 
     @property
     def per_sample(self) -> float:
-        """Gain per scored sample, nats."""
-        return self.gain / max(self.n_scored, 1)
+        """Gain per scored sample beyond what the law gains on SIM's own log, nats: a law
+        that also improves SIM's held-out fit corrects the nominal model's structure (a
+        term its regression lacks), not a difference between the vehicles."""
+        return self.gain / max(self.n_scored, 1) - max(self.sim_per_sample or 0.0, 0.0)
 
     @property
     def gain_se(self) -> float:
@@ -438,6 +443,12 @@ def _get(m: Any, key: str) -> Any:
     return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
 
 
+def net_gain(m: Any) -> float:
+    """A model's held-out gain beyond its law's gain on SIM's own log, nats
+    (:attr:`Evaluated.per_sample` over the scored samples)."""
+    return float(_get(m, "per_sample")) * max(int(_get(m, "n_scored") or 0), 1)
+
+
 def beyond_offset_null(m: Any, offset: dict[str, Any] | None, cal: Calibration) -> bool:
     """Whether a model's held-out gain on some sensor-consistency channel exceeds what a
     no-effect flight reaches there at ``cal``'s rate: ``½`` :func:`offset_limit` (its gain
@@ -484,7 +495,7 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     benchmark can decide recorded runs again under another calibration.
     """
     singles = sorted((m for m in models if "+" not in _get(m, "name")
-                      and not _get(m, "refused")), key=lambda m: -_get(m, "gain"))
+                      and not _get(m, "refused")), key=lambda m: -net_gain(m))
     n_singles = sum("+" not in _get(m, "name") for m in models)
     if not singles or not named_single(singles[0], cal, offset, n_singles):
         return None
@@ -524,17 +535,32 @@ def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> lis
     return out
 
 
+def sim_gains(singles: list[Evaluated], ls_sim: LikelihoodScorer, threshold: float) -> None:
+    """Set :attr:`Evaluated.sim_per_sample` of every single whose gain per sample on REAL
+    exceeds ``threshold`` (no other can be named): the same law fitted and scored by
+    blocked folds on SIM's own log against SIM's nominal model."""
+    ctx = ls_sim.scorer.ctx
+    for s in singles:
+        if s.gain / max(s.n_scored, 1) > threshold and all(c.available(ctx)
+                                                           for c in s.candidates):
+            own = evaluate(s.candidates, ls_sim, threshold)
+            s.sim_per_sample = own.gain / max(own.n_scored, 1)
+
+
 def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
-                  admissible) -> Criterion:
+                  admissible, ls_sim: LikelihoodScorer | None = None) -> Criterion:
     """Every single, greedy pairs on the best single and on the singles tied with it
     (:func:`tied_leads`), the weights and the chosen model.
 
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
-    a bound, a channel made worse), "" when it may.
+    a bound, a channel made worse), "" when it may. ``ls_sim``: the scorer of SIM's own
+    log, whose gains are taken off REAL's (:func:`sim_gains`).
     """
     crit = Criterion(ls.folds, ls.ratio(), ls.offsets())
     threshold = min(cal.gain_per_sample, cal.pair_gain_per_sample)
     singles = [evaluate((c,), ls, threshold) for c in library]
+    if ls_sim is not None:
+        sim_gains(singles, ls_sim, threshold)
     for s in singles:
         s.refused = admissible(s)
     # one entry per effect: its best form (a per-motor law: its best motor)
@@ -542,7 +568,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     for s in singles:
         if s.name not in best_of or s.gain > best_of[s.name].gain:
             best_of[s.name] = s
-    ranked = sorted(best_of.values(), key=lambda m: -m.gain)
+    ranked = sorted(best_of.values(), key=lambda m: -net_gain(m))
     models = list(ranked)
     usable = [m for m in ranked if not m.refused]
     if usable and named_single(usable[0], cal, crit.offset):
