@@ -53,7 +53,11 @@ command (0.72×) and roll/pitch authority (1.2×) are within what one quad250 wi
 gives: the logs alone cannot call it another airframe, and the honest answer is a mismatch
 without a confident name."""
 S500_4S = {**S500, "motor.omega_max": 1500.0, "battery.cells": 4, "motor.v_ref": 14.8}
-"""The same S500 on a 4S pack."""
+"""The same S500 on a 4S pack. Its hover command (0.88× as logged, 1.55× at equal voltage)
+and roll/pitch authority (0.86–0.88×) are within one quad250 with a fault, as the 3S S500's
+are; the pack alone (1.33×) is not evidence of another airframe (one real octocopter flies
+a 4S and a 3S pack: docs/gap.md), so the honest answer is a mismatch without a confident
+name. (Until the pack voltage stopped being judged this case asked ``different-vehicle``.)"""
 S500_GIMBAL = {**S500, "mass": 1.5, "inertia.ixx": 0.03, "inertia.iyy": 0.032,
                "inertia.izz": 0.05}
 """The 3S S500 carrying a gimbal and a top-mounted pack (1.5 kg, 2.7× its inertia): the real
@@ -204,7 +208,7 @@ def _sim_cases() -> list[Case]:
              no_confident_name, "no confident wrong name"),
         Case("sim quad250 vs S500 (4S)",
              _pair(q_sim, dict(HOVER, vehicle=quad.with_settings(S500_4S), seed=2)),
-             different_vehicle, "different-vehicle"),
+             no_confident_name, "no confident wrong name"),
         Case("sim quad250 vs 350-class quad",
              _pair(q_sim, dict(HOVER, vehicle=quad.with_settings(MID_QUAD), seed=2)),
              no_confident_name, "no confident wrong name"),
