@@ -34,7 +34,14 @@ from scipy import stats
 
 from etsid.gap.calibration import Calibration
 from etsid.gap.candidates import Candidate
-from etsid.gap.fitting import Fit, Scorer, SharedMasks, channels_of, fit_candidates
+from etsid.gap.fitting import (
+    Fit,
+    Scorer,
+    SharedMasks,
+    channels_of,
+    fit_candidates,
+    fixed_fit,
+)
 from etsid.gap.noise import NoiseModel, offset_z2
 from etsid.gap.signals import true_runs
 
@@ -139,9 +146,11 @@ class Evaluated:
     by_channel: dict[str, tuple[float, int]] = field(default_factory=dict)
     """Channel → (held-out gain on it, nats; its scored samples): a sensor-consistency
     channel is read at its own, lower rate."""
-    sim_per_sample: float | None = None
-    """The same law's held-out gain per scored sample on SIM's own log against SIM's
-    nominal model, nats (:func:`sim_gains`; None: not evaluated)."""
+    ref_per_sample: float | None = None
+    """REAL's held-out gain per scored sample of the same law at the parameters SIM's own
+    log gives it (fitted on SIM against SIM's nominal model), nats: what the law gains on
+    REAL with no difference between the vehicles (:func:`reference_gains`; None: not
+    evaluated)."""
 
     @property
     def gain(self) -> float:
@@ -150,10 +159,11 @@ class Evaluated:
 
     @property
     def per_sample(self) -> float:
-        """Gain per scored sample beyond what the law gains on SIM's own log, nats: a law
-        that also improves SIM's held-out fit corrects the nominal model's structure (a
-        term its regression lacks), not a difference between the vehicles."""
-        return self.gain / max(self.n_scored, 1) - max(self.sim_per_sample or 0.0, 0.0)
+        """Gain per scored sample beyond the law's at SIM's own parameters
+        (:attr:`ref_per_sample`), nats: a law that SIM's own log also asks for corrects a
+        term the nominal regression lacks, and only its change from SIM to REAL is a
+        difference between the vehicles."""
+        return self.gain / max(self.n_scored, 1) - max(self.ref_per_sample or 0.0, 0.0)
 
     @property
     def gain_se(self) -> float:
@@ -535,32 +545,37 @@ def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> lis
     return out
 
 
-def sim_gains(singles: list[Evaluated], ls_sim: LikelihoodScorer, threshold: float) -> None:
-    """Set :attr:`Evaluated.sim_per_sample` of every single whose gain per sample on REAL
-    exceeds ``threshold`` (no other can be named): the same law fitted and scored by
-    blocked folds on SIM's own log against SIM's nominal model."""
-    ctx = ls_sim.scorer.ctx
+def reference_gains(singles: list[Evaluated], ls: LikelihoodScorer, sim: Scorer,
+                    sim_mask: np.ndarray, threshold: float) -> None:
+    """Set :attr:`Evaluated.ref_per_sample` of every single whose gain per sample on REAL
+    exceeds ``threshold`` (no other can be named): its law fitted on SIM's own log
+    (``sim``, the samples of ``sim_mask``) against SIM's nominal model, then scored on
+    REAL's held-out folds at those parameters."""
     for s in singles:
-        if s.gain / max(s.n_scored, 1) > threshold and all(c.available(ctx)
+        if s.gain / max(s.n_scored, 1) > threshold and all(c.available(sim.ctx)
                                                            for c in s.candidates):
-            own = evaluate(s.candidates, ls_sim, threshold)
-            s.sim_per_sample = own.gain / max(own.n_scored, 1)
+            own = fit_candidates(s.candidates, sim, sim_mask)
+            at_sim = fixed_fit(s.candidates, own.theta, ls.scorer)
+            g, n, _ = ls.gain([at_sim] * len(ls.folds.score))
+            s.ref_per_sample = float(g.sum()) / max(n, 1)
 
 
 def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
-                  admissible, ls_sim: LikelihoodScorer | None = None) -> Criterion:
+                  admissible, sim: Scorer | None = None,
+                  sim_mask: np.ndarray | None = None) -> Criterion:
     """Every single, greedy pairs on the best single and on the singles tied with it
     (:func:`tied_leads`), the weights and the chosen model.
 
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
-    a bound, a channel made worse), "" when it may. ``ls_sim``: the scorer of SIM's own
-    log, whose gains are taken off REAL's (:func:`sim_gains`).
+    a bound, a channel made worse), "" when it may. ``sim``: the scorer of SIM's own log
+    (its airborne samples ``sim_mask``), at whose parameters each law's gain on REAL is
+    taken off (:func:`reference_gains`).
     """
     crit = Criterion(ls.folds, ls.ratio(), ls.offsets())
     threshold = min(cal.gain_per_sample, cal.pair_gain_per_sample)
     singles = [evaluate((c,), ls, threshold) for c in library]
-    if ls_sim is not None:
-        sim_gains(singles, ls_sim, threshold)
+    if sim is not None and sim_mask is not None:
+        reference_gains(singles, ls, sim, sim_mask, threshold)
     for s in singles:
         s.refused = admissible(s)
     # one entry per effect: its best form (a per-motor law: its best motor)

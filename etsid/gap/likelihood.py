@@ -40,7 +40,7 @@ from etsid.gap.effects import REGISTRY
 from etsid.gap.fitting import Fit, Scorer, channels_of, fit_candidates
 from etsid.gap.floors import sensor_noise
 from etsid.gap.locate import locate_channel, scheduling_variables
-from etsid.gap.noise import NoiseModel, fit_noise
+from etsid.gap.noise import fit_noise
 from etsid.gap.nominal import CUTOFF_HZ, LABELS, NominalModel, measured
 from etsid.gap.pem import (
     PredictionErrorScorer,
@@ -75,15 +75,14 @@ def _admissible(scorer: Scorer, ls: LikelihoodScorer) -> Callable[[Evaluated], s
     return check
 
 
-def sim_scorer(sim: Flight, scorer: Scorer, noise: NoiseModel) -> LikelihoodScorer:
-    """The criterion's scorer of SIM's own log against SIM's nominal model (blocked folds
-    of SIM, REAL's noise model), the same kind as REAL's (direct or prediction error)."""
+def sim_scorer(sim: Flight, scorer: Scorer) -> Scorer:
+    """A scorer of SIM's own log against SIM's nominal model, of the same kind as REAL's
+    (direct, or prediction errors)."""
     ctx = scorer.ctx
     own = Scorer(Context(sim, ctx.nominal, ctx.v_ref, ctx.rotor_dirs, ctx.arm),
                  measured(sim), scorer.sigma)
-    if isinstance(scorer, PredictionErrorScorer):
-        own = prediction_error_scorer(sim, own)
-    return LikelihoodScorer(own, noise, make_folds(sim.airborne, sim.fs))
+    return prediction_error_scorer(sim, own) if isinstance(scorer, PredictionErrorScorer) \
+        else own
 
 
 def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
@@ -268,7 +267,6 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     if isinstance(scorer, PredictionErrorScorer):
         noise = with_innovation_channels(noise, scorer)
     ls = LikelihoodScorer(scorer, noise, folds)
-    ls_sim = sim_scorer(sim, scorer, noise)
     say("gap: what this pair could have seen (detectable size of every effect)")
     seen = detectable_evidence(scorer, [real.airborne], ls.offset_tests())
     base = {"detectable": detectable_sizes(seen, cal), **base}
@@ -277,7 +275,8 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
     say(f"gap: {len(library)} candidate effects, each fitted on one half of "
         f"{real.name}'s {folds.n_blocks} blocks and scored on the other")
-    crit = run_criterion(ls, library, cal, _admissible(scorer, ls), ls_sim)
+    crit = run_criterion(ls, library, cal, _admissible(scorer, ls), sim_scorer(sim, scorer),
+                         sim.airborne)
     unseen = {c.name: c for e in REGISTRY for c in e.forms if c.partly_seen(scorer.ctx)
               and any(s not in real.have for s in c.needs)}  # a signal missing, not a law
     hidden = [evaluate((c,), ls, cal.gain_per_sample) for c in unseen.values()]
@@ -351,8 +350,8 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                     if crit.after_lead else {}),
                  "models": [{"name": m.name, "gain": round(m.gain, 3),
                              "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
-                             **({"sim_per_sample": round(m.sim_per_sample, 6)}
-                                if m.sim_per_sample is not None else {}),
+                             **({"ref_per_sample": round(m.ref_per_sample, 6)}
+                                if m.ref_per_sample is not None else {}),
                              "gain_se": (round(m.gain_se, 3) if np.isfinite(m.gain_se)
                                          else None),
                              **({"extra_se": round(m.extra_se, 3)}
