@@ -15,10 +15,9 @@ the best single's pairs over it. This script
   - ``mismatch_ratio``: the largest dynamic channel's ratio of the no-effect pairs (a
     sensor-consistency channel is judged by its offset's F law at the rate,
     etsid/gap/criterion.py ``offset_limit``, nothing calibrated),
-  - ``gain_per_sample``: the best significant single's gain of the no-effect pairs, beyond
-    its law's gain at SIM's own parameters (``criterion.reference_gains``; an effect is
-    named only when its gain is also significant at the rate among the singles tried,
-    ``criterion.significant``),
+  - ``gain_per_sample``: the best significant single's gain of the no-effect pairs (an
+    effect is named only when its gain is also significant at the rate among the singles
+    tried, ``criterion.significant``),
   - ``pair_gain_per_sample``: the best second effect's gain over a correctly named first
     effect on the single-effect pairs, and never below ``gain_per_sample`` (a second
     effect's extra gain comes from the same model errors as a first effect's);
@@ -354,8 +353,7 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
                 "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
                 "rule": "largest recorded value of the no-effect pairs' largest dynamic "
-                        "channel ratio and best significant single gain (beyond its law's "
-                        "gain at SIM's own parameters), and of the "
+                        "channel ratio and best significant single gain, and of the "
                         "single-effect pairs' best significant second-effect gain where a "
                         "channel is still mismatched after the first, and no lower than "
                         "the single's threshold: a second effect's extra gain has the same "

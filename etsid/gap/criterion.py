@@ -34,14 +34,7 @@ from scipy import stats
 
 from etsid.gap.calibration import Calibration
 from etsid.gap.candidates import Candidate
-from etsid.gap.fitting import (
-    Fit,
-    Scorer,
-    SharedMasks,
-    channels_of,
-    fit_candidates,
-    fixed_fit,
-)
+from etsid.gap.fitting import Fit, Scorer, SharedMasks, channels_of, fit_candidates
 from etsid.gap.noise import NoiseModel, offset_z2
 from etsid.gap.signals import true_runs
 
@@ -146,11 +139,6 @@ class Evaluated:
     by_channel: dict[str, tuple[float, int]] = field(default_factory=dict)
     """Channel → (held-out gain on it, nats; its scored samples): a sensor-consistency
     channel is read at its own, lower rate."""
-    ref_per_sample: float | None = None
-    """REAL's held-out gain per scored sample of the same law at the parameters SIM's own
-    log gives it (fitted on SIM against SIM's nominal model), nats: what the law gains on
-    REAL with no difference between the vehicles (:func:`reference_gains`; None: not
-    evaluated)."""
 
     @property
     def gain(self) -> float:
@@ -159,11 +147,8 @@ class Evaluated:
 
     @property
     def per_sample(self) -> float:
-        """Gain per scored sample beyond the law's at SIM's own parameters
-        (:attr:`ref_per_sample`), nats: a law that SIM's own log also asks for corrects a
-        term the nominal regression lacks, and only its change from SIM to REAL is a
-        difference between the vehicles."""
-        return self.gain / max(self.n_scored, 1) - max(self.ref_per_sample or 0.0, 0.0)
+        """Gain per scored sample, nats."""
+        return self.gain / max(self.n_scored, 1)
 
     @property
     def gain_se(self) -> float:
@@ -453,12 +438,6 @@ def _get(m: Any, key: str) -> Any:
     return m.get(key, "") if isinstance(m, dict) else getattr(m, key)
 
 
-def net_gain(m: Any) -> float:
-    """A model's held-out gain beyond its law's gain on SIM's own log, nats
-    (:attr:`Evaluated.per_sample` over the scored samples)."""
-    return float(_get(m, "per_sample")) * max(int(_get(m, "n_scored") or 0), 1)
-
-
 def beyond_offset_null(m: Any, offset: dict[str, Any] | None, cal: Calibration) -> bool:
     """Whether a model's held-out gain on some sensor-consistency channel exceeds what a
     no-effect flight reaches there at ``cal``'s rate: ``½`` :func:`offset_limit` (its gain
@@ -505,7 +484,7 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     benchmark can decide recorded runs again under another calibration.
     """
     singles = sorted((m for m in models if "+" not in _get(m, "name")
-                      and not _get(m, "refused")), key=lambda m: -net_gain(m))
+                      and not _get(m, "refused")), key=lambda m: -_get(m, "gain"))
     n_singles = sum("+" not in _get(m, "name") for m in models)
     if not singles or not named_single(singles[0], cal, offset, n_singles):
         return None
@@ -545,37 +524,17 @@ def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> lis
     return out
 
 
-def reference_gains(singles: list[Evaluated], ls: LikelihoodScorer, sim: Scorer,
-                    sim_mask: np.ndarray, threshold: float) -> None:
-    """Set :attr:`Evaluated.ref_per_sample` of every single whose gain per sample on REAL
-    exceeds ``threshold`` (no other can be named): its law fitted on SIM's own log
-    (``sim``, the samples of ``sim_mask``) against SIM's nominal model, then scored on
-    REAL's held-out folds at those parameters."""
-    for s in singles:
-        if s.gain / max(s.n_scored, 1) > threshold and all(c.available(sim.ctx)
-                                                           for c in s.candidates):
-            own = fit_candidates(s.candidates, sim, sim_mask)
-            at_sim = fixed_fit(s.candidates, own.theta, ls.scorer)
-            g, n, _ = ls.gain([at_sim] * len(ls.folds.score))
-            s.ref_per_sample = float(g.sum()) / max(n, 1)
-
-
 def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
-                  admissible, sim: Scorer | None = None,
-                  sim_mask: np.ndarray | None = None) -> Criterion:
+                  admissible) -> Criterion:
     """Every single, greedy pairs on the best single and on the singles tied with it
     (:func:`tied_leads`), the weights and the chosen model.
 
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
-    a bound, a channel made worse), "" when it may. ``sim``: the scorer of SIM's own log
-    (its airborne samples ``sim_mask``), at whose parameters each law's gain on REAL is
-    taken off (:func:`reference_gains`).
+    a bound, a channel made worse), "" when it may.
     """
     crit = Criterion(ls.folds, ls.ratio(), ls.offsets())
     threshold = min(cal.gain_per_sample, cal.pair_gain_per_sample)
     singles = [evaluate((c,), ls, threshold) for c in library]
-    if sim is not None and sim_mask is not None:
-        reference_gains(singles, ls, sim, sim_mask, threshold)
     for s in singles:
         s.refused = admissible(s)
     # one entry per effect: its best form (a per-motor law: its best motor)
@@ -583,7 +542,7 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
     for s in singles:
         if s.name not in best_of or s.gain > best_of[s.name].gain:
             best_of[s.name] = s
-    ranked = sorted(best_of.values(), key=lambda m: -net_gain(m))
+    ranked = sorted(best_of.values(), key=lambda m: -m.gain)
     models = list(ranked)
     usable = [m for m in ranked if not m.refused]
     if usable and named_single(usable[0], cal, crit.offset):

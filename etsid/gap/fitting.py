@@ -237,13 +237,6 @@ def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarr
     return to_theta, to_search, np.concatenate(steps), bounds
 
 
-def fixed_fit(cands: tuple[Candidate, ...], theta: np.ndarray, scorer: Scorer) -> Fit:
-    """``cands`` at parameters ``theta`` given, not fitted, on ``scorer``'s flight (no
-    standard errors)."""
-    theta = np.asarray(theta, dtype=float)
-    return Fit(cands, theta, np.full(theta.size, np.nan), _mods(cands, theta, scorer.ctx))
-
-
 def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
                    x0: np.ndarray | None = None, base: Fit | None = None,
                    shared: SharedMasks | None = None) -> Fit:

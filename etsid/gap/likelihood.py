@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from etsid.gap.calibration import Calibration, load_calibration
-from etsid.gap.candidates import Context, ground_excess
+from etsid.gap.candidates import ground_excess
 from etsid.gap.criterion import (
     Criterion,
     Evaluated,
@@ -42,11 +42,7 @@ from etsid.gap.floors import sensor_noise
 from etsid.gap.locate import locate_channel, scheduling_variables
 from etsid.gap.noise import fit_noise
 from etsid.gap.nominal import CUTOFF_HZ, LABELS, NominalModel, measured
-from etsid.gap.pem import (
-    PredictionErrorScorer,
-    prediction_error_scorer,
-    with_innovation_channels,
-)
+from etsid.gap.pem import PredictionErrorScorer, with_innovation_channels
 from etsid.gap.regime import locate, located_by_driver
 from etsid.gap.residual_model import ResidualModel, fit_residual_model
 from etsid.gap.scale import scale_mismatched, scale_tests
@@ -73,16 +69,6 @@ def _admissible(scorer: Scorer, ls: LikelihoodScorer) -> Callable[[Evaluated], s
                                                for c, v in worse.items())
         return ""
     return check
-
-
-def sim_scorer(sim: Flight, scorer: Scorer) -> Scorer:
-    """A scorer of SIM's own log against SIM's nominal model, of the same kind as REAL's
-    (direct, or prediction errors)."""
-    ctx = scorer.ctx
-    own = Scorer(Context(sim, ctx.nominal, ctx.v_ref, ctx.rotor_dirs, ctx.arm),
-                 measured(sim), scorer.sigma)
-    return prediction_error_scorer(sim, own) if isinstance(scorer, PredictionErrorScorer) \
-        else own
 
 
 def _rmse(res: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
@@ -275,8 +261,7 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
     library = tuple(c for e in REGISTRY for c in e.forms if c.available(scorer.ctx))
     say(f"gap: {len(library)} candidate effects, each fitted on one half of "
         f"{real.name}'s {folds.n_blocks} blocks and scored on the other")
-    crit = run_criterion(ls, library, cal, _admissible(scorer, ls), sim_scorer(sim, scorer),
-                         sim.airborne)
+    crit = run_criterion(ls, library, cal, _admissible(scorer, ls))
     unseen = {c.name: c for e in REGISTRY for c in e.forms if c.partly_seen(scorer.ctx)
               and any(s not in real.have for s in c.needs)}  # a signal missing, not a law
     hidden = [evaluate((c,), ls, cal.gain_per_sample) for c in unseen.values()]
@@ -350,8 +335,6 @@ def explain_by_likelihood(sim: Flight, real: Flight, nominal: NominalModel,
                     if crit.after_lead else {}),
                  "models": [{"name": m.name, "gain": round(m.gain, 3),
                              "per_sample": round(m.per_sample, 6), "n_scored": m.n_scored,
-                             **({"ref_per_sample": round(m.ref_per_sample, 6)}
-                                if m.ref_per_sample is not None else {}),
                              "gain_se": (round(m.gain_se, 3) if np.isfinite(m.gain_se)
                                          else None),
                              **({"extra_se": round(m.extra_se, 3)}
