@@ -7,7 +7,8 @@ as an empty namespace package (``pip install .`` followed by ``pip install -e .`
 venv broke every command). :func:`use_user_cache` points numba at
 ``$XDG_CACHE_HOME/etsid/numba`` (``~/.cache/etsid/numba``; ``~/Library/Caches`` on macOS,
 ``%LOCALAPPDATA%`` on Windows) before any kernel is compiled. A ``NUMBA_CACHE_DIR`` already
-set by the user wins. This module imports nothing heavy: it runs on every ``import etsid``.
+set by the user wins and is used as it is (not keyed: one folder per etsid version is then
+the user's to keep). This module imports nothing heavy: it runs on every ``import etsid``.
 
 numba checks a cached kernel against its own source file only, not against the kernels it
 calls in other files: after an upgrade (or an edit) that changed a callee, the old machine
