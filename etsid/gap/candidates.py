@@ -173,7 +173,8 @@ def merge(a: Mods, b: Mods) -> Mods:
                 spin_torque=a.spin_torque + b.spin_torque,
                 yaw_per_thrust=a.yaw_per_thrust + b.yaw_per_thrust,
                 damping=a.damping + b.damping, yaw_damping=a.yaw_damping + b.yaw_damping,
-                wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]))
+                wind=(a.wind[0] + b.wind[0], a.wind[1] + b.wind[1]),
+                rate_bias=tuple(x + y for x, y in zip(a.rate_bias, b.rate_bias, strict=True)))
 
 
 def ground_ratio(z: np.ndarray, radius: float, exponent: float = 2.0) -> np.ndarray:
@@ -272,7 +273,16 @@ def _gyro_bias_leaning(theta: np.ndarray, ctx: Context) -> Mods:
     the velocity by g times the lean, −g τ_e b_y along x and +g τ_e b_x along y."""
     bx, by, bz, lean = (float(v) for v in theta)
     return Mods(offset={"gyro_p": bx, "gyro_q": by, "gyro_r": bz,
-                        "kin_x": -GRAVITY * lean * by, "kin_y": GRAVITY * lean * bx})
+                        "kin_x": -GRAVITY * lean * by, "kin_y": GRAVITY * lean * bx},
+                rate_bias=(bx, by, bz))
+
+
+def _gyro_bias(theta: np.ndarray, ctx: Context) -> Mods:
+    """Gyro bias b (rad/s): the gyro reads the attitude's rate plus b, and the rate terms
+    of SIM's angular-acceleration laws (rotor damping, gyroscopic products) see the logged
+    rates less b."""
+    bx, by, bz = (float(v) for v in theta)
+    return Mods(offset={"gyro_p": bx, "gyro_q": by, "gyro_r": bz}, rate_bias=(bx, by, bz))
 
 
 def _rotor_twist(theta: np.ndarray, ctx: Context) -> Mods:
@@ -409,10 +419,13 @@ LIBRARY: tuple[Candidate, ...] = (
     Candidate(
         "gyro_bias",
         (Param("bx", "rad/s", -0.5, 0.5, 0.0, 0.0), Param("by", "rad/s", -0.5, 0.5, 0.0, 0.0),
-         Param("bz", "rad/s", -0.5, 0.5, 0.0, 0.0)), ("gyro_p", "gyro_q", "gyro_r"),
+         Param("bz", "rad/s", -0.5, 0.5, 0.0, 0.0)),
+        ("gyro_p", "gyro_q", "gyro_r", "p", "q", "r"),
         "the gyro reads a constant rate the attitude does not follow (the controller's "
-        "integrator hides it in the rate loop)",
-        "ω_gyro = ω_attitude + b", _offsets(("gyro_p", "gyro_q", "gyro_r")), ("roll",)),
+        "integrator hides it in the rate loop); the rate-dependent moments (rotor damping, "
+        "gyroscopic) act on the true rate, so SIM's laws fed the logged rate are off by "
+        "their rate coefficient times b",
+        "ω_gyro = ω_attitude + b; ω̇ = f(u, ω_gyro − b)", _gyro_bias, ("roll",)),
     Candidate(
         # the estimator's lean: a complementary filter or an EKF that does not (yet) know
         # the bias settles where the gravity correction cancels it
@@ -420,12 +433,13 @@ LIBRARY: tuple[Candidate, ...] = (
         (Param("bx", "rad/s", -0.5, 0.5, 0.0, 0.0), Param("by", "rad/s", -0.5, 0.5, 0.0, 0.0),
          Param("bz", "rad/s", -0.5, 0.5, 0.0, 0.0),
          Param("lean", "s", 0.0, MAX_ESTIMATOR_TIME_S, 0.0, 0.0)),
-        ("gyro_p", "gyro_q", "gyro_r", "kin_x", "kin_y"),
+        ("gyro_p", "gyro_q", "gyro_r", "kin_x", "kin_y", "p", "q", "r"),
         "the gyro reads a constant rate the attitude does not follow, and the attitude "
         "estimate, pulled towards gravity, leans by that rate times its correction time: "
         "the accelerometer then disagrees with the velocity in x and y by g times the lean "
         "(no z part, unlike an accelerometer bias)",
-        "ω_gyro = ω_attitude + b; lean = τ_e b: f − f_kin = g τ_e (−b_y, b_x, 0)",
+        "ω_gyro = ω_attitude + b; ω̇ = f(u, ω_gyro − b); lean = τ_e b: "
+        "f − f_kin = g τ_e (−b_y, b_x, 0)",
         _gyro_bias_leaning, ("roll", "vel")),
     Candidate(
         "yaw_torque_scale", (Param("scale", "1", 0.3, 3.0, 1.0, 1.0),), ("r",),

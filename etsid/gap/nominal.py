@@ -108,6 +108,10 @@ class Mods:
     drag_shape : str
         ``"quadratic"``: ``ax`` and ``ay`` under SIM's other drag shape
         (:attr:`NominalModel.drag_quadratic`); ``""``: the one chosen.
+    rate_bias : tuple of float
+        Constant the gyro adds to the body rates (roll, pitch, yaw), rad/s: the rate terms
+        of the angular-acceleration laws (rotor damping, gyroscopic products, the damping
+        above) see the logged rates less it.
     """
 
     tau: float | None = None
@@ -127,6 +131,7 @@ class Mods:
     yaw_damping: float = 0.0
     wind: tuple[float, float] = (0.0, 0.0)
     drag_shape: str = ""
+    rate_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 def motor_response(m: np.ndarray, fs: float, tau: float, delay: float = 0.0) -> np.ndarray:
@@ -529,15 +534,33 @@ class NominalModel:
                 y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
+            if c in RATE_CHANNELS and any(mods.rate_bias):
+                y = y + _rate_bias_change(flight.rates, mods.rate_bias, c, coef)
             if mods.damping and c in ("p", "q"):
-                y = y - mods.damping * flight.rates[:, 0 if c == "p" else 1]
+                j = 0 if c == "p" else 1
+                y = y - mods.damping * (flight.rates[:, j] - mods.rate_bias[j])
             if mods.yaw_damping and c == "r":
-                y = y - mods.yaw_damping * flight.rates[:, 2]
+                y = y - mods.yaw_damping * (flight.rates[:, 2] - mods.rate_bias[2])
             if mods.drag_moment and c in ("p", "q"):
                 sign, j = (-1.0, 1) if c == "p" else (1.0, 0)
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]
             raw[c] = y
         return raw
+
+
+RATE_TERMS = {"p": (1, 2, 0), "q": (0, 2, 1), "r": (0, 1, 2)}
+"""Angular-acceleration channel → (the two rates of its gyroscopic product, its own rate):
+the regressors ``[…, product, rate, 1]`` end every rate channel's law."""
+
+
+def _rate_bias_change(rates: np.ndarray, bias: tuple[float, float, float], c: str,
+                      coef: np.ndarray) -> np.ndarray:
+    """Change of channel ``c``'s prediction, rad/s², when its rate terms see the rates less
+    a gyro bias ``bias`` (rad/s): ``c_prod (a−b_a)(b−b_b) − c_prod a b − c_rate b_own``."""
+    i, j, own = RATE_TERMS[c]
+    bi, bj = bias[i], bias[j]
+    product = -bi * rates[:, j] - bj * rates[:, i] + bi * bj
+    return coef[-3] * product - coef[-2] * bias[own]
 
 
 def _regression(model: NominalModel, c: str, x: np.ndarray, coef: np.ndarray) -> np.ndarray:
