@@ -265,13 +265,7 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
         return memo.values[key][k]
 
     if len(params) == 1:
-        grid = np.linspace(lo[0], hi[0], 13)
-        vals = [f(np.array([g])) for g in grid]
-        j = int(np.argmin(vals))
-        a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        r = minimize_scalar(lambda v: f(np.array([v])), bounds=(a, b), method="bounded",
-                            options={"xatol": 1e-4 * (hi[0] - lo[0])})
-        theta = np.array([r.x])
+        theta = _scalar_search(lambda v: f(np.array([v])), lo[0], hi[0])
     else:
         if x0 is None:
             x0 = _grid_start(cands, f, _start(cands, scorer, mask), lo, hi)
@@ -286,6 +280,32 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
             theta = x0
     stderr = _stderr(f, theta, lo, hi, scorer, mask)
     return Fit(cands, theta, stderr, mods_at(theta), _bound_cost(f, theta, params))
+
+
+SCALAR_GRID = 13
+"""Points of the coarse grid over a one-parameter law's bounds."""
+SCALAR_REFINED = 3
+"""Local minima of that grid refined, the lowest first: a delay's objective is periodic in
+a loop that oscillates (a yaw loop ringing at 9 Hz repeats it every 110 ms), so the grid's
+lowest point can sit in an alias whose refined value is worse than another basin's."""
+
+
+def _scalar_search(g, lo: float, hi: float) -> np.ndarray:
+    """The minimum of ``g(v)`` on [lo, hi]: a coarse grid, then a bounded search between the
+    neighbours of each of its :data:`SCALAR_REFINED` lowest local minima; the best."""
+    grid = np.linspace(lo, hi, SCALAR_GRID)
+    vals = np.array([g(v) for v in grid])
+    padded = np.concatenate([[np.inf], vals, [np.inf]])
+    minima = [j for j in range(grid.size) if padded[j + 1] <= padded[j]
+              and padded[j + 1] <= padded[j + 2]]
+    best, best_val = float(grid[int(np.argmin(vals))]), float(vals.min())
+    for j in sorted(minima, key=lambda i: vals[i])[:SCALAR_REFINED]:
+        a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+        r = minimize_scalar(g, bounds=(a, b), method="bounded",
+                            options={"xatol": 1e-4 * (hi - lo)})
+        if r.fun < best_val:
+            best, best_val = float(r.x), float(r.fun)
+    return np.array([best])
 
 
 def _bound_cost(f, theta: np.ndarray, params: list) -> np.ndarray:

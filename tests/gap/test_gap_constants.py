@@ -34,6 +34,7 @@ ESTIMATOR = {
     "criterion.N_FOLDS", "criterion.BLOCK_S", "criterion.GAP_S", "criterion.BOOTSTRAP",
     "criterion.PAIR_POOL", "criterion.SCREEN_SHARE", "criterion.BOOTSTRAP_SEED",
     "noise.MAX_ORDER", "noise.SAMPLES_PER_CUTOFF", "fitting.GRID_POINTS",
+    "fitting.SCALAR_GRID", "fitting.SCALAR_REFINED",
     "fitting.GRID_POINTS_3", "floors.NOISE_BAND_HZ", "floors.SEGMENT_S",
     "floors._SYNTH_SAMPLES", "floors._SYNTH_SEED", "loop.LOOP_BANDS_HZ", "loop.SEGMENT_S",
     "loop.MIN_SEGMENTS", "nominal.CUTOFF_HZ", "nominal.K_DEFAULT", "nominal.TAU_BOUNDS",
@@ -56,7 +57,7 @@ whether there is one or what is named."""
 STRUCTURE = {
     "nominal.GRAVITY", "candidates.MAX_MOTORS", "nominal.MOTOR_TERMS_CACHED",
     "nominal.FEATURES_KEYS", "nominal.DRAG_TERMS", "nominal.OFFSET_TERM",
-    "nominal.QUADRATIC_TERMS",
+    "nominal.QUADRATIC_TERMS", "nominal.RATE_TERMS",
 }
 """Physical constants, indices into the model's terms, cache sizes."""
 VOCABULARY = {"candidates.LIBRARY", "candidates.WIND_PARAMS", "candidates.TORQUE_PER_THRUST"}
