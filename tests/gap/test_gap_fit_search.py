@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from etsid.gap.candidates import BY_NAME, ground_search
-from etsid.gap.fitting import _mods, channels_of, fit_candidates
+from etsid.gap.fitting import SCALAR_GRID, _mods, _scalar_search, channels_of, fit_candidates
 from etsid.gap.run import analyse
 from etsid.sim import simulate
 
@@ -47,3 +47,18 @@ def test_ground_effect_fit_is_the_grid_minimum_on_small_quad() -> None:
                for n in np.geomspace(0.6, 3.0, 30))
     assert f(list(fit.theta)) <= grid + 1e-6
     assert fit.theta[0] > 0.021  # not on the radius bound
+
+
+def test_a_one_parameter_search_refines_every_basin_not_the_lowest_grid_point() -> None:
+    """Known answer: a delay's objective in a loop ringing with period 110 ms repeats every
+    110 ms, rising slowly away from the true 31 ms. On the 25 ms grid over 0-0.3 s the
+    point nearest an alias (0.25 s) is lower than the one nearest the truth (0.025 s); the
+    search must still return 31 ms."""
+    true, period = 0.031, 0.11
+
+    def objective(v: float) -> float:
+        return float(1.0 - np.cos(2 * np.pi * (v - true) / period) + 0.2 * abs(v - true))
+
+    grid = np.linspace(0.0, 0.3, SCALAR_GRID)
+    assert grid[int(np.argmin([objective(v) for v in grid]))] == pytest.approx(0.25)
+    assert _scalar_search(objective, 0.0, 0.3)[0] == pytest.approx(true, abs=1e-3)
