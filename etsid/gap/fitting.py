@@ -186,23 +186,24 @@ GRID_POINTS_3 = 5
 """The same for a three-parameter law (5³ points)."""
 
 
-def _grid_start(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
-                hi: np.ndarray) -> np.ndarray:
-    """The best point of a coarse grid over the parameters of a single two-parameter law,
-    or of the three-parameter ground-effect law (offsets and biases excluded: their start
-    is the mean residual), else ``x0``."""
+def _grid_starts(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
+                 hi: np.ndarray) -> list[np.ndarray]:
+    """Starts of the local search: the :data:`SCALAR_REFINED` best points of a coarse grid
+    over the parameters of a single two-parameter law, or of the three-parameter
+    ground-effect law (offsets and biases excluded: their start is the mean residual), with
+    ``x0`` when it beats them; else ``[x0]``. A bounded local search from the best grid
+    point alone can stall in a valley of trading parameters (a ground effect's excess,
+    decay and arm) far from a better one another grid point leads to."""
     if len(cands) != 1 or not (x0.size == 2 or (x0.size == 3
                                                  and cands[0].name == "ground_effect")):
-        return x0
+        return [x0]
     points = GRID_POINTS if x0.size == 2 else GRID_POINTS_3
     axes = [np.geomspace(a, b, points) if a > 0 else np.linspace(a, b, points)
             for a, b in zip(lo, hi, strict=True)]
-    best, best_val = x0, f(x0)
-    for point in itertools.product(*axes):
-        val = f(np.array(point))
-        if val < best_val:
-            best, best_val = np.array(point), val
-    return best
+    scored = [(f(x0), 0, x0)] + [(f(np.array(p)), i + 1, np.array(p))
+                                 for i, p in enumerate(itertools.product(*axes))]
+    scored.sort(key=lambda t: (t[0], t[1]))
+    return [x for _, _, x in scored[:SCALAR_REFINED]]
 
 
 def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarray,
@@ -267,17 +268,22 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
     if len(params) == 1:
         theta = _scalar_search(lambda v: f(np.array([v])), lo[0], hi[0])
     else:
-        if x0 is None:
-            x0 = _grid_start(cands, f, _start(cands, scorer, mask), lo, hi)
-        x0 = np.clip(x0, lo, hi)
+        starts = ([x0] if x0 is not None
+                  else _grid_starts(cands, f, _start(cands, scorer, mask), lo, hi))
         to_theta, to_search, step, bounds = _search_coordinates(cands, scorer.ctx, lo, hi)
-        r = minimize(lambda s: f(np.clip(to_theta(s), lo, hi)), to_search(x0),
-                     method="Powell", bounds=bounds,
-                     options={"xtol": 1e-3, "ftol": 1e-6, "maxfev": 200,
-                              "direc": np.diag(step)})
-        theta = np.clip(to_theta(r.x), lo, hi)
-        if f(x0) < f(theta):  # never worse than the start (e.g. the single fits of a pair)
-            theta = x0
+        theta, best = None, np.inf
+        for start in starts:
+            start = np.clip(start, lo, hi)
+            r = minimize(lambda s: f(np.clip(to_theta(s), lo, hi)), to_search(start),
+                         method="Powell", bounds=bounds,
+                         options={"xtol": 1e-3, "ftol": 1e-6, "maxfev": 200,
+                                  "direc": np.diag(step)})
+            found = np.clip(to_theta(r.x), lo, hi)
+            if f(start) < f(found):  # never worse than the start (a pair's single fits)
+                found = start
+            if f(found) < best:
+                theta, best = found, f(found)
+        assert theta is not None
     stderr = _stderr(f, theta, lo, hi, scorer, mask)
     return Fit(cands, theta, stderr, mods_at(theta), _bound_cost(f, theta, params))
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from etsid.gap.candidates import BY_NAME, ground_search
+from etsid.gap.candidates import BY_NAME, LIBRARY, ground_search
 from etsid.gap.fitting import SCALAR_GRID, _mods, _scalar_search, channels_of, fit_candidates
 from etsid.gap.run import analyse
 from etsid.sim import simulate
@@ -62,3 +62,28 @@ def test_a_one_parameter_search_refines_every_basin_not_the_lowest_grid_point() 
     grid = np.linspace(0.0, 0.3, SCALAR_GRID)
     assert grid[int(np.argmin([objective(v) for v in grid]))] == pytest.approx(0.25)
     assert _scalar_search(objective, 0.0, 0.3)[0] == pytest.approx(true, abs=1e-3)
+
+
+def test_the_exponential_ground_law_fit_beats_a_dense_grid_on_small_quad() -> None:
+    """quad250 on the multirotor law, the exponential law per hub (excess, decay, arm): the
+    fit does at least as well on the fit data as the best point of a dense grid. Its three
+    parameters trade off along a valley; a local search from the coarse grid's best point
+    alone stalled there (benchmark pairs: objective 7.7 where a start from another grid
+    point reaches 3.8, and the located band 0.04 m too high)."""
+    low = dict(scenario="hover-ige", vehicle="quad250", duration=30.0, altitude=0.17,
+               alt_wander=0.09)
+    sim = simulate(**low, seed=31, ground_effect=False)
+    real = simulate(**low, seed=32, ground_effect=True,
+                    settings={"vehicle.ground.model": "sanchez-cuevas"})
+    result = analyse(sim.table, real.table)
+    scorer, mask = result.series["scorer"], result.series["fit"]
+    cand = next(c for c in LIBRARY if c.name == "ground_effect" and len(c.params) == 3)
+    fit = fit_candidates((cand,), scorer, mask)
+    chans = channels_of((cand,), scorer)
+
+    def f(theta: list[float]) -> float:
+        return scorer.objective(_mods((cand,), np.array(theta), scorer.ctx), mask, chans)
+
+    grid = min(f([e, d, a]) for e in np.linspace(0.05, 1.0, 12)
+               for d in np.geomspace(0.02, 0.5, 12) for a in np.linspace(0.0, 0.3, 12))
+    assert f(list(fit.theta)) <= grid + 1e-6
