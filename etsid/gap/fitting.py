@@ -188,7 +188,7 @@ GRID_POINTS_3 = 5
 
 def _grid_starts(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
                  hi: np.ndarray) -> list[np.ndarray]:
-    """Starts of the local search: the :data:`SCALAR_REFINED` best points of a coarse grid
+    """Starts of the local search: the :data:`REFINED_STARTS` best points of a coarse grid
     over the parameters of a single two-parameter law, or of the three-parameter
     ground-effect law (offsets and biases excluded: their start is the mean residual), with
     ``x0`` when it beats them; else ``[x0]``. A bounded local search from the best grid
@@ -203,7 +203,7 @@ def _grid_starts(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray
     scored = [(f(x0), 0, x0)] + [(f(np.array(p)), i + 1, np.array(p))
                                  for i, p in enumerate(itertools.product(*axes))]
     scored.sort(key=lambda t: (t[0], t[1]))
-    return [x for _, _, x in scored[:SCALAR_REFINED]]
+    return [x for _, _, x in scored[:REFINED_STARTS]]
 
 
 def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarray,
@@ -290,22 +290,24 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
 
 SCALAR_GRID = 13
 """Points of the coarse grid over a one-parameter law's bounds."""
-SCALAR_REFINED = 3
-"""Local minima of that grid refined, the lowest first: a delay's objective is periodic in
-a loop that oscillates (a yaw loop ringing at 9 Hz repeats it every 110 ms), so the grid's
-lowest point can sit in an alias whose refined value is worse than another basin's."""
+REFINED_STARTS = 3
+"""Points of a coarse grid a local search starts from, the lowest first (a one-parameter
+law's local minima; a grid-started law's best points): a delay's objective is periodic in a
+loop that oscillates (a yaw loop ringing at 9 Hz repeats it every 110 ms), and a ground
+law's excess, decay and arm trade along a valley, so the grid's lowest point can lead to a
+worse optimum than another's."""
 
 
 def _scalar_search(g, lo: float, hi: float) -> np.ndarray:
     """The minimum of ``g(v)`` on [lo, hi]: a coarse grid, then a bounded search between the
-    neighbours of each of its :data:`SCALAR_REFINED` lowest local minima; the best."""
+    neighbours of each of its :data:`REFINED_STARTS` lowest local minima; the best."""
     grid = np.linspace(lo, hi, SCALAR_GRID)
     vals = np.array([g(v) for v in grid])
     padded = np.concatenate([[np.inf], vals, [np.inf]])
     minima = [j for j in range(grid.size) if padded[j + 1] <= padded[j]
               and padded[j + 1] <= padded[j + 2]]
     best, best_val = float(grid[int(np.argmin(vals))]), float(vals.min())
-    for j in sorted(minima, key=lambda i: vals[i])[:SCALAR_REFINED]:
+    for j in sorted(minima, key=lambda i: vals[i])[:REFINED_STARTS]:
         a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
         r = minimize_scalar(g, bounds=(a, b), method="bounded",
                             options={"xatol": 1e-4 * (hi - lo)})

@@ -34,7 +34,7 @@ ESTIMATOR = {
     "criterion.N_FOLDS", "criterion.BLOCK_S", "criterion.GAP_S", "criterion.BOOTSTRAP",
     "criterion.PAIR_POOL", "criterion.SCREEN_SHARE", "criterion.BOOTSTRAP_SEED",
     "noise.MAX_ORDER", "noise.SAMPLES_PER_CUTOFF", "fitting.GRID_POINTS",
-    "fitting.SCALAR_GRID", "fitting.SCALAR_REFINED",
+    "fitting.SCALAR_GRID", "fitting.REFINED_STARTS",
     "fitting.GRID_POINTS_3", "floors.NOISE_BAND_HZ", "floors.SEGMENT_S",
     "floors._SYNTH_SAMPLES", "floors._SYNTH_SEED", "loop.LOOP_BANDS_HZ", "loop.SEGMENT_S",
     "loop.MIN_SEGMENTS", "nominal.CUTOFF_HZ", "nominal.K_DEFAULT", "nominal.TAU_BOUNDS",
