@@ -188,20 +188,31 @@ GRID_POINTS_3 = 5
 
 def _grid_starts(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray,
                  hi: np.ndarray) -> list[np.ndarray]:
-    """Starts of the local search: the :data:`REFINED_STARTS` best points of a coarse grid
-    over the parameters of a single two-parameter law, or of the three-parameter
-    ground-effect law (offsets and biases excluded: their start is the mean residual), with
-    ``x0`` when it beats them; else ``[x0]``. A bounded local search from the best grid
-    point alone can stall in a valley of trading parameters (a ground effect's excess,
-    decay and arm) far from a better one another grid point leads to."""
+    """Starts of the local search over a single two-parameter law, or over the
+    three-parameter ground-effect law (offsets and biases excluded: their start is the mean
+    residual): ``x0`` and the local minima of a coarse grid (points no higher than their
+    neighbours along each axis), the :data:`REFINED_STARTS` lowest; else ``[x0]``. A
+    bounded local search from the grid's lowest point alone can stall in a valley of
+    trading parameters (a ground effect's excess, decay and arm) far from a better basin;
+    one start per basin finds it, and a law with one basin costs one search."""
     if len(cands) != 1 or not (x0.size == 2 or (x0.size == 3
                                                  and cands[0].name == "ground_effect")):
         return [x0]
     points = GRID_POINTS if x0.size == 2 else GRID_POINTS_3
     axes = [np.geomspace(a, b, points) if a > 0 else np.linspace(a, b, points)
             for a, b in zip(lo, hi, strict=True)]
-    scored = [(f(x0), 0, x0)] + [(f(np.array(p)), i + 1, np.array(p))
-                                 for i, p in enumerate(itertools.product(*axes))]
+    grid = np.array([f(np.array(p)) for p in itertools.product(*axes)])
+    vals = grid.reshape((points,) * x0.size)
+    padded = np.pad(vals, 1, constant_values=np.inf)
+    inner = tuple(slice(1, -1) for _ in range(x0.size))
+    minimum = np.ones(vals.shape, dtype=bool)
+    for axis in range(x0.size):
+        for step in (-1, 1):
+            minimum &= vals <= np.roll(padded, step, axis=axis)[inner]
+    scored = [(f(x0), -1, x0)] + [
+        (float(vals[idx]), int(np.ravel_multi_index(idx, vals.shape)),
+         np.array([axes[a][i] for a, i in enumerate(idx)]))
+        for idx in zip(*np.nonzero(minimum), strict=True)]
     scored.sort(key=lambda t: (t[0], t[1]))
     return [x for _, _, x in scored[:REFINED_STARTS]]
 
@@ -291,11 +302,10 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
 SCALAR_GRID = 13
 """Points of the coarse grid over a one-parameter law's bounds."""
 REFINED_STARTS = 3
-"""Points of a coarse grid a local search starts from, the lowest first (a one-parameter
-law's local minima; a grid-started law's best points): a delay's objective is periodic in a
-loop that oscillates (a yaw loop ringing at 9 Hz repeats it every 110 ms), and a ground
-law's excess, decay and arm trade along a valley, so the grid's lowest point can lead to a
-worse optimum than another's."""
+"""Local minima of a coarse grid a local search starts from, the lowest first: a delay's
+objective is periodic in a loop that oscillates (a yaw loop ringing at 9 Hz repeats it every
+110 ms), and a ground law's excess, decay and arm trade along a valley, so the grid's lowest
+point can lead to a worse optimum than another basin's."""
 
 
 def _scalar_search(g, lo: float, hi: float) -> np.ndarray:

@@ -527,6 +527,8 @@ class NominalModel:
                 y = y + mods.spin_torque * (feats["spin"] @ signs)
             if c == "r" and mods.yaw_per_thrust:
                 y = y + mods.yaw_per_thrust * self.thrust_acceleration(flight, mods, tau, delay)
+            if c in RATE_CHANNELS and any(mods.rate_bias):  # SIM's own rate terms: torques
+                y = y + _rate_bias_change(flight.rates, mods.rate_bias, c, coef)
             if c in RATE_CHANNELS:
                 if mods.inertia != 1.0:  # y / 1.0 is y: no copy
                     y = y / mods.inertia
@@ -534,8 +536,6 @@ class NominalModel:
                 y = y / mods.mass
             if c in ("ax", "ay") and mods.drag:
                 y = y - mods.drag * air_velocity(flight, mods.wind)[:, 0 if c == "ax" else 1]
-            if c in RATE_CHANNELS and any(mods.rate_bias):
-                y = y + _rate_bias_change(flight.rates, mods.rate_bias, c, coef)
             if mods.damping and c in ("p", "q"):
                 j = 0 if c == "p" else 1
                 y = y - mods.damping * (flight.rates[:, j] - mods.rate_bias[j])

@@ -25,10 +25,12 @@ def sim_flight():
                             alt_wander=0.3).table, "SIM")
 
 
-@pytest.mark.parametrize("extra", [Mods(), Mods(damping=2.0, yaw_damping=1.0)])
+@pytest.mark.parametrize("extra", [Mods(), Mods(damping=2.0, yaw_damping=1.0),
+                                   Mods(inertia=1.3)])
 def test_a_rate_bias_predicts_what_the_laws_give_on_the_unbiased_rates(sim_flight, extra):
     """Known answer: the model fed the logged rates under ``rate_bias = b`` is the model fed
-    the rates less ``b`` (its damping, gyroscopic and any added damping terms alike)."""
+    the rates less ``b`` (its damping, gyroscopic and any added damping terms alike; the
+    rate terms divided by an inertia scale as every other torque of the law is)."""
     nominal = fit_nominal(sim_flight)
     biased = replace(extra, rate_bias=BIAS)
     got = nominal.predict_unfiltered(sim_flight, biased, ("p", "q", "r"))
