@@ -123,6 +123,10 @@ class Candidate:
     """Signals the law itself reads (None: all of ``needs``). A sensor offset's law reads
     nothing: it needs the velocity or attitude only for the channels that show it whole."""
 
+    def null_theta(self) -> np.ndarray:
+        """Parameters of no effect: each one's ``null``, its start where it has none."""
+        return np.array([p.null if p.null is not None else p.x0 for p in self.params], float)
+
     def partly_seen(self, ctx: Context) -> bool:
         """Whether the flight lacks a signal this candidate needs to be told apart, yet has
         what its law reads: it then acts on the channels REAL has, unnamed (an

@@ -359,7 +359,7 @@ def mismatched(ratio: dict[str, float], offset: dict[str, Any], cal: Calibration
 
 
 def _fold_fits(cands: tuple[Candidate, ...], ls: LikelihoodScorer, folds: Folds,
-               folds_to_fit: range, x0: np.ndarray | None = None,
+               folds_to_fit: range, x0: np.ndarray | list[np.ndarray] | None = None,
                shared: SharedMasks | None = None) -> list[Fit | None]:
     """Per fold, the fit on its fitting samples (None for a fold not in ``folds_to_fit``);
     a multi-parameter fit starts from ``x0``; ``shared``: the model's objective values over
@@ -371,7 +371,7 @@ def _fold_fits(cands: tuple[Candidate, ...], ls: LikelihoodScorer, folds: Folds,
 
 
 def evaluate(cands: tuple[Candidate, ...], ls: LikelihoodScorer, threshold: float,
-             x0: np.ndarray | None = None, screen: bool = True,
+             x0: np.ndarray | list[np.ndarray] | None = None, screen: bool = True,
              base: Evaluated | None = None) -> Evaluated:
     """One model through the folds (screened after the first fold when far below the
     threshold; with ``base``, when its gain over ``base`` on that fold is)."""
@@ -557,7 +557,11 @@ def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Cal
                 if key in tried:
                     continue
                 tried.add(key)
-                x0 = np.concatenate([base.fits[0].theta, other.fits[0].theta])
+                # the two single fits together, or the lead's alone with the other at no
+                # effect (where two look-alikes' fits together count the change twice)
+                lead_theta = base.fits[0].theta
+                x0 = [np.concatenate([lead_theta, other.fits[0].theta]),
+                      np.concatenate([lead_theta, *(c.null_theta() for c in other.candidates)])]
                 pair = evaluate(base.candidates + other.candidates, ls,
                                 cal.pair_gain_per_sample, x0=x0, base=base)
                 pair.refused = admissible(pair)

@@ -250,10 +250,11 @@ def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarr
 
 
 def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarray,
-                   x0: np.ndarray | None = None, base: Fit | None = None,
+                   x0: np.ndarray | list[np.ndarray] | None = None, base: Fit | None = None,
                    shared: SharedMasks | None = None) -> Fit:
     """Fit the parameters of ``cands`` jointly on the samples in ``mask`` (``x0``: a start,
-    e.g. the single fits of a pair; default the candidates' own starts). With ``base``, on
+    or alternative starts of which the search begins at the lowest, e.g. a pair's two single
+    fits together and its lead's fit alone; default the candidates' own starts). With ``base``, on
     top of that fitted effect, whose parameters stay fixed (the returned fit holds only
     ``cands``; its ``mods`` include the base's). With ``shared`` (``mask`` one of its masks,
     the same ``cands`` and ``base`` for all), every evaluation scores all its masks."""
@@ -279,8 +280,11 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
     if len(params) == 1:
         theta = _scalar_search(lambda v: f(np.array([v])), lo[0], hi[0])
     else:
-        starts = ([x0] if x0 is not None
-                  else _grid_starts(cands, f, _start(cands, scorer, mask), lo, hi))
+        if x0 is None:
+            starts = _grid_starts(cands, f, _start(cands, scorer, mask), lo, hi)
+        else:
+            options = [x0] if isinstance(x0, np.ndarray) else x0
+            starts = [min(options, key=lambda s: (f(np.clip(s, lo, hi))))]
         to_theta, to_search, step, bounds = _search_coordinates(cands, scorer.ctx, lo, hi)
         theta, best = None, np.inf
         for start in starts:
