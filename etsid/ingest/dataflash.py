@@ -25,6 +25,10 @@ m1…m8        RCOU C1…C8, RC range (1000–2000 µs) → 0…1 (0)
 alt          RFND Dist (m; old logs' Dist1 in cm, decided from FMTU units or the field's
              integer type), downward (Orient 25) when the field exists (0);
              CTUN BarAlt/BAlt m (1), BARO Alt m (2): barometric height above arming
+vx vy vz     XKF1 VN/VE/VD m/s (0: EKF3, 4.1+), NKF1 (1: EKF2, 3.4–4.0), EKF1 (2: the 3.x
+             EKF), core 0 (``C``); VN/VE kept only where the last GPS report has a 3D fix
+             (Status ≥ 3): without one the EKF holds a constant position and its horizontal
+             velocity is no measurement (a log without GPS has vz only)
 vbat         BAT Volt (0)
 landed       EV Id (ArduPilot ``LogEvent``): with a take-off event in the log, a land
              detector (0): LAND_COMPLETE 18, DISARMED 11, ARMED 10, AUTO_ARMED 15 → 1
@@ -74,8 +78,13 @@ from etsid.ingest.vehicle import banner_facts, decode_text, first_banner
 from etsid.progress import progress
 
 DEG = np.pi / 180.0
+EKF_VELOCITY = ("XKF1", "NKF1", "EKF1")
+"""Messages with the EKF's NED velocity VN/VE/VD, m/s, best first (EKF3 4.1+, EKF2 3.4–4.0,
+the 3.x EKF); their ``C`` field is the core."""
+GPS_3D_FIX = 3
+"""GPS ``Status`` of a 3D fix (AP_GPS::GPS_OK_FIX_3D; 4 DGPS, 5–6 RTK are better)."""
 NEEDED = ("ATT", "RATE", "IMU", "IMU2", "IMU3", "RCIN", "RCOU", "BAT", "RFND", "GPS", "EV",
-          "ARM", "CTUN", "BARO")
+          "ARM", "CTUN", "BARO", *EKF_VELOCITY)
 EV_ARMED, EV_DISARMED, EV_AUTO_ARMED = 10, 11, 15
 EV_TAKEOFF, EV_LAND_COMPLETE, EV_NOT_LANDED = 16, 18, 28
 """ArduCopter ``LogEvent`` ids (``DATA_*`` in ArduCopter/defines.h, AP_Logger since 4.x),
@@ -200,7 +209,7 @@ def _decode(reader: object, data: np.ndarray, name: str, raw: RawLog) -> _Decode
     if not offs.size or dtype.itemsize != fmt.len - 3:
         return None
     rec = data[(offs + 3)[:, None] + np.arange(dtype.itemsize)].view(dtype).ravel()
-    for inst in ("I", "Instance", "Inst"):
+    for inst in ("I", "Instance", "Inst") + (("C",) if name in EKF_VELOCITY else ()):
         if inst in (dtype.names or ()):
             rec = rec[rec[inst] == rec[inst].min()]
             break
@@ -235,8 +244,8 @@ def _xyz(d: _Decoded, fields: tuple[str, ...], columns: tuple[str, ...], scale: 
             for f, c in zip(fields, columns, strict=True) if d.has(f)]
 
 
-def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Issue]
-             ) -> list[Signal]:
+def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Issue],
+             dropped: list[Issue]) -> list[Signal]:
     out: list[Signal] = []
     if (d := msgs.get("ATT")) is not None:
         out += _xyz(d, ("Roll", "Pitch"), ("roll", "pitch"), DEG, 0)
@@ -274,6 +283,7 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
             if d.has(f) and (d.rec[f] != 0).any():
                 v = motor_from_pwm(d.rec[f], f"RCOU.{f}", options, repaired)
                 out.append(Signal(f"m{i}", d.t, v, f"RCOU.{f}", 0))
+    out += _velocity(msgs, dropped)
     if (d := msgs.get("BAT")) is not None and d.has("Volt"):
         out.append(Signal("vbat", d.t, d.f("Volt"), "BAT.Volt", 0))
     if (d := msgs.get("RFND")) is not None:
@@ -288,6 +298,31 @@ def _signals(msgs: dict[str, _Decoded], options: ReadOptions, repaired: list[Iss
                                   7))
                 break
     return out + _landed(msgs)
+
+
+def _velocity(msgs: dict[str, _Decoded], dropped: list[Issue]) -> list[Signal]:
+    """vx, vy, vz (NED, m/s) from the EKF's velocity (:data:`EKF_VELOCITY`); VN/VE only
+    where the last GPS report before a sample has a 3D fix (the others counted in
+    ``dropped``; none at all in a log without GPS)."""
+    gps = msgs.get("GPS")
+    out: list[Signal] = []
+    for prio, name in enumerate(EKF_VELOCITY):
+        d = msgs.get(name)
+        if d is None or not all(d.has(f) for f in ("VN", "VE", "VD")) or not d.t.size:
+            continue
+        fixed = np.zeros(d.t.size, dtype=bool)
+        if gps is not None and gps.has("Status") and gps.t.size:
+            last = np.searchsorted(gps.t, d.t, side="right") - 1
+            fixed = (last >= 0) & (gps.rec["Status"][np.maximum(last, 0)] >= GPS_3D_FIX)
+        for field, column in (("VN", "vx"), ("VE", "vy")):
+            if fixed.any():
+                out.append(Signal(column, d.t[fixed], d.f(field)[fixed], f"{name}.{field}",
+                                  prio))
+                if not fixed.all():
+                    dropped.append(Issue("no GPS 3D fix", int(np.sum(~fixed)),
+                                         f"{name}.{field}"))
+        out.append(Signal("vz", d.t, d.f("VD"), f"{name}.VD", prio))
+    return out
 
 
 def _held_state(t: np.ndarray, v: np.ndarray, t_end: float) -> tuple[np.ndarray, np.ndarray]:
@@ -382,7 +417,7 @@ def _read(path: Path, reader: object, data: np.ndarray, noise: str,
         d = _decode(reader, data, name, raw)
         if d is not None:
             msgs[name] = d
-    raw.signals = _signals(msgs, options, raw.repaired)
+    raw.signals = _signals(msgs, options, raw.repaired, raw.dropped)
     for o in options.field_requests():
         d = msgs.get(o.topic)
         if d is None or not d.has(o.field or ""):

@@ -190,3 +190,69 @@ def test_rc_and_motor_pwm_use_the_configured_range(
     assert "RCOU.C5" not in sig  # all 0: not an output
     counts = {i.signal: i.count for i in raw.repaired if "PWM outside" in i.reason}
     assert counts == dict.fromkeys(clipped, 100)
+
+
+def _gps_reports(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(time s, Status, Spd m/s, VZ m/s) of every GPS report, read with DFReader; 3.x logs
+    time GPS by boot milliseconds in ``T``."""
+    df = DFReader.DFReader_binary(str(path))
+    rows = []
+    while (m := df.recv_match(type=["GPS"])) is not None:
+        t = m.TimeUS * 1e-6 if hasattr(m, "TimeUS") else m.T * 1e-3
+        rows.append((t, m.Status, m.Spd, m.VZ))
+    return tuple(np.array(c, dtype=float) for c in zip(*rows, strict=True))  # type: ignore[return-value]
+
+
+@pytest.mark.parametrize(("name", "source", "speed_corr"), [
+    ("ardupilot_copter403_hexa_loiter_real.bin", "NKF1", 0.5),
+    ("ardupilot_copter33_loiter_acro_flips_real.bin", "EKF1", 0.9)])
+def test_real_logs_velocity_is_the_ekfs_and_agrees_with_the_gps(name: str, source: str,
+                                                               speed_corr: float) -> None:
+    """The EKF's NED velocity against an independent sensor, the GPS receiver's own
+    ground speed; horizontal velocity only where the GPS had a 3D fix."""
+    raw = read_raw(DATA / name)
+    by_column = {s.column: s for s in raw.signals if s.column in ("vx", "vy", "vz")}
+    assert [by_column[c].source for c in ("vx", "vy", "vz")] == [
+        f"{source}.VN", f"{source}.VE", f"{source}.VD"]
+    t, status, speed, _ = _gps_reports(DATA / name)
+    fixed = status >= 3
+    vx, vy = by_column["vx"], by_column["vy"]
+    vz = by_column["vz"]
+    last = np.searchsorted(t, vz.t, side="right") - 1
+    want_kept = (last >= 0) & (status[np.maximum(last, 0)] >= 3)
+    assert np.array_equal(vx.t, vz.t[want_kept]) and np.array_equal(vy.t, vx.t)
+    lost = [i.count for i in raw.dropped if i.reason == "no GPS 3D fix"]
+    assert lost == ([int(np.sum(~want_kept))] * 2 if not want_kept.all() else [])
+    ok = np.isfinite(vx.values)
+    ekf_speed = np.hypot(np.interp(t[fixed], vx.t[ok], vx.values[ok]),
+                         np.interp(t[fixed], vy.t[ok], vy.values[ok]))
+    assert np.median(np.abs(ekf_speed - speed[fixed])) < 0.2
+    assert np.corrcoef(ekf_speed, speed[fixed])[0, 1] > speed_corr
+    table = read_log(DATA / name)
+    assert table.attrs["mapping"]["vz"] == f"{source}.VD"
+
+
+def test_hexacopter_climb_rate_follows_the_gps_vertical_velocity() -> None:
+    name = DATA / "ardupilot_copter403_hexa_loiter_real.bin"
+    vz = next(s for s in read_raw(name).signals if s.column == "vz")
+    t, status, _, gps_vz = _gps_reports(name)
+    ekf = np.interp(t[status >= 3], vz.t, vz.values)
+    assert np.corrcoef(ekf, gps_vz[status >= 3])[0, 1] > 0.7  # both NED: down positive
+    assert np.median(np.abs(ekf - gps_vz[status >= 3])) < 0.15
+
+
+def test_ekf3_velocity_keeps_core_zero_and_no_gps_keeps_vz_only(tmp_path: Path) -> None:
+    """XKF1 logs one record per EKF core (``C``); without a GPS fix the horizontal velocity
+    of a constant-position EKF is no measurement."""
+    out = bytearray(_fmt_msg(140, "XKF1", "QBfff", "TimeUS,C,VN,VE,VD"))
+    for k in range(100):
+        us = int(1e6 * (5.0 + k / 10.0))
+        for core in (0, 1):
+            out += _msg(140, "QBfff", us, core, 1.0 + core, 2.0 + core, -0.5 - k / 100 - core)
+    path = tmp_path / "xkf.bin"
+    path.write_bytes(bytes(out))
+    raw = read_raw(path)
+    cols = {s.column: s for s in raw.signals if s.column in ("vx", "vy", "vz")}
+    assert set(cols) == {"vz"}
+    assert cols["vz"].source == "XKF1.VD" and cols["vz"].t.size == 100
+    np.testing.assert_allclose(cols["vz"].values, -0.5 - np.arange(100) / 100, rtol=1e-6)
