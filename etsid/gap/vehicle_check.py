@@ -16,7 +16,9 @@ vehicle, each measured on that log alone:
   nominal prediction, each at the command-to-response delay (0–:data:`MAX_DELAY_S`) that
   fits it best, REAL's slope over SIM's: a late response then reads as a delay, not as a
   weaker airframe (a refit of REAL's own model at SIM's delay read a 20–40 ms shift as an
-  8–13× roll effectiveness);
+  8–13× roll effectiveness); both above :data:`EFFECTIVENESS_HIGHPASS_HZ`, where the loops'
+  steady trim of a slow disturbance does not enter (a rotor drag's pitch moment, held by a
+  steady pitch command that SIM's prediction reads as pitch acceleration, read 0.17×);
 * the rate-response bandwidth: each log's own fitted motor time constant (reported, not
   judged: a slow motor is a fault the vocabulary names).
 
@@ -26,8 +28,10 @@ A ratio outside :data:`PLAUSIBLE` is evidence of a different airframe.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
+from scipy.signal import butter, sosfiltfilt
 
 from etsid.gap.nominal import Mods, NominalModel, fit_nominal, measured
 from etsid.gap.signals import Flight
@@ -95,22 +99,34 @@ MAX_DELAY_S = 0.15
 """Longest command-to-response delay tried when reading a log's effectiveness, s (well past
 the vocabulary's 10–60 ms delays and a slow ESC's lag)."""
 DELAY_STEP_S = 0.015
+EFFECTIVENESS_HIGHPASS_HZ = 0.5
+"""Hz: the effectiveness is read above this: the rate loops answer a command within tens of
+milliseconds, while the trim that holds a slow disturbance (a drag moment growing with speed,
+a CG offset, wind) changes over seconds."""
+
+
+@lru_cache(maxsize=8)
+def _highpass(fs: float) -> np.ndarray:
+    return butter(2, EFFECTIVENESS_HIGHPASS_HZ / (0.5 * fs), "highpass", output="sos")
 
 
 def _gains_at_best_delay(flight: Flight, nominal: NominalModel, channels: tuple[str, ...]
                          ) -> dict[str, float]:
     """Channel → slope of ``flight``'s measured channel on SIM's nominal prediction of it,
-    at the delay in 0–:data:`MAX_DELAY_S` that fits that channel best (both demeaned,
-    airborne samples)."""
+    at the delay in 0–:data:`MAX_DELAY_S` that fits that channel best (both high-passed at
+    :data:`EFFECTIVENESS_HIGHPASS_HZ`, airborne samples)."""
     ys = measured(flight)
     chans = tuple(c for c in channels if c in ys and c in nominal.channels)
     m = flight.airborne
     best: dict[str, tuple[float, float]] = {}
+    sos = _highpass(flight.fs)
+    fast = {c: sosfiltfilt(sos, ys[c])[m] for c in chans}
     for d in np.arange(0.0, MAX_DELAY_S + 1e-9, DELAY_STEP_S):
         pred = nominal.predict(flight, Mods(delay=float(d)), chans)
         for c in chans:
-            y = ys[c][m] - np.mean(ys[c][m])
-            x = pred[c][m] - np.mean(pred[c][m])
+            y = fast[c] - np.mean(fast[c])
+            x = sosfiltfilt(sos, pred[c])[m]
+            x = x - np.mean(x)
             sxx = float(np.dot(x, x))
             if sxx <= 0:
                 continue

@@ -43,7 +43,8 @@ ESTIMATOR = {
     "whiten.GLS_ITERATIONS", "whiten.SIM_DELAYS_S", "whiten.SIM_TAUS_S", "signals.MODEL_HZ",
     "signals.ANTIALIAS_SHARE", "signals.ANALYSIS_CUTOFF_HZ", "run.SIM_FIT_SHARE",
     "run.FIT_SHARE", "detectable.FRACTIONS", "vehicle_check.MAX_DELAY_S",
-    "vehicle_check.DELAY_STEP_S", "residual_model.MAX_TRAINING",
+    "vehicle_check.DELAY_STEP_S", "vehicle_check.EFFECTIVENESS_HIGHPASS_HZ",
+    "residual_model.MAX_TRAINING",
     "candidates.MAX_ESTIMATOR_TIME_S", "candidates.GE_MAX_RATIO",
 }
 """Settings of an estimator (folds, orders, grids, bands, search ranges): they change how
