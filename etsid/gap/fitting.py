@@ -201,20 +201,27 @@ def _grid_starts(cands: tuple[Candidate, ...], f, x0: np.ndarray, lo: np.ndarray
     points = GRID_POINTS if x0.size == 2 else GRID_POINTS_3
     axes = [np.geomspace(a, b, points) if a > 0 else np.linspace(a, b, points)
             for a, b in zip(lo, hi, strict=True)]
-    grid = np.array([f(np.array(p)) for p in itertools.product(*axes)])
-    vals = grid.reshape((points,) * x0.size)
-    padded = np.pad(vals, 1, constant_values=np.inf)
-    inner = tuple(slice(1, -1) for _ in range(x0.size))
-    minimum = np.ones(vals.shape, dtype=bool)
-    for axis in range(x0.size):
-        for step in (-1, 1):
-            minimum &= vals <= np.roll(padded, step, axis=axis)[inner]
+    vals = np.array([f(np.array(p)) for p in itertools.product(*axes)]).reshape(
+        (points,) * x0.size)
     scored = [(f(x0), -1, x0)] + [
         (float(vals[idx]), int(np.ravel_multi_index(idx, vals.shape)),
          np.array([axes[a][i] for a, i in enumerate(idx)]))
-        for idx in zip(*np.nonzero(minimum), strict=True)]
+        for idx in zip(*np.nonzero(_local_minima(vals)), strict=True)]
     scored.sort(key=lambda t: (t[0], t[1]))
     return [x for _, _, x in scored[:REFINED_STARTS]]
+
+
+def _local_minima(vals: np.ndarray) -> np.ndarray:
+    """Mask of the grid points no higher than their neighbours along each axis (a grid's
+    edge counts as higher)."""
+    padded = np.pad(vals, 1, constant_values=np.inf)
+    out = np.ones(vals.shape, dtype=bool)
+    for axis in range(vals.ndim):
+        for shift in (0, 2):
+            neighbour = [slice(1, -1)] * vals.ndim
+            neighbour[axis] = slice(shift, shift + vals.shape[axis])
+            out &= vals <= padded[tuple(neighbour)]
+    return out
 
 
 def _search_coordinates(cands: tuple[Candidate, ...], ctx: Context, lo: np.ndarray,
@@ -284,7 +291,7 @@ def fit_candidates(cands: tuple[Candidate, ...], scorer: Scorer, mask: np.ndarra
             starts = _grid_starts(cands, f, _start(cands, scorer, mask), lo, hi)
         else:
             options = [x0] if isinstance(x0, np.ndarray) else x0
-            starts = [min(options, key=lambda s: (f(np.clip(s, lo, hi))))]
+            starts = [min(options, key=lambda s: f(np.clip(s, lo, hi)))]
         to_theta, to_search, step, bounds = _search_coordinates(cands, scorer.ctx, lo, hi)
         theta, best = None, np.inf
         for start in starts:
@@ -317,9 +324,7 @@ def _scalar_search(g, lo: float, hi: float) -> np.ndarray:
     neighbours of each of its :data:`REFINED_STARTS` lowest local minima; the best."""
     grid = np.linspace(lo, hi, SCALAR_GRID)
     vals = np.array([g(v) for v in grid])
-    padded = np.concatenate([[np.inf], vals, [np.inf]])
-    minima = [j for j in range(grid.size) if padded[j + 1] <= padded[j]
-              and padded[j + 1] <= padded[j + 2]]
+    minima = np.flatnonzero(_local_minima(vals))
     best, best_val = float(grid[int(np.argmin(vals))]), float(vals.min())
     for j in sorted(minima, key=lambda i: vals[i])[:REFINED_STARTS]:
         a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
