@@ -400,13 +400,15 @@ LIBRARY: tuple[Candidate, ...] = (
         "m_i(t) → m_i(t − d)", lambda th, ctx: Mods(delay=th[0])),
     Candidate(
         "rotor_drag", (Param("drag", "1/s", 0.0, 3.0, 0.2, 0.0),
-                       Param("moment", "rad/s² per m/s", -5.0, 5.0, 0.0, 0.0)),
-        ("ax", "ay", "p", "q"),
-        "horizontal specific force opposing the body velocity, growing with speed, and the "
-        "pitching/rolling moment it makes at the rotor plane above or below the CG",
+                       Param("moment", "rad/s² per m/s", -5.0, 5.0, 0.0, 0.0),
+                       Param("yaw", "1/s", 0.0, 20.0, 0.0, 0.0)),
+        ("ax", "ay", "p", "q", "r"),
+        "horizontal specific force opposing the body velocity, growing with speed, the "
+        "pitching/rolling moment it makes at the rotor plane above or below the CG, and the "
+        "yaw damping of the same in-plane force on rotors swept round by a yaw rate",
         "a_xy = a_xy,nom − k v_xy,body (linear blade-flapping/H-force drag); "
-        "q̇ += h v_x, ṗ −= h v_y",
-        lambda th, ctx: Mods(drag=th[0], drag_moment=th[1]), ("vel",)),
+        "q̇ += h v_x, ṗ −= h v_y; ṙ −= d_r r (d_r ≥ 0: H-force at the arm's end)",
+        lambda th, ctx: Mods(drag=th[0], drag_moment=th[1], yaw_damping=th[2]), ("vel",)),
     Candidate(
         "inertia_scale", (Param("scale", "1", 0.3, 3.0, 1.0, 1.0),), ("p", "q", "r"),
         "all angular accelerations smaller or larger by one factor; vertical force unchanged",

@@ -375,8 +375,9 @@ def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[
         "ax": lambda: _drag_columns(om_mean(), va, 0),
         "ay": lambda: _drag_columns(om_mean(), va, 1),
         # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
-        "p": lambda: np.column_stack([mom, q * r, p, one]),
-        "q": lambda: np.column_stack([mom, p * r, q, one]),
+        # rotor drag's moment: the H-force (∝ Ω̄ v) acts at the rotor plane, off the CG
+        "p": lambda: np.column_stack([mom, om_mean() * vb[:, 1], q * r, p, one]),
+        "q": lambda: np.column_stack([mom, om_mean() * vb[:, 0], p * r, q, one]),
         "r": lambda: np.column_stack([*yaw(), p * q, r, one]),
     }
     out = {c: make() for c, make in build.items() if c in channels}

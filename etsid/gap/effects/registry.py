@@ -49,11 +49,13 @@ def _ground_effect(p: dict[str, float], sim: str, real: str) -> str:
             f"exponent = {p['exponent']:.3g})")
 
 
-@_declare("rotor_drag", "rotor drag", {"drag": Prior(HALF, 0.5), "moment": Prior(NORMAL, 1.0)},
+@_declare("rotor_drag", "rotor drag",
+          {"drag": Prior(HALF, 0.5), "moment": Prior(NORMAL, 1.0), "yaw": Prior(HALF, 1.0)},
           ("wind",))
 def _rotor_drag(p: dict[str, float], sim: str, real: str) -> str:
     return (f"horizontal drag {p['drag']:.2g} 1/s against the body velocity, with a moment "
-            f"of {p['moment']:+.2g} rad/s² per m/s (rotor drag)")
+            f"of {p['moment']:+.2g} rad/s² per m/s and yaw damping {p.get('yaw', 0.0):.2g} 1/s "
+            f"(rotor drag)")
 
 
 @_declare("motor_lag", "motor lag", {"tau": Prior(LN, 1.0)}, ("time_delay",))
