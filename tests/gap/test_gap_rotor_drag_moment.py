@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from gap_concealed import make_pair, random_vehicle  # noqa: E402
+from gap_concealed import make_pair, random_vehicle
 
-from etsid.gap.nominal import fit_nominal  # noqa: E402
-from etsid.gap.run import analyse  # noqa: E402
-from etsid.gap.signals import prepare  # noqa: E402
+from etsid.gap.nominal import fit_nominal
+from etsid.gap.run import analyse
+from etsid.gap.signals import prepare
 
 
 def test_sims_motor_time_constant_is_recovered_in_forward_flight() -> None:
