@@ -26,7 +26,8 @@ from etsid.gap.signals import prepare
 
 def test_sims_motor_time_constant_is_recovered_in_forward_flight() -> None:
     """A Tarot 680 (τ = 50 ms) flown forward at 4–7 m/s: without the moment in the
-    regression the pitch trim's drag moment bent the lag search to 37 ms behind a 10 ms command delay."""
+    regression the pitch trim's drag moment bent the lag search to 37 ms behind a 10 ms
+    command delay (5 ms, one log step, is the log's own)."""
     sim, _, truth = make_pair("rotor_drag", 20202)
     assert truth["vehicle"] == "tarot680"
     model = fit_nominal(prepare(sim, "SIM"))
