@@ -27,6 +27,7 @@ coefficients by least squares. Candidates change the model through :class:`Mods`
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -370,6 +371,7 @@ def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[
 
         def om_mean() -> np.ndarray:
             return omt
+    om_mean = cache(om_mean)  # the drag and drag-moment columns of four channels share it
     build = {
         "az": lambda: np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
         "ax": lambda: _drag_columns(om_mean(), va, 0),

@@ -121,10 +121,11 @@ def _gains_at_best_delay(flight: Flight, nominal: NominalModel, channels: tuple[
     best: dict[str, tuple[float, float]] = {}
     sos = _highpass(flight.fs)
     fast = {c: sosfiltfilt(sos, ys[c])[m] for c in chans}
+    fast = {c: y - np.mean(y) for c, y in fast.items()}  # demeaned once, for every delay
     for d in np.arange(0.0, MAX_DELAY_S + 1e-9, DELAY_STEP_S):
         pred = nominal.predict(flight, Mods(delay=float(d)), chans)
         for c in chans:
-            y = fast[c] - np.mean(fast[c])
+            y = fast[c]
             x = sosfiltfilt(sos, pred[c])[m]
             x = x - np.mean(x)
             sxx = float(np.dot(x, x))
