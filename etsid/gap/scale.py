@@ -15,7 +15,10 @@ Its standard error comes from the criterion's blocks of
 :data:`~etsid.gap.criterion.BLOCK_S` (the residual is low-passed and
 autocorrelated: whole blocks are independent, samples are not), and with a few tens of
 blocks it is itself uncertain: ``Δ / SE`` is read against Student's t with one fewer degree
-of freedom than the shorter flight has blocks (a cluster-robust standard error's law).
+of freedom than the shorter flight has blocks (a cluster-robust standard error's law). The
+blocks' scores are summed about their mean with ``G/(G − 1)`` for G blocks (the usual
+small-sample factor, CR1; the gains' block standard error takes the same ``ddof = 1``):
+without it a flight of ten blocks reads its t 5 % too large.
 
 A channel's scale is mismatched when ``|Δ|`` exceeds the calibrated tolerance
 (:attr:`etsid.gap.calibration.Calibration.scale_tolerance`: the largest no-effect pair's,
@@ -58,15 +61,31 @@ def slopes(flight: Flight) -> dict[str, tuple[float, float, int]]:
         idx = np.flatnonzero(ok)
         if idx.size < 3 * block:
             continue
-        xc = x[ok] - np.mean(x[ok])
-        sxx = float(xc @ xc)
-        if sxx <= 0.0:
-            continue
-        slope = float(xc @ r[ok]) / sxx
-        e = r[ok] - np.mean(r[ok]) - slope * xc
-        per_block = np.bincount((idx - idx[0]) // block, weights=xc * e)
-        out[c] = (slope, float(np.sqrt(np.sum(per_block ** 2))) / sxx, per_block.size)
+        fitted = block_slope(x[idx], r[idx], idx, block)
+        if fitted is not None:
+            out[c] = fitted
     return out
+
+
+def block_slope(x: np.ndarray, r: np.ndarray, idx: np.ndarray, block: int
+                ) -> tuple[float, float, int] | None:
+    """Least-squares slope of ``r`` on ``x`` (with an intercept), its cluster-robust
+    standard error over the blocks of ``block`` samples that the sample indices ``idx``
+    fall in, and the number of blocks G; None when ``x`` does not vary. The blocks' scores
+    are summed about their mean (0 for least squares) with ``G/(G − 1)`` (CR1, the
+    ``ddof = 1`` of the gains' block standard error)."""
+    xc = x - np.mean(x)
+    sxx = float(xc @ xc)
+    if sxx <= 0.0:
+        return None
+    slope = float(xc @ r) / sxx
+    e = r - np.mean(r) - slope * xc
+    per_block = np.bincount((idx - idx[0]) // block, weights=xc * e)
+    per_block = per_block[np.bincount((idx - idx[0]) // block) > 0]  # blocks with samples
+    g = per_block.size
+    if g < 2:
+        return None
+    return slope, float(np.sqrt(np.sum(per_block ** 2) * g / (g - 1))) / sxx, g
 
 
 def scale_tests(sim: Flight, real: Flight) -> dict[str, tuple[float, float, int]]:

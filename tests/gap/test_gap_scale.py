@@ -8,11 +8,13 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy import stats
 
 from etsid.gap.calibration import Calibration, calibration_dict, from_dict, load_calibration
 from etsid.gap.run import analyse, prepare_pair
-from etsid.gap.scale import scale_mismatched, scale_tests
+from etsid.gap.scale import block_slope, scale_mismatched, scale_tests
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import gap_calibrate
@@ -108,3 +110,20 @@ def test_a_gyro_read_high_is_never_named_confidently(hexa) -> None:
     assert "scale" in data["leftover"]["gyro_p"], data["leftover"]
     assert all(e["confidence"] < 0.5 for e in data["effects"]
                if e["name"] != "unexplained"), data["summary"]
+
+
+def test_the_slope_test_holds_its_rate_with_few_blocks() -> None:
+    """Known answer: with no scale (the residual independent of the rate), |slope| / SE over
+    six blocks exceeds Student's t(5) 5 % quantile on 5 % of flights. Without the blocks'
+    ``G/(G − 1)`` (CR0) it does on ≈ 7.5 %: the test reads its evidence too strongly."""
+    rng = np.random.default_rng(7)
+    g, block, flights = 6, 40, 20000
+    t_crit = float(stats.t.ppf(0.975, g - 1))
+    idx = np.arange(g * block)
+    hits = 0
+    for _ in range(flights):
+        x, r = rng.standard_normal(g * block), rng.standard_normal(g * block)
+        slope, se, blocks = block_slope(x, r, idx, block)
+        hits += abs(slope) > t_crit * se
+    assert blocks == g
+    assert abs(hits / flights - 0.05) < 0.006, hits / flights
