@@ -373,14 +373,14 @@ def _features(flight: Flight, k: float, tau: float, mods: Mods, channels: tuple[
             return omt
     om_mean = cache(om_mean)  # the drag and drag-moment columns of four channels share it
     build = {
-        "az": lambda: np.column_stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
+        "az": lambda: _stack([s, vb[:, 2], np.abs(vb[:, 2]) * vb[:, 2], s * vh2]),
         "ax": lambda: _drag_columns(om_mean(), va, 0),
         "ay": lambda: _drag_columns(om_mean(), va, 1),
         # rotor damping: a rolling rotor plane meets the air at a changed angle (∝ rate)
         # rotor drag's moment: the H-force (∝ Ω̄ v) acts at the rotor plane, off the CG
-        "p": lambda: np.column_stack([mom, om_mean() * vb[:, 1], q * r, p, one]),
-        "q": lambda: np.column_stack([mom, om_mean() * vb[:, 0], p * r, q, one]),
-        "r": lambda: np.column_stack([*yaw(), p * q, r, one]),
+        "p": lambda: _stack([mom, om_mean() * vb[:, 1], q * r, p, one]),
+        "q": lambda: _stack([mom, om_mean() * vb[:, 0], p * r, q, one]),
+        "r": lambda: _stack([*yaw(), p * q, r, one]),
     }
     out = {c: make() for c, make in build.items() if c in channels}
     out["spin"] = spin
@@ -391,8 +391,26 @@ def _drag_columns(om_mean: np.ndarray, va: np.ndarray, j: int) -> np.ndarray:
     """Regressors of the horizontal specific force along body axis ``j``: rotor drag
     ``Ω̄ v``, per-axis and whole-speed quadratic drag ``|v_j| v_j`` and ``|v| v_j``, offset."""
     v = va[:, j]
-    return np.column_stack([om_mean * v, np.abs(v) * v, np.ones_like(v),
-                            np.sqrt(_row_sum(va * va)) * v])
+    return _stack([om_mean * v, np.abs(v) * v, np.ones_like(v),
+                   np.sqrt(_row_sum(va * va)) * v])
+
+
+def _stack(parts: list[np.ndarray]) -> np.ndarray:
+    """The (n, k) regressor matrix of 1-D columns and (n, m) blocks, in column-major order:
+    each column is written contiguously (≈ 4× faster than ``np.column_stack``'s strided
+    writes for the 9000 samples of a 90 s flight) and its product with the coefficients is
+    a sum of whole columns."""
+    width = sum(1 if a.ndim == 1 else a.shape[1] for a in parts)
+    x = np.empty((parts[0].shape[0], width), order="F")
+    j = 0
+    for a in parts:
+        if a.ndim == 1:
+            x[:, j] = a
+            j += 1
+        else:
+            x[:, j:j + a.shape[1]] = a
+            j += a.shape[1]
+    return x
 
 
 def _row_sum(a: np.ndarray) -> np.ndarray:
