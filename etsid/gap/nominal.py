@@ -26,8 +26,9 @@ coefficients by least squares. Candidates change the model through :class:`Mods`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -526,21 +527,36 @@ class NominalModel:
                             ) -> np.ndarray:
         """|Specific force| of the rotors' thrust (n,), m/s², as SIM's vertical-force law
         predicts it under ``mods`` (its thrust column alone: no drag terms)."""
-        s = features(flight, self.k, tau, mods, ("az",), delay, self.v_ref)["az"][:, 0]
+        if flight.inputs == "motors":
+            _, _, pw, _ = _motor_terms(flight, self.k, tau if mods.tau is None else mods.tau,
+                                       delay + mods.delay, self.v_ref)
+            s = _row_sum(pw * _column_gain(mods.thrust_gain, pw.shape[0]))
+        else:
+            s = features(flight, self.k, tau, mods, ("az",), delay, self.v_ref)["az"][:, 0]
         return np.abs(self.coef["az"][0]) * s
 
     def _unfiltered(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
                     delay: float) -> dict[str, np.ndarray]:
         """The model channels of ``chans`` before the analysis low-pass (no offsets)."""
-        feats = features(flight, self.k, tau, mods, chans, delay, self.v_ref)
+        # with motor outputs the thrust, torque and spin-up gains act on the per-rotor
+        # columns alone: the other columns are built once at unit gains and the rotors'
+        # part is summed from Ω², dΩ/dt and the gains (no matrix built per gain value)
+        by_rotor = flight.inputs == "motors"
+        feats = features(flight, self.k, tau, _unit_gains(mods) if by_rotor else mods, chans,
+                         delay, self.v_ref)
+        coefs = {c: self.drag_quadratic[c] if mods.drag_shape == "quadratic"
+                 and c in self.drag_quadratic else self.coef[c]
+                 for c in chans if c not in SENSOR_CHANNELS}
+        rotors = self._rotor_part(flight, mods, chans, tau, delay, coefs) if by_rotor else {}
         raw: dict[str, np.ndarray] = {}
         for c in chans:
             if c in SENSOR_CHANNELS:
                 continue
-            coef = self.coef[c]
-            if mods.drag_shape == "quadratic" and c in self.drag_quadratic:
-                coef = self.drag_quadratic[c]
-            y = _regression(self, c, feats[c], coef)  # filtering is linear: filter the sum once
+            coef = coefs[c]
+            if c in rotors:  # filtering is linear: filter the sum once
+                y = _regression(self, c, feats[c], self._other_terms(c, coef)) + rotors[c]
+            else:
+                y = _regression(self, c, feats[c], coef)
             if c == "r" and mods.spin_torque:
                 n_spin = feats["spin"].shape[1]
                 signs = (np.sign(self.coef["r"][:n_spin]) if flight.inputs == "motors"
@@ -567,6 +583,105 @@ class NominalModel:
                 y = y + sign * mods.drag_moment * flight.v_body[:, j]
             raw[c] = y
         return raw
+
+
+    def _rotor_part(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
+                    delay: float, coefs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The per-rotor columns' share of ``az``, ``p``, ``q`` and ``r`` under ``mods``
+        (motor outputs): ``Σ T_i (c_0 + c_3 v_h²)`` with ``T_i = Ω_i² g_i``, the moment
+        columns' ``Σ T_i (c_i − c̄)``, and in yaw the reaction and spin-up torques', as
+        :func:`_features` builds them. The unit-gain sums are kept; a constant or per-sample
+        gain scales them, a per-rotor gain scales the weights, and only a gain per rotor and
+        sample needs its own products."""
+        _, _, pw, spin = _motor_terms(flight, self.k, tau if mods.tau is None else mods.tau,
+                                      delay + mods.delay, self.v_ref)
+        unit = self._rotor_sums(flight, pw, spin, coefs)
+        weights, sums = unit["weights"], unit["sums"]
+        thrust = _gained(sums[0], pw, weights[0], mods.thrust_gain)
+        out: dict[str, np.ndarray] = {}
+        if "az" in chans and "az" in coefs:
+            w = coefs["az"]
+            out["az"] = thrust[:, 0] * (w[0] + w[3] * unit["vh2"])
+        for j, c in ((1, "p"), (2, "q")):
+            if c in chans and c in coefs:
+                out[c] = thrust[:, j]
+        if "r" in chans and "r" in coefs:
+            torque = _gained(sums[1], pw, weights[1], mods.torque_gain)
+            spun = _gained(sums[2], spin, weights[2], mods.spin_gain)
+            out["r"] = torque[:, 0] + spun[:, 0] * mods.spinup
+        return out
+
+    def _rotor_sums(self, flight: Flight, pw: np.ndarray, spin: np.ndarray,
+                    coefs: dict[str, np.ndarray]) -> dict[str, Any]:
+        """Per-rotor weights (thrust: ``1``, ``c_p − c̄_p``, ``c_q − c̄_q``; reaction torque;
+        spin-up torque) and their sums over the rotors at unit gains, kept for as long as
+        ``Ω²``, ``dΩ/dt``, the velocity and the coefficients are the same objects."""
+        inputs = (pw, spin, flight.v_body, *(coefs.get(c) for c in ROTOR_CHANNELS))
+        kept = self.__dict__.get("_rotor_sums_kept")
+        if kept is not None and all(a is b for a, b in zip(kept[0], inputs, strict=True)):
+            return kept[1]
+        m = pw.shape[1]
+
+        def centred(c: str, part: slice) -> np.ndarray:
+            w = coefs[c][part] if c in coefs else np.zeros(m)
+            return w - np.mean(w)
+
+        weights = (np.column_stack([np.ones(m), centred("p", slice(0, m)),
+                                    centred("q", slice(0, m))]),
+                   centred("r", slice(0, m))[:, None], centred("r", slice(m, 2 * m))[:, None])
+        sums = (pw @ weights[0], pw @ weights[1], spin @ weights[2])
+        vb = flight.v_body
+        unit = {"weights": weights, "sums": sums, "vh2": vb[:, 0] ** 2 + vb[:, 1] ** 2}
+        self.__dict__["_rotor_sums_kept"] = (inputs, unit)
+        return unit
+
+    def _other_terms(self, c: str, coef: np.ndarray) -> np.ndarray:
+        """``coef`` with the per-rotor columns' entries of channel ``c`` at 0 (the same array
+        for the same ``coef``, so the product with kept regressors is kept too)."""
+        cache = self.__dict__.setdefault("_other_coefs", {})
+        hit = cache.get(c)
+        if hit is not None and hit[0] is coef:
+            return hit[1]
+        out = coef.copy()
+        m = len(coef) - (4 if c in ("p", "q") else 3)
+        if c == "az":
+            out[[0, 3]] = 0.0
+        elif c in ("p", "q"):
+            out[:m] = 0.0
+        elif c == "r":
+            out[:m] = 0.0  # the reaction and spin-up torques: 2 × rotors columns
+        cache[c] = (coef, out)
+        return out
+
+
+def _gained(unit_sums: np.ndarray, per_rotor: np.ndarray, weights: np.ndarray,
+            gain: float | np.ndarray) -> np.ndarray:
+    """``(per_rotor ⊙ g) @ weights`` from its unit-gain value ``unit_sums``: a constant or
+    per-sample gain (n,) scales the sums, a per-rotor gain (1, m) the weights; a gain per
+    rotor and sample (n, m) is multiplied out."""
+    g = np.asarray(gain, dtype=float)
+    if g.ndim == 0:
+        return unit_sums if float(g) == 1.0 else unit_sums * float(g)
+    if g.ndim == 1:
+        return unit_sums * g[:, None]
+    if g.shape[0] == 1:
+        return per_rotor @ (weights * g[0][:, None])
+    return (per_rotor * g) @ weights
+
+
+ROTOR_CHANNELS = ("az", "p", "q", "r")
+"""Channels with per-rotor regressor columns (:meth:`NominalModel._rotor_part`)."""
+
+
+def _unit_gains(mods: Mods) -> Mods:
+    """``mods`` with its thrust, torque and spin-up gains at 1 (what the regressors other
+    than the per-rotor columns are built under)."""
+    if (not (np.ndim(mods.thrust_gain) or np.ndim(mods.torque_gain)
+             or np.ndim(mods.spin_gain))
+            and mods.thrust_gain == 1.0 and mods.torque_gain == 1.0
+            and mods.spin_gain == 1.0 and mods.spinup == 1.0):
+        return mods
+    return replace(mods, thrust_gain=1.0, torque_gain=1.0, spin_gain=1.0, spinup=1.0)
 
 
 RATE_TERMS = {"p": (1, 2, 0), "q": (0, 2, 1), "r": (0, 1, 2)}
