@@ -149,3 +149,31 @@ def test_folds_share_one_prediction_and_get_their_own_answers(flight):
     own = SharedMasks([masks[1]])
     fit_candidates((cand,), scorer, masks[1], shared=own)
     assert len(first.values) - n_first <= len(own.values) - 13  # the 13-point grid reused
+
+
+def _gain_cases(n: int, m: int) -> list[Mods]:
+    rng = np.random.default_rng(5)
+    return [Mods(thrust_gain=0.9), Mods(torque_gain=1.3, spin_gain=0.8, spinup=1.2),
+            Mods(thrust_gain=rng.uniform(0.8, 1.2, n), torque_gain=rng.uniform(0.8, 1.2, n),
+                 spin_gain=rng.uniform(0.9, 1.1, n)),
+            Mods(thrust_gain=np.array([[1.0, 0.8] + [1.0] * (m - 2)]),
+                 torque_gain=np.array([[1.0, 0.8] + [1.0] * (m - 2)])),
+            Mods(thrust_gain=rng.uniform(0.8, 1.2, (n, m))),
+            Mods(thrust_gain=1.1, tau=0.05, delay=0.01)]
+
+
+def test_rotor_columns_from_kept_sums_equal_the_full_regression(flight):
+    """Known answer: with motor outputs the per-rotor columns' share is summed from Ω², dΩ/dt
+    and the gains instead of a matrix built per gain value; for constant, per-sample,
+    per-rotor and per-rotor-and-sample gains, with a lag and delay, the model's channels
+    equal the full regressor matrix times the coefficients (to rounding)."""
+    nominal = fit_nominal(flight)
+    chans = ("az", "p", "q", "r")
+    n, m = flight.motors.shape
+    for mods in _gain_cases(n, m):
+        fast = nominal._unfiltered(flight, mods, chans, nominal.tau, nominal.delay)
+        full = _features(flight, nominal.k, nominal.tau, mods, chans, nominal.delay,
+                         nominal.v_ref)
+        for c in chans:
+            want = full[c] @ nominal.coef[c]
+            assert np.allclose(fast[c], want, rtol=1e-12, atol=1e-12 * np.max(np.abs(want)))
