@@ -528,8 +528,7 @@ class NominalModel:
         """|Specific force| of the rotors' thrust (n,), m/s², as SIM's vertical-force law
         predicts it under ``mods`` (its thrust column alone: no drag terms)."""
         if flight.inputs == "motors":
-            _, _, pw, _ = _motor_terms(flight, self.k, tau if mods.tau is None else mods.tau,
-                                       delay + mods.delay, self.v_ref)
+            _, _, pw, _ = self._motor_terms_under(flight, mods, tau, delay)
             s = _row_sum(pw * _column_gain(mods.thrust_gain, pw.shape[0]))
         else:
             s = features(flight, self.k, tau, mods, ("az",), delay, self.v_ref)["az"][:, 0]
@@ -584,6 +583,12 @@ class NominalModel:
             raw[c] = y
         return raw
 
+    def _motor_terms_under(self, flight: Flight, mods: Mods, tau: float, delay: float
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`_motor_terms` with the lag and delay of ``mods`` (its lag replaces
+        ``tau`` s, its delay adds to ``delay`` s)."""
+        return _motor_terms(flight, self.k, tau if mods.tau is None else mods.tau,
+                            delay + mods.delay, self.v_ref)
 
     def _rotor_part(self, flight: Flight, mods: Mods, chans: tuple[str, ...], tau: float,
                     delay: float, coefs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -593,8 +598,7 @@ class NominalModel:
         :func:`_features` builds them. The unit-gain sums are kept; a constant or per-sample
         gain scales them, a per-rotor gain scales the weights, and only a gain per rotor and
         sample needs its own products."""
-        _, _, pw, spin = _motor_terms(flight, self.k, tau if mods.tau is None else mods.tau,
-                                      delay + mods.delay, self.v_ref)
+        _, _, pw, spin = self._motor_terms_under(flight, mods, tau, delay)
         unit = self._rotor_sums(flight, pw, spin, coefs)
         weights, sums = unit["weights"], unit["sums"]
         thrust = _gained(sums[0], pw, weights[0], mods.thrust_gain)
@@ -643,13 +647,10 @@ class NominalModel:
         if hit is not None and hit[0] is coef:
             return hit[1]
         out = coef.copy()
-        m = len(coef) - (4 if c in ("p", "q") else 3)
         if c == "az":
             out[[0, 3]] = 0.0
-        elif c in ("p", "q"):
-            out[:m] = 0.0
-        elif c == "r":
-            out[:m] = 0.0  # the reaction and spin-up torques: 2 × rotors columns
+        else:  # the leading per-rotor columns (in yaw: reaction and spin-up, 2 × rotors)
+            out[:len(coef) - (4 if c in ("p", "q") else 3)] = 0.0
         cache[c] = (coef, out)
         return out
 

@@ -80,8 +80,8 @@ def block_slope(x: np.ndarray, r: np.ndarray, idx: np.ndarray, block: int
         return None
     slope = float(xc @ r) / sxx
     e = r - np.mean(r) - slope * xc
-    per_block = np.bincount((idx - idx[0]) // block, weights=xc * e)
-    per_block = per_block[np.bincount((idx - idx[0]) // block) > 0]  # blocks with samples
+    label = (idx - idx[0]) // block
+    per_block = np.bincount(label, weights=xc * e)[np.bincount(label) > 0]  # blocks with samples
     g = per_block.size
     if g < 2:
         return None
