@@ -521,6 +521,8 @@ def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> lis
         if not significant(float(diff.sum()), block_se(diff), n_singles,
                            cal.false_positive_rate):
             out.append(m)
+        elif len(out) < PAIR_POOL:  # probe: the next best singles above the threshold too
+            out.append(m)
     return out
 
 
