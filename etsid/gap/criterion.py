@@ -50,7 +50,8 @@ filter carry the neighbouring block's samples that long (≪ 0.5 s)."""
 BOOTSTRAP = 400
 """Bayesian-bootstrap draws of the pseudo-BMA+ weights (Monte-Carlo error ≈ 1/√400)."""
 PAIR_POOL = 4
-"""Second effects tried jointly with the best single: the next best distinct singles."""
+"""Pairs are built on at most this many singles (the best, those tied with it, then the next
+best above the threshold), each with this many next best distinct singles."""
 SCREEN_SHARE = 0.5
 """A single whose first-fold gain per sample is below this share of the threshold is not
 refitted on the other fold (it cannot be named); its gain is extrapolated from the first."""
@@ -477,8 +478,11 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     tried, or its gain on a sensor-consistency channel of ``offset`` is beyond the offset
     law's); joined by a second effect only while REAL, predicted by that single on held-out
     blocks (``after_lead``: its ``ratio`` and ``offset``), still has a mismatched channel,
-    and when the pair's gain over the single exceeds ``cal.pair_gain_per_sample`` per
-    scored sample and is significant among the pairs tried. ``models`` are
+    and when the pair's gain over the single it was built on exceeds
+    ``cal.pair_gain_per_sample`` per scored sample and is significant among the pairs
+    tried, and its gain over the best single exceeds the same per-sample threshold (a pair
+    built on a weaker single must beat the best one-effect answer by as much as a second
+    effect must add). ``models`` are
     :class:`Evaluated` or their gap.json rows (``name``, ``gain``, ``gain_se``,
     ``extra_se``, ``per_sample``, ``n_scored``, ``refused``, ``by_channel``), so that a
     benchmark can decide recorded runs again under another calibration.
@@ -496,10 +500,13 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     base_of = {str(_get(m, "name")): m for m in singles}
     pairs = [m for m in models if "+" in str(_get(m, "name"))
              and str(_get(m, "name")).split("+")[0] in base_of and not _get(m, "refused")]
-    for m in pairs:  # each pair over the single it was built on (the lead or one tied to it)
+    for m in pairs:  # each pair over the single it was built on, and over the best single
         base = base_of[str(_get(m, "name")).split("+")[0]]
         extra = float(_get(m, "gain")) - float(_get(base, "gain"))
-        if (extra / max(_get(m, "n_scored"), 1) > cal.pair_gain_per_sample
+        n = max(_get(m, "n_scored"), 1)
+        if (extra / n > cal.pair_gain_per_sample
+                and (float(_get(m, "gain")) - float(_get(lead, "gain"))) / n
+                > cal.pair_gain_per_sample
                 and significant(extra, _get(m, "extra_se") or None, len(pairs),
                                 cal.false_positive_rate)
                 and float(_get(m, "gain")) > best_gain):
@@ -508,28 +515,29 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
 
 
 def tied_leads(usable: list[Evaluated], cal: Calibration, n_singles: int) -> list[Evaluated]:
-    """The best admissible single and every other the held-out blocks cannot put behind it:
-    gain per scored sample above the threshold, and its gain below the best's by less than
-    :func:`significant` asks of the paired block differences. Second effects are sought on
-    each, so that two look-alike leads (a motor lag and a delay) both get their pairs."""
+    """The singles pairs are built on: the best admissible one, every other the held-out
+    blocks cannot put behind it (gain per scored sample above the threshold, and below the
+    best's by less than :func:`significant` asks of the paired block differences), then
+    the next best above the threshold, :data:`PAIR_POOL` in all. Two look-alike leads (a
+    motor lag and a delay) both get their pairs, and so does a single whose look-alike
+    took the lead alone (a thrust scale + delay where a motor lag leads)."""
     lead = usable[0]
     out = [lead]
     for m in usable[1:]:
         if m.per_sample <= cal.gain_per_sample or m.gain_blocks.size != lead.gain_blocks.size:
             continue
         diff = lead.gain_blocks - m.gain_blocks
-        if not significant(float(diff.sum()), block_se(diff), n_singles,
-                           cal.false_positive_rate):
-            out.append(m)
-        elif len(out) < PAIR_POOL:  # probe: the next best singles above the threshold too
+        tied = not significant(float(diff.sum()), block_se(diff), n_singles,
+                               cal.false_positive_rate)
+        if tied or len(out) < PAIR_POOL:  # then the next best above the threshold
             out.append(m)
     return out
 
 
 def run_criterion(ls: LikelihoodScorer, library: tuple[Candidate, ...], cal: Calibration,
                   admissible) -> Criterion:
-    """Every single, greedy pairs on the best single and on the singles tied with it
-    (:func:`tied_leads`), the weights and the chosen model.
+    """Every single, greedy pairs on the best single, the singles tied with it and the next
+    best (:func:`tied_leads`), the weights and the chosen model.
 
     ``admissible(evaluated) -> str`` says why a model may not be named (verdict rules: at
     a bound, a channel made worse), "" when it may.

@@ -253,16 +253,20 @@ def test_a_second_effect_is_sought_only_while_a_channel_is_left():
 
 def test_pairs_are_sought_on_every_single_tied_with_the_lead():
     """Two singles the blocks cannot order (a motor lag and a delay 7 nats apart over
-    blocks that spread by tens) both lead pairs; one clearly behind does not. The pair
-    built on the second lead is named when it explains most."""
-    from etsid.gap.criterion import tied_leads
+    blocks that spread by tens) both lead pairs, then the next best above the threshold up
+    to PAIR_POOL; one below the threshold does not. The pair built on the second lead is
+    named when it explains most."""
+    from etsid.gap.criterion import PAIR_POOL, tied_leads
 
     cal = Calibration(2.0, 0.01, 0.05, 0.01, {})
     lag = _ev("motor_lag", [1400.0, 1300.0, 1500.0, 1318.0], n=1000)
     delay = _ev("time_delay", [1380.0, 1350.0, 1450.0, 1331.0], n=1000)
     far = _ev("inertia_scale", [100.0, 90.0, 110.0, 95.0], n=1000)
-    leads = tied_leads([lag, delay, far], cal, 3)
-    assert [m.name for m in leads] == ["motor_lag", "time_delay"]
+    below = _ev("rate_damping", [2.0, 2.0, 2.0, 2.0], n=1000)  # 0.008 per sample
+    leads = tied_leads([lag, delay, far, below], cal, 4)
+    assert [m.name for m in leads] == ["motor_lag", "time_delay", "inertia_scale"]
+    many = [_ev(f"e{i}", [100.0 - i] * 4, n=1000) for i in range(2 * PAIR_POOL)]
+    assert len(tied_leads([lag, *many], cal, 9)) == PAIR_POOL
     left = {"name": "motor_lag", "ratio": {"az": 40.0}, "offset": {}}
     lag_pair = _ev("motor_lag+mass", [2450.0] * 4, n=1000)
     delay_pair = _ev("time_delay+thrust_scale", [3400.0] * 4, n=1000)
@@ -270,6 +274,22 @@ def test_pairs_are_sought_on_every_single_tied_with_the_lead():
         m.extra_se = 10.0
     assert choose([lag, delay, far, lag_pair, delay_pair], cal, left) == \
         "time_delay+thrust_scale"
+
+
+def test_a_pair_on_a_weaker_single_must_beat_the_best_single_by_a_second_effect():
+    """A pair built on a single behind the lead adds much over its own base, but is named
+    only when it beats the lead by the pair threshold: a look-alike of the lead with a
+    small companion is not a better answer than the lead alone."""
+    cal = Calibration(2.0, 0.01, 0.05, 0.01, {})
+    lag = _ev("motor_lag", [1400.0], n=1000)
+    delay = _ev("time_delay", [760.0], n=1000)
+    left = {"name": "motor_lag", "ratio": {"p": 40.0}, "offset": {}}
+    close = _ev("time_delay+inertia_scale", [1440.0], n=1000)  # +680 over its base, +40 over
+    close.extra_se = 10.0
+    assert choose([lag, delay, close], cal, left) == "motor_lag"
+    clear = _ev("time_delay+inertia_scale", [1500.0], n=1000)  # +100 over the lead
+    clear.extra_se = 10.0
+    assert choose([lag, delay, clear], cal, left) == "time_delay+inertia_scale"
 
 
 def test_calibration_file_round_trip_and_bad_file(tmp_path):
