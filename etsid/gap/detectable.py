@@ -40,8 +40,11 @@ from etsid.gap.nominal import Mods
 FRACTIONS = np.array([0.02, 0.2, 1.0])
 """Steps along a parameter's range (share of the distance from no effect to the bound)
 at which the change of the prediction is evaluated; between steps it is interpolated in
-log-log (the changes grow as a power of the size), below the first extrapolated with the
-first two steps' power."""
+log-log (the changes grow as a power of the size), below the first extrapolated
+(:func:`_crossing`)."""
+LEAST_POWER = 2.0
+"""Least power of a size in the change of a variance below the first step: the prediction's
+change is at least first order in the distance from no effect."""
 OFFSETS = {"gyro_bias", "accel_bias", "torque_offset"}
 """Effects that add their parameter to a channel's prediction: the change is the parameter
 itself (``mean(Δ²) = θ²``), no prediction needed."""
@@ -84,14 +87,19 @@ def _excess(scorer: Scorer, mods: Mods, base: dict[str, np.ndarray], chans: tupl
 
 
 def _crossing(sizes: np.ndarray, excess: np.ndarray, need: float) -> float | None:
-    """Smallest size at which ``excess`` reaches ``need`` (log-log interpolation between
-    steps, extrapolation below the first)."""
+    """Smallest size at which ``excess`` reaches ``need``: log-log interpolation between
+    steps; below the first, extrapolated with the first two steps' power but never less
+    than :data:`LEAST_POWER` (a change first order in the size changes a variance as its
+    square; a saturating curve's flatter power would claim sizes far below any step)."""
     above = np.flatnonzero(excess >= need)
     if not above.size:
         return None
     i = max(int(above[0]), 1)
     x0, x1 = np.log(sizes[i - 1]), np.log(sizes[i])
     y0, y1 = np.log(max(excess[i - 1], 1e-300)), np.log(max(excess[i], 1e-300))
+    if above[0] == 0:  # below the first step
+        power = max((y1 - y0) / (x1 - x0), LEAST_POWER)
+        return float(np.exp(x0 + (np.log(need) - y0) / power))
     if y1 <= y0:
         return float(sizes[int(above[0])])
     return float(np.exp(x0 + (np.log(need) - y0) * (x1 - x0) / (y1 - y0)))
