@@ -243,8 +243,10 @@ class Case:
         return abs(self.size - null) < float(limit)
 
     def outcome(self) -> str:
-        """``right``, ``look-alike`` (named as the chosen effect's look-alike), ``honest``
-        (below the stated detectable size, not named at confidence >= 0.5), ``seen`` /
+        """``right`` (the injected effect named; below the stated detectable size only when
+        named alone at confidence >= 0.5), ``look-alike`` (named as the chosen effect's
+        look-alike), ``honest`` (below the stated detectable size, not named at confidence
+        >= 0.5), ``seen`` /
         ``unseen`` (outside the vocabulary: a mismatch or not) or ``wrong``."""
         if self.skipped:
             return "skipped"
@@ -258,8 +260,10 @@ class Case:
             return "seen" if self.verdict == "mismatch" else "unseen"
         names = dict(self.named or [])
         if self.below():  # honest: nothing said with confidence, neither it nor another name
-            confident = [n for n, c in names.items() if c >= 0.5 and n != "unexplained"]
-            return "wrong" if confident else "honest"
+            confident = {n for n, c in names.items() if c >= 0.5 and n != "unexplained"}
+            if not confident:
+                return "honest"
+            return "right" if confident == {exp} else "wrong"  # the truth alone is right
         if exp in names:
             return "right"
         if any(exp.replace("_", " ") in c for c in self.caveats or []):

@@ -152,3 +152,19 @@ def test_rate_setpoints_are_the_command_when_the_log_has_no_motors_or_sticks() -
     assert data["sim"]["command_source"] == "rate setpoints"
     assert any(n.startswith("command: the rate setpoints") for n in data["notes"])
     assert data["verdict"] == "consistent", data["summary"]
+
+
+def test_the_truth_named_alone_below_its_stated_size_is_right_not_wrong() -> None:
+    """Below the stated size a confident name is wrong unless it is the truth alone (the
+    criterion can see more than the mismatch rule states); nothing confident is honest."""
+    sizes = {"thrust_scale": {"status": "detectable", "size": 0.16,
+                              "per_parameter": {"scale": {"down": 0.16}}}}
+    case = gap_real.Case("hexa", "thrust_scale", 0.85, "mismatch", [("thrust_scale", 0.89)],
+                         sizes)
+    assert case.below() and case.outcome() == "right"
+    case.named = [("thrust_scale", 0.89), ("mass", 0.7)]
+    assert case.outcome() == "wrong"
+    case.named = [("thrust_scale", 0.45)]
+    assert case.outcome() == "honest"
+    case.named = [("accel_bias", 0.9)]
+    assert case.outcome() == "wrong"
