@@ -259,7 +259,7 @@ class Case:
         if exp is None:
             return "seen" if self.verdict == "mismatch" else "unseen"
         names = dict(self.named or [])
-        if self.below():  # honest: nothing said with confidence, neither it nor another name
+        if self.below():  # honest: nothing said with confidence; right: the truth alone
             confident = {n for n, c in names.items() if c >= 0.5 and n != "unexplained"}
             if not confident:
                 return "honest"

@@ -493,7 +493,8 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
     if not singles or not named_single(singles[0], cal, offset, n_singles):
         return None
     lead = singles[0]
-    best, best_gain = str(_get(lead, "name")), float(_get(lead, "gain"))
+    lead_gain = float(_get(lead, "gain"))
+    best, best_gain = str(_get(lead, "name")), lead_gain
     if after_lead and after_lead.get("name") == best and not mismatched(
             after_lead["ratio"], after_lead.get("offset", {}), cal):
         return best
@@ -505,8 +506,7 @@ def choose(models: list[Any], cal: Calibration, after_lead: dict[str, Any] | Non
         extra = float(_get(m, "gain")) - float(_get(base, "gain"))
         n = max(_get(m, "n_scored"), 1)
         if (extra / n > cal.pair_gain_per_sample
-                and (float(_get(m, "gain")) - float(_get(lead, "gain"))) / n
-                > cal.pair_gain_per_sample
+                and (float(_get(m, "gain")) - lead_gain) / n > cal.pair_gain_per_sample
                 and significant(extra, _get(m, "extra_se") or None, len(pairs),
                                 cal.false_positive_rate)
                 and float(_get(m, "gain")) > best_gain):
