@@ -112,18 +112,35 @@ def test_a_gyro_read_high_is_never_named_confidently(hexa) -> None:
                if e["name"] != "unexplained"), data["summary"]
 
 
-def test_the_slope_test_holds_its_rate_with_few_blocks() -> None:
+@pytest.mark.parametrize("loud", [1.0, 4.0])
+def test_the_slope_test_holds_its_rate_with_few_blocks(loud: float) -> None:
     """Known answer: with no scale (the residual independent of the rate), |slope| / SE over
-    six blocks exceeds Student's t(5) 5 % quantile on 5 % of flights. Without the blocks'
-    ``G/(G − 1)`` (CR0) it does on ≈ 7.5 %: the test reads its evidence too strongly."""
+    eight blocks exceeds Student's t 5 % quantile at the returned degrees of freedom on 5 %
+    of flights when the rate is spread evenly (``loud`` 1), and on 4–5 % when two blocks
+    carry it four times louder (a take-off, one manoeuvre; Satterthwaite's approximation is
+    a little conservative there). There the plain G − 1 = 7 calls over 10 %: a few blocks'
+    scores make the whole error, and it is read too strongly."""
     rng = np.random.default_rng(7)
-    g, block, flights = 6, 40, 20000
-    t_crit = float(stats.t.ppf(0.975, g - 1))
+    g, block, flights = 8, 40, 20000
     idx = np.arange(g * block)
-    hits = 0
+    amplitude = np.ones(g * block)
+    amplitude[:2 * block] = loud
+    hits = plain = 0
     for _ in range(flights):
-        x, r = rng.standard_normal(g * block), rng.standard_normal(g * block)
-        slope, se, blocks = block_slope(x, r, idx, block)
-        hits += abs(slope) > t_crit * se
-    assert blocks == g
-    assert abs(hits / flights - 0.05) < 0.006, hits / flights
+        x, r = rng.standard_normal(g * block) * amplitude, rng.standard_normal(g * block)
+        slope, se, dof = block_slope(x, r, idx, block)
+        hits += abs(slope) > float(stats.t.ppf(0.975, dof)) * se
+        plain += abs(slope) > float(stats.t.ppf(0.975, g - 1)) * se
+    assert 0.035 < hits / flights < 0.056, hits / flights
+    if loud > 1.0:
+        assert dof < 4.0 and plain / flights > 0.10, (dof, plain / flights)
+    else:
+        assert dof > 5.5 and abs(plain / flights - 0.05) < 0.006, (dof, plain / flights)
+
+
+def test_two_flights_combine_their_degrees_of_freedom_by_welch_satterthwaite() -> None:
+    """Known answer: equal errors on equal blocks add their degrees of freedom; a flight
+    whose error dominates keeps about its own."""
+    from etsid.gap.scale import welch_dof
+    assert welch_dof(0.01, 6.0, 0.01, 6.0) == pytest.approx(12.0)
+    assert welch_dof(0.01, 3.0, 0.001, 9.0) == pytest.approx(3.06, abs=0.01)
