@@ -62,7 +62,12 @@ from etsid.gap.calibration import (
     load_calibration,
 )
 from etsid.gap.criterion import answer_size, choose, mismatched, significant
-from etsid.gap.detectable import BELOW_CONFIDENCE, detectable_sizes
+from etsid.gap.detectable import (
+    BELOW_CONFIDENCE,
+    BY_NAME,
+    cap_below_detectable,
+    detectable_sizes,
+)
 from etsid.gap.likelihood import AIRFRAME_SCALES
 from etsid.gap.scale import scale_mismatched, significant_delta
 
@@ -263,8 +268,25 @@ def decide(row: dict[str, Any], cal: Calibration) -> dict[str, Any]:
         # the held-out channels after a single effect only, so a pair is capped here by
         # what the lead leaves or by a gyro scale (which every model leaves)
         conf = {k: min(v, BELOW_CONFIDENCE) for k, v in conf.items()}
+    # as the package does (likelihood.py): a name fitted below the size this pair can
+    # detect, or that it cannot detect at any size, is a hint
+    named = _fitted(name, theta, conf)
+    cap_below_detectable(named, stated_sizes(row, cal))
     return {"answer": "+".join(sorted(name.split("+"))), "verdict": "mismatch",
-            "confidence": conf}
+            "confidence": {e["name"]: e["confidence"] for e in named}}
+
+
+def _fitted(name: str, theta: list[float], conf: dict[str, float]) -> list[dict[str, Any]]:
+    """The answer's effects as gap.json's entries (name, confidence, fitted parameters), the
+    pair's parameters split in the order of its parts."""
+    out, i = [], 0
+    for part in name.split("+"):
+        params = BY_NAME[part].params if part in BY_NAME else ()
+        out.append({"name": part, "confidence": conf[part],
+                    "parameters": {p.name: {"value": float(theta[i + j])}
+                                   for j, p in enumerate(params)}})
+        i += len(params)
+    return out
 
 
 def _n_params(part: str, models: list[dict[str, Any]], theta: list[float]) -> int:

@@ -89,3 +89,21 @@ def test_detectable_sizes_are_stated_again_under_each_calibration():
         assert sizes["wind"]["status"] == "insufficient"
     loose = gap_calibrate.stated_sizes(row, Calibration(2.0, 0.05, 0.1, 0.2, {}))
     assert loose["gyro_bias"]["size"] < gap_calibrate.stated_sizes(row, CAL)["gyro_bias"]["size"]
+
+
+@pytest.mark.parametrize("delay, capped", [(0.006, True), (0.02, False)])
+def test_a_recorded_name_fitted_below_its_detectable_size_is_a_hint(delay: float,
+                                                                     capped: bool) -> None:
+    """The scoring decides a record as the package answers (likelihood.py): a delay fitted
+    at 6 ms where the pair can only detect 10 ms is named at 0.45 at most (a hint), one at
+    20 ms keeps its weight."""
+    model = {"name": "time_delay", "gain": 500.0, "per_sample": 0.5, "n_scored": 1000,
+             "gain_se": 10.0, "weight": 1.0, "theta": [delay], "by_channel": {}}
+    crit = {"innovation_ratio": {"p": 4.0}, "offset": {}, "models": [model],
+            "after_lead": {"name": "time_delay", "ratio": {"p": 1.0}, "offset": {}}}
+    sizes = {"time_delay": {"status": "detectable", "size": 0.01, "parameter": "delay",
+                            "unit": "s", "per_parameter": {"delay": {"up": 0.01}}}}
+    decided = gap_calibrate.decide({"verdict": "mismatch", "criterion": crit,
+                                    "detectable": sizes}, CAL)
+    assert decided["answer"] == "time_delay"
+    assert (decided["confidence"]["time_delay"] <= 0.45) == capped, decided
