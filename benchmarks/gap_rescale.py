@@ -28,10 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from etsid.gap.criterion import BLOCK_S
-from etsid.gap.nominal import GYRO_CHANNELS, kinematic_rates, measured
 from etsid.gap.run import prepare_pair
-from etsid.gap.scale import scale_tests
+from etsid.gap.scale import channel_samples, scale_tests
 from etsid.gap.signals import Flight
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -42,31 +40,21 @@ SAME = 1e-9
 
 def _pairs(args: argparse.Namespace, wanted: set[str]):
     """(id, sim table, real table) of every wanted pair."""
+    from gap_calibrate import _dir_pairs, _etsid_pairs
     if args.etsid:
-        from gap_concealed import EFFECTS, make_pair
-        for pid in sorted(wanted):
-            number = int(pid.split("-")[1])
-            sim, real, _ = make_pair(EFFECTS[number % 100], number)
-            yield pid, sim, real
-        return
-    from gap_calibrate import _dir_pairs
-    for folder in args.dir:
-        for pid, _, _, _, sim, real, _ in _dir_pairs(Path(folder), None, wanted):
+        seeds = sorted({int(pid.split("-")[1]) // 100 for pid in wanted})
+        sources = [_etsid_pairs(seeds, None, wanted)]
+    else:
+        sources = [_dir_pairs(Path(folder), None, wanted) for folder in args.dir]
+    for pairs in sources:
+        for pid, _, _, _, sim, real, _ in pairs:
             yield pid, sim, real
 
 
 def blocks(flight: Flight) -> dict[str, int]:
     """Gyro channel → the number of blocks of its airborne samples (the previous test's G)."""
-    ys, kin = measured(flight), kinematic_rates(flight)
-    block = max(round(BLOCK_S * flight.fs), 1)
-    out = {}
-    for j, c in enumerate(GYRO_CHANNELS):
-        if c in ys:
-            ok = flight.airborne & np.isfinite(ys[c]) & np.isfinite(kin[:, j])
-            idx = np.flatnonzero(ok)
-            if idx.size:
-                out[c] = int(np.unique((idx - idx[0]) // block).size)
-    return out
+    return {c: int(np.unique((idx - idx[0]) // block).size)
+            for c, _, _, idx, block in channel_samples(flight) if idx.size}
 
 
 def main() -> None:

@@ -55,23 +55,29 @@ def slopes(flight: Flight) -> dict[str, tuple[float, float, float]]:
     """Gyro channel → (slope ``c`` of gyro − attitude rate on the attitude rate, its block
     standard error, that error's degrees of freedom) over the airborne samples; empty
     without attitude or gyro channels."""
-    ys = measured(flight)
-    if not all(c in ys for c in GYRO_CHANNELS):
-        return {}
-    kin = kinematic_rates(flight)
-    block = max(round(BLOCK_S * flight.fs), 1)
     out: dict[str, tuple[float, float, float]] = {}
-    for j, c in enumerate(GYRO_CHANNELS):
-        x = kin[:, j]
-        r = ys[c] - x
-        ok = flight.airborne & np.isfinite(r) & np.isfinite(x)
-        idx = np.flatnonzero(ok)
+    for c, x, r, idx, block in channel_samples(flight):
         if idx.size < 3 * block:
             continue
         fitted = block_slope(x[idx], r[idx], idx, block)
         if fitted is not None:
             out[c] = fitted
     return out
+
+
+def channel_samples(flight: Flight):
+    """Per gyro channel: (channel, attitude rate x, gyro − x, indices of the airborne
+    samples where both are finite, block length in samples); nothing without attitude or
+    gyro channels."""
+    ys = measured(flight)
+    if not all(c in ys for c in GYRO_CHANNELS):
+        return
+    kin = kinematic_rates(flight)
+    block = max(round(BLOCK_S * flight.fs), 1)
+    for j, c in enumerate(GYRO_CHANNELS):
+        x = kin[:, j]
+        r = ys[c] - x
+        yield c, x, r, np.flatnonzero(flight.airborne & np.isfinite(r) & np.isfinite(x)), block
 
 
 def block_slope(x: np.ndarray, r: np.ndarray, idx: np.ndarray, block: int
