@@ -76,6 +76,11 @@ RECORDING_RATE = 0.5
 """Thresholds and rate while recording: looser than any a calibration sets, so that every
 model a calibrated run could name (pairs included) is fully evaluated."""
 CONFIDENT = 0.9
+GYRO_SCALE_FACTOR_TOLERANCE = 0.01
+"""Least gyro-scale tolerance (a slope difference, etsid/gap/scale.py): a healthy MEMS gyro's
+sensitivity differs from its nominal by up to ±1 % (ICM-20602 datasheet, DS-000176, the
+tightest of the common flight-controller gyros), and PX4 applies no gyro scale calibration,
+so a real gyro may differ this much from a simulated ideal one without a fault."""
 
 
 # ---------------------------------------------------------------- record
@@ -370,7 +375,8 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
         mismatch_ratio=mismatch_ratio, gain_per_sample=_largest(gains),
         pair_gain_per_sample=max(_largest(extras), _largest(gains)),
         false_positive_rate=alpha,
-        scale_tolerance=_largest(scales) if scales else float("inf"),
+        scale_tolerance=(max(_largest(scales), GYRO_SCALE_FACTOR_TOLERANCE) if scales
+                         else float("inf")),
         source={"generators": args.generators.split(","),
                 "records": [Path(r).name for r in args.records],
                 "no_effect_pairs": len(none), "single_effect_pairs": len(extras),
@@ -383,7 +389,8 @@ def fit(args: argparse.Namespace, rows: list[dict[str, Any]] | None = None) -> N
                         "the largest of n with probability 1/(n + 1)); every gain must also "
                         "be significant at the rate among the models tried (Bonferroni); "
                         "the largest significant gyro-scale difference of the no-effect "
-                        "pairs (etsid/gap/scale.py)",
+                        "pairs (etsid/gap/scale.py), no lower than a healthy gyro's "
+                        f"datasheet sensitivity tolerance ({GYRO_SCALE_FACTOR_TOLERANCE:g})",
                 "supported_rate": round(1.0 / (len(none) + 1), 4),
                 "written": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")})
     out = Path(args.out) if args.out else CALIBRATION_PATH

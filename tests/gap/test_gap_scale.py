@@ -81,6 +81,23 @@ def test_calibration_takes_the_largest_significant_no_effect_difference(tmp_path
     assert load_calibration(str(out)).scale_tolerance == pytest.approx(0.011)
 
 
+def test_the_tolerance_is_never_below_a_healthy_gyros_datasheet_tolerance(tmp_path) -> None:
+    """No no-effect pair significant (or only smaller ones): the tolerance is a healthy
+    gyro's ±1 % sensitivity error, not 0, so a 0.5 % difference is no fault."""
+    def row(pid: str, scale: dict) -> dict:
+        return {"id": pid, "generator": "g", "label": "none", "expected": "consistent",
+                "criterion": {"innovation_ratio": {"p": 1.0}, "offset": {}, "models": [],
+                              "scale": scale}}
+    out = tmp_path / "cal.json"
+    args = type("A", (), {"records": [], "generators": "g", "fpr": 0.01, "out": str(out)})
+    for scale in ({"gyro_p": [0.004, 0.01, 20]}, {"gyro_p": [0.006, 0.001, 20]}):
+        gap_calibrate.fit(args, [row("a", scale)])
+        cal = load_calibration(str(out))
+        assert cal.scale_tolerance == gap_calibrate.GYRO_SCALE_FACTOR_TOLERANCE == 0.01
+        assert scale_mismatched({"gyro_r": (-0.0052, 0.0011, 10)}, cal) == []
+        assert scale_mismatched({"gyro_r": (-0.025, 0.004, 10)}, cal) == ["gyro_r"]
+
+
 def test_a_recorded_pair_with_a_scale_left_is_a_mismatch_and_capped() -> None:
     cal = Calibration(2.0, 0.05, 0.1, 0.01, {}, scale_tolerance=0.02)
     model = {"name": "inertia_scale", "gain": 500.0, "per_sample": 0.5, "n_scored": 1000,
