@@ -139,6 +139,8 @@ class Candidate:
         """Whether the flight has the signals this candidate needs."""
         if self.name == "battery_sag" and ctx.v_ref is None:
             return False
+        if self.build is _battery_governed_idle and ctx.flight.inputs != "motors":
+            return False
         if self.build is _wind_quadratic and not ctx.nominal.drag_quadratic:
             return False
         if self.build is _rotor_twist and "az" not in ctx.nominal.coef:
@@ -265,6 +267,18 @@ def _battery(theta: np.ndarray, ctx: Context) -> Mods:
     return Mods(thrust_gain=gain, torque_gain=gain, spin_gain=np.sqrt(gain))
 
 
+def _battery_governed_idle(theta: np.ndarray, ctx: Context) -> Mods:
+    """An ESC that holds the rotors' idle speed: only the commanded part of the speed law
+    ``Ω ∝ m + k`` follows ``(V/V_sim)^(n/2)``, per rotor and sample."""
+    v = ctx.flight.vbat
+    speed = (np.clip(v, 0.3 * ctx.v_ref, 3.0 * ctx.v_ref) / ctx.v_ref) ** (0.5 * theta[0])
+    m = np.clip(ctx.flight.motors, 0.0, 1.0)
+    k = max(float(ctx.nominal.k), 1e-6)
+    ratio = (k + m * speed[:, None]) / (k + m)
+    gain = ratio * ratio
+    return Mods(thrust_gain=gain, torque_gain=gain, spin_gain=ratio)
+
+
 def _offsets(channels: tuple[str, ...]) -> Callable[[np.ndarray, Context], Mods]:
     def build(theta: np.ndarray, ctx: Context) -> Mods:
         return Mods(offset={c: float(v) for c, v in zip(channels, theta, strict=True)})
@@ -388,6 +402,13 @@ LIBRARY: tuple[Candidate, ...] = (
         "T_i = T_i,nom · (V / V_sim)^n, Ω_i and dΩ_i/dt · (V / V_sim)^(n/2), V_sim the "
         "simulation's mean voltage",
         _battery, ("vbat",)),
+    Candidate(
+        "battery_sag", (Param("exponent", "1", 0.0, 6.0, 2.0, 0.0),), ("az", "p", "q", "r"),
+        "thrust and torque follow the measured pack voltage above the idle speed an ESC "
+        "holds",
+        "Ω_i = Ω_idle + (Ω_i,nom − Ω_idle) · (V / V_sim)^(n/2), Ω_idle the speed law's "
+        "zero-command speed",
+        _battery_governed_idle, ("vbat",)),
     Candidate(
         "motor_lag", (Param("tau", "s", 0.003, 0.5, 0.08),), ("az", "p", "q", "r"),
         "response to motor commands smaller and later the faster the command changes "
