@@ -304,6 +304,13 @@ def _same(expected: str, named: str) -> bool:
     return same_answer(expected, named)
 
 
+def named_in(expected: str, name: str) -> bool:
+    """Whether the one effect ``name`` is one of the ``expected`` answer's effects, under
+    the same equivalences as :func:`_same` (a mass for a thrust scale + delay's thrust
+    scale is right, as a mass for a thrust scale alone is)."""
+    return any(_same(part, name) for part in expected.split("+"))
+
+
 # ---------------------------------------------------------------- fit
 def _largest(values: list[float]) -> float:
     """The threshold no recorded value exceeds: the largest of ``values`` (a value ≤ 0, a
@@ -462,7 +469,7 @@ def score(args: argparse.Namespace) -> None:
         for name, c in d["confidence"].items():
             if c >= CONFIDENT:
                 conf_n += 1
-                conf_ok += name in exp.split("+") or _same(exp, name)
+                conf_ok += named_in(exp, name)
         old = r.get("old")
         old_ok = None
         if old is not None and not r.get("oov"):

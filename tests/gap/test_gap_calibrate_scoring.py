@@ -107,3 +107,13 @@ def test_a_recorded_name_fitted_below_its_detectable_size_is_a_hint(delay: float
                                     "detectable": sizes}, CAL)
     assert decided["answer"] == "time_delay"
     assert (decided["confidence"]["time_delay"] <= 0.45) == capped, decided
+
+
+def test_a_confident_name_is_right_when_it_is_one_expected_effect_or_its_equivalent():
+    """The reliability count reads each confident name against each expected effect with the
+    scoring's own equivalences (mass ≡ thrust scale from accelerations alone)."""
+    assert gap_calibrate.named_in("thrust_scale+time_delay", "mass")
+    assert gap_calibrate.named_in("thrust_scale+time_delay", "time_delay")
+    assert gap_calibrate.named_in("mass", "thrust_scale")
+    assert not gap_calibrate.named_in("thrust_scale+time_delay", "yaw_torque_scale")
+    assert not gap_calibrate.named_in("consistent", "mass")
