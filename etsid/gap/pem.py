@@ -1,4 +1,4 @@
-"""Roll, pitch and yaw read by their one-step prediction errors (the likelihood criterion).
+"""Roll and pitch read by their one-step prediction errors (the likelihood criterion).
 
 A multirotor's rate loop is closed: where it mostly answers noise its log does not hold
 (a motor's per-step jitter), the logged command is correlated with the angular
@@ -7,13 +7,13 @@ low-passed residual is biased. On PyFlyt's hover pairs a 12.5 ms command delay t
 as 0 ms and an inertia ×0.66 explains the change better; with the simulator's motor noise
 switched off the same fit finds 12.5 ms (docs/gap_results.md). The direct
 prediction-error method is consistent in a closed loop when its noise model is right
-(Ljung, *System Identification*, 2nd ed., 1999, ch. 13): here SIM's roll, pitch and yaw laws
+(Ljung, *System Identification*, 2nd ed., 1999, ch. 13): here SIM's roll and pitch laws
 are refitted by generalised least squares with an autoregressive noise model
 (:func:`etsid.gap.whiten.fit_whitened`), and every model — the null and each candidate —
 is scored and fitted on REAL's *innovations*: the residual of that law, whitened by SIM's
 filter at the log's rate. Each channel's innovations are white under SIM's own noise, so
 the criterion's Gaussian likelihood of them is a likelihood, not a sum over correlated
-samples. The forces and the sensor-consistency channels keep the nominal model and the
+samples. Yaw, the forces and the sensor-consistency channels keep the nominal model and the
 decimated noise model of :mod:`etsid.gap.noise`.
 
 :mod:`etsid.gap.run` uses this scorer only where SIM's loop answers unlogged noise
@@ -42,14 +42,12 @@ from etsid.gap.whiten import (
 )
 
 LOOP_CHANNELS = ("p", "q", "r")
-"""Channels read as prediction errors. Yaw too: its least-squares law has the same
-closed-loop bias (on a PyFlyt SIM its measured-over-predicted gain rises from 0.6 at 1 Hz to
-2.2 at 10 Hz), so a REAL that rings at another frequency (a command delay) read as a yaw
-torque scale (docs/gap_results.md, session 23)."""
+"""Channels read as prediction errors. Yaw was tried the same way on PyFlyt's yaw pairs
+(rotor inertia, yaw torque scale, no effect): no answer changed (docs/gap_results.md)."""
 
 
 class PredictionErrorScorer(Scorer):
-    """A :class:`~etsid.gap.fitting.Scorer` in which the rate channels are whitened: measured
+    """A :class:`~etsid.gap.fitting.Scorer` in which roll and pitch are whitened: measured
     and predicted angular accelerations (rad/s²) low-passed at 20 Hz and passed through
     SIM's whitening filter, so that their difference is the one-step prediction error of
     SIM's refitted laws (white under SIM's noise). The other channels are the base
@@ -67,7 +65,7 @@ class PredictionErrorScorer(Scorer):
 
     def prediction(self, mods: Mods | None = None,
                    channels: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
-        """Prediction per channel; the rate channels whitened (their measured series are)."""
+        """Prediction per channel; roll and pitch whitened (their measured series are)."""
         chans = self.ctx.nominal.channels if channels is None else channels
         loop = tuple(c for c in chans if c in self.white)
         rest = tuple(c for c in chans if c not in loop)
@@ -89,7 +87,7 @@ class PredictionErrorScorer(Scorer):
 
 
 def prediction_error_scorer(sim: Flight, base: Scorer) -> PredictionErrorScorer:
-    """The scorer of REAL (``base``'s flight) with SIM's rate laws refitted on its
+    """The scorer of REAL (``base``'s flight) with SIM's roll/pitch laws refitted on its
     whitened errors."""
     nominal = base.ctx.nominal
     # SIM's own lag as the nominal fit found it besides the short lags of the grid: a
@@ -100,7 +98,7 @@ def prediction_error_scorer(sim: Flight, base: Scorer) -> PredictionErrorScorer:
 
 
 def with_innovation_channels(noise: NoiseModel, scorer: PredictionErrorScorer) -> NoiseModel:
-    """``noise`` with the rate channels white (their residuals are already innovations) at
+    """``noise`` with roll and pitch white (their residuals are already innovations) at
     SIM's innovation deviation."""
     own = {c: ChannelNoise(np.empty(0), scorer.sigma[c], 1) for c in scorer.white
            if c in noise.channels}

@@ -325,7 +325,7 @@ def _analyse(sim_table: pd.DataFrame, real_table: pd.DataFrame, sim_name: str,
     notes.extend(excerpts)
     if floors.loop is not None and floors.loop.noise_driven:
         # SIM's loop answers noise its log does not hold: the direct fit is biased
-        scorer = prediction_error_scorer(sim, scorer)  # rate channels: prediction errors
+        scorer = prediction_error_scorer(sim, scorer)  # roll and pitch: prediction errors
     base = {"schema": SCHEMA_NAME, "sim": describe(sim), "real": describe(real),
             "noise": sigma, "noise_source": {c: floors.source[c] for c in shared},
             "units": {c: UNITS[c] for c in shared}, "vehicle_check": check,

@@ -1,13 +1,13 @@
-"""SIM's noise model: its rate laws refitted on whitened prediction errors.
+"""SIM's noise model: its roll/pitch laws refitted on whitened prediction errors.
 
 Where SIM's rate loop mostly answers noise its log does not hold (:mod:`etsid.gap.loop`),
-the least-squares command law is biased. Here the roll, pitch and yaw laws are refitted on SIM
+the least-squares command law is biased. Here the roll and pitch laws are refitted on SIM
 with a noise model: each channel's residual is whitened by an autoregressive filter fitted
 to it (generalised least squares, iterated), and SIM's command delay and motor lag are
 searched on that whitened error. The direct prediction-error method is consistent in a
 closed loop when its noise model is right (Ljung, *System Identification*, 2nd ed., 1999,
 ch. 13); an autoregressive filter of order :data:`AR_ORDER` at the log's rate is that
-model here. :mod:`etsid.gap.pem` scores REAL's rate channels
+model here. :mod:`etsid.gap.pem` scores REAL's roll and pitch
 with it.
 """
 
@@ -32,16 +32,16 @@ GLS_ITERATIONS = 3
 SIM_DELAYS_S = (0.0, 0.005, 0.01)
 SIM_TAUS_S = (0.004, 0.007, 0.012)
 """SIM's command delay and motor lag searched on the whitened error, s."""
-CHANNELS = ("p", "q", "r")
-"""Roll, pitch and yaw (:data:`etsid.gap.pem.LOOP_CHANNELS`)."""
+CHANNELS = ("p", "q")
+"""Roll and pitch (yaw keeps its filtered residual: :data:`etsid.gap.pem.LOOP_CHANNELS`)."""
 
 
 @dataclass
 class WhitenedModel:
-    """SIM's rate laws refitted on whitened errors, with each channel's noise model."""
+    """SIM's roll/pitch laws refitted on whitened errors, with each channel's noise model."""
 
     nominal: NominalModel
-    """The nominal model with the refitted rate-law coefficients, delay and lag."""
+    """The nominal model with the refitted roll/pitch coefficients, delay and lag."""
     filters: dict[str, np.ndarray]
     """Channel → whitening filter (``[1, -a_1, …, -a_p]``)."""
     innovation: dict[str, float]
@@ -69,7 +69,7 @@ def measured_rates(flight: Flight, channels: tuple[str, ...] = CHANNELS
 
 def fit_whitened(sim: Flight, nominal: NominalModel, taus: tuple[float, ...] = SIM_TAUS_S,
                  channels: tuple[str, ...] = CHANNELS) -> WhitenedModel:
-    """SIM's laws of ``channels`` (default roll, pitch and yaw) by generalised least squares on
+    """SIM's laws of ``channels`` (default roll and pitch) by generalised least squares on
     its airborne samples, for each command delay and motor lag of :data:`SIM_DELAYS_S` ×
     ``taus`` (s); the pair with the smallest whitened error is kept."""
     y = measured_rates(sim, channels)

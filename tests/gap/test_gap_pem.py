@@ -1,4 +1,4 @@
-"""The rate channels as one-step prediction errors (etsid.gap.pem): innovations that are white
+"""Roll and pitch as one-step prediction errors (etsid.gap.pem): innovations that are white
 under SIM's own noise, a no-effect flight at SIM's innovation level, and a known command
 delay found where the objective is least."""
 
@@ -35,13 +35,13 @@ def same():
     return _scorer(3, 4)
 
 
-def test_the_rates_are_innovations_the_rest_the_base_residuals(same):
+def test_roll_and_pitch_are_innovations_the_rest_the_base_residuals(same):
     pem, real = same
     res = pem.residuals()
     base = pem.base.residuals()
-    for c in ("az", "ax"):
+    for c in ("az", "r"):
         np.testing.assert_array_equal(res[c], base[c])
-    for c in ("p", "q", "r"):
+    for c in ("p", "q"):
         e = res[c][real.airborne][50:]
         rho = float(np.corrcoef(e[:-1], e[1:])[0, 1])
         raw = base[c][real.airborne][50:]
@@ -51,7 +51,7 @@ def test_the_rates_are_innovations_the_rest_the_base_residuals(same):
 
 def test_a_flight_of_the_same_vehicle_sits_at_sims_innovation_level(same):
     pem, real = same
-    z = pem.zscores(None, real.airborne, ("p", "q", "r"))
+    z = pem.zscores(None, real.airborne, ("p", "q"))
     assert all(0.4 < v < 2.5 for v in z.values()), z
 
 
