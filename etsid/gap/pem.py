@@ -41,7 +41,7 @@ from etsid.gap.whiten import (
     measured_rates,
 )
 
-LOOP_CHANNELS = ("p", "q", "r")
+LOOP_CHANNELS = ("p", "q")
 """Channels read as prediction errors. Yaw was tried the same way on PyFlyt's yaw pairs
 (rotor inertia, yaw torque scale, no effect): no answer changed (docs/gap_results.md)."""
 
