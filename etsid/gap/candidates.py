@@ -259,19 +259,22 @@ def ground_search(ctx: Context) -> SearchMap:
     return SearchMap(to_theta, to_search, np.array([0.1, 0.1]))
 
 
+def _voltage_ratio(ctx: Context) -> np.ndarray:
+    """``V / V_sim`` per sample, the measured pack voltage held within 0.3-3× SIM's."""
+    return np.clip(ctx.flight.vbat, 0.3 * ctx.v_ref, 3.0 * ctx.v_ref) / ctx.v_ref
+
+
 def _battery(theta: np.ndarray, ctx: Context) -> Mods:
     """Thrust and reaction torque ∝ Ω² follow ``(V/V_sim)^n``, so the rotor speed and its
     spin-up (the yaw reaction of the rotors' inertia) follow its square root."""
-    v = ctx.flight.vbat
-    gain = (np.clip(v, 0.3 * ctx.v_ref, 3.0 * ctx.v_ref) / ctx.v_ref) ** theta[0]
+    gain = _voltage_ratio(ctx) ** theta[0]
     return Mods(thrust_gain=gain, torque_gain=gain, spin_gain=np.sqrt(gain))
 
 
 def _battery_governed_idle(theta: np.ndarray, ctx: Context) -> Mods:
     """An ESC that holds the rotors' idle speed: only the commanded part of the speed law
     ``Ω ∝ m + k`` follows ``(V/V_sim)^(n/2)``, per rotor and sample."""
-    v = ctx.flight.vbat
-    speed = (np.clip(v, 0.3 * ctx.v_ref, 3.0 * ctx.v_ref) / ctx.v_ref) ** (0.5 * theta[0])
+    speed = _voltage_ratio(ctx) ** (0.5 * theta[0])
     m = np.clip(ctx.flight.motors, 0.0, 1.0)
     k = max(float(ctx.nominal.k), 1e-6)
     ratio = (k + m * speed[:, None]) / (k + m)

@@ -42,6 +42,8 @@ tested.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 from scipy import stats
 
@@ -65,7 +67,8 @@ def slopes(flight: Flight) -> dict[str, tuple[float, float, float]]:
     return out
 
 
-def channel_samples(flight: Flight):
+def channel_samples(flight: Flight
+                    ) -> Iterator[tuple[str, np.ndarray, np.ndarray, np.ndarray, int]]:
     """Per gyro channel: (channel, attitude rate x, gyro − x, indices of the airborne
     samples where both are finite, block length in samples); nothing without attitude or
     gyro channels."""
